@@ -1,0 +1,338 @@
+//! Pinhole cameras with OpenCV radial-tangential distortion, and their poses.
+//!
+//! Conventions (OpenCV): x right, y down, z forward, pixel centres at integer
+//! coordinates. A [`Camera`]'s extrinsics map a point from the *reference* frame
+//! (the first camera of a rig) into this camera's frame: `X_cam = R X_ref + t`.
+
+use crate::error::{CoreError, CoreResult};
+use nalgebra::{Matrix2x3, Point2, Rotation3, Vector2, Vector3};
+use serde::{Deserialize, Serialize};
+
+/// Horizontal field of view assumed for footage of unknown origin, in degrees.
+///
+/// 60 degrees is typical of webcams and phone main cameras in video mode
+/// (a 26-28 mm-equivalent lens is 65-75 degrees on the 4:3 diagonal, about 60
+/// horizontally at 16:9 after stabilisation crop). A wrong guess scales the
+/// recovered depth by tan(guess/2)/tan(true/2), e.g. 13% for 60 vs 68 degrees.
+pub const GENERIC_HFOV_DEG: f64 = 60.0;
+
+/// Focal lengths, principal point and image size, in pixels.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Intrinsics {
+    /// Focal length along x, pixels.
+    pub fx: f64,
+    /// Focal length along y, pixels.
+    pub fy: f64,
+    /// Principal point x, pixels.
+    pub cx: f64,
+    /// Principal point y, pixels.
+    pub cy: f64,
+    /// Image width, pixels.
+    pub width: u32,
+    /// Image height, pixels.
+    pub height: u32,
+}
+
+/// OpenCV lens distortion coefficients (`k1, k2, p1, p2, k3, k4, k5, k6`); zero means none.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct Distortion {
+    /// Radial and tangential coefficients in OpenCV order.
+    pub coeffs: [f64; 8],
+}
+
+impl Distortion {
+    /// From an OpenCV coefficient list of length 0, 4, 5 or 8.
+    pub fn from_slice(c: &[f64]) -> CoreResult<Distortion> {
+        if !matches!(c.len(), 0 | 4 | 5 | 8) {
+            return Err(CoreError::InvalidCamera(format!(
+                "distortion needs 0, 4, 5 or 8 coefficients (k1 k2 p1 p2 [k3 [k4 k5 k6]]), got {}",
+                c.len()
+            )));
+        }
+        if c.iter().any(|v| !v.is_finite()) {
+            return Err(CoreError::InvalidCamera(
+                "distortion coefficient is not finite".into(),
+            ));
+        }
+        let mut coeffs = [0.0; 8];
+        coeffs[..c.len()].copy_from_slice(c);
+        Ok(Distortion { coeffs })
+    }
+
+    /// True if all coefficients are zero.
+    pub fn is_zero(&self) -> bool {
+        self.coeffs.iter().all(|&c| c == 0.0)
+    }
+
+    /// Applies the distortion to normalised image coordinates.
+    pub fn distort(&self, p: Vector2<f64>) -> Vector2<f64> {
+        let [k1, k2, p1, p2, k3, k4, k5, k6] = self.coeffs;
+        let (x, y) = (p.x, p.y);
+        let r2 = x * x + y * y;
+        let r4 = r2 * r2;
+        let r6 = r4 * r2;
+        let radial = (1.0 + k1 * r2 + k2 * r4 + k3 * r6) / (1.0 + k4 * r2 + k5 * r4 + k6 * r6);
+        Vector2::new(
+            x * radial + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x),
+            y * radial + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y,
+        )
+    }
+
+    /// Inverts [`Distortion::distort`] by fixed-point iteration (as `cv::undistortPoints`).
+    pub fn undistort(&self, d: Vector2<f64>) -> Vector2<f64> {
+        if self.is_zero() {
+            return d;
+        }
+        let mut p = d;
+        for _ in 0..20 {
+            let err = self.distort(p) - d;
+            p -= err;
+            if err.norm_squared() < 1e-24 {
+                break;
+            }
+        }
+        p
+    }
+}
+
+/// Rigid transform from the reference frame into a camera: `X_cam = rotation * X_ref + translation`.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Extrinsics {
+    /// Rotation from the reference frame to the camera frame.
+    pub rotation: Rotation3<f64>,
+    /// Translation in millimetres.
+    pub translation: Vector3<f64>,
+}
+
+impl Default for Extrinsics {
+    fn default() -> Self {
+        Extrinsics {
+            rotation: Rotation3::identity(),
+            translation: Vector3::zeros(),
+        }
+    }
+}
+
+impl Extrinsics {
+    /// True for the identity transform.
+    pub fn is_identity(&self) -> bool {
+        self.rotation == Rotation3::identity() && self.translation == Vector3::zeros()
+    }
+
+    /// Maps a reference-frame point into this camera's frame.
+    pub fn transform(&self, x: &Vector3<f64>) -> Vector3<f64> {
+        self.rotation * x + self.translation
+    }
+}
+
+/// A calibrated camera: intrinsics, distortion and pose in the reference frame.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Camera {
+    /// Focal lengths, principal point, image size.
+    pub intrinsics: Intrinsics,
+    /// Lens distortion.
+    pub distortion: Distortion,
+    /// Reference frame to this camera.
+    pub extrinsics: Extrinsics,
+}
+
+impl Camera {
+    /// A distortion-free camera at the reference pose; checks the numbers.
+    ///
+    /// ```
+    /// use monohand_core::camera::Camera;
+    /// let cam = Camera::pinhole(822.79, 822.79, 318.47, 250.31, 640, 480).unwrap();
+    /// let px = cam.project(&nalgebra::Vector3::new(0.0, 0.0, 500.0)).unwrap();
+    /// assert!((px.x - 318.47).abs() < 1e-9);
+    /// ```
+    pub fn pinhole(
+        fx: f64,
+        fy: f64,
+        cx: f64,
+        cy: f64,
+        width: u32,
+        height: u32,
+    ) -> CoreResult<Camera> {
+        let cam = Camera {
+            intrinsics: Intrinsics {
+                fx,
+                fy,
+                cx,
+                cy,
+                width,
+                height,
+            },
+            distortion: Distortion::default(),
+            extrinsics: Extrinsics::default(),
+        };
+        cam.validate()?;
+        Ok(cam)
+    }
+
+    /// A camera for footage of unknown origin: principal point at the image centre,
+    /// square pixels, horizontal field of view [`GENERIC_HFOV_DEG`].
+    pub fn generic(width: u32, height: u32) -> CoreResult<Camera> {
+        let f = 0.5 * width as f64 / (0.5 * GENERIC_HFOV_DEG.to_radians()).tan();
+        Camera::pinhole(
+            f,
+            f,
+            (width as f64 - 1.0) / 2.0,
+            (height as f64 - 1.0) / 2.0,
+            width,
+            height,
+        )
+    }
+
+    /// Checks that the camera is physically possible.
+    pub fn validate(&self) -> CoreResult<()> {
+        let k = &self.intrinsics;
+        let bad = |m: String| Err(CoreError::InvalidCamera(m));
+        if !(k.fx.is_finite() && k.fy.is_finite() && k.fx > 0.0 && k.fy > 0.0) {
+            return bad(format!(
+                "focal lengths must be positive and finite (fx={}, fy={})",
+                k.fx, k.fy
+            ));
+        }
+        if !(k.cx.is_finite() && k.cy.is_finite()) {
+            return bad(format!(
+                "principal point must be finite (cx={}, cy={})",
+                k.cx, k.cy
+            ));
+        }
+        if k.width == 0 || k.height == 0 {
+            return bad(format!(
+                "image size must be positive ({}x{})",
+                k.width, k.height
+            ));
+        }
+        if self.distortion.coeffs.iter().any(|c| !c.is_finite()) {
+            return bad("distortion coefficient is not finite".into());
+        }
+        let r = self.extrinsics.rotation.matrix();
+        if r.iter().any(|v| !v.is_finite())
+            || self.extrinsics.translation.iter().any(|v| !v.is_finite())
+        {
+            return bad("extrinsics are not finite".into());
+        }
+        let ortho = (r.transpose() * r - nalgebra::Matrix3::identity()).norm();
+        if ortho > 1e-6 || (r.determinant() - 1.0).abs() > 1e-6 {
+            return bad("rotation matrix is not a proper rotation".into());
+        }
+        Ok(())
+    }
+
+    /// Returns this camera with the given extrinsics.
+    pub fn with_extrinsics(mut self, extrinsics: Extrinsics) -> Camera {
+        self.extrinsics = extrinsics;
+        self
+    }
+
+    /// Projects a point given in this camera's own frame (distortion applied).
+    /// `None` behind the camera.
+    pub fn project_cam(&self, x: &Vector3<f64>) -> Option<Point2<f64>> {
+        if x.z <= 1e-9 {
+            return None;
+        }
+        let n = self.distortion.distort(Vector2::new(x.x / x.z, x.y / x.z));
+        let k = &self.intrinsics;
+        Some(Point2::new(k.fx * n.x + k.cx, k.fy * n.y + k.cy))
+    }
+
+    /// Projects a reference-frame point into this camera's image (distortion applied).
+    pub fn project(&self, x_ref: &Vector3<f64>) -> Option<Point2<f64>> {
+        self.project_cam(&self.extrinsics.transform(x_ref))
+    }
+
+    /// Maps an observed (distorted) pixel to the pixel an ideal pinhole camera with
+    /// the same intrinsics would have seen.
+    pub fn undistort_pixel(&self, px: Point2<f64>) -> Point2<f64> {
+        if self.distortion.is_zero() {
+            return px;
+        }
+        let k = &self.intrinsics;
+        let d = Vector2::new((px.x - k.cx) / k.fx, (px.y - k.cy) / k.fy);
+        let n = self.distortion.undistort(d);
+        Point2::new(k.fx * n.x + k.cx, k.fy * n.y + k.cy)
+    }
+
+    /// Ideal pinhole projection of a camera-frame point and its 2x3 Jacobian.
+    #[inline]
+    pub fn pinhole_project_with_jacobian(
+        &self,
+        x: &Vector3<f64>,
+    ) -> (Vector2<f64>, Matrix2x3<f64>) {
+        let k = &self.intrinsics;
+        let iz = 1.0 / x.z;
+        let u = k.fx * x.x * iz + k.cx;
+        let v = k.fy * x.y * iz + k.cy;
+        let j = Matrix2x3::new(
+            k.fx * iz,
+            0.0,
+            -k.fx * x.x * iz * iz,
+            0.0,
+            k.fy * iz,
+            -k.fy * x.y * iz * iz,
+        );
+        (Vector2::new(u, v), j)
+    }
+
+    /// Back-projects a pixel (distorted) to a unit ray in this camera's frame.
+    pub fn ray(&self, px: Point2<f64>) -> Vector3<f64> {
+        let u = self.undistort_pixel(px);
+        let k = &self.intrinsics;
+        Vector3::new((u.x - k.cx) / k.fx, (u.y - k.cy) / k.fy, 1.0).normalize()
+    }
+
+    /// Position of this camera's centre in the reference frame.
+    pub fn centre(&self) -> Vector3<f64> {
+        -(self.extrinsics.rotation.inverse() * self.extrinsics.translation)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn distortion_round_trip() {
+        let d = Distortion::from_slice(&[0.1868, -1.3734, 0.001, -0.002, 2.668]).unwrap();
+        for &(x, y) in &[(0.0, 0.0), (0.2, -0.1), (-0.3, 0.25)] {
+            let p = Vector2::new(x, y);
+            let back = d.undistort(d.distort(p));
+            assert!((back - p).norm() < 1e-9, "{p:?} -> {back:?}");
+        }
+        assert!(Distortion::from_slice(&[1.0, 2.0, 3.0]).is_err());
+    }
+
+    #[test]
+    fn generic_camera_field_of_view() {
+        let cam = Camera::generic(640, 480).unwrap();
+        let hfov = 2.0 * (320.0 / cam.intrinsics.fx).atan();
+        assert!((hfov.to_degrees() - GENERIC_HFOV_DEG).abs() < 1e-9);
+    }
+
+    #[test]
+    fn impossible_cameras_rejected() {
+        assert!(Camera::pinhole(-1.0, 1.0, 0.0, 0.0, 10, 10).is_err());
+        assert!(Camera::pinhole(f64::NAN, 1.0, 0.0, 0.0, 10, 10).is_err());
+        assert!(Camera::pinhole(1.0, 1.0, 0.0, 0.0, 0, 10).is_err());
+        let mut cam = Camera::pinhole(1.0, 1.0, 0.0, 0.0, 10, 10).unwrap();
+        cam.extrinsics.rotation =
+            Rotation3::from_matrix_unchecked(nalgebra::Matrix3::from_diagonal_element(2.0));
+        assert!(cam.validate().is_err());
+    }
+
+    #[test]
+    fn stereo_baseline_projection() {
+        // STB convention: right camera = left translated by +120 mm along x.
+        let left = Camera::pinhole(822.79, 822.79, 318.47, 250.31, 640, 480).unwrap();
+        let right = left.with_extrinsics(Extrinsics {
+            rotation: Rotation3::identity(),
+            translation: Vector3::new(-120.054, 0.0, 0.0),
+        });
+        let x = Vector3::new(100.0, 20.0, 650.0);
+        let disparity = left.project(&x).unwrap().x - right.project(&x).unwrap().x;
+        assert!((disparity - 822.79 * 120.054 / 650.0).abs() < 1e-9);
+        assert!((right.centre() - Vector3::new(120.054, 0.0, 0.0)).norm() < 1e-12);
+    }
+}

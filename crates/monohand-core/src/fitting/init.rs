@@ -1,0 +1,251 @@
+//! Starting poses for a fit from scratch.
+//!
+//! The palm (wrist, thumb CMC and the four finger MCPs) is rigid in the model,
+//! so its pose can be estimated before anything else. We fit a 2D affine map
+//! from the palm's model coordinates to the observed normalised image
+//! coordinates and decompose it as a scaled orthographic camera (weak
+//! perspective): this has a closed-form solution up to a two-fold mirror
+//! ambiguity (the palm tilted towards or away from the camera), and both
+//! solutions become starts. Each is refined with a root-only
+//! Levenberg-Marquardt on the palm joints under full perspective before the
+//! full fit. When fewer than three palm joints are seen, a small set of
+//! orientations around the camera axis is used instead.
+
+use super::lm::{DofMask, HandFitter, JointMask, PreparedView};
+use crate::hand_model::{HandPose, HandSkeleton, NUM_DOF, NUM_JOINTS};
+use nalgebra::{Matrix2, Matrix3, Rotation3, UnitQuaternion, Vector2, Vector3};
+
+/// The rigid palm joints: wrist, thumb CMC, index, middle, ring and little MCP.
+pub const PALM_JOINTS: [usize; 6] = [0, 1, 5, 9, 13, 17];
+
+/// Up to 8 starting root poses (translation + rotation, neutral angles).
+pub(crate) type Candidates = [Option<HandPose>; 8];
+
+/// Starting poses for a fit: closed-form palm estimates refined on the palm,
+/// or an orientation sweep when the palm is not seen.
+pub(crate) fn root_candidates(
+    sk: &HandSkeleton,
+    views: &[PreparedView],
+    observed: &JointMask,
+) -> Candidates {
+    let mut out: Candidates = [None; 8];
+    let neutral = sk.limits.neutral();
+    // The view that sees most palm joints.
+    let Some(vi) = (0..views.len()).max_by_key(|&i| {
+        PALM_JOINTS
+            .iter()
+            .filter(|&&j| views[i].weights[j] > 0.0)
+            .count()
+    }) else {
+        return out;
+    };
+    let view = &views[vi];
+    let palm_seen = PALM_JOINTS
+        .iter()
+        .filter(|&&j| view.weights[j] > 0.0)
+        .count();
+    let rest = sk.rest_joints();
+    let fitter = FitterRef::new(sk, views);
+    let mut root_free: DofMask = [false; NUM_DOF];
+    root_free[..6].iter_mut().for_each(|f| *f = true);
+
+    if palm_seen >= 3 {
+        let mut palm_mask: JointMask = [false; NUM_JOINTS];
+        PALM_JOINTS.iter().for_each(|&j| palm_mask[j] = true);
+        for (k, cam_pose) in weak_perspective_palm(&rest, view)
+            .into_iter()
+            .flatten()
+            .enumerate()
+        {
+            let mut p = to_reference(&cam_pose, view);
+            p.angles = neutral;
+            out[k] = Some(fitter.refine(p, &palm_mask, &root_free));
+        }
+    }
+    if out.iter().all(Option::is_none) {
+        // Orientation sweep: palm towards / away from the camera, four in-plane turns.
+        let (centroid, spread, n) = image_extent(view);
+        if n == 0 {
+            return out;
+        }
+        let k = &view.camera.intrinsics;
+        let depth = (k.fx * 0.75 * sk.hand_length() / spread.max(1.0)).clamp(100.0, 5000.0);
+        let dir = Vector3::new((centroid.x - k.cx) / k.fx, (centroid.y - k.cy) / k.fy, 1.0);
+        for (i, slot) in out.iter_mut().enumerate() {
+            let facing = if i % 2 == 0 {
+                0.0
+            } else {
+                std::f64::consts::PI
+            };
+            let roll = (i / 2) as f64 * std::f64::consts::FRAC_PI_2;
+            // Hand y (fingers) up in the image (-y camera), palm normal towards the camera (-z).
+            let base = Rotation3::from_matrix_unchecked(Matrix3::new(
+                1.0, 0.0, 0.0, 0.0, -1.0, 0.0, 0.0, 0.0, -1.0,
+            ));
+            let r = Rotation3::from_axis_angle(&Vector3::z_axis(), roll)
+                * base
+                * Rotation3::from_axis_angle(&Vector3::y_axis(), facing);
+            let mut p = HandPose {
+                translation: dir * depth - r * (0.5 * rest[9]),
+                rotation: UnitQuaternion::from_rotation_matrix(&r),
+                angles: neutral,
+            };
+            p = to_reference(&p, view);
+            *slot = Some(fitter.refine(p, observed, &root_free));
+        }
+    }
+    out
+}
+
+/// Centroid and extent (pixels) of the used keypoints of a view.
+fn image_extent(view: &PreparedView) -> (Vector2<f64>, f64, usize) {
+    let mut c = Vector2::zeros();
+    let mut n = 0;
+    let (mut lo, mut hi) = (
+        Vector2::repeat(f64::INFINITY),
+        Vector2::repeat(f64::NEG_INFINITY),
+    );
+    for j in 0..NUM_JOINTS {
+        if view.weights[j] > 0.0 {
+            let p = Vector2::new(view.targets[j][0], view.targets[j][1]);
+            c += p;
+            n += 1;
+            lo = lo.inf(&p);
+            hi = hi.sup(&p);
+        }
+    }
+    if n == 0 {
+        return (c, 0.0, 0);
+    }
+    (c / n as f64, (hi - lo).norm(), n)
+}
+
+/// Maps a pose expressed in a view's camera frame into the reference frame.
+fn to_reference(p: &HandPose, view: &PreparedView) -> HandPose {
+    let e = &view.camera.extrinsics;
+    if e.is_identity() {
+        return *p;
+    }
+    let rinv = e.rotation.inverse();
+    HandPose {
+        translation: rinv * (p.translation - e.translation),
+        rotation: UnitQuaternion::from_rotation_matrix(&(rinv * p.rotation.to_rotation_matrix())),
+        angles: p.angles,
+    }
+}
+
+/// Closed-form weak-perspective palm pose in the view's camera frame (two mirror solutions).
+pub(crate) fn weak_perspective_palm(
+    rest: &[Vector3<f64>; NUM_JOINTS],
+    view: &PreparedView,
+) -> [Option<HandPose>; 2] {
+    let k = &view.camera.intrinsics;
+    let mut sw = 0.0;
+    let mut mp = Vector2::zeros();
+    let mut mm = Vector2::zeros();
+    for &j in &PALM_JOINTS {
+        let w = view.weights[j];
+        if w > 0.0 {
+            let m = Vector2::new(
+                (view.targets[j][0] - k.cx) / k.fx,
+                (view.targets[j][1] - k.cy) / k.fy,
+            );
+            sw += w;
+            mp += w * rest[j].xy();
+            mm += w * m;
+        }
+    }
+    if sw <= 0.0 {
+        return [None, None];
+    }
+    mp /= sw;
+    mm /= sw;
+    let mut spp = Matrix2::zeros();
+    let mut smp = Matrix2::zeros();
+    for &j in &PALM_JOINTS {
+        let w = view.weights[j];
+        if w > 0.0 {
+            let m = Vector2::new(
+                (view.targets[j][0] - k.cx) / k.fx,
+                (view.targets[j][1] - k.cy) / k.fy,
+            ) - mm;
+            let p = rest[j].xy() - mp;
+            spp += w * p * p.transpose();
+            smp += w * m * p.transpose();
+        }
+    }
+    let Some(inv) = spp.try_inverse() else {
+        return [None, None];
+    };
+    let a = smp * inv;
+    let c = mm - a * mp;
+    let (a1, a2) = (a.column(0).into_owned(), a.column(1).into_owned());
+    let (a11, a22, a12) = (a1.norm_squared(), a2.norm_squared(), a1.dot(&a2));
+    let det = a11 * a22 - a12 * a12;
+    let tr = a11 + a22;
+    if tr <= 1e-18 {
+        return [None, None];
+    }
+    // k = 1/s^2 solves det k^2 - tr k + 1 = 0; take the smaller root.
+    let kk = if det > 1e-12 * tr * tr {
+        (tr - (tr * tr - 4.0 * det).max(0.0).sqrt()) / (2.0 * det)
+    } else {
+        1.0 / tr
+    };
+    let s = 1.0 / kk.sqrt();
+    let b1sq = (1.0 - kk * a11).max(0.0);
+    let b2sq = (1.0 - kk * a22).max(0.0);
+    let mut out = [None, None];
+    for (i, sign) in [1.0, -1.0].into_iter().enumerate() {
+        let (b1, b2) = if b1sq.sqrt() > 1e-6 {
+            let b1 = sign * b1sq.sqrt();
+            (b1, -kk * a12 / b1)
+        } else {
+            (0.0, sign * b2sq.sqrt())
+        };
+        let r1 = Vector3::new(a1.x / s, a1.y / s, b1).normalize();
+        let r2u = Vector3::new(a2.x / s, a2.y / s, b2);
+        let r2 = (r2u - r1 * r1.dot(&r2u)).normalize();
+        let r3 = r1.cross(&r2);
+        let rot = Rotation3::from_matrix_unchecked(Matrix3::from_columns(&[r1, r2, r3]));
+        if !r3.iter().all(|v| v.is_finite()) {
+            continue;
+        }
+        let z = 1.0 / s;
+        out[i] = Some(HandPose {
+            translation: Vector3::new(c.x * z, c.y * z, z),
+            rotation: UnitQuaternion::from_rotation_matrix(&rot),
+            angles: [0.0; 20],
+        });
+    }
+    out
+}
+
+/// A borrowed view of the fitter state for the root refinements.
+struct FitterRef<'a> {
+    inner: HandFitter,
+    _p: std::marker::PhantomData<&'a ()>,
+}
+
+impl<'a> FitterRef<'a> {
+    fn new(sk: &HandSkeleton, views: &[PreparedView]) -> FitterRef<'a> {
+        let mut inner =
+            HandFitter::new(*sk, super::FitOptions::default()).expect("validated skeleton");
+        inner.views.extend_from_slice(views);
+        FitterRef {
+            inner,
+            _p: std::marker::PhantomData,
+        }
+    }
+
+    fn refine(&self, mut p: HandPose, mask: &JointMask, free: &DofMask) -> HandPose {
+        if !self.inner.in_front(&p) {
+            // Push the hand in front of every camera.
+            p.translation.z = p.translation.z.abs().max(200.0);
+            if !self.inner.in_front(&p) {
+                return p;
+            }
+        }
+        self.inner.solve(p, mask, free, 30).pose
+    }
+}

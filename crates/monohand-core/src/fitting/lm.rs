@@ -1,0 +1,497 @@
+//! The Levenberg-Marquardt solver over the 26 degrees of freedom of the hand.
+//!
+//! Normal equations are accumulated joint by joint from the sparse 2x10
+//! Jacobian blocks (6 root columns + the 4 angles of the joint's finger) into
+//! fixed-size 26x26 matrices on the stack, so an iteration allocates nothing.
+//! Joint limits are box constraints handled by an active set: a degree of
+//! freedom sitting on a bound whose step would leave the box is frozen for
+//! that step, and the step is projected onto the box.
+
+use super::init;
+use super::options::{FitOptions, View};
+use crate::camera::Camera;
+use crate::error::{CoreError, CoreResult};
+use crate::hand_model::params::ANGLES_PER_FINGER;
+use crate::hand_model::{HandPose, HandSkeleton, NUM_DOF, NUM_JOINTS};
+use crate::kinematics::{
+    finger_of, forward_kinematics, forward_kinematics_with_jacobian, LOCAL_DOF,
+};
+use nalgebra::{Matrix2x3, SMatrix, SVector, UnitQuaternion, Vector2, Vector3};
+
+pub(crate) type Mat26 = SMatrix<f64, NUM_DOF, NUM_DOF>;
+pub(crate) type Vec26 = SVector<f64, NUM_DOF>;
+
+/// Which joints a solve uses.
+pub(crate) type JointMask = [bool; NUM_JOINTS];
+/// Which degrees of freedom a solve may change.
+pub(crate) type DofMask = [bool; NUM_DOF];
+
+/// The outcome of one fit.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FitResult {
+    /// The fitted pose (wrist translation in mm, rotation, angles).
+    pub pose: HandPose,
+    /// The 21 joints in the reference (first) camera frame, millimetres.
+    pub joints_3d: [Vector3<f64>; NUM_JOINTS],
+    /// Mean distance in pixels between observed and reprojected joints, over
+    /// the joints used in all views (distortion applied, unweighted).
+    pub reprojection_error_px: f64,
+    /// Levenberg-Marquardt iterations of the winning start.
+    pub iterations: usize,
+    /// True if a stopping tolerance was met before the iteration cap.
+    pub converged: bool,
+    /// Final value of the weighted cost.
+    pub cost: f64,
+    /// Number of (view, joint) observations used.
+    pub used_observations: usize,
+}
+
+/// One view prepared for the solver: undistorted targets and weights.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct PreparedView {
+    pub camera: Camera,
+    /// Observed pixels as given (distorted).
+    pub raw: [[f64; 2]; NUM_JOINTS],
+    /// Observed pixels mapped to the ideal pinhole image.
+    pub targets: [[f64; 2]; NUM_JOINTS],
+    /// `p^k`, or 0 for dropped joints.
+    pub weights: [f64; NUM_JOINTS],
+}
+
+/// A solver run's result before it is turned into a [`FitResult`].
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Solution {
+    pub pose: HandPose,
+    pub cost: f64,
+    pub iterations: usize,
+    pub converged: bool,
+}
+
+/// Fits a [`HandSkeleton`] to 2D keypoints. Reuse one fitter for many fits:
+/// its buffers are kept between calls.
+#[derive(Debug, Clone)]
+pub struct HandFitter {
+    skeleton: HandSkeleton,
+    options: FitOptions,
+    pub(crate) views: Vec<PreparedView>,
+}
+
+impl HandFitter {
+    /// A fitter for one hand skeleton.
+    pub fn new(skeleton: HandSkeleton, options: FitOptions) -> CoreResult<HandFitter> {
+        skeleton.validate()?;
+        options.validate()?;
+        Ok(HandFitter {
+            skeleton,
+            options,
+            views: Vec::with_capacity(2),
+        })
+    }
+
+    /// The skeleton being fitted.
+    pub fn skeleton(&self) -> &HandSkeleton {
+        &self.skeleton
+    }
+
+    /// Replaces the skeleton (e.g. after estimating the hand's size).
+    pub fn set_skeleton(&mut self, skeleton: HandSkeleton) -> CoreResult<()> {
+        skeleton.validate()?;
+        self.skeleton = skeleton;
+        Ok(())
+    }
+
+    /// The options in use.
+    pub fn options(&self) -> &FitOptions {
+        &self.options
+    }
+
+    /// Fits from scratch: no previous pose needed.
+    ///
+    /// The rigid palm (wrist, thumb CMC, four MCPs) is placed first from a
+    /// closed-form weak-perspective estimate (both mirror solutions are tried),
+    /// then each start is refined over all 26 degrees of freedom and the
+    /// lowest-cost result wins.
+    pub fn fit(&mut self, views: &[View]) -> CoreResult<FitResult> {
+        let used = self.prepare(views)?;
+        let observed = self.observed_joints();
+        let free = free_dofs(&observed);
+        let starts = init::root_candidates(&self.skeleton, &self.views, &observed);
+        let mut best: Option<Solution> = None;
+        for start in starts.iter().flatten() {
+            let sol = self.solve(*start, &observed, &free, self.options.max_iterations);
+            if best.is_none_or(|b| sol.cost < b.cost) {
+                best = Some(sol);
+            }
+        }
+        let sol = best.ok_or_else(|| {
+            CoreError::InvalidKeypoints("no starting pose in front of the camera".into())
+        })?;
+        Ok(self.finish(sol, used))
+    }
+
+    /// Fits starting from a previous pose (tracking). Angles of joints that are
+    /// not observed in any view keep their previous values, so those joints keep
+    /// their last position relative to the hand and move with its root (the
+    /// paper's rule for vanishing joints).
+    pub fn fit_from(&mut self, views: &[View], start: &HandPose) -> CoreResult<FitResult> {
+        if !start.is_finite() {
+            return Err(CoreError::InvalidOptions(
+                "starting pose is not finite".into(),
+            ));
+        }
+        let used = self.prepare(views)?;
+        let observed = self.observed_joints();
+        let free = free_dofs(&observed);
+        let mut start = *start;
+        self.skeleton.limits.clamp(&mut start.angles);
+        if !self.in_front(&start) {
+            return self.fit(views);
+        }
+        let sol = self.solve(
+            start,
+            &observed,
+            &free,
+            self.options.max_iterations_tracking,
+        );
+        Ok(self.finish(sol, used))
+    }
+
+    /// Validates the views, undistorts and weights the keypoints. Returns the
+    /// number of usable observations.
+    fn prepare(&mut self, views: &[View]) -> CoreResult<usize> {
+        if views.is_empty() {
+            return Err(CoreError::ViewMismatch("no views given".into()));
+        }
+        self.views.clear();
+        let o = &self.options;
+        let mut used = 0;
+        for (vi, v) in views.iter().enumerate() {
+            v.camera.validate()?;
+            v.keypoints
+                .validate()
+                .map_err(|e| CoreError::InvalidKeypoints(format!("view {vi}: {e}")))?;
+            let mut pv = PreparedView {
+                camera: *v.camera,
+                raw: [[0.0; 2]; NUM_JOINTS],
+                targets: [[0.0; 2]; NUM_JOINTS],
+                weights: [0.0; NUM_JOINTS],
+            };
+            for (j, p) in v.keypoints.points.iter().enumerate() {
+                pv.raw[j] = [p[0], p[1]];
+                if p[2] > 0.0 && p[2] >= o.min_confidence {
+                    let u = v.camera.undistort_pixel(nalgebra::Point2::new(p[0], p[1]));
+                    pv.targets[j] = [u.x, u.y];
+                    pv.weights[j] = p[2].powf(o.confidence_power);
+                    used += 1;
+                }
+            }
+            self.views.push(pv);
+        }
+        let joints = self.observed_joints().iter().filter(|&&b| b).count();
+        if joints < o.min_joints {
+            return Err(CoreError::TooFewJoints {
+                usable: joints,
+                threshold: o.min_confidence,
+                needed: o.min_joints,
+            });
+        }
+        Ok(used)
+    }
+
+    fn observed_joints(&self) -> JointMask {
+        std::array::from_fn(|j| self.views.iter().any(|v| v.weights[j] > 0.0))
+    }
+
+    pub(crate) fn in_front(&self, pose: &HandPose) -> bool {
+        let pts = forward_kinematics(&self.skeleton, pose);
+        self.views
+            .iter()
+            .all(|v| pts.iter().all(|p| v.camera.extrinsics.transform(p).z > 1.0))
+    }
+
+    fn finish(&self, sol: Solution, used: usize) -> FitResult {
+        let joints_3d = forward_kinematics(&self.skeleton, &sol.pose);
+        let mut sum = 0.0;
+        let mut n = 0usize;
+        for v in &self.views {
+            for j in 0..NUM_JOINTS {
+                if v.weights[j] > 0.0 {
+                    if let Some(px) = v.camera.project(&joints_3d[j]) {
+                        sum += (Vector2::new(px.x - v.raw[j][0], px.y - v.raw[j][1])).norm();
+                        n += 1;
+                    }
+                }
+            }
+        }
+        FitResult {
+            pose: sol.pose,
+            joints_3d,
+            reprojection_error_px: if n > 0 { sum / n as f64 } else { f64::NAN },
+            iterations: sol.iterations,
+            converged: sol.converged,
+            cost: sol.cost,
+            used_observations: used,
+        }
+    }
+
+    /// Cost of a pose over the masked joints; `None` if a joint is behind a camera.
+    pub(crate) fn cost(&self, pose: &HandPose, mask: &JointMask) -> Option<f64> {
+        let pts = forward_kinematics(&self.skeleton, pose);
+        let mut cost = 0.0;
+        for v in &self.views {
+            let ext = &v.camera.extrinsics;
+            let k = &v.camera.intrinsics;
+            for j in 0..NUM_JOINTS {
+                let w = v.weights[j];
+                if w <= 0.0 || !mask[j] {
+                    continue;
+                }
+                let x = ext.transform(&pts[j]);
+                if x.z <= 1.0 {
+                    return None;
+                }
+                let du = k.fx * x.x / x.z + k.cx - v.targets[j][0];
+                let dv = k.fy * x.y / x.z + k.cy - v.targets[j][1];
+                cost += w * w * (du * du + dv * dv);
+            }
+        }
+        Some(cost)
+    }
+
+    /// Cost, gradient `J^T r` and Gauss-Newton matrix `J^T J` at a pose.
+    fn linearise(
+        &self,
+        pose: &HandPose,
+        mask: &JointMask,
+        h: &mut Mat26,
+        g: &mut Vec26,
+    ) -> Option<f64> {
+        let mut pts = [Vector3::zeros(); NUM_JOINTS];
+        let mut jac = [SMatrix::<f64, 3, LOCAL_DOF>::zeros(); NUM_JOINTS];
+        forward_kinematics_with_jacobian(&self.skeleton, pose, &mut pts, &mut jac);
+        h.fill(0.0);
+        g.fill(0.0);
+        let mut cost = 0.0;
+        for v in &self.views {
+            let r = v.camera.extrinsics.rotation.matrix();
+            for j in 0..NUM_JOINTS {
+                let w = v.weights[j];
+                if w <= 0.0 || !mask[j] {
+                    continue;
+                }
+                let x = v.camera.extrinsics.transform(&pts[j]);
+                if x.z <= 1.0 {
+                    return None;
+                }
+                let (uv, pj): (Vector2<f64>, Matrix2x3<f64>) =
+                    v.camera.pinhole_project_with_jacobian(&x);
+                let res = w * (uv - Vector2::new(v.targets[j][0], v.targets[j][1]));
+                cost += res.norm_squared();
+                let j2: SMatrix<f64, 2, LOCAL_DOF> = (pj * r * w) * jac[j];
+                let jtj = j2.tr_mul(&j2);
+                let jtr = j2.tr_mul(&res);
+                let idx = dof_index_map(j);
+                let n = if j == 0 { 6 } else { LOCAL_DOF };
+                for a in 0..n {
+                    g[idx[a]] += jtr[a];
+                    for b in 0..n {
+                        h[(idx[a], idx[b])] += jtj[(a, b)];
+                    }
+                }
+            }
+        }
+        Some(cost)
+    }
+
+    /// Levenberg-Marquardt from `start` over the free degrees of freedom.
+    pub(crate) fn solve(
+        &self,
+        start: HandPose,
+        mask: &JointMask,
+        free: &DofMask,
+        max_iter: usize,
+    ) -> Solution {
+        let limits = &self.skeleton.limits;
+        let mut pose = start;
+        limits.clamp(&mut pose.angles);
+        let mut h = Mat26::zeros();
+        let mut g = Vec26::zeros();
+        let Some(mut cost) = self.linearise(&pose, mask, &mut h, &mut g) else {
+            return Solution {
+                pose,
+                cost: f64::INFINITY,
+                iterations: 0,
+                converged: false,
+            };
+        };
+        let mut lambda = self.options.initial_damping;
+        let mut nu = 2.0;
+        let mut converged = false;
+        let mut iterations = 0;
+        while iterations < max_iter {
+            iterations += 1;
+            if cost < 1e-18 {
+                converged = true;
+                break;
+            }
+            let Some(step) = damped_step(&h, &g, lambda, free, &pose, limits) else {
+                lambda *= nu;
+                nu *= 2.0;
+                continue;
+            };
+            let candidate = apply_step(&pose, &step, limits);
+            // Actual step after projection onto the box.
+            let taken = step_between(&pose, &candidate, &step);
+            let predicted = -(2.0 * g.dot(&taken) + taken.dot(&(h * taken)));
+            let new_cost = self.cost(&candidate, mask);
+            match new_cost {
+                Some(nc) if nc < cost => {
+                    let rho = if predicted > 0.0 {
+                        (cost - nc) / predicted
+                    } else {
+                        1.0
+                    };
+                    let small_decrease = cost - nc <= self.options.cost_tolerance * cost;
+                    let small_step = taken.amax() <= self.options.step_tolerance;
+                    pose = candidate;
+                    lambda *= (1.0f64 / 3.0).max(1.0 - (2.0 * rho - 1.0).powi(3));
+                    lambda = lambda.max(1e-15);
+                    nu = 2.0;
+                    match self.linearise(&pose, mask, &mut h, &mut g) {
+                        Some(c) => cost = c,
+                        None => break,
+                    }
+                    if small_decrease || small_step {
+                        converged = true;
+                        break;
+                    }
+                }
+                _ => {
+                    if taken.amax() <= self.options.step_tolerance {
+                        converged = true;
+                        break;
+                    }
+                    lambda *= nu;
+                    nu *= 2.0;
+                    if lambda > 1e16 {
+                        converged = true;
+                        break;
+                    }
+                }
+            }
+        }
+        Solution {
+            pose,
+            cost,
+            iterations,
+            converged,
+        }
+    }
+}
+
+/// Degrees of freedom that a joint's 10 Jacobian columns map to.
+#[inline]
+fn dof_index_map(joint: usize) -> [usize; LOCAL_DOF] {
+    let base = match finger_of(joint) {
+        Some(f) => 6 + f.index() * ANGLES_PER_FINGER,
+        None => 6,
+    };
+    [0, 1, 2, 3, 4, 5, base, base + 1, base + 2, base + 3]
+}
+
+/// The degrees of freedom constrained by the observed joints: the root always,
+/// an angle only if some joint it moves is observed.
+pub(crate) fn free_dofs(observed: &JointMask) -> DofMask {
+    let mut free = [false; NUM_DOF];
+    free[..6].iter_mut().for_each(|f| *f = true);
+    for f in crate::hand_model::Finger::ALL {
+        let j = f.joints();
+        let seen = |from: usize| j[from..].iter().any(|&k| observed[k]);
+        let b = 6 + f.index() * ANGLES_PER_FINGER;
+        free[b] = seen(1);
+        free[b + 1] = seen(1);
+        free[b + 2] = seen(2);
+        free[b + 3] = seen(3);
+    }
+    free
+}
+
+/// Solves `(H + lambda D) step = -g` over the free, non-blocked degrees of freedom.
+fn damped_step(
+    h: &Mat26,
+    g: &Vec26,
+    lambda: f64,
+    free: &DofMask,
+    pose: &HandPose,
+    limits: &crate::hand_model::JointLimits,
+) -> Option<Vec26> {
+    let mut active = *free;
+    let max_diag = (0..NUM_DOF)
+        .map(|i| h[(i, i)])
+        .fold(0.0f64, f64::max)
+        .max(1e-12);
+    for _pass in 0..4 {
+        let mut a = *h;
+        let mut rhs = -*g;
+        for i in 0..NUM_DOF {
+            if active[i] {
+                let d = h[(i, i)].max(1e-9 * max_diag);
+                a[(i, i)] += lambda * d;
+            } else {
+                for k in 0..NUM_DOF {
+                    a[(i, k)] = 0.0;
+                    a[(k, i)] = 0.0;
+                }
+                a[(i, i)] = 1.0;
+                rhs[i] = 0.0;
+            }
+        }
+        let step = a.cholesky()?.solve(&rhs);
+        if step.iter().any(|v| !v.is_finite()) {
+            return None;
+        }
+        let mut changed = false;
+        for k in 0..crate::hand_model::NUM_ANGLES {
+            let i = 6 + k;
+            if !active[i] {
+                continue;
+            }
+            let a = pose.angles[k];
+            let at_lo = a <= limits.lower[k] + 1e-12 && step[i] < 0.0;
+            let at_hi = a >= limits.upper[k] - 1e-12 && step[i] > 0.0;
+            if at_lo || at_hi {
+                active[i] = false;
+                changed = true;
+            }
+        }
+        if !changed {
+            return Some(step);
+        }
+    }
+    None
+}
+
+/// Applies a 26-vector step to a pose (rotation on the manifold, angles clamped).
+pub(crate) fn apply_step(
+    pose: &HandPose,
+    step: &Vec26,
+    limits: &crate::hand_model::JointLimits,
+) -> HandPose {
+    let mut out = *pose;
+    out.translation += Vector3::new(step[0], step[1], step[2]);
+    let dq = UnitQuaternion::from_scaled_axis(Vector3::new(step[3], step[4], step[5]));
+    out.rotation = UnitQuaternion::new_normalize((dq * pose.rotation).into_inner());
+    for k in 0..crate::hand_model::NUM_ANGLES {
+        out.angles[k] = (pose.angles[k] + step[6 + k]).clamp(limits.lower[k], limits.upper[k]);
+    }
+    out
+}
+
+/// The step actually taken (angles after clamping; root as requested).
+fn step_between(from: &HandPose, to: &HandPose, requested: &Vec26) -> Vec26 {
+    let mut s = *requested;
+    for k in 0..crate::hand_model::NUM_ANGLES {
+        s[6 + k] = to.angles[k] - from.angles[k];
+    }
+    s
+}

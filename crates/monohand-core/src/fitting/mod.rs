@@ -1,0 +1,24 @@
+//! Fitting the hand model to 2D keypoints in one or more calibrated views.
+//!
+//! The cost is the paper's: for every view and every joint whose confidence
+//! `p` is at least [`FitOptions::min_confidence`],
+//! `(p^k (x - u))^2 + (p^k (y - v))^2` with `k = 3` by default, where `(x, y)`
+//! is the projection of the model joint and `(u, v)` the observed keypoint
+//! (undistorted once up front, so the solver works on ideal pinhole pixels).
+//!
+//! The solver ([`lm`]) is a Levenberg-Marquardt over 26 degrees of freedom:
+//! translation, a rotation increment on the unit-quaternion manifold (the
+//! quaternion is never off unit length, unlike the paper's 4 free numbers),
+//! and 20 joint angles kept inside their limits by projection with an active
+//! set. Jacobians are analytic ([`crate::kinematics`]). The single-frame
+//! start ([`init`]) solves for the rigid palm first from a closed-form
+//! weak-perspective estimate with both of its mirror solutions.
+
+pub mod init;
+pub mod lm;
+mod options;
+mod tracker;
+
+pub use lm::{FitResult, HandFitter};
+pub use options::{FitOptions, View};
+pub use tracker::HandTracker;
