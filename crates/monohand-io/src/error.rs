@@ -1,0 +1,145 @@
+//! The error type of every reader and writer in this crate.
+
+use monohand_core::CoreError;
+use std::path::{Path, PathBuf};
+use thiserror::Error;
+
+/// Everything that can go wrong reading or writing a file.
+///
+/// Every variant names the file (as the caller gave it, or `<memory>` for
+/// in-memory input) and, where it makes sense, the field or line at fault, so
+/// that a message such as
+/// `cam.yml: field camera_matrix: expected a 3x3 matrix, got 2x3` can be shown
+/// to a user as is.
+#[derive(Debug, Error)]
+pub enum IoError {
+    /// The file could not be opened or read.
+    #[error("{}: cannot read: {source}", path.display())]
+    Read {
+        /// The file.
+        path: PathBuf,
+        /// The operating-system error.
+        source: std::io::Error,
+    },
+    /// The file could not be created or written.
+    #[error("{}: cannot write: {source}", path.display())]
+    Write {
+        /// The file.
+        path: PathBuf,
+        /// The operating-system error.
+        source: std::io::Error,
+    },
+    /// The file is not valid JSON (or not the expected JSON shape).
+    #[error("{file}: invalid JSON at line {line}, column {column}: {message}")]
+    Json {
+        /// The file.
+        file: String,
+        /// 1-based line of the problem (0 if unknown).
+        line: usize,
+        /// 1-based column of the problem (0 if unknown).
+        column: usize,
+        /// What the parser said.
+        message: String,
+    },
+    /// A field is missing or has an impossible value.
+    #[error("{file}: field {field}: {message}")]
+    Field {
+        /// The file.
+        file: String,
+        /// The field (key, variable or element) at fault.
+        field: String,
+        /// What is wrong with it.
+        message: String,
+    },
+    /// The file is not in the expected format at all (bad header, truncated, ...).
+    #[error("{file}: {message}")]
+    Format {
+        /// The file.
+        file: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// One line of a line-oriented file (JSON Lines) is malformed.
+    #[error("{file}: line {line}: {message}")]
+    Line {
+        /// The file.
+        file: String,
+        /// 1-based line number.
+        line: usize,
+        /// What is wrong with the line.
+        message: String,
+    },
+    /// The numbers were read but describe an impossible camera, skeleton or keypoint set.
+    #[error("{file}: {source}")]
+    Core {
+        /// The file.
+        file: String,
+        /// The geometry core's verdict.
+        source: CoreError,
+    },
+}
+
+/// Result alias for this crate.
+pub type IoResult<T> = Result<T, IoError>;
+
+/// The display name used for a path in error messages.
+pub(crate) fn name_of(path: &Path) -> String {
+    path.display().to_string()
+}
+
+impl IoError {
+    /// A [`IoError::Field`] error.
+    pub(crate) fn field(
+        file: impl Into<String>,
+        field: impl Into<String>,
+        message: impl Into<String>,
+    ) -> IoError {
+        IoError::Field {
+            file: file.into(),
+            field: field.into(),
+            message: message.into(),
+        }
+    }
+
+    /// A [`IoError::Format`] error.
+    pub(crate) fn format(file: impl Into<String>, message: impl Into<String>) -> IoError {
+        IoError::Format {
+            file: file.into(),
+            message: message.into(),
+        }
+    }
+
+    /// A [`IoError::Json`] error from a serde_json error.
+    pub(crate) fn json(file: impl Into<String>, e: &serde_json::Error) -> IoError {
+        IoError::Json {
+            file: file.into(),
+            line: e.line(),
+            column: e.column(),
+            message: e.to_string(),
+        }
+    }
+
+    /// A [`IoError::Core`] error.
+    pub(crate) fn core(file: impl Into<String>, source: CoreError) -> IoError {
+        IoError::Core {
+            file: file.into(),
+            source,
+        }
+    }
+}
+
+/// Reads a whole file, mapping the error to [`IoError::Read`].
+pub(crate) fn read_bytes(path: &Path) -> IoResult<Vec<u8>> {
+    std::fs::read(path).map_err(|source| IoError::Read {
+        path: path.to_path_buf(),
+        source,
+    })
+}
+
+/// Reads a whole text file, mapping the error to [`IoError::Read`].
+pub(crate) fn read_text(path: &Path) -> IoResult<String> {
+    std::fs::read_to_string(path).map_err(|source| IoError::Read {
+        path: path.to_path_buf(),
+        source,
+    })
+}

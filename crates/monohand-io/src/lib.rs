@@ -1,0 +1,19 @@
+//! # monohand-io
+//!
+//! File formats around [`monohand_core`]: reading 3D labels and cameras of
+//! public datasets, camera calibrations, 2D keypoints from detectors, and the
+//! project's JSON Lines output.
+//!
+//! - [`mat`]: a minimal MATLAB v5 `.mat` reader (and a writer for `double` arrays).
+//! - [`stb`]: Stereo Hand Pose Benchmark labels and stereo camera.
+//!
+//! Every fallible function returns [`IoError`], whose message names the file
+//! and the field or line at fault.
+
+#![deny(missing_docs)]
+
+pub mod error;
+pub mod mat;
+pub mod stb;
+
+pub use error::{IoError, IoResult};
