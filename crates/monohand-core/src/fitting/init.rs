@@ -30,15 +30,10 @@ pub(crate) fn root_candidates(
 ) -> Candidates {
     let mut out: Candidates = [None; 8];
     let neutral = sk.limits.neutral();
-    // The view that sees most palm joints.
-    let Some(vi) = (0..views.len()).max_by_key(|&i| {
-        PALM_JOINTS
-            .iter()
-            .filter(|&&j| views[i].weights[j] > 0.0)
-            .count()
-    }) else {
+    if views.is_empty() {
         return out;
-    };
+    }
+    let vi = best_view(views);
     let view = &views[vi];
     let palm_seen = PALM_JOINTS
         .iter()
@@ -59,7 +54,9 @@ pub(crate) fn root_candidates(
         {
             let mut p = to_reference(&cam_pose, view);
             p.angles = neutral;
-            out[k] = Some(fitter.refine(p, &palm_mask, &root_free));
+            let mut p = fitter.refine(p, &palm_mask, &root_free);
+            init_fingers(sk, &mut p, view);
+            out[k] = Some(p);
         }
     }
     if out.iter().all(Option::is_none) {
@@ -91,10 +88,26 @@ pub(crate) fn root_candidates(
                 angles: neutral,
             };
             p = to_reference(&p, view);
-            *slot = Some(fitter.refine(p, observed, &root_free));
+            let mut p = fitter.refine(p, observed, &root_free);
+            init_fingers(sk, &mut p, view);
+            *slot = Some(p);
         }
     }
     out
+}
+
+/// The view that sees most palm joints (then most joints).
+pub(crate) fn best_view(views: &[PreparedView]) -> usize {
+    (0..views.len())
+        .max_by_key(|&i| {
+            let palm = PALM_JOINTS
+                .iter()
+                .filter(|&&j| views[i].weights[j] > 0.0)
+                .count();
+            let all = views[i].weights.iter().filter(|&&w| w > 0.0).count();
+            (palm, all)
+        })
+        .unwrap_or(0)
 }
 
 /// Centroid and extent (pixels) of the used keypoints of a view.
@@ -247,5 +260,188 @@ impl<'a> FitterRef<'a> {
             }
         }
         self.inner.solve(p, mask, free, 30).pose
+    }
+}
+
+/// Sets each finger's angles from the rays of its observed keypoints, given the
+/// root pose: every bone's far joint lies on its keypoint's viewing ray at the
+/// bone's length from the near joint (a ray-sphere intersection with a near and
+/// a far root). All 2^3 root choices are turned into angles (clamped to the
+/// limits) and the one with the lowest reprojection cost in the view is kept.
+pub(crate) fn init_fingers(sk: &HandSkeleton, pose: &mut HandPose, view: &PreparedView) {
+    let k = &view.camera.intrinsics;
+    let e = &view.camera.extrinsics;
+    let r_root = pose.rotation.to_rotation_matrix();
+    // hand frame -> view camera frame
+    let to_cam = |p: &Vector3<f64>| e.rotation * (r_root * p + pose.translation) + e.translation;
+    let to_hand = |x: &Vector3<f64>| {
+        r_root.inverse() * (e.rotation.inverse() * (x - e.translation) - pose.translation)
+    };
+    let ray = |j: usize| {
+        Vector3::new(
+            (view.targets[j][0] - k.cx) / k.fx,
+            (view.targets[j][1] - k.cy) / k.fy,
+            1.0,
+        )
+        .normalize()
+    };
+    for f in crate::hand_model::Finger::ALL {
+        let g = &sk.fingers[f.index()];
+        let joints = f.joints();
+        // Number of leading bones whose far joint is observed.
+        let seen = (1..4)
+            .take_while(|&s| view.weights[joints[s]] > 0.0)
+            .count();
+        if seen == 0 {
+            continue;
+        }
+        let base_cam = to_cam(&g.base);
+        let b = f.index() * crate::hand_model::params::ANGLES_PER_FINGER;
+        let mut best_cost = finger_cost(sk, pose, view, f);
+        let mut best = [
+            pose.angles[b],
+            pose.angles[b + 1],
+            pose.angles[b + 2],
+            pose.angles[b + 3],
+        ];
+        for combo in 0..(1usize << seen) {
+            let mut pts = [base_cam; 4];
+            for s in 1..=seen {
+                let c = pts[s - 1];
+                let r = ray(joints[s]);
+                let len = g.lengths[s - 1];
+                let rc = r.dot(&c);
+                let disc = rc * rc - c.norm_squared() + len * len;
+                let t = if disc >= 0.0 {
+                    if combo >> (s - 1) & 1 == 0 {
+                        rc - disc.sqrt()
+                    } else {
+                        rc + disc.sqrt()
+                    }
+                } else {
+                    rc
+                };
+                let dir = (r * t.max(1.0) - c).try_normalize(1e-12).unwrap_or(r);
+                pts[s] = c + dir * len;
+            }
+            let local = pts.map(|x| to_hand(&x));
+            for branch in 0..2 {
+                let mut angles = best;
+                finger_angles_from_points(sk, f, &local[..=seen], branch, &mut angles);
+                let mut trial = *pose;
+                trial.angles[b..b + 4].copy_from_slice(&angles);
+                sk.limits.clamp(&mut trial.angles);
+                let cost = finger_cost(sk, &trial, view, f);
+                if cost < best_cost {
+                    best_cost = cost;
+                    best.copy_from_slice(&trial.angles[b..b + 4]);
+                }
+            }
+        }
+        pose.angles[b..b + 4].copy_from_slice(&best);
+    }
+}
+
+/// Weighted reprojection cost of one finger's joints in one view.
+fn finger_cost(
+    sk: &HandSkeleton,
+    pose: &HandPose,
+    view: &PreparedView,
+    f: crate::hand_model::Finger,
+) -> f64 {
+    let chain = crate::kinematics::finger_chain(sk, f, &pose.angles);
+    let r = pose.rotation.to_rotation_matrix();
+    let k = &view.camera.intrinsics;
+    let mut cost = 0.0;
+    for (s, &j) in f.joints().iter().enumerate() {
+        let w = view.weights[j];
+        if w <= 0.0 {
+            continue;
+        }
+        let x = view
+            .camera
+            .extrinsics
+            .transform(&(r * chain.points[s] + pose.translation));
+        if x.z <= 1.0 {
+            return f64::INFINITY;
+        }
+        let du = k.fx * x.x / x.z + k.cx - view.targets[j][0];
+        let dv = k.fy * x.y / x.z + k.cy - view.targets[j][1];
+        cost += w * w * (du * du + dv * dv);
+    }
+    cost
+}
+
+/// Inverse kinematics of one finger from its joint positions in the hand frame
+/// (base first; 2 to 4 points). Writes the angles it can determine. The base
+/// flexion has two solutions; `branch` (0 or 1) picks one.
+pub(crate) fn finger_angles_from_points(
+    sk: &HandSkeleton,
+    f: crate::hand_model::Finger,
+    pts: &[Vector3<f64>],
+    branch: usize,
+    angles: &mut [f64; 4],
+) {
+    let g = &sk.fingers[f.index()];
+    let lim = &sk.limits;
+    let b = f.index() * 4;
+    if pts.len() < 2 {
+        return;
+    }
+    let Some(u1) = (pts[1] - pts[0]).try_normalize(1e-9) else {
+        return;
+    };
+    let a = g.abduction_axis.into_inner();
+    let d = g.rest_direction.into_inner();
+    let h = g.flexion_axis;
+    let e = h.cross(&d);
+    // a . (cos p d + sin p e) = a . u1
+    let (ca, cb, c) = (a.dot(&d), a.dot(&e), a.dot(&u1));
+    let rr = (ca * ca + cb * cb).sqrt();
+    let phi0 = cb.atan2(ca);
+    let delta = if rr > 1e-12 {
+        (c / rr).clamp(-1.0, 1.0).acos()
+    } else {
+        0.0
+    };
+    let centre = 0.5 * (lim.lower[b] + lim.upper[b]);
+    let wrap = |x: f64| {
+        (x + std::f64::consts::PI).rem_euclid(2.0 * std::f64::consts::PI) - std::f64::consts::PI
+    };
+    let cands = [wrap(phi0 + delta), wrap(phi0 - delta)];
+    let dist = |p: f64| {
+        if p < lim.lower[b] {
+            lim.lower[b] - p
+        } else if p > lim.upper[b] {
+            p - lim.upper[b]
+        } else {
+            0.0
+        }
+    };
+    // Both roots are tried by the caller; branch 0 is the one nearer the limits' range.
+    let key = |p: f64| (dist(p), (p - centre).abs());
+    let preferred = if key(cands[0]) <= key(cands[1]) { 0 } else { 1 };
+    let flex1 = cands[if branch == 0 {
+        preferred
+    } else {
+        1 - preferred
+    }];
+    let v = d * flex1.cos() + e * flex1.sin();
+    let vp = v - a * a.dot(&v);
+    let up = u1 - a * a.dot(&u1);
+    let abd = a.dot(&vp.cross(&up)).atan2(vp.dot(&up));
+    angles[0] = flex1;
+    angles[1] = abd;
+    let w = Rotation3::from_axis_angle(&g.abduction_axis, abd) * h.into_inner();
+    let signed = |x: Vector3<f64>, y: Vector3<f64>| w.dot(&x.cross(&y)).atan2(x.dot(&y));
+    if pts.len() >= 3 {
+        if let Some(u2) = (pts[2] - pts[1]).try_normalize(1e-9) {
+            angles[2] = signed(u1, u2);
+            if pts.len() >= 4 {
+                if let Some(u3) = (pts[3] - pts[2]).try_normalize(1e-9) {
+                    angles[3] = signed(u2, u3);
+                }
+            }
+        }
     }
 }

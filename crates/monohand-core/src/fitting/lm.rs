@@ -117,8 +117,18 @@ impl HandFitter {
         let free = free_dofs(&observed);
         let starts = init::root_candidates(&self.skeleton, &self.views, &observed);
         let mut best: Option<Solution> = None;
+        let view_index = init::best_view(&self.views);
         for start in starts.iter().flatten() {
-            let sol = self.solve(*start, &observed, &free, self.options.max_iterations);
+            let mut sol = self.solve(*start, &observed, &free, self.options.max_iterations);
+            // Second pass: re-seat the fingers on the root refined by all joints.
+            if sol.cost > 1e-12 * used as f64 {
+                let mut again = sol.pose;
+                init::init_fingers(&self.skeleton, &mut again, &self.views[view_index]);
+                let second = self.solve(again, &observed, &free, self.options.max_iterations);
+                if second.cost < sol.cost {
+                    sol = second;
+                }
+            }
             if best.is_none_or(|b| sol.cost < b.cost) {
                 best = Some(sol);
             }
