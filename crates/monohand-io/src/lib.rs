@@ -6,12 +6,15 @@
 //!
 //! - [`mat`]: a minimal MATLAB v5 `.mat` reader (and a writer for `double` arrays).
 //! - [`stb`]: Stereo Hand Pose Benchmark labels and stereo camera.
+//! - [`calibration`]: cameras from the project JSON, the WACV'18 JSON and
+//!   OpenCV FileStorage YAML/XML, and a writer for the project JSON.
 //!
 //! Every fallible function returns [`IoError`], whose message names the file
 //! and the field or line at fault.
 
 #![deny(missing_docs)]
 
+pub mod calibration;
 pub mod error;
 pub mod mat;
 pub mod stb;

@@ -220,13 +220,15 @@ impl MatFile {
         let big = match &bytes[126..128] {
             b"IM" => false,
             b"MI" => true,
-            other => return Err(IoError::format(
-                file,
-                format!(
+            other => {
+                return Err(IoError::format(
+                    file,
+                    format!(
                     "not a MATLAB v5 .mat file: endian indicator {:?} is neither \"IM\" nor \"MI\"",
                     String::from_utf8_lossy(other)
                 ),
-            )),
+                ))
+            }
         };
         if !text.starts_with("MATLAB") {
             return Err(IoError::format(
