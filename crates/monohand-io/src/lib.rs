@@ -8,6 +8,8 @@
 //! - [`stb`]: Stereo Hand Pose Benchmark labels and stereo camera.
 //! - [`calibration`]: cameras from the project JSON, the WACV'18 JSON and
 //!   OpenCV FileStorage YAML/XML, and a writer for the project JSON.
+//! - [`openpose`]: OpenPose `--write_json` hand keypoints, read and written.
+//! - [`jsonl`]: the project's JSON Lines output (one frame per line), read and written.
 //!
 //! Every fallible function returns [`IoError`], whose message names the file
 //! and the field or line at fault.
@@ -16,7 +18,9 @@
 
 pub mod calibration;
 pub mod error;
+pub mod jsonl;
 pub mod mat;
+pub mod openpose;
 pub mod stb;
 
 pub use error::{IoError, IoResult};

@@ -1,0 +1,436 @@
+//! The project's output: JSON Lines, one object per frame (see
+//! `docs/output-format.md` for the exact schema).
+//!
+//! ```json
+//! {"frame": 0, "source": "clip_000000000000_keypoints.json", "hands": [{"side": "right",
+//!   "keypoints_2d": [[u, v, p], ...21], "joints_3d_mm": [[x, y, z], ...21],
+//!   "pose": {"translation_mm": [x, y, z], "quaternion_xyzw": [x, y, z, w], "angles_rad": [...20]},
+//!   "reprojection_error_px": 1.2, "converged": true, "iterations": 14}]}
+//! ```
+//!
+//! [`JsonlWriter`] writes and flushes one line per frame, so an interrupted
+//! run leaves a valid file up to the last complete frame. [`read_jsonl`] reads
+//! it back, naming the line of any malformed record; only `keypoints_2d` is
+//! required in a hand, so the same reader accepts 2D-only input for lifting.
+//! Optional fields are left out when absent and unknown fields are ignored,
+//! so files written by newer versions stay readable.
+//!
+//! ```
+//! use monohand_io::jsonl::{read_jsonl, FrameRecord, HandRecord, JsonlWriter};
+//! use monohand_core::prelude::*;
+//! let dir = tempfile::tempdir().unwrap();
+//! let path = dir.path().join("out.jsonl");
+//! let mut w = JsonlWriter::create(&path).unwrap();
+//! let hand = HandRecord::from_keypoints(HandSide::Left, &Keypoints2d::default());
+//! w.write_frame(&FrameRecord { frame: 0, hands: vec![hand], ..Default::default() }).unwrap();
+//! drop(w);
+//! let frames = read_jsonl(&path).unwrap();
+//! assert_eq!(frames[0].hands[0].side, HandSide::Left);
+//! ```
+
+use crate::error::{name_of, IoError, IoResult};
+use monohand_core::prelude::*;
+use nalgebra::{Quaternion, UnitQuaternion, Vector3};
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+use std::io::{BufRead, BufReader, BufWriter, Write};
+use std::path::Path;
+
+/// The fitted pose parameters of a hand.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct PoseRecord {
+    /// Wrist position in the first camera's frame, mm.
+    pub translation_mm: [f64; 3],
+    /// Rotation from the hand frame to the first camera's frame, unit quaternion `[x, y, z, w]`.
+    pub quaternion_xyzw: [f64; 4],
+    /// The 20 joint angles, radians, in `monohand_core::hand_model::angle_names()` order.
+    pub angles_rad: [f64; 20],
+}
+
+impl PoseRecord {
+    /// From a fitted pose.
+    pub fn from_pose(pose: &HandPose) -> PoseRecord {
+        let q = pose.rotation.quaternion();
+        PoseRecord {
+            translation_mm: [pose.translation.x, pose.translation.y, pose.translation.z],
+            quaternion_xyzw: [q.i, q.j, q.k, q.w],
+            angles_rad: pose.angles,
+        }
+    }
+
+    /// Back to a pose (the quaternion is normalised); `None` if a value is not
+    /// finite or the quaternion is zero.
+    pub fn to_pose(&self) -> Option<HandPose> {
+        let all = self
+            .translation_mm
+            .iter()
+            .chain(&self.quaternion_xyzw)
+            .chain(&self.angles_rad);
+        if all.into_iter().any(|v| !v.is_finite()) {
+            return None;
+        }
+        let [x, y, z, w] = self.quaternion_xyzw;
+        let q = Quaternion::new(w, x, y, z);
+        if q.norm() < 1e-12 {
+            return None;
+        }
+        Some(HandPose {
+            translation: Vector3::from(self.translation_mm),
+            rotation: UnitQuaternion::from_quaternion(q),
+            angles: self.angles_rad,
+        })
+    }
+}
+
+/// One hand in one frame.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct HandRecord {
+    /// `"left"` or `"right"`.
+    pub side: HandSide,
+    /// The 2D keypoints of the first view, `[u, v, confidence]` in pixels.
+    pub keypoints_2d: [[f64; 3]; NUM_JOINTS],
+    /// The 21 fitted joints in the first camera's frame, mm.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub joints_3d_mm: Option<[[f64; 3]; NUM_JOINTS]>,
+    /// The fitted pose parameters.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub pose: Option<PoseRecord>,
+    /// Mean reprojection error of the fit over the joints used, pixels.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub reprojection_error_px: Option<f64>,
+    /// Whether the solver met a stopping tolerance.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub converged: Option<bool>,
+    /// Solver iterations.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub iterations: Option<usize>,
+    /// Detection box in the first view, `[x_min, y_min, x_max, y_max]` pixels.
+    #[serde(rename = "box", skip_serializing_if = "Option::is_none", default)]
+    pub bbox: Option<[f64; 4]>,
+    /// Detection score in `[0, 1]`.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub score: Option<f64>,
+    /// Track identity, stable across frames.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub id: Option<u64>,
+}
+
+impl HandRecord {
+    /// A record with 2D keypoints only.
+    pub fn from_keypoints(side: HandSide, keypoints: &Keypoints2d) -> HandRecord {
+        HandRecord {
+            side,
+            keypoints_2d: keypoints.points,
+            joints_3d_mm: None,
+            pose: None,
+            reprojection_error_px: None,
+            converged: None,
+            iterations: None,
+            bbox: None,
+            score: None,
+            id: None,
+        }
+    }
+
+    /// A record of a fit: the keypoints of the first view and the fit's results.
+    pub fn from_fit(side: HandSide, keypoints: &Keypoints2d, fit: &FitResult) -> HandRecord {
+        HandRecord {
+            joints_3d_mm: Some(fit.joints_3d.map(|x| [x.x, x.y, x.z])),
+            pose: Some(PoseRecord::from_pose(&fit.pose)),
+            reprojection_error_px: Some(fit.reprojection_error_px),
+            converged: Some(fit.converged),
+            iterations: Some(fit.iterations),
+            ..HandRecord::from_keypoints(side, keypoints)
+        }
+    }
+
+    /// The 2D keypoints, checked (finite, confidence in `[0, 1]`).
+    pub fn keypoints(&self) -> Result<Keypoints2d, CoreError> {
+        Keypoints2d::new(self.keypoints_2d)
+    }
+
+    /// The 3D joints as vectors, if present.
+    pub fn joints_3d(&self) -> Option<[Vector3<f64>; NUM_JOINTS]> {
+        self.joints_3d_mm.map(|j| j.map(Vector3::from))
+    }
+
+    /// The name of the first non-finite number, if any (JSON cannot hold NaN or infinity).
+    fn non_finite_field(&self) -> Option<&'static str> {
+        if bad(self.keypoints_2d.iter().flatten()) {
+            return Some("keypoints_2d");
+        }
+        if self.joints_3d_mm.is_some_and(|j| bad(j.iter().flatten())) {
+            return Some("joints_3d_mm");
+        }
+        if let Some(p) = &self.pose {
+            let it = p
+                .translation_mm
+                .iter()
+                .chain(&p.quaternion_xyzw)
+                .chain(&p.angles_rad);
+            if bad(it) {
+                return Some("pose");
+            }
+        }
+        if self.reprojection_error_px.is_some_and(|e| !e.is_finite()) {
+            return Some("reprojection_error_px");
+        }
+        if self.bbox.is_some_and(|b| bad(b.iter())) {
+            return Some("box");
+        }
+        if self.score.is_some_and(|s| !s.is_finite()) {
+            return Some("score");
+        }
+        None
+    }
+}
+
+/// True if an iterator yields a non-finite number.
+fn bad<'a>(mut it: impl Iterator<Item = &'a f64>) -> bool {
+    it.any(|x| !x.is_finite())
+}
+
+/// One frame: its index, where it came from, and its hands.
+#[derive(Debug, Clone, PartialEq, Default, Serialize, Deserialize)]
+pub struct FrameRecord {
+    /// Frame index, from 0.
+    pub frame: u64,
+    /// The input the frame came from (file name), if known.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub source: Option<String>,
+    /// The hands (possibly none).
+    #[serde(default)]
+    pub hands: Vec<HandRecord>,
+    /// Per-stage processing times, milliseconds.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub timings_ms: Option<BTreeMap<String, f64>>,
+}
+
+/// Writes [`FrameRecord`]s as JSON Lines, flushing after every line.
+pub struct JsonlWriter {
+    out: BufWriter<Box<dyn Write>>,
+    name: String,
+    lines: usize,
+}
+
+impl std::fmt::Debug for JsonlWriter {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("JsonlWriter")
+            .field("name", &self.name)
+            .field("lines", &self.lines)
+            .finish()
+    }
+}
+
+impl JsonlWriter {
+    /// Creates (or truncates) a file.
+    pub fn create(path: impl AsRef<Path>) -> IoResult<JsonlWriter> {
+        let path = path.as_ref();
+        let f = std::fs::File::create(path).map_err(|source| IoError::Write {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        Ok(JsonlWriter::new(Box::new(f), &name_of(path)))
+    }
+
+    /// Writes to standard output.
+    pub fn stdout() -> JsonlWriter {
+        JsonlWriter::new(Box::new(std::io::stdout()), "<stdout>")
+    }
+
+    /// Writes to any sink; `name` is used in errors.
+    pub fn new(sink: Box<dyn Write>, name: &str) -> JsonlWriter {
+        JsonlWriter {
+            out: BufWriter::new(sink),
+            name: name.to_string(),
+            lines: 0,
+        }
+    }
+
+    /// Number of frames written.
+    pub fn frames_written(&self) -> usize {
+        self.lines
+    }
+
+    /// Writes one frame as one line and flushes it. Non-finite numbers are
+    /// refused (JSON has no NaN) with the hand and field named.
+    pub fn write_frame(&mut self, frame: &FrameRecord) -> IoResult<()> {
+        for (i, h) in frame.hands.iter().enumerate() {
+            if let Some(field) = h.non_finite_field() {
+                return Err(IoError::field(
+                    self.name.clone(),
+                    format!("frame {} hands[{i}].{field}", frame.frame),
+                    "contains a non-finite number",
+                ));
+            }
+        }
+        let line = serde_json::to_string(frame).map_err(|e| IoError::json(&self.name, &e))?;
+        let path = std::path::PathBuf::from(&self.name);
+        let werr = |source| IoError::Write {
+            path: path.clone(),
+            source,
+        };
+        self.out.write_all(line.as_bytes()).map_err(werr)?;
+        self.out.write_all(b"\n").map_err(werr)?;
+        self.out.flush().map_err(werr)?;
+        self.lines += 1;
+        Ok(())
+    }
+}
+
+/// Parses JSON Lines text; blank lines are skipped. `file` names it in errors,
+/// which give the 1-based line number of a malformed record.
+pub fn parse_jsonl(reader: impl BufRead, file: &str) -> IoResult<Vec<FrameRecord>> {
+    let mut out = Vec::new();
+    for (i, line) in reader.lines().enumerate() {
+        let line = line.map_err(|e| IoError::Line {
+            file: file.to_string(),
+            line: i + 1,
+            message: format!("cannot read: {e}"),
+        })?;
+        if line.trim().is_empty() {
+            continue;
+        }
+        let rec: FrameRecord = serde_json::from_str(&line).map_err(|e| IoError::Line {
+            file: file.to_string(),
+            line: i + 1,
+            message: format!("invalid frame record: {e}"),
+        })?;
+        out.push(rec);
+    }
+    Ok(out)
+}
+
+/// Reads a JSON Lines file written by [`JsonlWriter`] (or by hand, with 2D keypoints only).
+pub fn read_jsonl(path: impl AsRef<Path>) -> IoResult<Vec<FrameRecord>> {
+    let path = path.as_ref();
+    let f = std::fs::File::open(path).map_err(|source| IoError::Read {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    parse_jsonl(BufReader::new(f), &name_of(path))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn fit_like() -> FitResult {
+        let mut angles = [0.0; 20];
+        angles[5] = 0.7;
+        let pose = HandPose {
+            translation: Vector3::new(10.0, -20.0, 480.0),
+            rotation: UnitQuaternion::from_euler_angles(0.3, -0.2, 1.0),
+            angles,
+        };
+        FitResult {
+            pose,
+            joints_3d: std::array::from_fn(|j| Vector3::new(j as f64, 0.5, 500.0 - j as f64)),
+            reprojection_error_px: 1.25,
+            iterations: 17,
+            converged: true,
+            cost: 3.0,
+            used_observations: 21,
+        }
+    }
+
+    #[test]
+    fn round_trip_and_optional_fields() {
+        let mut kp = Keypoints2d::default();
+        kp.points[3] = [100.0, 200.0, 0.75];
+        let fit = fit_like();
+        let rec = HandRecord::from_fit(HandSide::Right, &kp, &fit);
+        let frame = FrameRecord {
+            frame: 7,
+            source: Some("f.json".into()),
+            hands: vec![rec.clone()],
+            timings_ms: None,
+        };
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("o.jsonl");
+        let mut w = JsonlWriter::create(&p).unwrap();
+        w.write_frame(&frame).unwrap();
+        w.write_frame(&FrameRecord {
+            frame: 8,
+            ..Default::default()
+        })
+        .unwrap();
+        // Flushed per line: readable while the writer is still open.
+        let back = read_jsonl(&p).unwrap();
+        assert_eq!(back.len(), 2);
+        assert_eq!(back[0], frame);
+        assert!(back[1].hands.is_empty());
+        assert_eq!(w.frames_written(), 2);
+        let pose = back[0].hands[0].pose.unwrap().to_pose().unwrap();
+        assert!((pose.rotation.angle_to(&fit.pose.rotation)) < 1e-12);
+        assert_eq!(pose.angles, fit.pose.angles);
+        assert_eq!(back[0].hands[0].joints_3d().unwrap()[4], fit.joints_3d[4]);
+        // Absent optional fields are not written.
+        let text = std::fs::read_to_string(&p).unwrap();
+        let second = text.lines().nth(1).unwrap();
+        assert_eq!(second, r#"{"frame":8,"hands":[]}"#);
+        assert!(!text.contains("timings_ms") && !text.contains("\"box\""));
+    }
+
+    #[test]
+    fn reader_accepts_2d_only_and_newer_fields() {
+        let kp: Vec<[f64; 3]> = (0..21).map(|j| [j as f64, 1.0, 0.5]).collect();
+        let text = format!(
+            "{}\n\n{}\n",
+            serde_json::json!({"frame": 0, "hands": [{"side": "left", "keypoints_2d": kp}]}),
+            serde_json::json!({"frame": 1, "hands": [{"side": "right", "keypoints_2d": kp,
+                "box": [1, 2, 3, 4], "score": 0.9, "id": 3, "future_field": {"a": 1}}],
+                "timings_ms": {"detect": 4.5}})
+        );
+        let frames = parse_jsonl(text.as_bytes(), "in.jsonl").unwrap();
+        assert_eq!(frames.len(), 2);
+        assert_eq!(
+            frames[0].hands[0].keypoints().unwrap().points[5],
+            [5.0, 1.0, 0.5]
+        );
+        assert_eq!(frames[1].hands[0].bbox, Some([1.0, 2.0, 3.0, 4.0]));
+        assert_eq!(frames[1].timings_ms.as_ref().unwrap()["detect"], 4.5);
+    }
+
+    #[test]
+    fn malformed_lines_are_reported_with_their_number() {
+        let good = r#"{"frame": 0, "hands": []}"#;
+        let text = format!("{good}\n{good}\n{{\"frame\": 2, \"hands\": [{{\"side\": \"up\"}}]}}\n");
+        let e = parse_jsonl(text.as_bytes(), "x.jsonl")
+            .unwrap_err()
+            .to_string();
+        assert!(e.starts_with("x.jsonl: line 3:"), "{e}");
+        let short: Vec<[f64; 3]> = vec![[0.0; 3]; 20];
+        let text = format!(
+            "{good}\n{}\n",
+            serde_json::json!({"frame": 1, "hands": [{"side": "left", "keypoints_2d": short}]})
+        );
+        let e = parse_jsonl(text.as_bytes(), "x.jsonl")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("line 2") && e.contains("21"), "{e}");
+        let e = parse_jsonl("{\"frame\": 0, \"hands\": [".as_bytes(), "t.jsonl")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("t.jsonl: line 1"), "{e}");
+        assert!(read_jsonl("/nonexistent/in.jsonl").is_err());
+    }
+
+    #[test]
+    fn writer_refuses_non_finite_numbers() {
+        let mut fit = fit_like();
+        fit.joints_3d[2].x = f64::NAN;
+        let rec = HandRecord::from_fit(HandSide::Left, &Keypoints2d::default(), &fit);
+        let mut w = JsonlWriter::new(Box::new(Vec::new()), "mem");
+        let e = w
+            .write_frame(&FrameRecord {
+                frame: 3,
+                hands: vec![rec],
+                ..Default::default()
+            })
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("frame 3 hands[0].joints_3d_mm"), "{e}");
+        assert_eq!(w.frames_written(), 0);
+    }
+}
