@@ -1,1 +1,124 @@
-fn main() {}
+//! Speed of the geometry core: one residual evaluation, one analytic Jacobian,
+//! one monocular fit from scratch, one warm-started tracking fit, one stereo fit.
+//! Poses are random inside the joint limits (seeded), seen by the STB camera.
+
+use criterion::{criterion_group, criterion_main, Criterion};
+use monohand_core::kinematics::{forward_kinematics_with_jacobian, LOCAL_DOF};
+use monohand_core::prelude::*;
+use nalgebra::{Rotation3, SMatrix, UnitQuaternion, Vector3};
+use rand::rngs::StdRng;
+use rand::{Rng, SeedableRng};
+use std::hint::black_box;
+
+fn random_pose(sk: &HandSkeleton, rng: &mut StdRng) -> HandPose {
+    let l = &sk.limits;
+    HandPose {
+        translation: Vector3::new(
+            rng.random_range(-60.0..60.0),
+            rng.random_range(-40.0..40.0),
+            rng.random_range(350.0..650.0),
+        ),
+        rotation: UnitQuaternion::from_euler_angles(
+            rng.random_range(-3.0..3.0),
+            rng.random_range(-1.2..1.2),
+            rng.random_range(-3.0..3.0),
+        ),
+        angles: std::array::from_fn(|i| rng.random_range(l.lower[i]..=l.upper[i])),
+    }
+}
+
+fn observe(cam: &Camera, joints: &[Vector3<f64>; 21]) -> Keypoints2d {
+    let mut kp = Keypoints2d::default();
+    for (j, x) in joints.iter().enumerate() {
+        if let Some(p) = cam.project(x) {
+            kp.points[j] = [p.x, p.y, 1.0];
+        }
+    }
+    kp
+}
+
+fn bench(c: &mut Criterion) {
+    let left = Camera::pinhole(822.79, 822.79, 318.47, 250.31, 640, 480).unwrap();
+    let right = left.with_extrinsics(Extrinsics {
+        rotation: Rotation3::identity(),
+        translation: Vector3::new(-120.054, 0.0, 0.0),
+    });
+    let sk = HandSkeleton::default_for(HandSide::Right);
+    let mut rng = StdRng::seed_from_u64(3);
+    let poses: Vec<HandPose> = (0..64).map(|_| random_pose(&sk, &mut rng)).collect();
+    let obs: Vec<(Keypoints2d, Keypoints2d)> = poses
+        .iter()
+        .map(|p| {
+            let j = forward_kinematics(&sk, p);
+            (observe(&left, &j), observe(&right, &j))
+        })
+        .collect();
+
+    c.bench_function("forward_kinematics", |b| {
+        b.iter(|| forward_kinematics(&sk, black_box(&poses[0])))
+    });
+    c.bench_function("jacobian_analytic", |b| {
+        let mut pts = [Vector3::zeros(); 21];
+        let mut jac = [SMatrix::<f64, 3, LOCAL_DOF>::zeros(); 21];
+        b.iter(|| forward_kinematics_with_jacobian(&sk, black_box(&poses[0]), &mut pts, &mut jac))
+    });
+    let mut fitter = HandFitter::new(sk, FitOptions::default()).unwrap();
+    let mut i = 0;
+    c.bench_function("fit_mono_from_scratch", |b| {
+        b.iter(|| {
+            i = (i + 1) % obs.len();
+            fitter
+                .fit(&[View {
+                    camera: &left,
+                    keypoints: &obs[i].0,
+                }])
+                .map(|r| r.cost)
+                .ok()
+        })
+    });
+    c.bench_function("fit_stereo_from_scratch", |b| {
+        b.iter(|| {
+            i = (i + 1) % obs.len();
+            let v = [
+                View {
+                    camera: &left,
+                    keypoints: &obs[i].0,
+                },
+                View {
+                    camera: &right,
+                    keypoints: &obs[i].1,
+                },
+            ];
+            fitter.fit(&v).map(|r| r.cost).ok()
+        })
+    });
+    // Tracking: start from the true pose of the frame perturbed as by ~1 frame of motion.
+    let starts: Vec<HandPose> = poses
+        .iter()
+        .map(|p| {
+            let mut s = *p;
+            s.translation += Vector3::new(3.0, -2.0, 5.0);
+            s.rotation = UnitQuaternion::from_euler_angles(0.03, -0.02, 0.04) * s.rotation;
+            s.angles.iter_mut().for_each(|a| *a += 0.05);
+            s
+        })
+        .collect();
+    c.bench_function("fit_mono_tracking_warm_start", |b| {
+        b.iter(|| {
+            i = (i + 1) % obs.len();
+            fitter
+                .fit_from(
+                    &[View {
+                        camera: &left,
+                        keypoints: &obs[i].0,
+                    }],
+                    &starts[i],
+                )
+                .map(|r| r.cost)
+                .ok()
+        })
+    });
+}
+
+criterion_group!(benches, bench);
+criterion_main!(benches);

@@ -138,6 +138,7 @@ pub const fn finger_of(joint: usize) -> Option<Finger> {
 }
 
 #[cfg(test)]
+#[allow(clippy::field_reassign_with_default)]
 mod tests {
     use super::*;
     use crate::hand_model::HandSide;

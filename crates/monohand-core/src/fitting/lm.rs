@@ -224,9 +224,9 @@ impl HandFitter {
         let mut sum = 0.0;
         let mut n = 0usize;
         for v in &self.views {
-            for j in 0..NUM_JOINTS {
+            for (j, x) in joints_3d.iter().enumerate() {
                 if v.weights[j] > 0.0 {
-                    if let Some(px) = v.camera.project(&joints_3d[j]) {
+                    if let Some(px) = v.camera.project(x) {
                         sum += (Vector2::new(px.x - v.raw[j][0], px.y - v.raw[j][1])).norm();
                         n += 1;
                     }

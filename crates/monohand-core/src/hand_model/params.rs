@@ -144,6 +144,7 @@ const _: () = assert!(NUM_FINGERS * ANGLES_PER_FINGER == NUM_ANGLES);
 const _: () = assert!(ANGLES + NUM_ANGLES == NUM_PARAMS);
 
 #[cfg(test)]
+#[allow(clippy::field_reassign_with_default)]
 mod tests {
     use super::*;
 

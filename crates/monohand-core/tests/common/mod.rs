@@ -6,6 +6,7 @@ use nalgebra::{UnitQuaternion, Vector3};
 use rand::rngs::StdRng;
 use rand::{Rng, SeedableRng};
 use rand_distr::{Distribution, Normal};
+use std::f64::consts::PI;
 
 /// A random pose inside the joint limits, hand 300-700 mm in front of the camera,
 /// any orientation whose palm is not edge-on to the camera.
@@ -13,9 +14,9 @@ pub fn random_pose(sk: &HandSkeleton, rng: &mut StdRng) -> HandPose {
     let l = &sk.limits;
     let angles = std::array::from_fn(|i| rng.random_range(l.lower[i]..=l.upper[i]));
     let rotation = UnitQuaternion::from_euler_angles(
-        rng.random_range(-3.14..3.14),
-        rng.random_range(-3.14..3.14),
-        rng.random_range(-3.14..3.14),
+        rng.random_range(-PI..PI),
+        rng.random_range(-PI..PI),
+        rng.random_range(-PI..PI),
     );
     let z = rng.random_range(300.0..700.0);
     HandPose {

@@ -1,0 +1,188 @@
+#![allow(clippy::field_reassign_with_default)]
+//! Bad input gives errors, not panics; tracking warm-starts and applies the
+//! paper's rule for joints that vanish.
+
+mod common;
+use common::*;
+use monohand_core::prelude::*;
+use nalgebra::{UnitQuaternion, Vector3};
+
+fn scene() -> (Camera, HandSkeleton, HandPose) {
+    let (cam, _) = stb_rig();
+    let sk = HandSkeleton::default_for(HandSide::Right);
+    let mut pose = HandPose::default();
+    pose.translation = Vector3::new(10.0, -20.0, 500.0);
+    pose.rotation = UnitQuaternion::from_euler_angles(2.9, 0.3, 0.2);
+    for (i, a) in pose.angles.iter_mut().enumerate() {
+        *a = 0.2 + 0.02 * i as f64;
+    }
+    sk.limits.clamp(&mut pose.angles);
+    (cam, sk, pose)
+}
+
+#[test]
+fn bad_inputs_are_errors() {
+    let (cam, sk, pose) = scene();
+    let mut fitter = HandFitter::new(sk, FitOptions::default()).unwrap();
+    let good = project(&cam, &forward_kinematics(&sk, &pose), 0.0, &mut rng(0)).unwrap();
+
+    let mut nan = good;
+    nan.points[3][0] = f64::NAN;
+    let e = fitter
+        .fit(&[View {
+            camera: &cam,
+            keypoints: &nan,
+        }])
+        .unwrap_err();
+    assert!(matches!(e, CoreError::InvalidKeypoints(_)), "{e}");
+    assert!(e.to_string().contains("joint 3"));
+
+    let mut conf = good;
+    conf.points[4][2] = 1.5;
+    assert!(fitter
+        .fit(&[View {
+            camera: &cam,
+            keypoints: &conf
+        }])
+        .is_err());
+
+    let mut few = good;
+    for p in few.points.iter_mut().skip(3) {
+        p[2] = 0.05; // under the 0.1 threshold
+    }
+    let e = fitter
+        .fit(&[View {
+            camera: &cam,
+            keypoints: &few,
+        }])
+        .unwrap_err();
+    assert!(
+        matches!(e, CoreError::TooFewJoints { usable: 3, .. }),
+        "{e}"
+    );
+
+    assert!(matches!(
+        fitter.fit(&[]).unwrap_err(),
+        CoreError::ViewMismatch(_)
+    ));
+    assert!(fitter
+        .fit(&[View {
+            camera: &cam,
+            keypoints: &Keypoints2d::default()
+        }])
+        .is_err());
+
+    let mut bad_cam = cam;
+    bad_cam.intrinsics.fx = f64::NAN;
+    assert!(matches!(
+        fitter
+            .fit(&[View {
+                camera: &bad_cam,
+                keypoints: &good
+            }])
+            .unwrap_err(),
+        CoreError::InvalidCamera(_)
+    ));
+    let mut bad_start = pose;
+    bad_start.translation.x = f64::INFINITY;
+    assert!(fitter
+        .fit_from(
+            &[View {
+                camera: &cam,
+                keypoints: &good
+            }],
+            &bad_start
+        )
+        .is_err());
+    assert!(FitOptions {
+        min_confidence: 2.0,
+        ..Default::default()
+    }
+    .validate()
+    .is_err());
+}
+
+#[test]
+fn keypoints_far_off_still_give_a_finite_answer() {
+    let (cam, sk, _) = scene();
+    let mut fitter = HandFitter::new(sk, FitOptions::default()).unwrap();
+    // All joints on one pixel, and random garbage: no panic, finite output.
+    let same = Keypoints2d::new([[320.0, 240.0, 1.0]; 21]).unwrap();
+    let mut r = rng(5);
+    let garbage = Keypoints2d::new(std::array::from_fn(|_| {
+        use rand::Rng;
+        [r.random_range(-1e4..1e4), r.random_range(-1e4..1e4), 1.0]
+    }))
+    .unwrap();
+    for kp in [same, garbage] {
+        if let Ok(fit) = fitter.fit(&[View {
+            camera: &cam,
+            keypoints: &kp,
+        }]) {
+            assert!(fit.pose.is_finite());
+            assert!(fit
+                .joints_3d
+                .iter()
+                .all(|p| p.iter().all(|v| v.is_finite())));
+        }
+    }
+}
+
+#[test]
+fn tracking_follows_motion_and_keeps_vanished_joints_on_the_hand() {
+    let (cam, sk, mut pose) = scene();
+    let mut tracker = HandTracker::new(sk, FitOptions::default()).unwrap();
+    let mut r = rng(9);
+    let mut last_index_tip_local = None;
+    for frame in 0..30 {
+        pose.translation += Vector3::new(2.0, 1.0, -3.0);
+        pose.rotation = UnitQuaternion::from_euler_angles(0.0, 0.02, 0.01) * pose.rotation;
+        pose.angles[4] += 0.01; // index MCP keeps flexing
+        let truth = forward_kinematics(&sk, &pose);
+        let mut kp = project(&cam, &truth, 0.0, &mut r).unwrap();
+        let vanished = frame >= 20;
+        if vanished {
+            // The index finger's last three joints drop out (occluded).
+            for j in [6, 7, 8] {
+                kp.points[j][2] = 0.0;
+            }
+        }
+        let fit = tracker
+            .update(&[View {
+                camera: &cam,
+                keypoints: &kp,
+            }])
+            .unwrap();
+        assert!(fit.converged);
+        let local = fit.pose.rotation.inverse() * (fit.joints_3d[8] - fit.pose.translation);
+        if vanished {
+            // Root follows the visible joints...
+            assert!((fit.joints_3d[0] - truth[0]).norm() < 1.0, "frame {frame}");
+            // ...and the vanished tip keeps its last position relative to the hand.
+            let prev: Vector3<f64> = last_index_tip_local.unwrap();
+            assert!(
+                (local - prev).norm() < 1e-6,
+                "frame {frame}: tip moved on the hand"
+            );
+        } else {
+            let e = mean_error(&fit.joints_3d, &truth);
+            let per: Vec<String> = (0..21)
+                .map(|j| format!("{:.1}", (fit.joints_3d[j] - truth[j]).norm()))
+                .collect();
+            assert!(
+                e < 0.01,
+                "frame {frame}: {e} mm, rep {} it {} conv {} per {}",
+                fit.reprojection_error_px,
+                fit.iterations,
+                fit.converged,
+                per.join(",")
+            );
+            assert!(
+                fit.iterations <= 10,
+                "warm start took {} iterations",
+                fit.iterations
+            );
+            last_index_tip_local = Some(local);
+        }
+    }
+}
