@@ -14,20 +14,20 @@ use thiserror::Error;
 #[derive(Debug, Error)]
 pub enum IoError {
     /// The file could not be opened or read.
-    #[error("{}: cannot read: {source}", path.display())]
+    #[error("{}: cannot read: {error}", path.display())]
     Read {
         /// The file.
         path: PathBuf,
         /// The operating-system error.
-        source: std::io::Error,
+        error: std::io::Error,
     },
     /// The file could not be created or written.
-    #[error("{}: cannot write: {source}", path.display())]
+    #[error("{}: cannot write: {error}", path.display())]
     Write {
         /// The file.
         path: PathBuf,
         /// The operating-system error.
-        source: std::io::Error,
+        error: std::io::Error,
     },
     /// The file is not valid JSON (or not the expected JSON shape).
     #[error("{file}: invalid JSON at line {line}, column {column}: {message}")]
@@ -70,12 +70,12 @@ pub enum IoError {
         message: String,
     },
     /// The numbers were read but describe an impossible camera, skeleton or keypoint set.
-    #[error("{file}: {source}")]
+    #[error("{file}: {error}")]
     Core {
         /// The file.
         file: String,
         /// The geometry core's verdict.
-        source: CoreError,
+        error: CoreError,
     },
 }
 
@@ -123,7 +123,7 @@ impl IoError {
     pub(crate) fn core(file: impl Into<String>, source: CoreError) -> IoError {
         IoError::Core {
             file: file.into(),
-            source,
+            error: source,
         }
     }
 }
@@ -132,7 +132,7 @@ impl IoError {
 pub(crate) fn read_bytes(path: &Path) -> IoResult<Vec<u8>> {
     std::fs::read(path).map_err(|source| IoError::Read {
         path: path.to_path_buf(),
-        source,
+        error: source,
     })
 }
 
@@ -140,6 +140,6 @@ pub(crate) fn read_bytes(path: &Path) -> IoResult<Vec<u8>> {
 pub(crate) fn read_text(path: &Path) -> IoResult<String> {
     std::fs::read_to_string(path).map_err(|source| IoError::Read {
         path: path.to_path_buf(),
-        source,
+        error: source,
     })
 }

@@ -228,7 +228,7 @@ impl JsonlWriter {
         let path = path.as_ref();
         let f = std::fs::File::create(path).map_err(|source| IoError::Write {
             path: path.to_path_buf(),
-            source,
+            error: source,
         })?;
         Ok(JsonlWriter::new(Box::new(f), &name_of(path)))
     }
@@ -268,7 +268,7 @@ impl JsonlWriter {
         let path = std::path::PathBuf::from(&self.name);
         let werr = |source| IoError::Write {
             path: path.clone(),
-            source,
+            error: source,
         };
         self.out.write_all(line.as_bytes()).map_err(werr)?;
         self.out.write_all(b"\n").map_err(werr)?;
@@ -306,7 +306,7 @@ pub fn read_jsonl(path: impl AsRef<Path>) -> IoResult<Vec<FrameRecord>> {
     let path = path.as_ref();
     let f = std::fs::File::open(path).map_err(|source| IoError::Read {
         path: path.to_path_buf(),
-        source,
+        error: source,
     })?;
     parse_jsonl(BufReader::new(f), &name_of(path))
 }

@@ -9,6 +9,7 @@
 //! - [`calibration`]: cameras from the project JSON, the WACV'18 JSON and
 //!   OpenCV FileStorage YAML/XML, and a writer for the project JSON.
 //! - [`openpose`]: OpenPose `--write_json` hand keypoints, read and written.
+//! - [`skeleton`]: bone-length files for sizing the hand model.
 //! - [`jsonl`]: the project's JSON Lines output (one frame per line), read and written.
 //!
 //! Every fallible function returns [`IoError`], whose message names the file
@@ -21,6 +22,7 @@ pub mod error;
 pub mod jsonl;
 pub mod mat;
 pub mod openpose;
+pub mod skeleton;
 pub mod stb;
 
 pub use error::{IoError, IoResult};

@@ -545,7 +545,7 @@ pub fn write_mat(path: impl AsRef<Path>, arrays: &[MatArray]) -> IoResult<()> {
     let path = path.as_ref();
     std::fs::write(path, to_bytes(arrays)).map_err(|source| IoError::Write {
         path: path.to_path_buf(),
-        source,
+        error: source,
     })
 }
 

@@ -83,20 +83,20 @@ pub fn list_openpose_files(path: impl AsRef<Path>) -> IoResult<Vec<PathBuf>> {
     let path = path.as_ref();
     let meta = std::fs::metadata(path).map_err(|source| IoError::Read {
         path: path.to_path_buf(),
-        source,
+        error: source,
     })?;
     if !meta.is_dir() {
         return Ok(vec![path.to_path_buf()]);
     }
     let entries = std::fs::read_dir(path).map_err(|source| IoError::Read {
         path: path.to_path_buf(),
-        source,
+        error: source,
     })?;
     let mut all = Vec::new();
     for e in entries {
         let e = e.map_err(|source| IoError::Read {
             path: path.to_path_buf(),
-            source,
+            error: source,
         })?;
         let p = e.path();
         let name = e.file_name().to_string_lossy().to_string();
@@ -311,7 +311,7 @@ pub fn write_openpose_file(path: impl AsRef<Path>, people: &[OpenPosePerson]) ->
     let path = path.as_ref();
     std::fs::write(path, to_openpose_json(people).to_string()).map_err(|source| IoError::Write {
         path: path.to_path_buf(),
-        source,
+        error: source,
     })
 }
 

@@ -666,7 +666,7 @@ pub fn write_camera_json(path: impl AsRef<Path>, camera: &Camera) -> IoResult<()
     let text = format!("{:#}\n", camera_to_json(camera));
     std::fs::write(path, text).map_err(|source| IoError::Write {
         path: path.to_path_buf(),
-        source,
+        error: source,
     })
 }
 

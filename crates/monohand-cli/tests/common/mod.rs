@@ -1,0 +1,105 @@
+//! Helpers shared by the CLI integration tests: real STB labels projected with
+//! the real STB cameras into OpenPose files, and running the built binary.
+
+#![allow(dead_code)]
+
+use monohand_core::prelude::*;
+use monohand_io::jsonl::{read_jsonl, FrameRecord};
+use monohand_io::openpose::{write_openpose_file, OpenPoseHandOut, OpenPosePerson};
+use monohand_io::stb::{stb_cameras, StbSequence};
+use nalgebra::Vector3;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+/// The STB data directory, or `None` after printing why the test is skipped.
+pub fn stb_dir() -> Option<PathBuf> {
+    let d = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/stb_b1counting");
+    if d.join("labels/B1Counting_BB.mat").is_file() && d.join("camera_params.json").is_file() {
+        Some(d)
+    } else {
+        eprintln!(
+            "SKIP: STB data not found at {} (the shared data directory must sit beside the repository)",
+            d.display()
+        );
+        None
+    }
+}
+
+/// Every `step`-th STB frame (3D joints, our order; index 0 = palm centre) and the stereo pair.
+pub fn stb_frames(dir: &Path, step: usize) -> (Vec<[Vector3<f64>; 21]>, Camera, Camera) {
+    let seq = StbSequence::load(dir.join("labels/B1Counting_BB.mat")).expect("STB labels");
+    let (left, right) = stb_cameras(dir.join("camera_params.json")).expect("STB cameras");
+    let frames = seq.frames.iter().step_by(step).map(|f| f.joints).collect();
+    (frames, left, right)
+}
+
+/// Projects the joints; joint 0 (the STB palm centre, not a wrist) gets confidence 0.
+pub fn project(camera: &Camera, joints: &[Vector3<f64>; 21]) -> Keypoints2d {
+    let mut kp = Keypoints2d::default();
+    for (j, x) in joints.iter().enumerate().skip(1) {
+        let px = camera.project(x).expect("label in front of the camera");
+        kp.points[j] = [px.x, px.y, 1.0];
+    }
+    kp
+}
+
+/// Writes one OpenPose file per frame (left hand) into `dir`.
+pub fn write_view(dir: &Path, camera: &Camera, frames: &[[Vector3<f64>; 21]]) {
+    std::fs::create_dir_all(dir).unwrap();
+    for (i, joints) in frames.iter().enumerate() {
+        let person = OpenPosePerson {
+            left: Some(OpenPoseHandOut {
+                keypoints_2d: project(camera, joints),
+                joints_3d: None,
+            }),
+            right: None,
+        };
+        write_openpose_file(dir.join(format!("stb_{i:012}_keypoints.json")), &[person]).unwrap();
+    }
+}
+
+/// Runs the built `monohand` binary.
+pub fn monohand(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_monohand"))
+        .args(args)
+        .output()
+        .expect("run monohand")
+}
+
+/// Panics with the binary's stderr unless it succeeded.
+pub fn ok(out: &Output) {
+    assert!(
+        out.status.success(),
+        "monohand failed ({}): {}",
+        out.status,
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+/// Per-frame mean distance (mm) over joints 1..21 between the fitted left hand and the labels.
+pub fn errors(output: &Path, labels: &[[Vector3<f64>; 21]]) -> Vec<f64> {
+    let frames: Vec<FrameRecord> = read_jsonl(output).unwrap();
+    assert_eq!(frames.len(), labels.len());
+    frames
+        .iter()
+        .zip(labels)
+        .map(|(f, truth)| {
+            assert_eq!(f.hands.len(), 1, "frame {}: {:?}", f.frame, f.hands);
+            let h = &f.hands[0];
+            assert_eq!(h.side, HandSide::Left);
+            let joints = h.joints_3d().expect("joints_3d_mm");
+            (1..21).map(|j| (joints[j] - truth[j]).norm()).sum::<f64>() / 20.0
+        })
+        .collect()
+}
+
+/// Mean and 90th percentile.
+pub fn stats(e: &[f64]) -> (f64, f64) {
+    let mut s = e.to_vec();
+    s.sort_by(f64::total_cmp);
+    (s.iter().sum::<f64>() / s.len() as f64, s[s.len() * 9 / 10])
+}
+
+pub fn p(path: &Path) -> &str {
+    path.to_str().expect("utf-8 temp path")
+}
