@@ -322,3 +322,61 @@ fn camera_command_prints_a_loadable_generic_camera() {
     let o = monohand(&["camera", "--width", "0", "--height", "720"]);
     assert_eq!(o.status.code(), Some(1));
 }
+
+#[test]
+fn hand_seen_only_in_the_second_view_and_several_hands_per_side() {
+    let s = Setup::new(1);
+    // View 2: the same camera 100 mm to the right (X_2 = X_1 - (100, 0, 0)).
+    let mut cam2 = camera();
+    cam2.extrinsics.translation = Vector3::new(-100.0, 0.0, 0.0);
+    write_camera_json(s.path("cam2.json"), &cam2).unwrap();
+    let (truth, _) = keypoints();
+    let mut kp2 = Keypoints2d::default();
+    for (j, x) in truth.iter().enumerate() {
+        let px = cam2.project(x).unwrap();
+        kp2.points[j] = [px.x, px.y, 0.9];
+    }
+    std::fs::create_dir(s.path("op2")).unwrap();
+    // View 1 sees no hand; view 2 sees a decoy (low confidence, shifted) and the real hand.
+    write_openpose_file(s.frame_file(0), &[]).unwrap();
+    let mut decoy = kp2;
+    for p in decoy.points.iter_mut() {
+        p[0] += 40.0;
+        p[2] = 0.3;
+    }
+    write_openpose_file(
+        s.path("op2/f_0_keypoints.json"),
+        &[right(decoy), right(kp2)],
+    )
+    .unwrap();
+    let out = s.path("out.jsonl");
+    let (c1, c2) = (s.path("cam.json"), s.path("cam2.json"));
+    let (o1, o2) = (s.path("op"), s.path("op2"));
+    let o = monohand(&[
+        "lift",
+        "--camera",
+        p(&c1),
+        "--openpose",
+        p(&o1),
+        "--camera",
+        p(&c2),
+        "--openpose",
+        p(&o2),
+        "--output",
+        p(&out),
+    ]);
+    ok(&o);
+    assert!(stderr(&o).contains("2 right hands"), "{}", stderr(&o));
+    let frames = read_jsonl(&out).unwrap();
+    let h = &frames[0].hands[0];
+    // No keypoints in the first view: all zeros; joints still in camera 1's frame.
+    assert!(h.keypoints_2d.iter().all(|p| *p == [0.0; 3]));
+    let j = h.joints_3d().unwrap();
+    let err = (0..21)
+        .map(|k| (j[k] - truth[k]).norm())
+        .fold(0.0, f64::max);
+    assert!(
+        err < 1.0,
+        "max error {err} mm: wrong hand chosen or wrong frame"
+    );
+}
