@@ -46,7 +46,7 @@ impl Default for FitOptions {
             cost_tolerance: 1e-9,
             step_tolerance: 1e-7,
             initial_damping: 1e-3,
-            tracking_reset_px: 15.0,
+            tracking_reset_px: 5.0,
         }
     }
 }

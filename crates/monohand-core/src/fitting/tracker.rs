@@ -5,9 +5,9 @@ use crate::hand_model::{HandPose, HandSkeleton};
 
 /// Fits a hand frame after frame, starting each fit from the previous solution.
 ///
-/// If the warm-started fit is poor (mean reprojection error above
-/// [`FitOptions::tracking_reset_px`]) a fit from scratch is also run and the
-/// better one kept. Frames with too few joints return the error and keep the
+/// If the warm-started fit is poor (not converged, or mean reprojection error
+/// above [`FitOptions::tracking_reset_px`]) a fit from scratch is also run and
+/// the one with the lower cost kept, so large jumps between frames recover. Frames with too few joints return the error and keep the
 /// last pose for the next frame.
 #[derive(Debug, Clone)]
 pub struct HandTracker {
@@ -29,7 +29,9 @@ impl HandTracker {
         let result = match self.last {
             Some(prev) => {
                 let warm = self.fitter.fit_from(views, &prev)?;
-                if warm.reprojection_error_px > self.fitter.options().tracking_reset_px {
+                if !warm.converged
+                    || warm.reprojection_error_px > self.fitter.options().tracking_reset_px
+                {
                     let cold = self.fitter.fit(views)?;
                     if cold.cost < warm.cost {
                         cold
