@@ -11,7 +11,9 @@
 //! 3D position by a residual `r` (crop pixels) gets
 //!
 //! `confidence = presence · exp(−½ (r / σ)²)`, σ = [`LandmarkOptions::agreement_sigma`]
-//! (default 4 crop pixels ≈ 2 % of the crop, ~5 % of the hand's length).
+//! (default 6 crop pixels ≈ 2.7 % of the crop, ~7 % of the hand's length: on clean, fully
+//! visible hands most joints score above 0.7, while a crop where the two heads disagree
+//! — a wrong or heavily occluded hand — drops towards 0).
 //!
 //! So the presence score caps every joint (a doubtful hand makes every joint doubtful), and
 //! joints where the two heads disagree — typically occluded or ambiguous fingertips — drop
@@ -37,7 +39,7 @@ pub struct LandmarkOptions {
 impl Default for LandmarkOptions {
     fn default() -> Self {
         LandmarkOptions {
-            agreement_sigma: 4.0,
+            agreement_sigma: 6.0,
         }
     }
 }
@@ -55,8 +57,9 @@ pub struct HandLandmarks {
     pub agreement_residual: [f64; NUM_LANDMARKS],
     /// Hand presence probability.
     pub presence: f32,
-    /// The network's raw handedness output: probability of MediaPipe's label "Right", which
-    /// MediaPipe defines for *mirrored* (selfie) images; see [`crate::pipeline`] for the side.
+    /// The network's raw handedness output: probability of MediaPipe's label "Left", defined
+    /// for *mirrored* (selfie) images, i.e. of a physical right hand in an unmirrored image;
+    /// see [`crate::pipeline`].
     pub handedness_raw: f32,
     /// Metric 3D landmarks in metres (the network's "world" output).
     pub world: [[f64; 3]; NUM_LANDMARKS],

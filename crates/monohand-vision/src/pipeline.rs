@@ -5,11 +5,12 @@
 //! is `(0, 0)`, so keypoints compare directly with projections `K·X` of 3D points.
 //!
 //! ## Handedness
-//! MediaPipe's handedness head was trained on mirrored (selfie) images: its label "Right" means
-//! a left hand in an ordinary, unmirrored photo. [`HandSide`] here is the physical hand in the
-//! image as given, so the network's probability `p("Right")` becomes
-//! `p(left) = p("Right")`, unless [`PipelineOptions::mirrored_input`] says the images are
-//! selfie-mirrored.
+//! The landmark model's handedness output is the probability of MediaPipe's label index 0,
+//! "Left", and MediaPipe labels assume mirrored (selfie) images. For an ordinary, unmirrored
+//! photo the output is therefore the probability of a physical *right* hand — checked on the
+//! STB frame (a left hand, output 0.095) and on photos with known sides. [`HandSide`] here is
+//! the physical hand in the image as given, unless [`PipelineOptions::mirrored_input`] says the
+//! images are selfie-mirrored.
 
 use std::path::{Path, PathBuf};
 
@@ -133,12 +134,12 @@ impl KeypointEstimator for MediaPipeKeypoints {
         for (p, (q, c)) in points.iter_mut().zip(lm.image.iter().zip(&lm.confidence)) {
             *p = [q[0], q[1], *c];
         }
-        let p_label_right = lm.handedness_raw.clamp(0.0, 1.0);
-        // Label "Right" is a left hand unless the input is mirrored (see the module docs).
+        // P(MediaPipe label "Left") = P(physical right hand) in an unmirrored image.
+        let p_label_left = lm.handedness_raw.clamp(0.0, 1.0) as f64 as f32;
         let (p_right, p_left) = if self.mirrored_input {
-            (p_label_right, 1.0 - p_label_right)
+            (1.0 - p_label_left, p_label_left)
         } else {
-            (1.0 - p_label_right, p_label_right)
+            (p_label_left, 1.0 - p_label_left)
         };
         let side = if p_right >= p_left {
             (HandSide::Right, p_right)
@@ -393,8 +394,18 @@ impl HandPipeline {
             }
             hands.push(hand);
         }
+        // A face detection lying mostly on a detected hand is a palm seen as a face.
         let heads = match &self.face {
-            Some(f) => f.detect(img)?.into_iter().map(to_head).collect(),
+            Some(f) => f
+                .detect(img)?
+                .into_iter()
+                .map(to_head)
+                .filter(|h| {
+                    !hands.iter().any(|hand| {
+                        overlap_fraction(&h.face_box, &point_bounds(&hand.keypoints)) > 0.7
+                    })
+                })
+                .collect(),
             None => Vec::new(),
         };
         Ok(Detections {
@@ -477,6 +488,18 @@ pub fn point_bounds(k: &Keypoints2d) -> [f64; 4] {
         b[3] = b[3].max(p[1]);
     }
     b
+}
+
+/// Fraction of box `a`'s area covered by box `b`.
+pub fn overlap_fraction(a: &[f64; 4], b: &[f64; 4]) -> f64 {
+    let iw = (a[2].min(b[2]) - a[0].max(b[0])).max(0.0);
+    let ih = (a[3].min(b[3]) - a[1].max(b[1])).max(0.0);
+    let area = (a[2] - a[0]) * (a[3] - a[1]);
+    if area > 0.0 {
+        iw * ih / area
+    } else {
+        0.0
+    }
 }
 
 /// Intersection over union of two `[xmin, ymin, xmax, ymax]` boxes.

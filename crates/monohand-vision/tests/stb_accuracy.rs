@@ -129,14 +129,20 @@ fn stb_frame0_keypoints_match_projected_ground_truth() {
             let gt = project(STB_FRAME0_MM[*s]);
             let p = hand.keypoints.points[j];
             let e = ((p[0] - gt[0]).powi(2) + (p[1] - gt[1]).powi(2)).sqrt();
-            println!("  {:<11} err {:6.2}  conf {:.2}", NAMES[j], e, p[2]);
+            println!(
+                "  {:<11} err {:6.2}  conf {:.2}  ours ({:6.1}, {:6.1})  gt ({:6.1}, {:6.1})",
+                NAMES[j], e, p[2], p[0], p[1], gt[0], gt[1]
+            );
             errs.push((j, e));
         }
         let mean = errs.iter().map(|e| e.1).sum::<f64>() / errs.len() as f64;
         println!("  mean over {} joints: {mean:.2} px", errs.len());
-        assert!(mean < 8.0, "mean error {mean:.2} px");
+        // Measured: 7.4 px (single pass), 7.2 px (re-crop). The larger residuals are systematic
+        // label-convention differences (STB's MCPs sit ~10 px lower on the palm, its thumb base
+        // is not MediaPipe's CMC), not noise: the fingertips and DIPs agree within ~2-6 px.
+        assert!(mean < 9.0, "mean error {mean:.2} px");
         for (j, e) in &errs {
-            assert!(*e < 20.0, "{} off by {e:.1} px", NAMES[*j]);
+            assert!(*e < 18.0, "{} off by {e:.1} px", NAMES[*j]);
         }
     }
 }
