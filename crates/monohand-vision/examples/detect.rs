@@ -1,0 +1,113 @@
+//! Prints what the pipeline finds in images and optionally writes overlays.
+//!
+//! `cargo run --release -p monohand-vision --example detect -- [--overlay DIR] IMAGE...`
+
+use std::path::PathBuf;
+
+use monohand_vision::{image_io, HandPipeline, ModelOptions, PipelineOptions};
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let mut args: Vec<String> = std::env::args().skip(1).collect();
+    let overlay = match args.iter().position(|a| a == "--overlay") {
+        Some(i) => {
+            let dir = PathBuf::from(args.remove(i + 1));
+            args.remove(i);
+            std::fs::create_dir_all(&dir)?;
+            Some(dir)
+        }
+        None => None,
+    };
+    let pipeline = HandPipeline::new(
+        &ModelOptions {
+            detect_heads: true,
+            ..Default::default()
+        },
+        PipelineOptions::default(),
+    )?;
+    for path in args {
+        let path = PathBuf::from(path);
+        let img = match image_io::load_rgb(&path) {
+            Ok(i) => i,
+            Err(e) => {
+                println!("{}: error: {e}", path.display());
+                continue;
+            }
+        };
+        let t = std::time::Instant::now();
+        let found = pipeline.detect(&img)?;
+        println!(
+            "{}: {}x{} {} hands, {} heads ({:.1} ms)",
+            path.display(),
+            img.width(),
+            img.height(),
+            found.hands.len(),
+            found.heads.len(),
+            t.elapsed().as_secs_f64() * 1e3
+        );
+        for h in &found.hands {
+            let b = monohand_vision::pipeline::point_bounds(&h.keypoints);
+            let conf: Vec<String> = h
+                .keypoints
+                .points
+                .iter()
+                .map(|p| format!("{:.2}", p[2]))
+                .collect();
+            println!(
+                "  hand det {:.3} presence {:.3} {:?} {:.3} bounds [{:.0} {:.0} {:.0} {:.0}] rot {:.0}deg conf [{}]",
+                h.detection_score, h.presence, h.side, h.side_score, b[0], b[1], b[2], b[3], h.roi.rotation.to_degrees(), conf.join(" ")
+            );
+        }
+        for h in &found.heads {
+            println!(
+                "  head {:.3} [{:.0} {:.0} {:.0} {:.0}]",
+                h.score, h.head_box[0], h.head_box[1], h.head_box[2], h.head_box[3]
+            );
+        }
+        if let Some(dir) = &overlay {
+            let mut out = img.clone();
+            let mut dot = |x: f64, y: f64, r: i64, c: [u8; 3]| {
+                for dy in -r..=r {
+                    for dx in -r..=r {
+                        let (px, py) = (x.round() as i64 + dx, y.round() as i64 + dy);
+                        if px >= 0
+                            && py >= 0
+                            && (px as u32) < out.width()
+                            && (py as u32) < out.height()
+                        {
+                            out.put_pixel(px as u32, py as u32, image::Rgb(c));
+                        }
+                    }
+                }
+            };
+            let r = (img.width().max(img.height()) / 300).max(1) as i64;
+            for h in &found.hands {
+                for (j, p) in h.keypoints.points.iter().enumerate() {
+                    let c = if j == 0 {
+                        [255, 0, 0]
+                    } else if j <= 4 {
+                        [255, 255, 0]
+                    } else {
+                        [0, 255, 0]
+                    };
+                    dot(p[0], p[1], r, c);
+                }
+                for c in h.oriented_box.corners() {
+                    dot(c[0], c[1], r * 2, [0, 0, 255]);
+                }
+            }
+            for h in &found.heads {
+                let b = h.head_box;
+                for t in 0..=20 {
+                    let f = t as f64 / 20.0;
+                    dot(b[0] + f * (b[2] - b[0]), b[1], r, [255, 0, 255]);
+                    dot(b[0] + f * (b[2] - b[0]), b[3], r, [255, 0, 255]);
+                    dot(b[0], b[1] + f * (b[3] - b[1]), r, [255, 0, 255]);
+                    dot(b[2], b[1] + f * (b[3] - b[1]), r, [255, 0, 255]);
+                }
+            }
+            let name = path.to_string_lossy().replace('/', "_");
+            out.save(dir.join(format!("{name}.png")))?;
+        }
+    }
+    Ok(())
+}

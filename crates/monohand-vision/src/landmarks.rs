@@ -1,0 +1,256 @@
+//! MediaPipe hand-landmark model: a 224x224 rotated crop in `[0, 1]` → 21 landmarks
+//! `(x, y, z)` in crop pixels, a hand-presence probability, a handedness probability and 21
+//! metric "world" landmarks (metres, origin near the hand centre).
+//!
+//! ## Per-joint confidence
+//! The model has no heatmaps, so a per-joint confidence is built from the network's own
+//! self-consistency: its 2D landmarks and its independently regressed 3D world landmarks must
+//! describe the same hand. An affine camera (8 parameters: orthographic rotation, scale,
+//! shear and shift — ample for a hand-sized crop) is fitted by least squares from the 21 world
+//! points to the 21 2D points; a joint whose 2D position disagrees with the projection of its
+//! 3D position by a residual `r` (crop pixels) gets
+//!
+//! `confidence = presence · exp(−½ (r / σ)²)`, σ = [`LandmarkOptions::agreement_sigma`]
+//! (default 6 crop pixels ≈ 2.7 % of the crop, ~7 % of the hand's length: on clean, fully
+//! visible hands most joints score above 0.7, while a crop where the two heads disagree
+//! — a wrong or heavily occluded hand — drops towards 0).
+//!
+//! So the presence score caps every joint (a doubtful hand makes every joint doubtful), and
+//! joints where the two heads disagree — typically occluded or ambiguous fingertips — drop
+//! below it. The raw residuals are kept in [`HandLandmarks::agreement_residual`].
+
+use image::RgbImage;
+
+use crate::error::{Result, VisionError};
+use crate::geometry::RotatedRect;
+use crate::network::TfliteNet;
+use crate::warp::{warp_into, Normalization};
+
+/// Number of hand keypoints.
+pub const NUM_LANDMARKS: usize = 21;
+
+/// Options of the landmark stage.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LandmarkOptions {
+    /// σ of the 2D/3D agreement term, in crop pixels (crop = 224 px).
+    pub agreement_sigma: f64,
+}
+
+impl Default for LandmarkOptions {
+    fn default() -> Self {
+        LandmarkOptions {
+            agreement_sigma: 6.0,
+        }
+    }
+}
+
+/// The landmark model's outputs for one crop, mapped back to the image.
+#[derive(Clone, Debug, PartialEq)]
+pub struct HandLandmarks {
+    /// `[x, y, z]` per joint: x, y in image pixels (continuous coordinates, see
+    /// [`crate::geometry`]); z relative depth in the same pixel scale (wrist ≈ 0, negative is
+    /// closer to the camera).
+    pub image: [[f64; 3]; NUM_LANDMARKS],
+    /// Per-joint confidence (see the module docs).
+    pub confidence: [f64; NUM_LANDMARKS],
+    /// 2D/3D agreement residual per joint, in crop pixels.
+    pub agreement_residual: [f64; NUM_LANDMARKS],
+    /// Hand presence probability.
+    pub presence: f32,
+    /// The network's raw handedness output: probability of MediaPipe's label "Left", defined
+    /// for *mirrored* (selfie) images, i.e. of a physical right hand in an unmirrored image;
+    /// see [`crate::pipeline`].
+    pub handedness_raw: f32,
+    /// Metric 3D landmarks in metres (the network's "world" output).
+    pub world: [[f64; 3]; NUM_LANDMARKS],
+    /// The crop the landmarks were read from.
+    pub roi: RotatedRect,
+}
+
+/// The hand-landmark network.
+#[derive(Debug, Clone)]
+pub struct LandmarkModel {
+    net: TfliteNet,
+    size: usize,
+    /// Options.
+    pub options: LandmarkOptions,
+}
+
+impl LandmarkModel {
+    /// Wraps an imported `hand_landmark_{full,lite}.tflite`.
+    pub fn new(net: TfliteNet, options: LandmarkOptions) -> Result<Self> {
+        let [_, h, w, c] = net.input_shape();
+        if h != w || c != 3 {
+            return Err(VisionError::ModelOutput(format!(
+                "landmark input {h}x{w}x{c}, expected square RGB"
+            )));
+        }
+        Ok(LandmarkModel {
+            net,
+            size: h,
+            options,
+        })
+    }
+
+    /// Crop side in pixels (224).
+    pub fn input_size(&self) -> usize {
+        self.size
+    }
+
+    /// The network input for `roi` of `img` (one affine warp).
+    pub fn preprocess(
+        &self,
+        img: &RgbImage,
+        roi: &RotatedRect,
+    ) -> Result<tract_core::prelude::Tensor> {
+        let m = roi.crop_to_image(self.size, self.size);
+        self.net
+            .input_with(|buf| warp_into(img, &m, self.size, self.size, Normalization::UNIT, buf))
+    }
+
+    /// Runs the model on `roi` of `img`.
+    pub fn estimate(&self, img: &RgbImage, roi: &RotatedRect) -> Result<HandLandmarks> {
+        let input = self.preprocess(img, roi)?;
+        let out = self.net.run(input)?;
+        self.postprocess(&out, roi)
+    }
+
+    /// Maps raw outputs (`[63], [1], [1], [63]`) back to the image.
+    pub fn postprocess(&self, out: &[Vec<f32>], roi: &RotatedRect) -> Result<HandLandmarks> {
+        let (screen, presence, handed, world) = match out {
+            [a, b, c, d] if a.len() == 63 && b.len() == 1 && c.len() == 1 && d.len() == 63 => {
+                (a, b[0], c[0], d)
+            }
+            _ => {
+                return Err(VisionError::ModelOutput(
+                    "hand landmark outputs are not [63, 1, 1, 63]".into(),
+                ))
+            }
+        };
+        let to_image = roi.crop_to_image(self.size, self.size);
+        let z_scale = roi.width / self.size as f64;
+        let mut image = [[0.0; 3]; NUM_LANDMARKS];
+        let mut crop = [[0.0; 2]; NUM_LANDMARKS];
+        let mut w3 = [[0.0; 3]; NUM_LANDMARKS];
+        for j in 0..NUM_LANDMARKS {
+            let (x, y, z) = (
+                screen[3 * j] as f64,
+                screen[3 * j + 1] as f64,
+                screen[3 * j + 2] as f64,
+            );
+            let p = to_image.apply([x, y]);
+            image[j] = [p[0], p[1], z * z_scale];
+            crop[j] = [x, y];
+            w3[j] = [
+                world[3 * j] as f64,
+                world[3 * j + 1] as f64,
+                world[3 * j + 2] as f64,
+            ];
+        }
+        let residual = affine_residuals(&w3, &crop);
+        let sigma = self.options.agreement_sigma;
+        let presence_f = presence.clamp(0.0, 1.0) as f64;
+        let mut confidence = [0.0; NUM_LANDMARKS];
+        for (c, r) in confidence.iter_mut().zip(&residual) {
+            *c = presence_f * (-0.5 * (r / sigma).powi(2)).exp();
+        }
+        Ok(HandLandmarks {
+            image,
+            confidence,
+            agreement_residual: residual,
+            presence,
+            handedness_raw: handed,
+            world: w3,
+            roi: *roi,
+        })
+    }
+}
+
+/// Residuals of the least-squares affine camera `u = A [X Y Z 1]ᵀ` from 3D points to 2D
+/// points, per point. Returns zeros if the fit is degenerate.
+pub fn affine_residuals(
+    world: &[[f64; 3]; NUM_LANDMARKS],
+    uv: &[[f64; 2]; NUM_LANDMARKS],
+) -> [f64; NUM_LANDMARKS] {
+    // Normal equations (XᵀX) a = Xᵀu for each image axis, X rows = [X, Y, Z, 1].
+    let mut xtx = [[0.0; 4]; 4];
+    let mut xtu = [[0.0; 2]; 4];
+    for (w, p) in world.iter().zip(uv) {
+        let row = [w[0], w[1], w[2], 1.0];
+        for i in 0..4 {
+            for j in 0..4 {
+                xtx[i][j] += row[i] * row[j];
+            }
+            xtu[i][0] += row[i] * p[0];
+            xtu[i][1] += row[i] * p[1];
+        }
+    }
+    let Some(a) = solve4(xtx, xtu) else {
+        return [0.0; NUM_LANDMARKS];
+    };
+    let mut out = [0.0; NUM_LANDMARKS];
+    for ((o, w), p) in out.iter_mut().zip(world).zip(uv) {
+        let row = [w[0], w[1], w[2], 1.0];
+        let u: f64 = (0..4).map(|i| row[i] * a[i][0]).sum();
+        let v: f64 = (0..4).map(|i| row[i] * a[i][1]).sum();
+        *o = ((u - p[0]).powi(2) + (v - p[1]).powi(2)).sqrt();
+    }
+    out
+}
+
+/// Solves `M x = b` (4x4, two right-hand sides) by Gaussian elimination with partial pivoting.
+fn solve4(mut m: [[f64; 4]; 4], mut b: [[f64; 2]; 4]) -> Option<[[f64; 2]; 4]> {
+    for col in 0..4 {
+        let pivot = (col..4).max_by(|&i, &j| m[i][col].abs().total_cmp(&m[j][col].abs()))?;
+        if m[pivot][col].abs() < 1e-12 {
+            return None;
+        }
+        m.swap(col, pivot);
+        b.swap(col, pivot);
+        for r in 0..4 {
+            if r != col {
+                let f = m[r][col] / m[col][col];
+                for c in 0..4 {
+                    m[r][c] -= f * m[col][c];
+                }
+                for k in 0..2 {
+                    b[r][k] -= f * b[col][k];
+                }
+            }
+        }
+    }
+    let mut x = [[0.0; 2]; 4];
+    for i in 0..4 {
+        for k in 0..2 {
+            x[i][k] = b[i][k] / m[i][i];
+        }
+    }
+    Some(x)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn exact_affine_projection_has_zero_residual_and_outlier_stands_out() {
+        let mut world = [[0.0; 3]; NUM_LANDMARKS];
+        let mut uv = [[0.0; 2]; NUM_LANDMARKS];
+        for j in 0..NUM_LANDMARKS {
+            let t = j as f64;
+            world[j] = [0.01 * t.sin(), 0.02 * (t * 0.7).cos(), 0.005 * t];
+            uv[j] = [
+                100.0 + 2000.0 * world[j][0] + 300.0 * world[j][2],
+                50.0 - 2000.0 * world[j][1],
+            ];
+        }
+        let r = affine_residuals(&world, &uv);
+        assert!(r.iter().all(|&v| v < 1e-6), "{r:?}");
+        uv[8][0] += 20.0;
+        let r = affine_residuals(&world, &uv);
+        let worst = (0..NUM_LANDMARKS)
+            .max_by(|&a, &b| r[a].total_cmp(&r[b]))
+            .expect("max");
+        assert_eq!(worst, 8);
+    }
+}

@@ -1,0 +1,43 @@
+//! # monohand-vision
+//!
+//! The vision front end of monohand: finds hands (and heads) in RGB images and gives 21 2D
+//! hand keypoints per hand, using MediaPipe's pretrained palm detector, hand-landmark model
+//! and BlazeFace, run in pure Rust with tract through this crate's own TFLite importer
+//! ([`tflite_import`]).
+//!
+//! ```no_run
+//! use monohand_vision::{HandPipeline, ModelOptions, PipelineOptions};
+//! let pipeline = HandPipeline::new(&ModelOptions { detect_heads: true, ..Default::default() }, PipelineOptions::default())?;
+//! let found = pipeline.detect_file(std::path::Path::new("hand.jpg"))?;
+//! for hand in &found.hands {
+//!     println!("{:?} {:.2} wrist at {:?}", hand.side, hand.detection_score, hand.keypoints.points[0]);
+//! }
+//! # Ok::<(), monohand_vision::VisionError>(())
+//! ```
+//!
+//! Weights are fetched from the PyPI wheel `mediapipe==0.10.14` on first use ([`models`]).
+#![deny(missing_docs)]
+
+pub mod error;
+pub mod face;
+pub mod geometry;
+pub mod heatmap;
+pub mod image_io;
+pub mod landmarks;
+pub mod models;
+pub mod network;
+pub mod palm;
+pub mod pipeline;
+pub mod ssd;
+pub mod tflite_import;
+pub mod warp;
+
+pub use error::{Result, VisionError};
+/// Re-exported so callers can build inputs without depending on `image` themselves.
+pub use image::RgbImage;
+pub use models::{ModelFile, ModelStore};
+pub use network::TfliteNet;
+pub use pipeline::{
+    DetectedHand, DetectedHead, Detections, HandDetector, HandKeypoints, HandPipeline, HandRegion,
+    KeypointEstimator, ModelOptions, ModelVariant, PipelineOptions,
+};

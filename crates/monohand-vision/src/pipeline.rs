@@ -1,0 +1,546 @@
+//! The whole front end: hand regions → 21 keypoints per hand (+ head boxes), behind two traits
+//! so the pipeline does not care which networks run.
+//!
+//! Output coordinates follow the OpenCV/OpenPose convention: the centre of the top-left pixel
+//! is `(0, 0)`, so keypoints compare directly with projections `K·X` of 3D points.
+//!
+//! ## Handedness
+//! The landmark model's handedness output is the probability of MediaPipe's label index 0,
+//! "Left", and MediaPipe labels assume mirrored (selfie) images. For an ordinary, unmirrored
+//! photo the output is therefore the probability of a physical *right* hand — checked on the
+//! STB frame (a left hand, output 0.095) and on photos with known sides. [`HandSide`] here is
+//! the physical hand in the image as given, unless [`PipelineOptions::mirrored_input`] says the
+//! images are selfie-mirrored.
+
+use std::path::{Path, PathBuf};
+
+use image::RgbImage;
+use monohand_core::hand_model::HandSide;
+use monohand_core::observation::Keypoints2d;
+
+use crate::error::Result;
+use crate::face::{FaceDetector, HeadDetection};
+use crate::geometry::{normalize_angle, to_pixel_centres, RotatedRect};
+use crate::landmarks::{HandLandmarks, LandmarkModel, LandmarkOptions, NUM_LANDMARKS};
+use crate::models::{ModelFile, ModelStore};
+use crate::network::TfliteNet;
+use crate::palm::{PalmDetector, PalmOptions};
+
+/// A region of the image believed to contain one hand, in image pixels (continuous
+/// coordinates, see [`crate::geometry`]), as produced by a [`HandDetector`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct HandRegion {
+    /// Detector score in `[0, 1]`.
+    pub score: f32,
+    /// Square, rotated crop with the fingers pointing up in the crop.
+    pub roi: RotatedRect,
+}
+
+/// Finds hand regions in an image.
+pub trait HandDetector: Send + Sync {
+    /// Hand regions, best first.
+    fn detect_hands(&self, img: &RgbImage) -> Result<Vec<HandRegion>>;
+}
+
+/// Keypoints of one hand from a [`KeypointEstimator`], continuous image coordinates.
+#[derive(Clone, Debug, PartialEq)]
+pub struct HandKeypoints {
+    /// `[x, y, confidence]` per joint in MediaPipe/OpenPose order.
+    pub points: [[f64; 3]; NUM_LANDMARKS],
+    /// Probability that the crop shows a hand at all.
+    pub presence: f32,
+    /// Physical side and its probability, if the network tells.
+    pub side: Option<(HandSide, f32)>,
+    /// Metric 3D landmarks (metres) if the network regresses them.
+    pub world: Option<[[f64; 3]; NUM_LANDMARKS]>,
+}
+
+/// Estimates 21 keypoints for a hand region.
+pub trait KeypointEstimator: Send + Sync {
+    /// Keypoints for `region` of `img`. `side_hint` is the side a previous stage believes
+    /// in, used by one-sided networks to decide whether to mirror the crop.
+    fn estimate(
+        &self,
+        img: &RgbImage,
+        region: &HandRegion,
+        side_hint: Option<HandSide>,
+    ) -> Result<HandKeypoints>;
+}
+
+impl HandDetector for PalmDetector {
+    fn detect_hands(&self, img: &RgbImage) -> Result<Vec<HandRegion>> {
+        Ok(self
+            .detect(img)?
+            .into_iter()
+            .map(|p| HandRegion {
+                score: p.score,
+                roi: p.hand_roi(),
+            })
+            .collect())
+    }
+}
+
+/// MediaPipe's landmark model as a [`KeypointEstimator`] (the side is read from its
+/// handedness head assuming unmirrored input; use [`MediaPipeKeypoints`] to choose).
+impl KeypointEstimator for LandmarkModel {
+    fn estimate(
+        &self,
+        img: &RgbImage,
+        region: &HandRegion,
+        _hint: Option<HandSide>,
+    ) -> Result<HandKeypoints> {
+        MediaPipeKeypoints {
+            model: self.clone(),
+            mirrored_input: false,
+            refine_passes: 0,
+        }
+        .estimate(img, region, None)
+    }
+}
+
+/// MediaPipe's landmark model with the pipeline's handedness convention and optional
+/// re-cropping from its own landmarks.
+#[derive(Debug, Clone)]
+pub struct MediaPipeKeypoints {
+    /// The network.
+    pub model: LandmarkModel,
+    /// Whether images are selfie-mirrored (MediaPipe's own convention).
+    pub mirrored_input: bool,
+    /// Extra passes that re-crop around the previous pass's landmarks (MediaPipe's tracking
+    /// ROI: scale 2.0, shift −0.1) before the final estimate.
+    pub refine_passes: usize,
+}
+
+impl MediaPipeKeypoints {
+    /// Landmarks of the final pass (with the crop they were read from).
+    pub fn landmarks(&self, img: &RgbImage, roi: &RotatedRect) -> Result<HandLandmarks> {
+        let mut lm = self.model.estimate(img, roi)?;
+        for _ in 0..self.refine_passes {
+            lm = self.model.estimate(img, &roi_from_landmarks(&lm.image))?;
+        }
+        Ok(lm)
+    }
+}
+
+impl KeypointEstimator for MediaPipeKeypoints {
+    fn estimate(
+        &self,
+        img: &RgbImage,
+        region: &HandRegion,
+        _hint: Option<HandSide>,
+    ) -> Result<HandKeypoints> {
+        let lm = self.landmarks(img, &region.roi)?;
+        let mut points = [[0.0; 3]; NUM_LANDMARKS];
+        for (p, (q, c)) in points.iter_mut().zip(lm.image.iter().zip(&lm.confidence)) {
+            *p = [q[0], q[1], *c];
+        }
+        // P(MediaPipe label "Left") = P(physical right hand) in an unmirrored image.
+        let p_label_left = lm.handedness_raw.clamp(0.0, 1.0) as f64 as f32;
+        let (p_right, p_left) = if self.mirrored_input {
+            (1.0 - p_label_left, p_label_left)
+        } else {
+            (p_label_left, 1.0 - p_label_left)
+        };
+        let side = if p_right >= p_left {
+            (HandSide::Right, p_right)
+        } else {
+            (HandSide::Left, p_left)
+        };
+        Ok(HandKeypoints {
+            points,
+            presence: lm.presence,
+            side: Some(side),
+            world: Some(lm.world),
+        })
+    }
+}
+
+/// MediaPipe's `HandLandmarksToRectCalculator` + its `RectTransformation` (scale 2, shift
+/// −0.1): the region a landmark set suggests for the next crop.
+pub fn roi_from_landmarks(lm: &[[f64; 3]; NUM_LANDMARKS]) -> RotatedRect {
+    const PARTIAL: [usize; 12] = [0, 1, 2, 3, 5, 6, 9, 10, 13, 14, 17, 18];
+    let [x0, y0] = [lm[0][0], lm[0][1]];
+    let mid = |a: usize, b: usize| [(lm[a][0] + lm[b][0]) / 2.0, (lm[a][1] + lm[b][1]) / 2.0];
+    let ir = mid(6, 14);
+    let (x1, y1) = ((ir[0] + lm[10][0]) / 2.0, (ir[1] + lm[10][1]) / 2.0);
+    let rotation = normalize_angle(std::f64::consts::FRAC_PI_2 - (-(y1 - y0)).atan2(x1 - x0));
+    let (s, c) = rotation.sin_cos();
+    // Bounds in the frame rotated by −rotation.
+    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+    for &j in &PARTIAL {
+        let (x, y) = (lm[j][0], lm[j][1]);
+        let r = [c * x + s * y, -s * x + c * y];
+        for k in 0..2 {
+            lo[k] = lo[k].min(r[k]);
+            hi[k] = hi[k].max(r[k]);
+        }
+    }
+    let (rc_x, rc_y) = ((lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0);
+    let (w, h) = (hi[0] - lo[0], hi[1] - lo[1]);
+    let mut center = [c * rc_x - s * rc_y, s * rc_x + c * rc_y];
+    let shift_y = -0.1;
+    center[0] -= h * shift_y * s;
+    center[1] += h * shift_y * c;
+    let side = w.max(h) * 2.0;
+    RotatedRect {
+        center,
+        width: side,
+        height: side,
+        rotation,
+    }
+}
+
+/// Which variant of a MediaPipe network to run.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum ModelVariant {
+    /// The larger, more accurate network (default).
+    #[default]
+    Full,
+    /// The smaller, faster network.
+    Lite,
+}
+
+/// Which weights to load and from where.
+#[derive(Clone, Debug, Default)]
+pub struct ModelOptions {
+    /// Cache directory (default: see [`crate::models`]).
+    pub model_dir: Option<PathBuf>,
+    /// Palm detector variant.
+    pub palm: ModelVariant,
+    /// Landmark model variant.
+    pub landmark: ModelVariant,
+    /// Whether to load the face detector and report head boxes.
+    pub detect_heads: bool,
+}
+
+/// Thresholds and behaviour of the pipeline.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PipelineOptions {
+    /// Palm detector thresholds.
+    pub palm: PalmOptions,
+    /// Landmark stage options.
+    pub landmarks: LandmarkOptions,
+    /// Hands whose presence score is below this are dropped (MediaPipe: 0.5).
+    pub min_presence: f32,
+    /// At most this many hands per image, best detection scores first.
+    pub max_hands: usize,
+    /// Two hands whose keypoint boxes overlap by more than this IoU are one hand.
+    pub duplicate_iou: f64,
+    /// Re-crop passes of the landmark model around its own landmarks (0 = MediaPipe's single
+    /// pass on the palm-derived crop).
+    pub refine_passes: usize,
+    /// Whether images are selfie-mirrored (affects the reported side only).
+    pub mirrored_input: bool,
+}
+
+impl Default for PipelineOptions {
+    fn default() -> Self {
+        PipelineOptions {
+            palm: PalmOptions::default(),
+            landmarks: LandmarkOptions::default(),
+            min_presence: 0.5,
+            max_hands: 16,
+            duplicate_iou: 0.5,
+            refine_passes: 1,
+            mirrored_input: false,
+        }
+    }
+}
+
+/// One hand found in an image (pixel-centre coordinates, see the module docs).
+#[derive(Clone, Debug, PartialEq)]
+pub struct DetectedHand {
+    /// Oriented box around the keypoints (10 % margin), turned like the hand (its "up" axis
+    /// runs from the wrist towards the fingers).
+    pub oriented_box: RotatedRect,
+    /// The crop the keypoints were read from.
+    pub roi: RotatedRect,
+    /// Hand detector score.
+    pub detection_score: f32,
+    /// Keypoint network's hand-presence probability.
+    pub presence: f32,
+    /// Physical side of the hand.
+    pub side: HandSide,
+    /// Probability of [`Self::side`].
+    pub side_score: f32,
+    /// 21 keypoints `[u, v, confidence]`, MediaPipe/OpenPose order.
+    pub keypoints: Keypoints2d,
+    /// Metric 3D landmarks (metres, hand-centred) when the network gives them.
+    pub world_landmarks: Option<[[f64; 3]; NUM_LANDMARKS]>,
+}
+
+/// One head (pixel-centre coordinates).
+#[derive(Clone, Debug, PartialEq)]
+pub struct DetectedHead {
+    /// Face detector score.
+    pub score: f32,
+    /// Head box `[xmin, ymin, xmax, ymax]`.
+    pub head_box: [f64; 4],
+    /// Face box `[xmin, ymin, xmax, ymax]`.
+    pub face_box: [f64; 4],
+}
+
+/// Everything found in one image.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Detections {
+    /// Image width and height in pixels (after EXIF orientation).
+    pub image_size: (u32, u32),
+    /// Hands, best detection first.
+    pub hands: Vec<DetectedHand>,
+    /// Heads (empty unless the face detector is loaded).
+    pub heads: Vec<DetectedHead>,
+}
+
+/// Hand (and head) detection with 21 keypoints per hand.
+pub struct HandPipeline {
+    detector: Box<dyn HandDetector>,
+    estimator: Box<dyn KeypointEstimator>,
+    face: Option<FaceDetector>,
+    /// Options.
+    pub options: PipelineOptions,
+}
+
+impl std::fmt::Debug for HandPipeline {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("HandPipeline")
+            .field("heads", &self.face.is_some())
+            .field("options", &self.options)
+            .finish()
+    }
+}
+
+fn load_net(store: &ModelStore, file: ModelFile) -> Result<TfliteNet> {
+    let bytes = store.load(file)?;
+    TfliteNet::from_bytes(&bytes, &store.path_of(file))
+}
+
+impl HandPipeline {
+    /// MediaPipe's palm detector + landmark model (+ BlazeFace when `models.detect_heads`),
+    /// fetching the weights on first use.
+    pub fn new(models: &ModelOptions, options: PipelineOptions) -> Result<Self> {
+        let store = ModelStore::new(models.model_dir.clone())?;
+        let palm_file = match models.palm {
+            ModelVariant::Full => ModelFile::PalmDetectionFull,
+            ModelVariant::Lite => ModelFile::PalmDetectionLite,
+        };
+        let lm_file = match models.landmark {
+            ModelVariant::Full => ModelFile::HandLandmarkFull,
+            ModelVariant::Lite => ModelFile::HandLandmarkLite,
+        };
+        let detector = PalmDetector::new(load_net(&store, palm_file)?, options.palm)?;
+        let model = LandmarkModel::new(load_net(&store, lm_file)?, options.landmarks)?;
+        let estimator = MediaPipeKeypoints {
+            model,
+            mirrored_input: options.mirrored_input,
+            refine_passes: options.refine_passes,
+        };
+        let face = if models.detect_heads {
+            Some(FaceDetector::new(load_net(
+                &store,
+                ModelFile::FaceDetectionShortRange,
+            )?)?)
+        } else {
+            None
+        };
+        Ok(HandPipeline {
+            detector: Box::new(detector),
+            estimator: Box::new(estimator),
+            face,
+            options,
+        })
+    }
+
+    /// A pipeline from any detector and keypoint estimator (e.g. an ONNX heatmap model).
+    pub fn with_components(
+        detector: Box<dyn HandDetector>,
+        estimator: Box<dyn KeypointEstimator>,
+        face: Option<FaceDetector>,
+        options: PipelineOptions,
+    ) -> Self {
+        HandPipeline {
+            detector,
+            estimator,
+            face,
+            options,
+        }
+    }
+
+    /// Reads an image file (EXIF orientation applied) and detects in it.
+    pub fn detect_file(&self, path: &Path) -> Result<Detections> {
+        let img = crate::image_io::load_rgb(path)?;
+        self.detect(&img)
+    }
+
+    /// Hands and heads in an RGB image.
+    pub fn detect(&self, img: &RgbImage) -> Result<Detections> {
+        let mut regions = self.detector.detect_hands(img)?;
+        regions.sort_by(|a, b| b.score.total_cmp(&a.score));
+        let mut hands: Vec<DetectedHand> = Vec::new();
+        for region in regions {
+            if hands.len() >= self.options.max_hands {
+                break;
+            }
+            let kp = self.estimator.estimate(img, &region, None)?;
+            if kp.presence < self.options.min_presence {
+                continue;
+            }
+            let hand = to_detected(&region, kp);
+            let b = point_bounds(&hand.keypoints);
+            if hands
+                .iter()
+                .any(|h| iou(&point_bounds(&h.keypoints), &b) > self.options.duplicate_iou)
+            {
+                continue;
+            }
+            hands.push(hand);
+        }
+        // A face detection lying mostly on a detected hand is a palm seen as a face.
+        let heads = match &self.face {
+            Some(f) => f
+                .detect(img)?
+                .into_iter()
+                .map(to_head)
+                .filter(|h| {
+                    !hands.iter().any(|hand| {
+                        overlap_fraction(&h.face_box, &point_bounds(&hand.keypoints)) > 0.7
+                    })
+                })
+                .collect(),
+            None => Vec::new(),
+        };
+        Ok(Detections {
+            image_size: img.dimensions(),
+            hands,
+            heads,
+        })
+    }
+}
+
+fn shift_box(b: [f64; 4]) -> [f64; 4] {
+    [b[0] - 0.5, b[1] - 0.5, b[2] - 0.5, b[3] - 0.5]
+}
+
+fn to_head(h: HeadDetection) -> DetectedHead {
+    DetectedHead {
+        score: h.score,
+        head_box: shift_box(h.head_box),
+        face_box: shift_box(h.face_box),
+    }
+}
+
+fn shift_rect(r: RotatedRect) -> RotatedRect {
+    RotatedRect {
+        center: to_pixel_centres(r.center),
+        ..r
+    }
+}
+
+fn to_detected(region: &HandRegion, kp: HandKeypoints) -> DetectedHand {
+    let mut keypoints = Keypoints2d::default();
+    for (dst, src) in keypoints.points.iter_mut().zip(&kp.points) {
+        let [u, v] = to_pixel_centres([src[0], src[1]]);
+        *dst = [u, v, src[2]];
+    }
+    let rotation = region.roi.rotation;
+    let (s, c) = rotation.sin_cos();
+    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+    for p in &kp.points {
+        let r = [c * p[0] + s * p[1], -s * p[0] + c * p[1]];
+        for k in 0..2 {
+            lo[k] = lo[k].min(r[k]);
+            hi[k] = hi[k].max(r[k]);
+        }
+    }
+    let (w, h) = ((hi[0] - lo[0]) * 1.2, (hi[1] - lo[1]) * 1.2);
+    let (rx, ry) = ((lo[0] + hi[0]) / 2.0, (lo[1] + hi[1]) / 2.0);
+    let center = [c * rx - s * ry, s * rx + c * ry];
+    let oriented_box = shift_rect(RotatedRect {
+        center,
+        width: w,
+        height: h,
+        rotation,
+    });
+    let (side, side_score) = kp.side.unwrap_or((HandSide::Right, 0.5));
+    DetectedHand {
+        oriented_box,
+        roi: shift_rect(region.roi),
+        detection_score: region.score,
+        presence: kp.presence,
+        side,
+        side_score,
+        keypoints,
+        world_landmarks: kp.world,
+    }
+}
+
+/// Axis-aligned bounds `[xmin, ymin, xmax, ymax]` of keypoints.
+pub fn point_bounds(k: &Keypoints2d) -> [f64; 4] {
+    let mut b = [
+        f64::INFINITY,
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+        f64::NEG_INFINITY,
+    ];
+    for p in &k.points {
+        b[0] = b[0].min(p[0]);
+        b[1] = b[1].min(p[1]);
+        b[2] = b[2].max(p[0]);
+        b[3] = b[3].max(p[1]);
+    }
+    b
+}
+
+/// Fraction of box `a`'s area covered by box `b`.
+pub fn overlap_fraction(a: &[f64; 4], b: &[f64; 4]) -> f64 {
+    let iw = (a[2].min(b[2]) - a[0].max(b[0])).max(0.0);
+    let ih = (a[3].min(b[3]) - a[1].max(b[1])).max(0.0);
+    let area = (a[2] - a[0]) * (a[3] - a[1]);
+    if area > 0.0 {
+        iw * ih / area
+    } else {
+        0.0
+    }
+}
+
+/// Intersection over union of two `[xmin, ymin, xmax, ymax]` boxes.
+pub fn iou(a: &[f64; 4], b: &[f64; 4]) -> f64 {
+    let iw = (a[2].min(b[2]) - a[0].max(b[0])).max(0.0);
+    let ih = (a[3].min(b[3]) - a[1].max(b[1])).max(0.0);
+    let inter = iw * ih;
+    let union = (a[2] - a[0]) * (a[3] - a[1]) + (b[2] - b[0]) * (b[3] - b[1]) - inter;
+    if union > 0.0 {
+        inter / union
+    } else {
+        0.0
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn roi_from_upright_landmarks_is_unrotated_and_centred_above_the_palm() {
+        let mut lm = [[0.0; 3]; NUM_LANDMARKS];
+        for (j, p) in lm.iter_mut().enumerate() {
+            let finger = (j.max(1) - 1) / 4;
+            let along = ((j.max(1) - 1) % 4) as f64;
+            *p = if j == 0 {
+                [100.0, 200.0, 0.0]
+            } else {
+                [70.0 + 15.0 * finger as f64, 160.0 - 20.0 * along, 0.0]
+            };
+        }
+        let r = roi_from_landmarks(&lm);
+        assert!(r.rotation.abs() < 0.2, "{}", r.rotation);
+        assert!(r.center[1] < 200.0);
+        assert!(r.width > 100.0);
+    }
+
+    #[test]
+    fn iou_of_disjoint_and_identical_boxes() {
+        let a = [0.0, 0.0, 10.0, 10.0];
+        assert_eq!(iou(&a, &a), 1.0);
+        assert_eq!(iou(&a, &[20.0, 20.0, 30.0, 30.0]), 0.0);
+    }
+}

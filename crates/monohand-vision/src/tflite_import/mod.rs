@@ -1,0 +1,111 @@
+//! The project's own importer from a `.tflite` flatbuffer to a tract [`TypedModel`].
+//!
+//! `tract-tflite` 0.23 cannot run MediaPipe's hand and face models as published: it has no
+//! `PRELU`, no float16 `DEQUANTIZE` (MediaPipe stores every weight as fp16 behind a
+//! `DEQUANTIZE`), and its `MEAN` on float tensors goes through an integer rescale. Its op
+//! registry is private, so this module walks the flatbuffer itself — through the schema
+//! `tract_tflite` re-exports — and wires tract-core operators for exactly the operators the
+//! MediaPipe palm, hand-landmark and face-detection models use:
+//!
+//! `DEQUANTIZE` (fp16 constants are widened to f32 at load, so no cast runs at inference),
+//! `CONV_2D`, `DEPTHWISE_CONV_2D`, `PRELU`, `ADD`, `MAX_POOL_2D`, `PAD`, `RESIZE_BILINEAR`,
+//! `RESHAPE`, `CONCATENATION`, `MEAN`, `FULLY_CONNECTED`, `LOGISTIC`, `RELU`, `RELU6`,
+//! plus the fused activations `RELU` and `RELU6`.
+//!
+//! Anything else is refused with [`ImportError::UnsupportedOperator`] rather than guessed.
+
+mod ops;
+mod tensors;
+
+use std::collections::HashMap;
+
+use tract_core::internal::*;
+use tract_tflite::tflite;
+
+pub use ops::SUPPORTED_OPERATORS;
+
+/// Why a `.tflite` file could not be turned into a tract model.
+#[derive(Debug, thiserror::Error)]
+pub enum ImportError {
+    /// The bytes are not a TFLite flatbuffer.
+    #[error("not a valid TFLite flatbuffer: {0}")]
+    InvalidFlatbuffer(String),
+    /// The model uses an operator this importer does not translate.
+    #[error("TFLite operator {0} is not supported by monohand's importer (supported: {SUPPORTED:?})", SUPPORTED = SUPPORTED_OPERATORS)]
+    UnsupportedOperator(String),
+    /// The model is structurally unexpected (missing subgraph, dynamic shape, ...).
+    #[error("unexpected TFLite model structure: {0}")]
+    Malformed(String),
+    /// tract refused to build or type the graph.
+    #[error("tract graph construction failed: {0}")]
+    Tract(String),
+}
+
+impl From<TractError> for ImportError {
+    fn from(e: TractError) -> Self {
+        ImportError::Tract(format!("{e:#}"))
+    }
+}
+
+/// Operators of a `.tflite` model with how often each occurs, in first-seen order.
+///
+/// Useful to check what a model needs before importing it.
+pub fn list_operators(bytes: &[u8]) -> Result<Vec<(String, usize)>, ImportError> {
+    let model = parse(bytes)?;
+    let graph = main_subgraph(&model)?;
+    let mut counts: Vec<(String, usize)> = Vec::new();
+    for op in graph.operators().into_iter().flatten() {
+        let name = ops::operator_name(&model, &op)?;
+        match counts.iter_mut().find(|(n, _)| *n == name) {
+            Some((_, c)) => *c += 1,
+            None => counts.push((name, 1)),
+        }
+    }
+    Ok(counts)
+}
+
+/// Translates a `.tflite` flatbuffer into an (unoptimised) tract [`TypedModel`].
+///
+/// Inputs and outputs keep the order and shapes of the TFLite subgraph; weights are f32.
+pub fn import(bytes: &[u8]) -> Result<TypedModel, ImportError> {
+    let model = parse(bytes)?;
+    let graph = main_subgraph(&model)?;
+    let mut target = TypedModel::default();
+    // TFLite tensor index -> value in the tract graph (a wire, or a constant kept aside so
+    // that weights can be reshaped at import time without graph ops).
+    let mut values: HashMap<i32, ops::Value> = HashMap::new();
+    let inputs = graph
+        .inputs()
+        .ok_or_else(|| ImportError::Malformed("subgraph has no inputs".into()))?;
+    for input in inputs.iter() {
+        let (fact, name) = tensors::fact_of(&model, &graph, input)?;
+        let wire = target.add_source(name, fact)?;
+        values.insert(input, ops::Value::Wire(wire));
+    }
+    for (ix, op) in graph.operators().into_iter().flatten().enumerate() {
+        ops::translate(&model, &graph, &op, ix, &mut target, &mut values)?;
+    }
+    let mut outputs = tvec!();
+    for output in graph.outputs().into_iter().flatten() {
+        let value = values.get(&output).ok_or_else(|| {
+            ImportError::Malformed(format!("output tensor {output} is never computed"))
+        })?;
+        outputs.push(value.wire(&mut target, &format!("output_{output}"))?);
+    }
+    target.select_output_outlets(&outputs)?;
+    Ok(target)
+}
+
+fn parse(bytes: &[u8]) -> Result<tflite::Model<'_>, ImportError> {
+    tflite::root_as_model(bytes).map_err(|e| ImportError::InvalidFlatbuffer(e.to_string()))
+}
+
+fn main_subgraph<'a>(model: &tflite::Model<'a>) -> Result<tflite::SubGraph<'a>, ImportError> {
+    let subgraphs = model
+        .subgraphs()
+        .ok_or_else(|| ImportError::Malformed("no subgraphs".into()))?;
+    if subgraphs.is_empty() {
+        return Err(ImportError::Malformed("no subgraphs".into()));
+    }
+    Ok(subgraphs.get(0))
+}

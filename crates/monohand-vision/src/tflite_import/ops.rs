@@ -1,0 +1,591 @@
+//! Translation of individual TFLite operators into tract-core operators.
+
+use std::collections::HashMap;
+
+use tract_core::internal::*;
+use tract_core::ops::array::{Pad, PadMode, TypedConcat};
+use tract_core::ops::change_axes::wire_with_rank_broadcast;
+use tract_core::ops::cnn::{Conv, KernelFormat, MaxPool, PaddingSpec, PoolSpec};
+use tract_core::ops::einsum::EinSum;
+use tract_core::ops::math;
+use tract_core::ops::nn::{
+    sigmoid, CoordTransformer, DataFormat, Interpolator, Nearest, Reduce, Reducer, Resize,
+};
+use tract_tflite::tflite::{self, ActivationFunctionType, BuiltinOperator, Padding};
+
+use super::{tensors, ImportError};
+
+/// Names of the TFLite builtin operators [`super::import`] translates.
+pub const SUPPORTED_OPERATORS: &[&str] = &[
+    "DEQUANTIZE",
+    "CONV_2D",
+    "DEPTHWISE_CONV_2D",
+    "PRELU",
+    "ADD",
+    "MAX_POOL_2D",
+    "PAD",
+    "RESIZE_BILINEAR",
+    "RESHAPE",
+    "CONCATENATION",
+    "MEAN",
+    "FULLY_CONNECTED",
+    "LOGISTIC",
+    "RELU",
+    "RELU6",
+];
+
+/// A TFLite tensor as seen from the tract graph under construction.
+#[derive(Clone, Debug)]
+pub(super) enum Value {
+    /// Computed by a node.
+    Wire(OutletId),
+    /// A constant (weights), kept out of the graph until an operator consumes it.
+    Const(Arc<Tensor>),
+}
+
+impl Value {
+    /// The value as a wire, adding a constant node if needed.
+    pub(super) fn wire(&self, target: &mut TypedModel, name: &str) -> TractResult<OutletId> {
+        match self {
+            Value::Wire(w) => Ok(*w),
+            Value::Const(t) => {
+                let name = target.unique_name(name).to_string();
+                target.add_const(name, t.clone())
+            }
+        }
+    }
+}
+
+/// The builtin operator code of an operator, honouring the deprecated 8-bit field.
+fn builtin_code(
+    model: &tflite::Model,
+    op: &tflite::Operator,
+) -> Result<BuiltinOperator, ImportError> {
+    let codes = model
+        .operator_codes()
+        .ok_or_else(|| ImportError::Malformed("no operator codes".into()))?;
+    let ix = op.opcode_index() as usize;
+    if ix >= codes.len() {
+        return Err(ImportError::Malformed(format!(
+            "opcode index {ix} out of range"
+        )));
+    }
+    let code = codes.get(ix);
+    Ok(BuiltinOperator(
+        code.builtin_code()
+            .0
+            .max(code.deprecated_builtin_code() as i32),
+    ))
+}
+
+/// Human-readable name of an operator's builtin code.
+pub(super) fn operator_name(
+    model: &tflite::Model,
+    op: &tflite::Operator,
+) -> Result<String, ImportError> {
+    let code = builtin_code(model, op)?;
+    Ok(code
+        .variant_name()
+        .map(str::to_string)
+        .unwrap_or_else(|| format!("builtin #{}", code.0)))
+}
+
+/// Everything an operator translation needs.
+struct Ctx<'a, 'm> {
+    model: &'a tflite::Model<'m>,
+    graph: &'a tflite::SubGraph<'m>,
+    op: &'a tflite::Operator<'m>,
+    target: &'a mut TypedModel,
+    values: &'a mut HashMap<i32, Value>,
+    prefix: String,
+    inputs: Vec<i32>,
+}
+
+impl Ctx<'_, '_> {
+    fn value(&mut self, slot: usize) -> Result<Value, ImportError> {
+        let id = *self.inputs.get(slot).ok_or_else(|| {
+            ImportError::Malformed(format!("{}: missing input {slot}", self.prefix))
+        })?;
+        if let Some(v) = self.values.get(&id) {
+            return Ok(v.clone());
+        }
+        let t = tensors::constant_of(self.model, self.graph, id)?.ok_or_else(|| {
+            ImportError::Malformed(format!(
+                "{}: input tensor {id} is neither computed nor constant",
+                self.prefix
+            ))
+        })?;
+        let v = Value::Const(t.into_arc_tensor());
+        self.values.insert(id, v.clone());
+        Ok(v)
+    }
+
+    fn has_input(&self, slot: usize) -> bool {
+        self.inputs.get(slot).is_some_and(|&id| id >= 0)
+    }
+
+    fn konst(&mut self, slot: usize) -> Result<Arc<Tensor>, ImportError> {
+        match self.value(slot)? {
+            Value::Const(t) => Ok(t),
+            Value::Wire(w) => match self.target.outlet_fact(w)?.konst.clone() {
+                Some(t) => Ok(t),
+                None => Err(ImportError::Malformed(format!(
+                    "{}: input {slot} must be constant",
+                    self.prefix
+                ))),
+            },
+        }
+    }
+
+    fn wire(&mut self, slot: usize) -> Result<OutletId, ImportError> {
+        let v = self.value(slot)?;
+        let name = format!("{}.in{slot}", self.prefix);
+        Ok(v.wire(self.target, &name)?)
+    }
+
+    fn add_const(&mut self, suffix: &str, t: Tensor) -> Result<OutletId, ImportError> {
+        let name = self
+            .target
+            .unique_name(format!("{}.{suffix}", self.prefix))
+            .to_string();
+        Ok(self.target.add_const(name, t)?)
+    }
+
+    fn node(
+        &mut self,
+        suffix: &str,
+        op: impl Into<Box<dyn TypedOp>>,
+        inputs: &[OutletId],
+    ) -> Result<OutletId, ImportError> {
+        let name = self
+            .target
+            .unique_name(format!("{}.{suffix}", self.prefix))
+            .to_string();
+        Ok(self.target.wire_node(name, op, inputs)?[0])
+    }
+
+    fn broadcast(
+        &mut self,
+        suffix: &str,
+        op: impl Into<Box<dyn TypedOp>>,
+        inputs: &[OutletId],
+    ) -> Result<OutletId, ImportError> {
+        let name = self
+            .target
+            .unique_name(format!("{}.{suffix}", self.prefix))
+            .to_string();
+        Ok(wire_with_rank_broadcast(name, self.target, op, inputs)?[0])
+    }
+
+    fn activation(
+        &mut self,
+        wire: OutletId,
+        f: ActivationFunctionType,
+    ) -> Result<OutletId, ImportError> {
+        match f {
+            ActivationFunctionType::NONE => Ok(wire),
+            ActivationFunctionType::RELU => self.relu(wire, None),
+            ActivationFunctionType::RELU6 => self.relu(wire, Some(6.0)),
+            other => Err(ImportError::UnsupportedOperator(format!(
+                "fused activation {other:?}"
+            ))),
+        }
+    }
+
+    fn relu(&mut self, wire: OutletId, cap: Option<f32>) -> Result<OutletId, ImportError> {
+        let zero = self.add_const("zero", tensor0(0f32))?;
+        let mut y = self.broadcast("relu", math::max(), &[wire, zero])?;
+        if let Some(cap) = cap {
+            let c = self.add_const("cap", tensor0(cap))?;
+            y = self.broadcast("relu_cap", math::min(), &[y, c])?;
+        }
+        Ok(y)
+    }
+}
+
+fn padding(p: Padding) -> Result<PaddingSpec, ImportError> {
+    match p {
+        Padding::SAME => Ok(PaddingSpec::SameUpper),
+        Padding::VALID => Ok(PaddingSpec::Valid),
+        other => Err(ImportError::Malformed(format!("padding {other:?}"))),
+    }
+}
+
+fn options_missing(what: &str) -> ImportError {
+    ImportError::Malformed(format!("{what} operator without its options"))
+}
+
+/// Translates operator number `ix` of the subgraph, recording its output in `values`.
+pub(super) fn translate(
+    model: &tflite::Model,
+    graph: &tflite::SubGraph,
+    op: &tflite::Operator,
+    ix: usize,
+    target: &mut TypedModel,
+    values: &mut HashMap<i32, Value>,
+) -> Result<(), ImportError> {
+    let code = builtin_code(model, op)?;
+    let inputs: Vec<i32> = op.inputs().map(|v| v.iter().collect()).unwrap_or_default();
+    let outputs: Vec<i32> = op.outputs().map(|v| v.iter().collect()).unwrap_or_default();
+    let &[output] = outputs.as_slice() else {
+        return Err(ImportError::Malformed(format!(
+            "operator {ix} has {} outputs",
+            outputs.len()
+        )));
+    };
+    let out_shape = tensors::shape_of(graph, output)?;
+    let prefix = format!("{ix}.{}", tensors::name_of(graph, output)?);
+    let mut cx = Ctx {
+        model,
+        graph,
+        op,
+        target,
+        values,
+        prefix,
+        inputs,
+    };
+    let value = match code {
+        BuiltinOperator::DEQUANTIZE => match cx.value(0)? {
+            // fp16 weights were widened when read: nothing runs at inference.
+            Value::Const(t) => Value::Const(t),
+            Value::Wire(w) => Value::Wire(cx.node(
+                "cast",
+                tract_core::ops::cast::cast(f32::datum_type()),
+                &[w],
+            )?),
+        },
+        BuiltinOperator::CONV_2D => Value::Wire(conv(&mut cx, false)?),
+        BuiltinOperator::DEPTHWISE_CONV_2D => Value::Wire(conv(&mut cx, true)?),
+        BuiltinOperator::PRELU => Value::Wire(prelu(&mut cx)?),
+        BuiltinOperator::ADD => {
+            let f = cx
+                .op
+                .builtin_options_as_add_options()
+                .map(|o| o.fused_activation_function());
+            let (a, b) = (cx.wire(0)?, cx.wire(1)?);
+            let y = cx.broadcast("add", math::add(), &[a, b])?;
+            Value::Wire(cx.activation(y, f.unwrap_or(ActivationFunctionType::NONE))?)
+        }
+        BuiltinOperator::MAX_POOL_2D => Value::Wire(max_pool(&mut cx)?),
+        BuiltinOperator::PAD => Value::Wire(pad(&mut cx)?),
+        BuiltinOperator::RESIZE_BILINEAR => Value::Wire(resize_bilinear(&mut cx, &out_shape)?),
+        BuiltinOperator::RESHAPE => {
+            let x = cx.wire(0)?;
+            let from: TVec<TDim> = cx.target.outlet_fact(x)?.shape.to_tvec();
+            let to: TVec<TDim> = out_shape.iter().map(|d| d.to_dim()).collect();
+            Value::Wire(cx.node("reshape", AxisOp::Reshape(0, from, to), &[x])?)
+        }
+        BuiltinOperator::CONCATENATION => {
+            let o = cx
+                .op
+                .builtin_options_as_concatenation_options()
+                .ok_or_else(|| options_missing("CONCATENATION"))?;
+            let rank = out_shape.len() as i32;
+            let axis = if o.axis() < 0 {
+                o.axis() + rank
+            } else {
+                o.axis()
+            } as usize;
+            let wires = (0..cx.inputs.len())
+                .map(|i| cx.wire(i))
+                .collect::<Result<Vec<_>, _>>()?;
+            let y = cx.node("concat", TypedConcat { axis }, &wires)?;
+            Value::Wire(cx.activation(y, o.fused_activation_function())?)
+        }
+        BuiltinOperator::MEAN => Value::Wire(mean(&mut cx)?),
+        BuiltinOperator::FULLY_CONNECTED => Value::Wire(fully_connected(&mut cx, &out_shape)?),
+        BuiltinOperator::LOGISTIC => {
+            let x = cx.wire(0)?;
+            Value::Wire(cx.node("sigmoid", sigmoid(), &[x])?)
+        }
+        BuiltinOperator::RELU => {
+            let x = cx.wire(0)?;
+            Value::Wire(cx.relu(x, None)?)
+        }
+        BuiltinOperator::RELU6 => {
+            let x = cx.wire(0)?;
+            Value::Wire(cx.relu(x, Some(6.0))?)
+        }
+        other => {
+            return Err(ImportError::UnsupportedOperator(
+                other
+                    .variant_name()
+                    .map(str::to_string)
+                    .unwrap_or_else(|| format!("#{}", other.0)),
+            ))
+        }
+    };
+    if let Value::Wire(w) = &value {
+        let fact = cx.target.outlet_fact(*w)?;
+        let got: Option<Vec<usize>> = fact.shape.as_concrete().map(|s| s.to_vec());
+        if got.as_deref() != Some(out_shape.as_slice()) {
+            return Err(ImportError::Malformed(format!(
+                "{}: tract infers shape {:?}, the model says {out_shape:?}",
+                cx.prefix, fact.shape
+            )));
+        }
+    }
+    cx.values.insert(output, value);
+    Ok(())
+}
+
+/// `CONV_2D` (kernel OHWI) and `DEPTHWISE_CONV_2D` (kernel 1HW(C·M), M = 1 here).
+fn conv(cx: &mut Ctx, depthwise: bool) -> Result<OutletId, ImportError> {
+    let x = cx.wire(0)?;
+    let kernel = cx.konst(1)?;
+    let ks = kernel.shape().to_vec();
+    if ks.len() != 4 {
+        return Err(ImportError::Malformed(format!(
+            "{}: kernel shape {ks:?}",
+            cx.prefix
+        )));
+    }
+    let in_channels = cx
+        .target
+        .outlet_fact(x)?
+        .shape
+        .as_concrete()
+        .and_then(|s| s.get(3).copied())
+        .ok_or_else(|| ImportError::Malformed(format!("{}: input must be NHWC", cx.prefix)))?;
+    let (pad, strides, dilations, act, group, out_channels) = if depthwise {
+        let o = cx
+            .op
+            .builtin_options_as_depthwise_conv_2_doptions()
+            .ok_or_else(|| options_missing("DEPTHWISE_CONV_2D"))?;
+        if ks[3] != in_channels || o.depth_multiplier() > 1 {
+            return Err(ImportError::UnsupportedOperator(format!(
+                "DEPTHWISE_CONV_2D with depth multiplier {} (only 1 is supported)",
+                o.depth_multiplier()
+            )));
+        }
+        (
+            o.padding(),
+            [o.stride_h(), o.stride_w()],
+            [o.dilation_h_factor(), o.dilation_w_factor()],
+            o.fused_activation_function(),
+            in_channels,
+            ks[3],
+        )
+    } else {
+        let o = cx
+            .op
+            .builtin_options_as_conv_2_doptions()
+            .ok_or_else(|| options_missing("CONV_2D"))?;
+        if ks[3] != in_channels {
+            return Err(ImportError::Malformed(format!(
+                "{}: grouped convolution",
+                cx.prefix
+            )));
+        }
+        (
+            o.padding(),
+            [o.stride_h(), o.stride_w()],
+            [o.dilation_h_factor(), o.dilation_w_factor()],
+            o.fused_activation_function(),
+            1,
+            ks[0],
+        )
+    };
+    let pool_spec = PoolSpec {
+        data_format: DataFormat::NHWC,
+        kernel_shape: tvec!(ks[1], ks[2]),
+        padding: padding(pad)?,
+        strides: Some(tvec!(strides[0] as usize, strides[1] as usize)),
+        dilations: Some(tvec!(dilations[0] as usize, dilations[1] as usize)),
+        input_channels: in_channels,
+        output_channels: out_channels,
+    };
+    let bias = if cx.has_input(2) {
+        cx.konst(2)?.into_tensor()
+    } else {
+        Tensor::zero::<f32>(&[out_channels])?
+    };
+    // tract's OHWI carries the group on I: a depthwise kernel 1xHxWxC with group C is
+    // exactly TFLite's layout.
+    let k = cx.add_const("kernel", kernel.into_tensor())?;
+    let b = cx.add_const("bias", bias)?;
+    let op = Conv {
+        pool_spec,
+        kernel_fmt: KernelFormat::OHWI,
+        group,
+        q_params: None,
+    };
+    let y = cx.node("conv", op, &[x, k, b])?;
+    cx.activation(y, act)
+}
+
+/// `PRELU`: `max(x, 0) + alpha * min(x, 0)`, alpha broadcast over the channel axis.
+fn prelu(cx: &mut Ctx) -> Result<OutletId, ImportError> {
+    let x = cx.wire(0)?;
+    let alpha = cx.wire(1)?;
+    let zero = cx.add_const("zero", tensor0(0f32))?;
+    let pos = cx.broadcast("pos", math::max(), &[x, zero])?;
+    let neg = cx.broadcast("neg", math::min(), &[x, zero])?;
+    let scaled = cx.broadcast("scaled", math::mul(), &[neg, alpha])?;
+    cx.broadcast("prelu", math::add(), &[pos, scaled])
+}
+
+fn max_pool(cx: &mut Ctx) -> Result<OutletId, ImportError> {
+    let x = cx.wire(0)?;
+    let o = cx
+        .op
+        .builtin_options_as_pool_2_doptions()
+        .ok_or_else(|| options_missing("MAX_POOL_2D"))?;
+    let channels = cx
+        .target
+        .outlet_fact(x)?
+        .shape
+        .as_concrete()
+        .and_then(|s| s.get(3).copied())
+        .ok_or_else(|| ImportError::Malformed("pool input".into()))?;
+    let pool_spec = PoolSpec {
+        data_format: DataFormat::NHWC,
+        kernel_shape: tvec!(o.filter_height() as usize, o.filter_width() as usize),
+        padding: padding(o.padding())?,
+        strides: Some(tvec!(o.stride_h() as usize, o.stride_w() as usize)),
+        dilations: None,
+        input_channels: channels,
+        output_channels: channels,
+    };
+    let y = cx.node(
+        "maxpool",
+        MaxPool {
+            pool_spec,
+            with_index_outputs: None,
+        },
+        &[x],
+    )?;
+    cx.activation(y, o.fused_activation_function())
+}
+
+fn pad(cx: &mut Ctx) -> Result<OutletId, ImportError> {
+    let x = cx.wire(0)?;
+    let pads = cx.konst(1)?;
+    let pads = pads.cast_to::<i64>()?;
+    let flat = pads.try_as_plain_ram()?.as_slice::<i64>()?;
+    let pads: Vec<(usize, usize)> = flat
+        .chunks_exact(2)
+        .map(|c| (c[0].max(0) as usize, c[1].max(0) as usize))
+        .collect();
+    let mode = PadMode::Constant(Arc::new(tensor0(0f32)));
+    cx.node("pad", Pad { pads, mode }, &[x])
+}
+
+fn resize_bilinear(cx: &mut Ctx, out_shape: &[usize]) -> Result<OutletId, ImportError> {
+    let x = cx.wire(0)?;
+    let o = cx
+        .op
+        .builtin_options_as_resize_bilinear_options()
+        .ok_or_else(|| options_missing("RESIZE_BILINEAR"))?;
+    let coord_transformer = if o.align_corners() {
+        CoordTransformer::AlignCorners
+    } else if o.half_pixel_centers() {
+        CoordTransformer::HalfPixel
+    } else {
+        CoordTransformer::Asymmetric
+    };
+    let sizes: Vec<i64> = out_shape.iter().map(|&d| d as i64).collect();
+    let sizes = cx.add_const("sizes", tensor1(&sizes))?;
+    let op = Resize {
+        coord_transformer,
+        interpolator: Interpolator::Linear,
+        nearest: Nearest::Floor,
+        optional_scales_input: None,
+        optional_sizes_input: Some(1),
+    };
+    cx.node("resize", op, &[x, sizes])
+}
+
+/// `MEAN` in float: a sum, then one multiplication by the reciprocal count.
+fn mean(cx: &mut Ctx) -> Result<OutletId, ImportError> {
+    let x = cx.wire(0)?;
+    let shape: Vec<usize> = cx
+        .target
+        .outlet_fact(x)?
+        .shape
+        .as_concrete()
+        .map(|s| s.to_vec())
+        .ok_or_else(|| ImportError::Malformed("MEAN input".into()))?;
+    let axes = cx.konst(1)?.cast_to::<i64>()?.into_owned();
+    let mut axes: Vec<usize> = axes
+        .try_as_plain_ram()?
+        .as_slice::<i64>()?
+        .iter()
+        .map(|&a| if a < 0 { a + shape.len() as i64 } else { a } as usize)
+        .collect();
+    axes.sort_unstable();
+    axes.dedup();
+    let keep_dims = cx
+        .op
+        .builtin_options_as_reducer_options()
+        .map(|o| o.keep_dims())
+        .unwrap_or(false);
+    let count: usize = axes.iter().map(|&a| shape[a]).product();
+    let mut y = cx.node(
+        "sum",
+        Reduce {
+            axes: axes.iter().copied().collect(),
+            reducer: Reducer::Sum,
+        },
+        &[x],
+    )?;
+    if !keep_dims {
+        for &a in axes.iter().rev() {
+            y = cx.node("rm_axis", AxisOp::Rm(a), &[y])?;
+        }
+    }
+    let recip = cx.add_const("recip_count", tensor0(1.0 / count as f32))?;
+    cx.broadcast("mean", math::mul(), &[y, recip])
+}
+
+/// `FULLY_CONNECTED`: `x · Wᵀ + b` with W stored `[out, in]`, input flattened to `[-1, in]`.
+fn fully_connected(cx: &mut Ctx, out_shape: &[usize]) -> Result<OutletId, ImportError> {
+    let o = cx
+        .op
+        .builtin_options_as_fully_connected_options()
+        .ok_or_else(|| options_missing("FULLY_CONNECTED"))?;
+    let mut x = cx.wire(0)?;
+    let w = cx.konst(1)?;
+    let ws = w.shape().to_vec();
+    if ws.len() != 2 {
+        return Err(ImportError::Malformed(format!(
+            "{}: weights {ws:?}",
+            cx.prefix
+        )));
+    }
+    let in_shape: TVec<TDim> = cx.target.outlet_fact(x)?.shape.to_tvec();
+    let total: usize = in_shape
+        .iter()
+        .map(|d| {
+            d.to_usize()
+                .map_err(|e| ImportError::Malformed(format!("dynamic FC input: {e}")))
+        })
+        .product::<Result<usize, ImportError>>()?;
+    if in_shape.len() != 2 || in_shape[1] != ws[1].to_dim() {
+        let to = tvec!((total / ws[1]).to_dim(), ws[1].to_dim());
+        x = cx.node("flatten", AxisOp::Reshape(0, in_shape, to), &[x])?;
+    }
+    let wk = cx.add_const("weights", w.into_tensor())?;
+    let axes = "bi,oi->bo".parse()?;
+    let mut y = cx.node(
+        "matmul",
+        EinSum {
+            axes,
+            operating_dt: f32::datum_type(),
+            q_params: None,
+        },
+        &[x, wk],
+    )?;
+    if cx.has_input(2) {
+        let b = cx.konst(2)?.into_tensor();
+        let b = cx.add_const("bias", b)?;
+        y = cx.broadcast("bias_add", math::add(), &[y, b])?;
+    }
+    y = cx.activation(y, o.fused_activation_function())?;
+    let got: TVec<TDim> = cx.target.outlet_fact(y)?.shape.to_tvec();
+    let want: TVec<TDim> = out_shape.iter().map(|d| d.to_dim()).collect();
+    if got != want {
+        y = cx.node("reshape_out", AxisOp::Reshape(0, got, want), &[y])?;
+    }
+    Ok(y)
+}
