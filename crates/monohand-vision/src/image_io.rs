@@ -74,7 +74,7 @@ mod tests {
         assert_eq!(rgb.dimensions(), (20, 20));
         let p = rgb.get_pixel(10, 0);
         assert_eq!(p[0], p[1]);
-        assert!((p[0] as i32 - (30000 * 255 / 65535) as i32).abs() <= 1);
+        assert!((p[0] as i32 - 30000 * 255 / 65535).abs() <= 1);
     }
 
     #[test]

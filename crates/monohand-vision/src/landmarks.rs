@@ -199,6 +199,8 @@ pub fn affine_residuals(
 }
 
 /// Solves `M x = b` (4x4, two right-hand sides) by Gaussian elimination with partial pivoting.
+// Row operations read two rows of the same array: index loops are the clear form here.
+#[allow(clippy::needless_range_loop)]
 fn solve4(mut m: [[f64; 4]; 4], mut b: [[f64; 2]; 4]) -> Option<[[f64; 2]; 4]> {
     for col in 0..4 {
         let pivot = (col..4).max_by(|&i, &j| m[i][col].abs().total_cmp(&m[j][col].abs()))?;

@@ -295,6 +295,9 @@ pub struct Detections {
 pub struct HandPipeline {
     detector: Box<dyn HandDetector>,
     estimator: Box<dyn KeypointEstimator>,
+    /// For custom keypoint estimators: MediaPipe's landmark model, run first on each region
+    /// for the hand's side (to mirror one-sided networks) and its presence score.
+    side_source: Option<MediaPipeKeypoints>,
     face: Option<FaceDetector>,
     /// Options.
     pub options: PipelineOptions,
@@ -306,6 +309,13 @@ impl std::fmt::Debug for HandPipeline {
             .field("heads", &self.face.is_some())
             .field("options", &self.options)
             .finish()
+    }
+}
+
+fn landmark_file(v: ModelVariant) -> ModelFile {
+    match v {
+        ModelVariant::Full => ModelFile::HandLandmarkFull,
+        ModelVariant::Lite => ModelFile::HandLandmarkLite,
     }
 }
 
@@ -323,10 +333,7 @@ impl HandPipeline {
             ModelVariant::Full => ModelFile::PalmDetectionFull,
             ModelVariant::Lite => ModelFile::PalmDetectionLite,
         };
-        let lm_file = match models.landmark {
-            ModelVariant::Full => ModelFile::HandLandmarkFull,
-            ModelVariant::Lite => ModelFile::HandLandmarkLite,
-        };
+        let lm_file = landmark_file(models.landmark);
         let detector = PalmDetector::new(load_net(&store, palm_file)?, options.palm)?;
         let model = LandmarkModel::new(load_net(&store, lm_file)?, options.landmarks)?;
         let estimator = MediaPipeKeypoints {
@@ -345,9 +352,34 @@ impl HandPipeline {
         Ok(HandPipeline {
             detector: Box::new(detector),
             estimator: Box::new(estimator),
+            side_source: None,
             face,
             options,
         })
+    }
+
+    /// MediaPipe's palm detector (+ BlazeFace) with another keypoint network, e.g.
+    /// [`crate::heatmap::OnnxHeatmapEstimator`]. MediaPipe's landmark model still runs once per
+    /// region to tell the hand's side (so one-sided networks get mirrored crops) and whether a
+    /// hand is present; the keypoints are the custom estimator's.
+    pub fn with_keypoint_estimator(
+        models: &ModelOptions,
+        options: PipelineOptions,
+        estimator: Box<dyn KeypointEstimator>,
+    ) -> Result<Self> {
+        let mut p = HandPipeline::new(models, options)?;
+        let store = ModelStore::new(models.model_dir.clone())?;
+        let model = LandmarkModel::new(
+            load_net(&store, landmark_file(models.landmark))?,
+            options.landmarks,
+        )?;
+        p.side_source = Some(MediaPipeKeypoints {
+            model,
+            mirrored_input: options.mirrored_input,
+            refine_passes: 0,
+        });
+        p.estimator = estimator;
+        Ok(p)
     }
 
     /// A pipeline from any detector and keypoint estimator (e.g. an ONNX heatmap model).
@@ -360,6 +392,7 @@ impl HandPipeline {
         HandPipeline {
             detector,
             estimator,
+            side_source: None,
             face,
             options,
         }
@@ -380,7 +413,18 @@ impl HandPipeline {
             if hands.len() >= self.options.max_hands {
                 break;
             }
-            let kp = self.estimator.estimate(img, &region, None)?;
+            let kp = match &self.side_source {
+                None => self.estimator.estimate(img, &region, None)?,
+                Some(mp) => {
+                    let first = mp.estimate(img, &region, None)?;
+                    let mut kp = self
+                        .estimator
+                        .estimate(img, &region, first.side.map(|s| s.0))?;
+                    kp.presence = first.presence;
+                    kp.side = first.side;
+                    kp
+                }
+            };
             if kp.presence < self.options.min_presence {
                 continue;
             }
