@@ -16,9 +16,11 @@
 
 mod depthwise;
 mod ops;
+mod prelu;
 mod tensors;
 
 pub use depthwise::NhwcDepthwise;
+pub use prelu::ChannelPrelu;
 
 use std::collections::HashMap;
 
@@ -73,12 +75,16 @@ pub struct ImportOptions {
     /// Translate depthwise convolutions to [`NhwcDepthwise`] (channels-innermost, vectorised)
     /// instead of tract's generic grouped `Conv`. Default: true.
     pub fast_depthwise: bool,
+    /// Translate PRELU with constant per-channel slopes to one [`ChannelPrelu`] pass instead
+    /// of four tract element-wise ops. Default: true.
+    pub fused_prelu: bool,
 }
 
 impl Default for ImportOptions {
     fn default() -> Self {
         ImportOptions {
             fast_depthwise: true,
+            fused_prelu: true,
         }
     }
 }

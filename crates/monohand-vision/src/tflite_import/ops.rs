@@ -432,6 +432,29 @@ fn conv(cx: &mut Ctx, depthwise: bool) -> Result<OutletId, ImportError> {
 /// `PRELU`: `max(x, 0) + alpha * min(x, 0)`, alpha broadcast over the channel axis.
 fn prelu(cx: &mut Ctx) -> Result<OutletId, ImportError> {
     let x = cx.wire(0)?;
+    if cx.options.fused_prelu {
+        if let Value::Const(alpha) = cx.value(1)? {
+            // Slopes shaped [1, ..., 1, C] broadcast along the channel axis only.
+            let shape = alpha.shape();
+            let channels = shape.last().copied().unwrap_or(1);
+            let x_channels = cx
+                .target
+                .outlet_fact(x)?
+                .shape
+                .last()
+                .and_then(|d| d.to_usize().ok());
+            if shape.iter().rev().skip(1).all(|&d| d == 1) && x_channels == Some(channels) {
+                let alpha = alpha
+                    .cast_to::<f32>()?
+                    .into_owned()
+                    .into_shape(&[channels])?;
+                let op = super::prelu::ChannelPrelu {
+                    alpha: alpha.into_arc_tensor(),
+                };
+                return cx.node("prelu", op, &[x]);
+            }
+        }
+    }
     let alpha = cx.wire(1)?;
     let zero = cx.add_const("zero", tensor0(0f32))?;
     let pos = cx.broadcast("pos", math::max(), &[x, zero])?;
