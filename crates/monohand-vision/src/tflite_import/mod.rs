@@ -13,6 +13,11 @@
 //! plus the fused activations `RELU` and `RELU6`.
 //!
 //! Anything else is refused with [`ImportError::UnsupportedOperator`] rather than guessed.
+//!
+//! Two operators are this crate's own tract operators, because tract's generic versions were
+//! the largest costs of the palm detector: [`NhwcDepthwise`] (depthwise convolution with the
+//! channels innermost) and [`ChannelPrelu`] (PRELU in one pass). [`ImportOptions`] switches
+//! back to tract's built-in operators.
 
 mod depthwise;
 mod ops;
