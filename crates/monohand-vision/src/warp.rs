@@ -103,9 +103,12 @@ pub fn warp_into(
         1
     };
     let scale = norm.scale / (n * n) as f32;
+    let m = crop_to_image.0;
+    if m[0][1] == 0.0 && m[1][0] == 0.0 {
+        return warp_axis_aligned(img, &m, out_w, out_h, n, norm, out);
+    }
     let (w, h) = (img.width() as i32, img.height() as i32);
     let raw = img.as_raw().as_slice();
-    let m = crop_to_image.0;
     // Sub-sample offsets inside an output pixel, and the image-space step per output column.
     let offsets: Vec<(f64, f64)> = (0..n * n)
         .map(|k| {
@@ -141,6 +144,81 @@ pub fn warp_into(
             px[0] = acc[0] * scale + norm.offset;
             px[1] = acc[1] * scale + norm.offset;
             px[2] = acc[2] * scale + norm.offset;
+        }
+    }
+}
+
+/// One bilinear tap along an axis: two source indices and their weights (an index outside
+/// the image gets weight 0 and a harmless in-range index).
+#[derive(Clone, Copy, Debug)]
+struct Tap {
+    i0: usize,
+    w0: f32,
+    i1: usize,
+    w1: f32,
+}
+
+/// Taps of every sub-sample of every output position along one axis: output `o`, sub-sample
+/// `s` samples source coordinate `scale · (o + (s + ½)/n) + offset`.
+fn axis_taps(len_out: usize, n: usize, scale: f64, offset: f64, len_in: usize) -> Vec<Tap> {
+    let mut taps = Vec::with_capacity(len_out * n);
+    for o in 0..len_out {
+        for s in 0..n {
+            let f = scale * (o as f64 + (s as f64 + 0.5) / n as f64) + offset - 0.5;
+            let f0 = f.floor();
+            let frac = (f - f0) as f32;
+            let inside = |i: f64| i >= 0.0 && i < len_in as f64;
+            let (i0, i1) = (f0, f0 + 1.0);
+            taps.push(Tap {
+                i0: if inside(i0) { i0 as usize } else { 0 },
+                w0: if inside(i0) { 1.0 - frac } else { 0.0 },
+                i1: if inside(i1) { i1 as usize } else { 0 },
+                w1: if inside(i1) { frac } else { 0.0 },
+            });
+        }
+    }
+    taps
+}
+
+/// [`warp_into`] for maps without rotation (letterboxing): the bilinear indices and weights
+/// of every column and row are computed once, so each sample is four loads and no branches.
+fn warp_axis_aligned(
+    img: &RgbImage,
+    m: &[[f64; 3]; 2],
+    out_w: usize,
+    out_h: usize,
+    n: usize,
+    norm: Normalization,
+    out: &mut [f32],
+) {
+    let (w, h) = (img.width() as usize, img.height() as usize);
+    let raw = img.as_raw().as_slice();
+    let xs = axis_taps(out_w, n, m[0][0], m[0][2], w);
+    let ys = axis_taps(out_h, n, m[1][1], m[1][2], h);
+    let scale = norm.scale / (n * n) as f32;
+    let px = |y: usize, x: usize| {
+        let o = (y * w + x) * 3;
+        [raw[o] as f32, raw[o + 1] as f32, raw[o + 2] as f32]
+    };
+    for (row, line) in out.chunks_exact_mut(out_w * 3).take(out_h).enumerate() {
+        let row_taps = &ys[row * n..(row + 1) * n];
+        for (col, dst) in line.chunks_exact_mut(3).enumerate() {
+            let col_taps = &xs[col * n..(col + 1) * n];
+            let mut acc = [0.0f32; 3];
+            for ty in row_taps {
+                for tx in col_taps {
+                    let (a, b) = (px(ty.i0, tx.i0), px(ty.i0, tx.i1));
+                    let (c, d) = (px(ty.i1, tx.i0), px(ty.i1, tx.i1));
+                    for ch in 0..3 {
+                        let top = tx.w0 * a[ch] + tx.w1 * b[ch];
+                        let bottom = tx.w0 * c[ch] + tx.w1 * d[ch];
+                        acc[ch] += ty.w0 * top + ty.w1 * bottom;
+                    }
+                }
+            }
+            for ch in 0..3 {
+                dst[ch] = acc[ch] * scale + norm.offset;
+            }
         }
     }
 }
@@ -199,6 +277,31 @@ mod tests {
         // Crop pixel (0,0) centre is image pixel (41, 33) after a half turn.
         assert!((out[0] - 41.0 * 4.0).abs() < 1e-3, "{}", out[0]);
         assert!((out[1] - 33.0 * 5.0).abs() < 1e-3, "{}", out[1]);
+    }
+
+    #[test]
+    fn axis_aligned_fast_path_matches_the_general_warp() {
+        let img = RgbImage::from_fn(97, 61, |x, y| {
+            image::Rgb([(x * 2 + y) as u8, (y * 4) as u8, (x ^ y) as u8])
+        });
+        let norm = Normalization {
+            scale: 1.0,
+            offset: 0.0,
+        };
+        for (size, m) in [
+            (24, crate::geometry::letterbox_to_image(97, 61, 24)),
+            (64, crate::geometry::letterbox_to_image(97, 61, 64)),
+        ] {
+            let mut fast = vec![0.0; size * size * 3];
+            warp_into(&img, &m, size, size, norm, &mut fast);
+            // A tiny rotation forces the general path.
+            let tilted = Affine2([[m.0[0][0], 1e-12, m.0[0][2]], [1e-12, m.0[1][1], m.0[1][2]]]);
+            let mut slow = vec![0.0; size * size * 3];
+            warp_into(&img, &tilted, size, size, norm, &mut slow);
+            for (a, b) in fast.iter().zip(&slow) {
+                assert!((a - b).abs() < 1e-2, "{a} vs {b}");
+            }
+        }
     }
 
     #[test]
