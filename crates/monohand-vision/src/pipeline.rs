@@ -16,7 +16,7 @@ use std::path::{Path, PathBuf};
 
 use image::RgbImage;
 use monohand_core::hand_model::HandSide;
-use monohand_core::observation::Keypoints2d;
+use monohand_core::observation::{HandObservation, Keypoints2d};
 
 use crate::error::Result;
 use crate::face::{FaceDetector, HeadDetection};
@@ -267,6 +267,16 @@ pub struct DetectedHand {
     pub keypoints: Keypoints2d,
     /// Metric 3D landmarks (metres, hand-centred) when the network gives them.
     pub world_landmarks: Option<[[f64; 3]; NUM_LANDMARKS]>,
+}
+
+impl DetectedHand {
+    /// What the 3D fitter of `monohand-core` consumes: side and keypoints.
+    pub fn observation(&self) -> HandObservation {
+        HandObservation {
+            side: self.side,
+            keypoints: self.keypoints,
+        }
+    }
 }
 
 /// One head (pixel-centre coordinates).
