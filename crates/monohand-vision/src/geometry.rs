@@ -73,7 +73,7 @@ impl Affine2 {
 /// A rectangle of `width x height` pixels centred at `center`, rotated by `rotation` radians
 /// (counter-clockwise in the image as displayed, y pointing down, i.e. the rectangle's "up"
 /// axis is the image's up axis turned by `rotation`; MediaPipe's `NormalizedRect` convention).
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct RotatedRect {
     /// Centre in image pixels (continuous coordinates).
     pub center: [f64; 2],

@@ -11,6 +11,30 @@ use crate::error::{Result, VisionError};
 /// Smallest accepted side length in pixels: anything smaller cannot show a detectable hand.
 pub const MIN_SIDE: u32 = 16;
 
+/// File extensions (lower-case) treated as images by [`images_in_folder`].
+pub const IMAGE_EXTENSIONS: &[&str] = &["jpg", "jpeg", "png", "webp"];
+
+/// Image files directly inside `dir`, sorted by file name (the `frame` order of
+/// `monohand detect FOLDER`). Selection is by extension; content is checked when decoding.
+pub fn images_in_folder(dir: &Path) -> Result<Vec<std::path::PathBuf>> {
+    let io = |source| VisionError::ImageRead {
+        path: dir.into(),
+        source,
+    };
+    let mut files: Vec<_> = std::fs::read_dir(dir)
+        .map_err(io)?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.is_file())
+        .filter(|p| {
+            p.extension()
+                .and_then(|e| e.to_str())
+                .is_some_and(|e| IMAGE_EXTENSIONS.contains(&e.to_ascii_lowercase().as_str()))
+        })
+        .collect();
+    files.sort_by(|a, b| a.file_name().cmp(&b.file_name()));
+    Ok(files)
+}
+
 /// Reads and decodes an image file (see the module docs).
 pub fn load_rgb(path: &Path) -> Result<RgbImage> {
     let bytes = std::fs::read(path).map_err(|source| VisionError::ImageRead {
@@ -75,6 +99,27 @@ mod tests {
         let p = rgb.get_pixel(10, 0);
         assert_eq!(p[0], p[1]);
         assert!((p[0] as i32 - 30000 * 255 / 65535).abs() <= 1);
+    }
+
+    #[test]
+    fn folder_listing_is_sorted_and_filtered() {
+        let dir = std::env::temp_dir().join(format!("monohand-folder-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("tmp");
+        for n in ["b.PNG", "a.jpg", "c.txt", "d.webp"] {
+            std::fs::write(dir.join(n), b"x").expect("write");
+        }
+        let names: Vec<_> = images_in_folder(&dir)
+            .expect("list")
+            .iter()
+            .map(|p| {
+                p.file_name()
+                    .and_then(|n| n.to_str())
+                    .unwrap_or("")
+                    .to_string()
+            })
+            .collect();
+        assert_eq!(names, ["a.jpg", "b.PNG", "d.webp"]);
+        let _ = std::fs::remove_dir_all(dir);
     }
 
     #[test]

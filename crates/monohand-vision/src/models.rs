@@ -286,8 +286,20 @@ pub fn default_dir() -> Result<PathBuf> {
     )))
 }
 
+/// The ways pip is looked for, in order.
+const PIP_COMMANDS: [(&str, &[&str]); 4] = [
+    ("python3", &["-m", "pip"]),
+    ("python", &["-m", "pip"]),
+    ("pip3", &[]),
+    ("pip", &[]),
+];
+
 /// Runs pip to download the wheel into `dir`, returning the wheel's path.
 fn pip_download(dir: &Path) -> Result<PathBuf> {
+    pip_download_with(dir, &PIP_COMMANDS)
+}
+
+fn pip_download_with(dir: &Path, candidates: &[(&str, &[&str])]) -> Result<PathBuf> {
     let args = [
         "download",
         "--no-deps",
@@ -305,14 +317,8 @@ fn pip_download(dir: &Path) -> Result<PathBuf> {
         MEDIAPIPE_REQUIREMENT,
         "-d",
     ];
-    let candidates: [(&str, &[&str]); 4] = [
-        ("python3", &["-m", "pip"]),
-        ("python", &["-m", "pip"]),
-        ("pip3", &[]),
-        ("pip", &[]),
-    ];
     let mut tried = Vec::new();
-    for (program, prefix) in candidates {
+    for &(program, prefix) in candidates {
         let output = Command::new(program)
             .args(prefix)
             .args(args)
@@ -393,6 +399,17 @@ mod tests {
             s.path_of(ModelFile::PalmDetectionLite),
             PathBuf::from("/x/y/palm_detection_lite.tflite")
         );
+    }
+
+    #[test]
+    fn missing_pip_says_what_to_run() {
+        let dir = std::env::temp_dir().join(format!("monohand-nopip-{}", std::process::id()));
+        let e = pip_download_with(&dir, &[("monohand-no-such-python", &["-m", "pip"])])
+            .expect_err("no pip");
+        let msg = e.to_string();
+        assert!(msg.contains("pip download --no-deps"), "{msg}");
+        assert!(msg.contains(WHEEL_ENV), "{msg}");
+        assert!(matches!(e, VisionError::ModelFetch(_)));
     }
 
     #[test]

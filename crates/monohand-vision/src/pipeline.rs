@@ -16,7 +16,7 @@ use std::path::{Path, PathBuf};
 
 use image::RgbImage;
 use monohand_core::hand_model::HandSide;
-use monohand_core::observation::Keypoints2d;
+use monohand_core::observation::{HandObservation, Keypoints2d};
 
 use crate::error::Result;
 use crate::face::{FaceDetector, HeadDetection};
@@ -248,7 +248,7 @@ impl Default for PipelineOptions {
 }
 
 /// One hand found in an image (pixel-centre coordinates, see the module docs).
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct DetectedHand {
     /// Oriented box around the keypoints (10 % margin), turned like the hand (its "up" axis
     /// runs from the wrist towards the fingers).
@@ -269,8 +269,18 @@ pub struct DetectedHand {
     pub world_landmarks: Option<[[f64; 3]; NUM_LANDMARKS]>,
 }
 
+impl DetectedHand {
+    /// What the 3D fitter of `monohand-core` consumes: side and keypoints.
+    pub fn observation(&self) -> HandObservation {
+        HandObservation {
+            side: self.side,
+            keypoints: self.keypoints,
+        }
+    }
+}
+
 /// One head (pixel-centre coordinates).
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct DetectedHead {
     /// Face detector score.
     pub score: f32,
@@ -281,7 +291,7 @@ pub struct DetectedHead {
 }
 
 /// Everything found in one image.
-#[derive(Clone, Debug, Default, PartialEq)]
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
 pub struct Detections {
     /// Image width and height in pixels (after EXIF orientation).
     pub image_size: (u32, u32),
@@ -579,6 +589,23 @@ mod tests {
         assert!(r.rotation.abs() < 0.2, "{}", r.rotation);
         assert!(r.center[1] < 200.0);
         assert!(r.width > 100.0);
+    }
+
+    #[test]
+    fn pipeline_can_be_shared_across_threads() {
+        fn assert_send_sync<T: Send + Sync>() {}
+        assert_send_sync::<HandPipeline>();
+    }
+
+    #[test]
+    fn detections_serialise_to_json() {
+        let d = Detections {
+            image_size: (4, 3),
+            hands: Vec::new(),
+            heads: Vec::new(),
+        };
+        let json = serde_json::to_string(&d).expect("json");
+        assert!(json.contains("\"image_size\":[4,3]"), "{json}");
     }
 
     #[test]

@@ -13,9 +13,19 @@
 //! plus the fused activations `RELU` and `RELU6`.
 //!
 //! Anything else is refused with [`ImportError::UnsupportedOperator`] rather than guessed.
+//!
+//! Two operators are this crate's own tract operators, because tract's generic versions were
+//! the largest costs of the palm detector: [`NhwcDepthwise`] (depthwise convolution with the
+//! channels innermost) and [`ChannelPrelu`] (PRELU in one pass). [`ImportOptions`] switches
+//! back to tract's built-in operators.
 
+mod depthwise;
 mod ops;
+mod prelu;
 mod tensors;
+
+pub use depthwise::NhwcDepthwise;
+pub use prelu::ChannelPrelu;
 
 use std::collections::HashMap;
 
@@ -64,10 +74,36 @@ pub fn list_operators(bytes: &[u8]) -> Result<Vec<(String, usize)>, ImportError>
     Ok(counts)
 }
 
-/// Translates a `.tflite` flatbuffer into an (unoptimised) tract [`TypedModel`].
+/// Choices of the importer.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ImportOptions {
+    /// Translate depthwise convolutions to [`NhwcDepthwise`] (channels-innermost, vectorised)
+    /// instead of tract's generic grouped `Conv`. Default: true.
+    pub fast_depthwise: bool,
+    /// Translate PRELU with constant per-channel slopes to one [`ChannelPrelu`] pass instead
+    /// of four tract element-wise ops. Default: true.
+    pub fused_prelu: bool,
+}
+
+impl Default for ImportOptions {
+    fn default() -> Self {
+        ImportOptions {
+            fast_depthwise: true,
+            fused_prelu: true,
+        }
+    }
+}
+
+/// Translates a `.tflite` flatbuffer into an (unoptimised) tract [`TypedModel`] with the
+/// default [`ImportOptions`].
 ///
 /// Inputs and outputs keep the order and shapes of the TFLite subgraph; weights are f32.
 pub fn import(bytes: &[u8]) -> Result<TypedModel, ImportError> {
+    import_with(bytes, ImportOptions::default())
+}
+
+/// [`import`] with explicit options.
+pub fn import_with(bytes: &[u8], options: ImportOptions) -> Result<TypedModel, ImportError> {
     let model = parse(bytes)?;
     let graph = main_subgraph(&model)?;
     let mut target = TypedModel::default();
@@ -83,7 +119,7 @@ pub fn import(bytes: &[u8]) -> Result<TypedModel, ImportError> {
         values.insert(input, ops::Value::Wire(wire));
     }
     for (ix, op) in graph.operators().into_iter().flatten().enumerate() {
-        ops::translate(&model, &graph, &op, ix, &mut target, &mut values)?;
+        ops::translate(&model, &graph, &op, ix, &mut target, &mut values, options)?;
     }
     let mut outputs = tvec!();
     for output in graph.outputs().into_iter().flatten() {

@@ -99,6 +99,7 @@ struct Ctx<'a, 'm> {
     values: &'a mut HashMap<i32, Value>,
     prefix: String,
     inputs: Vec<i32>,
+    options: super::ImportOptions,
 }
 
 impl Ctx<'_, '_> {
@@ -223,6 +224,7 @@ pub(super) fn translate(
     ix: usize,
     target: &mut TypedModel,
     values: &mut HashMap<i32, Value>,
+    options: super::ImportOptions,
 ) -> Result<(), ImportError> {
     let code = builtin_code(model, op)?;
     let inputs: Vec<i32> = op.inputs().map(|v| v.iter().collect()).unwrap_or_default();
@@ -243,6 +245,7 @@ pub(super) fn translate(
         values,
         prefix,
         inputs,
+        options,
     };
     let value = match code {
         BuiltinOperator::DEQUANTIZE => match cx.value(0)? {
@@ -400,6 +403,18 @@ fn conv(cx: &mut Ctx, depthwise: bool) -> Result<OutletId, ImportError> {
     } else {
         Tensor::zero::<f32>(&[out_channels])?
     };
+    if depthwise && cx.options.fast_depthwise && dilations == [1, 1] {
+        let [_, kh, kw, c] = [ks[0], ks[1], ks[2], ks[3]];
+        let kernel = kernel.into_tensor().into_shape(&[kh, kw, c])?;
+        let op = super::depthwise::NhwcDepthwise {
+            kernel: kernel.into_arc_tensor(),
+            bias: bias.into_arc_tensor(),
+            strides: (strides[0] as usize, strides[1] as usize),
+            same: pad == Padding::SAME,
+        };
+        let y = cx.node("depthwise", op, &[x])?;
+        return cx.activation(y, act);
+    }
     // tract's OHWI carries the group on I: a depthwise kernel 1xHxWxC with group C is
     // exactly TFLite's layout.
     let k = cx.add_const("kernel", kernel.into_tensor())?;
@@ -417,6 +432,29 @@ fn conv(cx: &mut Ctx, depthwise: bool) -> Result<OutletId, ImportError> {
 /// `PRELU`: `max(x, 0) + alpha * min(x, 0)`, alpha broadcast over the channel axis.
 fn prelu(cx: &mut Ctx) -> Result<OutletId, ImportError> {
     let x = cx.wire(0)?;
+    if cx.options.fused_prelu {
+        if let Value::Const(alpha) = cx.value(1)? {
+            // Slopes shaped [1, ..., 1, C] broadcast along the channel axis only.
+            let shape = alpha.shape();
+            let channels = shape.last().copied().unwrap_or(1);
+            let x_channels = cx
+                .target
+                .outlet_fact(x)?
+                .shape
+                .last()
+                .and_then(|d| d.to_usize().ok());
+            if shape.iter().rev().skip(1).all(|&d| d == 1) && x_channels == Some(channels) {
+                let alpha = alpha
+                    .cast_to::<f32>()?
+                    .into_owned()
+                    .into_shape(&[channels])?;
+                let op = super::prelu::ChannelPrelu {
+                    alpha: alpha.into_arc_tensor(),
+                };
+                return cx.node("prelu", op, &[x]);
+            }
+        }
+    }
     let alpha = cx.wire(1)?;
     let zero = cx.add_const("zero", tensor0(0f32))?;
     let pos = cx.broadcast("pos", math::max(), &[x, zero])?;

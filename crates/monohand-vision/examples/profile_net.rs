@@ -1,0 +1,73 @@
+//! Time per operator type of an imported, optimised network (where does tract spend time?).
+//!
+//! `cargo run --release -p monohand-vision --example profile_net -- palm_detection_full`
+
+use std::collections::HashMap;
+use std::time::{Duration, Instant};
+
+use monohand_vision::{tflite_import, ModelFile, ModelStore};
+use tract_core::internal::*;
+
+fn main() -> TractResult<()> {
+    let which = std::env::args()
+        .nth(1)
+        .unwrap_or_else(|| "palm_detection_full".into());
+    let file = ModelFile::ALL
+        .into_iter()
+        .find(|f| f.file_name().starts_with(&which))
+        .context("unknown model")?;
+    let store = ModelStore::new(None).map_err(|e| format_err!("{e}"))?;
+    let bytes = store.load(file).map_err(|e| format_err!("{e}"))?;
+    let model = tflite_import::import(&bytes).map_err(|e| format_err!("{e}"))?;
+    let model = model.into_optimized()?;
+    let shape: Vec<usize> = model
+        .input_fact(0)?
+        .shape
+        .as_concrete()
+        .context("shape")?
+        .to_vec();
+    if std::env::var_os("SHOW_NODES").is_some() {
+        for n in model.nodes() {
+            if n.op().name() == std::env::var("SHOW_NODES").unwrap_or_default() {
+                let facts: Vec<String> = model
+                    .node_input_facts(n.id)?
+                    .iter()
+                    .map(|f| format!("{:?}", f.shape))
+                    .collect();
+                println!("{} {} inputs {:?}", n.name, n.op().name(), facts);
+            }
+        }
+    }
+    let plan = model.into_runnable()?;
+    let input = Tensor::zero::<f32>(&shape)?;
+    let mut per_op: HashMap<String, (Duration, usize)> = HashMap::new();
+    let runs = 30;
+    let t_all = Instant::now();
+    for _ in 0..runs {
+        let mut state = plan.spawn()?;
+        state.run_plan_with_eval(
+            tvec!(input.clone().into_tvalue()),
+            |ctx, st, node, inputs| {
+                let t = Instant::now();
+                let r = tract_core::plan::eval(ctx, st, node, inputs);
+                let e = per_op.entry(node.op().name().to_string()).or_default();
+                e.0 += t.elapsed();
+                e.1 += 1;
+                r
+            },
+        )?;
+    }
+    let total = t_all.elapsed() / runs;
+    let mut v: Vec<_> = per_op.into_iter().collect();
+    v.sort_by_key(|e| std::cmp::Reverse(e.1 .0));
+    println!("{which}: {:.2} ms per run", total.as_secs_f64() * 1e3);
+    for (name, (d, n)) in v {
+        println!(
+            "  {:<28} {:7.2} ms  ({} nodes)",
+            name,
+            d.as_secs_f64() * 1e3 / runs as f64,
+            n / runs as usize
+        );
+    }
+    Ok(())
+}
