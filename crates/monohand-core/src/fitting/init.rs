@@ -23,11 +23,9 @@ pub(crate) type Candidates = [Option<HandPose>; 8];
 
 /// Starting poses for a fit: closed-form palm estimates refined on the palm,
 /// or an orientation sweep when the palm is not seen.
-pub(crate) fn root_candidates(
-    sk: &HandSkeleton,
-    views: &[PreparedView],
-    observed: &JointMask,
-) -> Candidates {
+pub(crate) fn root_candidates(fitter: &HandFitter, observed: &JointMask) -> Candidates {
+    let sk = fitter.skeleton();
+    let views = fitter.views.as_slice();
     let mut out: Candidates = [None; 8];
     let neutral = sk.limits.neutral();
     if views.is_empty() {
@@ -40,7 +38,6 @@ pub(crate) fn root_candidates(
         .filter(|&&j| view.weights[j] > 0.0)
         .count();
     let rest = sk.rest_joints();
-    let fitter = FitterRef::new(sk, views);
     let mut root_free: DofMask = [false; NUM_DOF];
     root_free[..6].iter_mut().for_each(|f| *f = true);
 
@@ -54,7 +51,7 @@ pub(crate) fn root_candidates(
         {
             let mut p = to_reference(&cam_pose, view);
             p.angles = neutral;
-            let mut p = fitter.refine(p, &palm_mask, &root_free);
+            let mut p = refine(fitter, p, &palm_mask, &root_free);
             init_fingers(sk, &mut p, view);
             out[k] = Some(p);
         }
@@ -88,7 +85,7 @@ pub(crate) fn root_candidates(
                 angles: neutral,
             };
             p = to_reference(&p, view);
-            let mut p = fitter.refine(p, observed, &root_free);
+            let mut p = refine(fitter, p, observed, &root_free);
             init_fingers(sk, &mut p, view);
             *slot = Some(p);
         }
@@ -234,33 +231,16 @@ pub(crate) fn weak_perspective_palm(
     out
 }
 
-/// A borrowed view of the fitter state for the root refinements.
-struct FitterRef<'a> {
-    inner: HandFitter,
-    _p: std::marker::PhantomData<&'a ()>,
-}
-
-impl<'a> FitterRef<'a> {
-    fn new(sk: &HandSkeleton, views: &[PreparedView]) -> FitterRef<'a> {
-        let mut inner =
-            HandFitter::new(*sk, super::FitOptions::default()).expect("validated skeleton");
-        inner.views.extend_from_slice(views);
-        FitterRef {
-            inner,
-            _p: std::marker::PhantomData,
+/// Refines a root pose with the fitter's own views, first pushing it in front
+/// of every camera.
+fn refine(fitter: &HandFitter, mut p: HandPose, mask: &JointMask, free: &DofMask) -> HandPose {
+    if !fitter.in_front(&p) {
+        p.translation.z = p.translation.z.abs().max(200.0);
+        if !fitter.in_front(&p) {
+            return p;
         }
     }
-
-    fn refine(&self, mut p: HandPose, mask: &JointMask, free: &DofMask) -> HandPose {
-        if !self.inner.in_front(&p) {
-            // Push the hand in front of every camera.
-            p.translation.z = p.translation.z.abs().max(200.0);
-            if !self.inner.in_front(&p) {
-                return p;
-            }
-        }
-        self.inner.solve(p, mask, free, 30).pose
-    }
+    fitter.solve(p, mask, free, 30).pose
 }
 
 /// Sets each finger's angles from the rays of its observed keypoints, given the

@@ -115,7 +115,7 @@ impl HandFitter {
         let used = self.prepare(views)?;
         let observed = self.observed_joints();
         let free = free_dofs(&observed);
-        let starts = init::root_candidates(&self.skeleton, &self.views, &observed);
+        let starts = init::root_candidates(self, &observed);
         let mut best: Option<Solution> = None;
         let view_index = init::best_view(&self.views);
         for start in starts.iter().flatten() {
