@@ -69,6 +69,23 @@ pub enum IoError {
         /// What is wrong with the line.
         message: String,
     },
+    /// An external tool (`ffmpeg`, `ffprobe`) is not installed or not on `PATH`.
+    #[error(
+        "{tool} not found: install FFmpeg (Debian/Ubuntu: apt-get install ffmpeg; \
+         macOS: brew install ffmpeg) or set MONOHAND_FFMPEG / MONOHAND_FFPROBE to the executables"
+    )]
+    ToolMissing {
+        /// The executable that could not be started.
+        tool: String,
+    },
+    /// A video could not be opened, decoded or encoded; `message` ends with what ffmpeg said.
+    #[error("{input}: {message}")]
+    Video {
+        /// The video file (or webcam) as given.
+        input: String,
+        /// What went wrong, including ffmpeg's own error output.
+        message: String,
+    },
     /// The numbers were read but describe an impossible camera, skeleton or keypoint set.
     #[error("{file}: {error}")]
     Core {

@@ -11,6 +11,8 @@
 //! - [`openpose`]: OpenPose `--write_json` hand keypoints, read and written.
 //! - [`skeleton`]: bone-length files for sizing the hand model.
 //! - [`jsonl`]: the project's JSON Lines output (one frame per line), read and written.
+//! - [`overlay`]: drawing hand skeletons, boxes and labels on video frames.
+//! - [`video`]: video files and webcams in and out through the `ffmpeg` command-line tools.
 //!
 //! Every fallible function returns [`IoError`], whose message names the file
 //! and the field or line at fault.
@@ -22,7 +24,9 @@ pub mod error;
 pub mod jsonl;
 pub mod mat;
 pub mod openpose;
+pub mod overlay;
 pub mod skeleton;
 pub mod stb;
+pub mod video;
 
 pub use error::{IoError, IoResult};

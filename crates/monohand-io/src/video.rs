@@ -1,0 +1,938 @@
+//! Video in and out through the `ffmpeg` and `ffprobe` command-line tools.
+//!
+//! No codec library is linked: [`VideoReader`] runs
+//! `ffmpeg -i INPUT -f rawvideo -pix_fmt rgb24 -` and reads packed RGB frames
+//! from its standard output; [`VideoWriter`] runs
+//! `ffmpeg -f rawvideo -pix_fmt rgb24 -s WxH -r FPS -i - ... OUT` and writes
+//! frames to its standard input; [`probe`] asks `ffprobe` for the size, frame
+//! rate, frame count and codec of the first video stream. Anything ffmpeg can
+//! decode is accepted (MP4/MOV, MKV/WebM, AVI, MPEG-TS, image files and image
+//! sequences such as `img_%04d.png`), and a Linux webcam is read with the input
+//! string `webcam:N` (`-f v4l2 -i /dev/videoN`, see [`VideoInput`]).
+//!
+//! The tools must be on `PATH` (Debian/Ubuntu: `apt-get install ffmpeg`, which
+//! provides both), or named by the environment variables `MONOHAND_FFMPEG` and
+//! `MONOHAND_FFPROBE`; when they are missing every function returns
+//! [`IoError::ToolMissing`], which says what to install.
+//!
+//! Errors never hang or panic: ffmpeg's standard error is drained on a thread
+//! (so a chatty ffmpeg cannot block on a full pipe) and its last lines are put
+//! into [`IoError::Video`]. A corrupt or truncated video yields its decodable
+//! frames first and then an error; an unreadable file fails in [`probe`] /
+//! [`VideoReader::open`].
+//!
+//! ```no_run
+//! use monohand_io::video::{VideoInput, VideoReader, VideoWriter};
+//! let mut reader = VideoReader::open(&VideoInput::parse("clip.mp4")).unwrap();
+//! let info = reader.info().clone();
+//! let mut writer = VideoWriter::create("out.mp4", info.width, info.height, info.fps_or_default()).unwrap();
+//! for frame in &mut reader {
+//!     let frame = frame.unwrap();
+//!     // ... draw on frame.image ...
+//!     writer.write(&frame.image).unwrap();
+//! }
+//! writer.finish().unwrap();
+//! ```
+
+use crate::error::{IoError, IoResult};
+use serde_json::Value;
+use std::io::{Read, Write};
+use std::path::{Path, PathBuf};
+use std::process::{Child, ChildStdin, ChildStdout, Command, Stdio};
+use std::thread::JoinHandle;
+
+/// The frame rate assumed when a video does not state one (frames per second).
+pub const DEFAULT_FPS: f64 = 30.0;
+
+/// How many bytes of ffmpeg's standard error are kept for error messages (the tail).
+const STDERR_KEEP: usize = 4096;
+
+/// A packed 8-bit RGB image: `data[3 * (y * width + x) + c]`, rows top to bottom.
+#[derive(Debug, Clone, PartialEq, Eq, Default)]
+pub struct RgbFrame {
+    /// Width in pixels.
+    pub width: usize,
+    /// Height in pixels.
+    pub height: usize,
+    /// `3 * width * height` bytes, R G B per pixel.
+    pub data: Vec<u8>,
+}
+
+impl RgbFrame {
+    /// A black image.
+    pub fn new(width: usize, height: usize) -> RgbFrame {
+        RgbFrame {
+            width,
+            height,
+            data: vec![0; 3 * width * height],
+        }
+    }
+
+    /// Wraps a buffer; `None` if its length is not `3 * width * height`.
+    pub fn from_raw(width: usize, height: usize, data: Vec<u8>) -> Option<RgbFrame> {
+        (width.checked_mul(height)?.checked_mul(3)? == data.len()).then_some(RgbFrame {
+            width,
+            height,
+            data,
+        })
+    }
+
+    /// The colour at `(x, y)`, or `None` outside the image.
+    pub fn pixel(&self, x: usize, y: usize) -> Option<[u8; 3]> {
+        if x >= self.width || y >= self.height {
+            return None;
+        }
+        let i = 3 * (y * self.width + x);
+        Some([self.data[i], self.data[i + 1], self.data[i + 2]])
+    }
+
+    /// Sets the colour at `(x, y)`; does nothing outside the image.
+    pub fn set_pixel(&mut self, x: usize, y: usize, rgb: [u8; 3]) {
+        if x < self.width && y < self.height {
+            let i = 3 * (y * self.width + x);
+            self.data[i..i + 3].copy_from_slice(&rgb);
+        }
+    }
+
+    /// Number of bytes of one frame of this size.
+    pub fn byte_len(&self) -> usize {
+        3 * self.width * self.height
+    }
+}
+
+/// Where the `ffmpeg` and `ffprobe` executables are.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct FfmpegTools {
+    /// The `ffmpeg` executable (a name looked up on `PATH`, or a path).
+    pub ffmpeg: PathBuf,
+    /// The `ffprobe` executable.
+    pub ffprobe: PathBuf,
+}
+
+impl Default for FfmpegTools {
+    /// `$MONOHAND_FFMPEG` / `$MONOHAND_FFPROBE` if set, else `ffmpeg` / `ffprobe` on `PATH`.
+    fn default() -> FfmpegTools {
+        let var = |k: &str, d: &str| {
+            std::env::var_os(k)
+                .filter(|v| !v.is_empty())
+                .map(PathBuf::from)
+                .unwrap_or_else(|| PathBuf::from(d))
+        };
+        FfmpegTools {
+            ffmpeg: var("MONOHAND_FFMPEG", "ffmpeg"),
+            ffprobe: var("MONOHAND_FFPROBE", "ffprobe"),
+        }
+    }
+}
+
+impl FfmpegTools {
+    /// Whether `ffmpeg` can be run (`ffmpeg -version` succeeds).
+    pub fn available(&self) -> bool {
+        Command::new(&self.ffmpeg)
+            .arg("-version")
+            .stdin(Stdio::null())
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .status()
+            .is_ok_and(|s| s.success())
+    }
+
+    /// Whether `ffmpeg` has this encoder (as listed by `ffmpeg -encoders`).
+    pub fn has_encoder(&self, name: &str) -> bool {
+        let Ok(out) = Command::new(&self.ffmpeg)
+            .args(["-hide_banner", "-encoders"])
+            .stdin(Stdio::null())
+            .stderr(Stdio::null())
+            .output()
+        else {
+            return false;
+        };
+        String::from_utf8_lossy(&out.stdout)
+            .lines()
+            .any(|l| l.split_whitespace().nth(1) == Some(name))
+    }
+}
+
+/// The error for a tool that could not be started.
+fn spawn_error(tool: &Path, e: std::io::Error) -> IoError {
+    if e.kind() == std::io::ErrorKind::NotFound {
+        IoError::ToolMissing {
+            tool: tool.display().to_string(),
+        }
+    } else {
+        IoError::Video {
+            input: tool.display().to_string(),
+            message: format!("cannot run: {e}"),
+        }
+    }
+}
+
+/// A video source: a file (or anything else ffmpeg opens) or a webcam.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum VideoInput {
+    /// A file, URL or image-sequence pattern, given to ffmpeg's `-i` as is.
+    File(PathBuf),
+    /// A Video4Linux device `/dev/videoN` (Linux webcams), read with `-f v4l2`.
+    Webcam(u32),
+}
+
+impl VideoInput {
+    /// `webcam:N` (N a number) is [`VideoInput::Webcam`]; anything else is a file.
+    pub fn parse(s: &str) -> VideoInput {
+        if let Some(n) = s.strip_prefix("webcam:").and_then(|n| n.parse().ok()) {
+            return VideoInput::Webcam(n);
+        }
+        VideoInput::File(PathBuf::from(s))
+    }
+
+    /// The ffmpeg/ffprobe arguments that open this input: `["-i", path]`, or
+    /// `["-f", "v4l2", "-i", "/dev/videoN"]` for a webcam.
+    pub fn input_args(&self) -> Vec<String> {
+        match self {
+            VideoInput::File(p) => vec!["-i".into(), p.display().to_string()],
+            VideoInput::Webcam(n) => vec![
+                "-f".into(),
+                "v4l2".into(),
+                "-i".into(),
+                format!("/dev/video{n}"),
+            ],
+        }
+    }
+
+    /// The name used in messages.
+    pub fn name(&self) -> String {
+        match self {
+            VideoInput::File(p) => p.display().to_string(),
+            VideoInput::Webcam(n) => format!("webcam:{n} (/dev/video{n})"),
+        }
+    }
+
+    /// Whether this is a live source (no end, no frame count).
+    pub fn is_live(&self) -> bool {
+        matches!(self, VideoInput::Webcam(_))
+    }
+}
+
+/// What [`probe`] found out about the first video stream.
+#[derive(Debug, Clone, PartialEq)]
+pub struct VideoInfo {
+    /// Width of the decoded frames, pixels (after the rotation, which ffmpeg applies).
+    pub width: usize,
+    /// Height of the decoded frames, pixels (after the rotation).
+    pub height: usize,
+    /// Frame rate, frames per second, if the container states one.
+    pub fps: Option<f64>,
+    /// Number of frames, if the container states it (often absent, e.g. in MKV/WebM).
+    pub frame_count: Option<u64>,
+    /// The codec name, e.g. `h264`.
+    pub codec: Option<String>,
+    /// Display rotation in degrees from the stream's metadata (phone videos);
+    /// the reader's frames are already rotated, so this is informational.
+    pub rotation_deg: i32,
+}
+
+impl VideoInfo {
+    /// The frame rate, or [`DEFAULT_FPS`] if unknown.
+    pub fn fps_or_default(&self) -> f64 {
+        self.fps
+            .filter(|f| f.is_finite() && *f > 0.0)
+            .unwrap_or(DEFAULT_FPS)
+    }
+}
+
+/// Parses a rational such as `30000/1001` (or a plain number); `None` for `0/0` or junk.
+fn parse_rate(s: &str) -> Option<f64> {
+    let v = match s.split_once('/') {
+        Some((n, d)) => n.trim().parse::<f64>().ok()? / d.trim().parse::<f64>().ok()?,
+        None => s.trim().parse().ok()?,
+    };
+    (v.is_finite() && v > 0.0).then_some(v)
+}
+
+/// Parses `ffprobe -of json` output (see [`probe`]); `name` is used in errors.
+pub fn parse_probe_json(text: &str, name: &str) -> IoResult<VideoInfo> {
+    let v: Value = serde_json::from_str(text).map_err(|e| IoError::json(name, &e))?;
+    let Some(s) = v
+        .get("streams")
+        .and_then(Value::as_array)
+        .and_then(|a| a.first())
+    else {
+        return Err(IoError::Video {
+            input: name.into(),
+            message: "no video stream found".into(),
+        });
+    };
+    let dim = |k: &str| {
+        s.get(k)
+            .and_then(Value::as_u64)
+            .filter(|&d| d > 0 && d < 1 << 16)
+            .map(|d| d as usize)
+            .ok_or_else(|| IoError::field(name, format!("streams[0].{k}"), "missing or invalid"))
+    };
+    let (w, h) = (dim("width")?, dim("height")?);
+    let str_field = |k: &str| s.get(k).and_then(Value::as_str);
+    let fps = str_field("r_frame_rate").and_then(parse_rate);
+    let frame_count = str_field("nb_frames")
+        .and_then(|n| n.parse::<u64>().ok())
+        .filter(|&n| n > 0);
+    let codec = str_field("codec_name").map(str::to_string);
+    // Rotation: newer ffprobe puts it in the display-matrix side data, older in tags.rotate.
+    let side = s
+        .get("side_data_list")
+        .and_then(Value::as_array)
+        .into_iter()
+        .flatten()
+        .find_map(|d| d.get("rotation").and_then(Value::as_f64));
+    let tag = s
+        .get("tags")
+        .and_then(|t| t.get("rotate"))
+        .and_then(Value::as_str)
+        .and_then(|r| r.parse::<f64>().ok());
+    let rotation_deg = side.or(tag).unwrap_or(0.0).round() as i32;
+    let quarter = rotation_deg.rem_euclid(180) == 90;
+    let (width, height) = if quarter { (h, w) } else { (w, h) };
+    Ok(VideoInfo {
+        width,
+        height,
+        fps,
+        frame_count,
+        codec,
+        rotation_deg,
+    })
+}
+
+/// Describes the first video stream of an input with
+/// `ffprobe -v error -select_streams v:0 -show_entries stream=... -of json`.
+pub fn probe(input: &VideoInput) -> IoResult<VideoInfo> {
+    probe_with(&FfmpegTools::default(), input)
+}
+
+/// [`probe`] with explicit tool paths.
+pub fn probe_with(tools: &FfmpegTools, input: &VideoInput) -> IoResult<VideoInfo> {
+    let name = input.name();
+    if let VideoInput::File(p) = input {
+        // A clearer message than ffprobe's for the commonest mistake (unless it is
+        // a pattern or URL, which ffprobe resolves itself).
+        let s = p.to_string_lossy();
+        if !p.exists() && !s.contains('%') && !s.contains("://") {
+            return Err(IoError::Read {
+                path: p.clone(),
+                error: std::io::Error::new(std::io::ErrorKind::NotFound, "no such file"),
+            });
+        }
+    }
+    let mut args: Vec<String> = ["-v", "error", "-select_streams", "v:0", "-show_entries"]
+        .map(String::from)
+        .to_vec();
+    args.push(
+        "stream=width,height,r_frame_rate,nb_frames,codec_name:stream_tags=rotate:stream_side_data=rotation"
+            .into(),
+    );
+    args.extend(["-of".into(), "json".into()]);
+    let mut input_args = input.input_args();
+    // ffprobe takes the input without -i.
+    if let Some(pos) = input_args.iter().position(|a| a == "-i") {
+        input_args.remove(pos);
+    }
+    args.extend(input_args);
+    let out = Command::new(&tools.ffprobe)
+        .args(&args)
+        .stdin(Stdio::null())
+        .output()
+        .map_err(|e| spawn_error(&tools.ffprobe, e))?;
+    let stderr = String::from_utf8_lossy(&out.stderr).trim().to_string();
+    if !out.status.success() {
+        return Err(IoError::Video {
+            input: name,
+            message: format!("ffprobe cannot read it ({}): {stderr}", out.status),
+        });
+    }
+    parse_probe_json(&String::from_utf8_lossy(&out.stdout), &name).map_err(|e| match e {
+        IoError::Video { input, message } if !stderr.is_empty() => IoError::Video {
+            input,
+            message: format!("{message}; ffprobe said: {stderr}"),
+        },
+        e => e,
+    })
+}
+
+/// Reads a child's standard error on a thread, keeping the last [`STDERR_KEEP`] bytes.
+fn drain_stderr(mut pipe: impl Read + Send + 'static) -> JoinHandle<String> {
+    std::thread::spawn(move || {
+        let mut kept: Vec<u8> = Vec::new();
+        let mut buf = [0u8; 4096];
+        loop {
+            match pipe.read(&mut buf) {
+                Ok(0) | Err(_) => break,
+                Ok(n) => {
+                    kept.extend_from_slice(&buf[..n]);
+                    if kept.len() > 2 * STDERR_KEEP {
+                        kept.drain(..kept.len() - STDERR_KEEP);
+                    }
+                }
+            }
+        }
+        if kept.len() > STDERR_KEEP {
+            kept.drain(..kept.len() - STDERR_KEEP);
+        }
+        String::from_utf8_lossy(&kept).trim().to_string()
+    })
+}
+
+/// Starts a command in its own process group, so that a Ctrl-C in the
+/// terminal reaches only this program, which then ends ffmpeg cleanly.
+fn own_process_group(cmd: &mut Command) -> &mut Command {
+    #[cfg(unix)]
+    {
+        use std::os::unix::process::CommandExt;
+        cmd.process_group(0);
+    }
+    cmd
+}
+
+/// One decoded frame with its position in the video.
+#[derive(Debug, Clone, PartialEq)]
+pub struct VideoFrame {
+    /// Frame index, from 0.
+    pub index: u64,
+    /// Nominal time of the frame, seconds: `index / fps` (see [`VideoInfo::fps_or_default`]).
+    pub timestamp_s: f64,
+    /// The pixels.
+    pub image: RgbFrame,
+}
+
+/// Decodes a video to RGB frames with an `ffmpeg` child process.
+///
+/// Frames come in decoding-output order with consecutive indices. After the
+/// last frame, [`VideoReader::read_into`] returns `Ok(None)` if ffmpeg ended
+/// cleanly, or an [`IoError::Video`] carrying ffmpeg's message if it failed
+/// (corrupt or truncated input); later calls return `Ok(None)`.
+/// Dropping the reader stops ffmpeg.
+pub struct VideoReader {
+    child: Child,
+    stdout: ChildStdout,
+    stderr: Option<JoinHandle<String>>,
+    info: VideoInfo,
+    name: String,
+    next_index: u64,
+    done: bool,
+}
+
+impl std::fmt::Debug for VideoReader {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("VideoReader")
+            .field("input", &self.name)
+            .field("info", &self.info)
+            .field("next_index", &self.next_index)
+            .finish()
+    }
+}
+
+impl VideoReader {
+    /// Probes the input and starts decoding it.
+    pub fn open(input: &VideoInput) -> IoResult<VideoReader> {
+        VideoReader::open_with(&FfmpegTools::default(), input)
+    }
+
+    /// [`VideoReader::open`] with explicit tool paths.
+    pub fn open_with(tools: &FfmpegTools, input: &VideoInput) -> IoResult<VideoReader> {
+        let info = probe_with(tools, input)?;
+        let args = reader_args(input);
+        let mut child = own_process_group(Command::new(&tools.ffmpeg).args(&args))
+            .stdin(Stdio::null())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .map_err(|e| spawn_error(&tools.ffmpeg, e))?;
+        let (Some(stdout), Some(stderr)) = (child.stdout.take(), child.stderr.take()) else {
+            let _ = child.kill();
+            let _ = child.wait();
+            return Err(IoError::Video {
+                input: input.name(),
+                message: "cannot connect to ffmpeg's output".into(),
+            });
+        };
+        Ok(VideoReader {
+            child,
+            stdout,
+            stderr: Some(drain_stderr(stderr)),
+            info,
+            name: input.name(),
+            next_index: 0,
+            done: false,
+        })
+    }
+
+    /// The probed stream description; frames have `info().width x info().height` pixels.
+    pub fn info(&self) -> &VideoInfo {
+        &self.info
+    }
+
+    /// Number of frames returned so far.
+    pub fn frames_read(&self) -> u64 {
+        self.next_index
+    }
+
+    /// Reads the next frame into `frame` (resized if needed, so one buffer can
+    /// be reused for the whole video) and returns `(index, timestamp_s)`, or
+    /// `None` at the end.
+    pub fn read_into(&mut self, frame: &mut RgbFrame) -> IoResult<Option<(u64, f64)>> {
+        if self.done {
+            return Ok(None);
+        }
+        let (w, h) = (self.info.width, self.info.height);
+        frame.width = w;
+        frame.height = h;
+        frame.data.resize(3 * w * h, 0);
+        let mut filled = 0;
+        while filled < frame.data.len() {
+            match self.stdout.read(&mut frame.data[filled..]) {
+                Ok(0) => break,
+                Ok(n) => filled += n,
+                Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+                Err(e) => {
+                    self.done = true;
+                    let why = format!("cannot read from ffmpeg: {e}");
+                    return Err(self.end_error(why));
+                }
+            }
+        }
+        if filled == frame.data.len() {
+            let index = self.next_index;
+            self.next_index += 1;
+            return Ok(Some((index, index as f64 / self.info.fps_or_default())));
+        }
+        // End of output: clean end, or a failure after the good frames.
+        self.done = true;
+        let status = self.child.wait();
+        let stderr = self
+            .stderr
+            .take()
+            .and_then(|t| t.join().ok())
+            .unwrap_or_default();
+        let ok = status.as_ref().is_ok_and(|s| s.success());
+        if ok && filled == 0 && stderr.is_empty() {
+            return Ok(None);
+        }
+        let mut why = match &status {
+            Ok(s) if !s.success() => format!("ffmpeg failed ({s})"),
+            Err(e) => format!("ffmpeg could not be waited for: {e}"),
+            Ok(_) => "ffmpeg reported decoding errors".to_string(),
+        };
+        if filled > 0 {
+            why.push_str(&format!(
+                "; the last frame is incomplete ({filled} of {} bytes)",
+                frame.data.len()
+            ));
+        }
+        Err(self.error_with(why, &stderr))
+    }
+
+    /// Reads the next frame into a new buffer, or `None` at the end.
+    pub fn next_frame(&mut self) -> IoResult<Option<VideoFrame>> {
+        let mut image = RgbFrame::default();
+        Ok(self
+            .read_into(&mut image)?
+            .map(|(index, timestamp_s)| VideoFrame {
+                index,
+                timestamp_s,
+                image,
+            }))
+    }
+
+    /// An error after a failed read: stops ffmpeg and collects its message.
+    fn end_error(&mut self, why: String) -> IoError {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+        let stderr = self
+            .stderr
+            .take()
+            .and_then(|t| t.join().ok())
+            .unwrap_or_default();
+        self.error_with(why, &stderr)
+    }
+
+    fn error_with(&self, why: String, stderr: &str) -> IoError {
+        let mut message = format!("{why} after {} good frame(s)", self.next_index);
+        if !stderr.is_empty() {
+            message.push_str(": ");
+            message.push_str(stderr);
+        }
+        IoError::Video {
+            input: self.name.clone(),
+            message,
+        }
+    }
+}
+
+impl Iterator for VideoReader {
+    type Item = IoResult<VideoFrame>;
+
+    /// The next frame; after an error, `None`.
+    fn next(&mut self) -> Option<IoResult<VideoFrame>> {
+        self.next_frame().transpose()
+    }
+}
+
+impl Drop for VideoReader {
+    fn drop(&mut self) {
+        if let Ok(None) = self.child.try_wait() {
+            let _ = self.child.kill();
+        }
+        let _ = self.child.wait();
+        if let Some(t) = self.stderr.take() {
+            let _ = t.join();
+        }
+    }
+}
+
+/// The ffmpeg arguments that decode `input` to packed RGB on standard output.
+pub fn reader_args(input: &VideoInput) -> Vec<String> {
+    let mut args: Vec<String> = ["-hide_banner", "-nostdin", "-v", "error"]
+        .map(String::from)
+        .to_vec();
+    args.extend(input.input_args());
+    args.extend(
+        [
+            "-map", "0:v:0", "-an", "-sn", "-f", "rawvideo", "-pix_fmt", "rgb24", "-",
+        ]
+        .map(String::from),
+    );
+    args
+}
+
+/// The video encoder a [`VideoWriter`] uses.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Encoder {
+    /// H.264 with `libx264` (`-preset veryfast`, `-pix_fmt yuv420p`): small, plays everywhere.
+    Libx264,
+    /// MPEG-4 part 2 (`mpeg4`, built into every ffmpeg), the fallback.
+    Mpeg4,
+}
+
+impl Encoder {
+    /// `libx264` if this ffmpeg has it, else `mpeg4`.
+    pub fn best_available(tools: &FfmpegTools) -> Encoder {
+        if tools.has_encoder("libx264") {
+            Encoder::Libx264
+        } else {
+            Encoder::Mpeg4
+        }
+    }
+
+    fn args(self) -> &'static [&'static str] {
+        match self {
+            Encoder::Libx264 => &["-c:v", "libx264", "-preset", "veryfast", "-crf", "20"],
+            Encoder::Mpeg4 => &["-c:v", "mpeg4", "-q:v", "3"],
+        }
+    }
+}
+
+/// The ffmpeg arguments that encode `width x height` RGB frames from standard input to `out`.
+pub fn writer_args(
+    width: usize,
+    height: usize,
+    fps: f64,
+    encoder: Encoder,
+    out: &Path,
+) -> Vec<String> {
+    let mut args: Vec<String> = ["-hide_banner", "-v", "error", "-y"]
+        .map(String::from)
+        .to_vec();
+    args.extend(["-f", "rawvideo", "-pix_fmt", "rgb24"].map(String::from));
+    args.extend([
+        "-s".into(),
+        format!("{width}x{height}"),
+        "-r".into(),
+        format!("{fps}"),
+    ]);
+    args.extend(["-i", "-", "-an"].map(String::from));
+    if width % 2 == 1 || height % 2 == 1 {
+        // yuv420p needs even sizes: pad one black row/column.
+        args.extend(["-vf".into(), "pad=ceil(iw/2)*2:ceil(ih/2)*2".into()]);
+    }
+    args.extend(encoder.args().iter().map(|s| s.to_string()));
+    args.extend(["-pix_fmt".into(), "yuv420p".into()]);
+    args.push(out.display().to_string());
+    args
+}
+
+/// Encodes RGB frames to a video file with an `ffmpeg` child process.
+///
+/// The container follows the file extension (`.mp4`, `.mkv`, `.mov`, `.avi`).
+/// [`VideoWriter::finish`] closes ffmpeg's input and waits for it to write the
+/// file; dropping an unfinished writer does the same (errors ignored), so an
+/// interrupted program still leaves a playable file. ffmpeg runs in its own
+/// process group: a Ctrl-C in the terminal does not kill it mid-file, and if
+/// this program dies, ffmpeg sees its input end and finalises the file.
+pub struct VideoWriter {
+    child: Option<Child>,
+    stdin: Option<ChildStdin>,
+    stderr: Option<JoinHandle<String>>,
+    width: usize,
+    height: usize,
+    frames: u64,
+    path: PathBuf,
+}
+
+impl std::fmt::Debug for VideoWriter {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("VideoWriter")
+            .field("path", &self.path)
+            .field("width", &self.width)
+            .field("height", &self.height)
+            .field("frames", &self.frames)
+            .finish()
+    }
+}
+
+impl VideoWriter {
+    /// Starts encoding `width x height` frames at `fps` to `path` (overwritten)
+    /// with the best available encoder.
+    pub fn create(
+        path: impl AsRef<Path>,
+        width: usize,
+        height: usize,
+        fps: f64,
+    ) -> IoResult<VideoWriter> {
+        let tools = FfmpegTools::default();
+        let encoder = Encoder::best_available(&tools);
+        VideoWriter::create_with(&tools, encoder, path, width, height, fps)
+    }
+
+    /// [`VideoWriter::create`] with explicit tools and encoder.
+    pub fn create_with(
+        tools: &FfmpegTools,
+        encoder: Encoder,
+        path: impl AsRef<Path>,
+        width: usize,
+        height: usize,
+        fps: f64,
+    ) -> IoResult<VideoWriter> {
+        let path = path.as_ref().to_path_buf();
+        let bad = |message: String| IoError::Video {
+            input: path.display().to_string(),
+            message,
+        };
+        if width == 0 || height == 0 || width >= 1 << 15 || height >= 1 << 15 {
+            return Err(bad(format!("invalid frame size {width}x{height}")));
+        }
+        if !(fps.is_finite() && fps > 0.0 && fps <= 1000.0) {
+            return Err(bad(format!("invalid frame rate {fps}")));
+        }
+        let args = writer_args(width, height, fps, encoder, &path);
+        let mut child = own_process_group(Command::new(&tools.ffmpeg).args(&args))
+            .stdin(Stdio::piped())
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .spawn()
+            .map_err(|e| spawn_error(&tools.ffmpeg, e))?;
+        let stdin = child.stdin.take();
+        let stderr = child.stderr.take().map(drain_stderr);
+        Ok(VideoWriter {
+            child: Some(child),
+            stdin,
+            stderr,
+            width,
+            height,
+            frames: 0,
+            path,
+        })
+    }
+
+    /// Frames written so far.
+    pub fn frames_written(&self) -> u64 {
+        self.frames
+    }
+
+    /// The output file.
+    pub fn path(&self) -> &Path {
+        &self.path
+    }
+
+    /// Encodes one frame, which must have the writer's size.
+    pub fn write(&mut self, frame: &RgbFrame) -> IoResult<()> {
+        let name = self.path.display().to_string();
+        if frame.width != self.width
+            || frame.height != self.height
+            || frame.data.len() != frame.byte_len()
+        {
+            return Err(IoError::Video {
+                input: name,
+                message: format!(
+                    "frame {} is {}x{} ({} bytes), the video is {}x{}",
+                    self.frames,
+                    frame.width,
+                    frame.height,
+                    frame.data.len(),
+                    self.width,
+                    self.height
+                ),
+            });
+        }
+        let Some(stdin) = self.stdin.as_mut() else {
+            return Err(IoError::Video {
+                input: name,
+                message: "the writer is already finished".into(),
+            });
+        };
+        if let Err(e) = stdin.write_all(&frame.data) {
+            // ffmpeg has gone (bad path, unsupported container, ...): report what it said.
+            let why = format!("cannot send frame {} to ffmpeg: {e}", self.frames);
+            return Err(match self.close() {
+                Err(IoError::Video { input, message }) => IoError::Video {
+                    input,
+                    message: format!("{why}; {message}"),
+                },
+                _ => IoError::Video {
+                    input: name,
+                    message: why,
+                },
+            });
+        }
+        self.frames += 1;
+        Ok(())
+    }
+
+    /// Closes ffmpeg's input, waits for it to finish the file and reports its errors.
+    pub fn finish(mut self) -> IoResult<()> {
+        self.close()
+    }
+
+    fn close(&mut self) -> IoResult<()> {
+        drop(self.stdin.take());
+        let Some(mut child) = self.child.take() else {
+            return Ok(());
+        };
+        let status = child.wait();
+        let stderr = self
+            .stderr
+            .take()
+            .and_then(|t| t.join().ok())
+            .unwrap_or_default();
+        match status {
+            Ok(s) if s.success() => Ok(()),
+            Ok(s) => Err(IoError::Video {
+                input: self.path.display().to_string(),
+                message: format!(
+                    "ffmpeg failed ({s}) after {} frame(s): {stderr}",
+                    self.frames
+                ),
+            }),
+            Err(e) => Err(IoError::Video {
+                input: self.path.display().to_string(),
+                message: format!("ffmpeg could not be waited for: {e}"),
+            }),
+        }
+    }
+}
+
+impl Drop for VideoWriter {
+    fn drop(&mut self) {
+        let _ = self.close();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn input_strings_map_to_ffmpeg_arguments() {
+        assert_eq!(VideoInput::parse("webcam:2"), VideoInput::Webcam(2));
+        assert_eq!(
+            VideoInput::parse("webcam:2").input_args(),
+            vec!["-f", "v4l2", "-i", "/dev/video2"]
+        );
+        assert!(VideoInput::parse("webcam:0").is_live());
+        // Not a number: a file that happens to start with "webcam:".
+        assert_eq!(
+            VideoInput::parse("webcam:x.mp4"),
+            VideoInput::File(PathBuf::from("webcam:x.mp4"))
+        );
+        let args = reader_args(&VideoInput::parse("a b.mp4"));
+        let i = args.iter().position(|a| a == "-i").unwrap();
+        assert_eq!(args[i + 1], "a b.mp4");
+        assert!(args.ends_with(&["rgb24".to_string(), "-".to_string()]));
+        assert!(args.contains(&"-nostdin".to_string()));
+    }
+
+    #[test]
+    fn writer_arguments_pad_odd_sizes() {
+        let a = writer_args(640, 480, 30.0, Encoder::Libx264, Path::new("o.mp4"));
+        assert!(a.windows(2).any(|w| w == ["-s", "640x480"]));
+        assert!(a.windows(2).any(|w| w == ["-c:v", "libx264"]));
+        assert!(!a.contains(&"-vf".to_string()));
+        assert_eq!(a.last().map(String::as_str), Some("o.mp4"));
+        let a = writer_args(641, 480, 29.97, Encoder::Mpeg4, Path::new("o.mp4"));
+        assert!(a.contains(&"-vf".to_string()));
+        assert!(a.windows(2).any(|w| w == ["-r", "29.97"]));
+        assert!(a.windows(2).any(|w| w == ["-c:v", "mpeg4"]));
+    }
+
+    #[test]
+    fn probe_json_is_parsed() {
+        let j = r#"{"programs": [], "streams": [{"codec_name": "h264", "width": 1920,
+            "height": 1080, "r_frame_rate": "30000/1001", "nb_frames": "300",
+            "side_data_list": [{"rotation": -90}]}]}"#;
+        let info = parse_probe_json(j, "p.mp4").unwrap();
+        assert_eq!((info.width, info.height), (1080, 1920));
+        assert_eq!(info.rotation_deg, -90);
+        assert!((info.fps.unwrap() - 29.97).abs() < 0.01);
+        assert_eq!(info.frame_count, Some(300));
+        assert_eq!(info.codec.as_deref(), Some("h264"));
+        let j = r#"{"streams": [{"width": 640, "height": 480, "r_frame_rate": "0/0",
+            "tags": {"rotate": "180"}}]}"#;
+        let info = parse_probe_json(j, "p.mkv").unwrap();
+        assert_eq!(
+            (info.width, info.height, info.rotation_deg),
+            (640, 480, 180)
+        );
+        assert_eq!(info.fps, None);
+        assert_eq!(info.fps_or_default(), DEFAULT_FPS);
+        assert_eq!(info.frame_count, None);
+        let e = parse_probe_json(r#"{"streams": []}"#, "a.wav")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("a.wav") && e.contains("no video stream"), "{e}");
+        let e = parse_probe_json(r#"{"streams": [{"width": 0}]}"#, "z.mp4")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("width"), "{e}");
+    }
+
+    #[test]
+    fn missing_tools_say_what_to_install() {
+        let tools = FfmpegTools {
+            ffmpeg: PathBuf::from("/nonexistent/ffmpeg"),
+            ffprobe: PathBuf::from("/nonexistent/ffprobe"),
+        };
+        assert!(!tools.available());
+        let dir = tempfile::tempdir().unwrap();
+        let f = dir.path().join("x.mp4");
+        std::fs::write(&f, b"data").unwrap();
+        let e = probe_with(&tools, &VideoInput::File(f.clone()))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("apt-get install ffmpeg"), "{e}");
+        let e = VideoWriter::create_with(&tools, Encoder::Mpeg4, &f, 4, 4, 25.0)
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("/nonexistent/ffmpeg") && e.contains("ffmpeg"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn frame_pixels_and_bounds() {
+        let mut f = RgbFrame::new(3, 2);
+        f.set_pixel(2, 1, [1, 2, 3]);
+        f.set_pixel(3, 0, [9, 9, 9]);
+        assert_eq!(f.pixel(2, 1), Some([1, 2, 3]));
+        assert_eq!(f.pixel(3, 0), None);
+        assert_eq!(f.data.iter().map(|&b| b as u32).sum::<u32>(), 6);
+        assert!(RgbFrame::from_raw(3, 2, vec![0; 17]).is_none());
+        assert!(RgbFrame::from_raw(3, 2, vec![0; 18]).is_some());
+    }
+}

@@ -1,0 +1,238 @@
+//! Round trips through the real `ffmpeg` tools with a picture from the shared data.
+//! Every test is skipped (with a printed reason) where ffmpeg is not installed.
+
+use monohand_io::video::{
+    probe, Encoder, FfmpegTools, RgbFrame, VideoInput, VideoReader, VideoWriter,
+};
+use monohand_io::IoError;
+use std::path::{Path, PathBuf};
+
+const FRAMES: usize = 20;
+const W: usize = 320;
+const H: usize = 240;
+
+fn hand_png() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/images/pinto/hand.png")
+}
+
+/// The tools, or `None` (and a message) if this machine cannot run the tests.
+fn tools() -> Option<FfmpegTools> {
+    let t = FfmpegTools::default();
+    if !t.available() {
+        eprintln!("SKIPPED: ffmpeg is not installed (apt-get install ffmpeg)");
+        return None;
+    }
+    if !hand_png().exists() {
+        eprintln!("SKIPPED: {} is missing", hand_png().display());
+        return None;
+    }
+    Some(t)
+}
+
+/// The picture, decoded by ffmpeg as a one-frame video.
+fn picture() -> RgbFrame {
+    let mut r = VideoReader::open(&VideoInput::File(hand_png())).unwrap();
+    assert_eq!((r.info().width, r.info().height), (640, 480));
+    let f = r.next_frame().unwrap().unwrap();
+    assert!(r.next_frame().unwrap().is_none());
+    f.image
+}
+
+/// Frame `i` of a pan across the picture: a `W x H` window moving right and down.
+fn pan_frame(pic: &RgbFrame, i: usize) -> RgbFrame {
+    let (x0, y0) = (8 * i, 4 * i);
+    let mut f = RgbFrame::new(W, H);
+    for y in 0..H {
+        let src = 3 * ((y0 + y) * pic.width + x0);
+        f.data[3 * y * W..3 * (y + 1) * W].copy_from_slice(&pic.data[src..src + 3 * W]);
+    }
+    f
+}
+
+fn mean_abs_diff(a: &RgbFrame, b: &RgbFrame) -> f64 {
+    assert_eq!(a.data.len(), b.data.len());
+    let s: u64 = a
+        .data
+        .iter()
+        .zip(&b.data)
+        .map(|(&x, &y)| x.abs_diff(y) as u64)
+        .sum();
+    s as f64 / a.data.len() as f64
+}
+
+fn write_pan(tools: &FfmpegTools, encoder: Encoder, path: &Path, pic: &RgbFrame) {
+    let mut w = VideoWriter::create_with(tools, encoder, path, W, H, 10.0).unwrap();
+    for i in 0..FRAMES {
+        w.write(&pan_frame(pic, i)).unwrap();
+    }
+    assert_eq!(w.frames_written(), FRAMES as u64);
+    w.finish().unwrap();
+}
+
+#[test]
+fn pan_round_trip_with_each_encoder() {
+    let Some(tools) = tools() else { return };
+    let pic = picture();
+    let dir = tempfile::tempdir().unwrap();
+    let mut encoders = vec![Encoder::Mpeg4];
+    if tools.has_encoder("libx264") {
+        encoders.push(Encoder::Libx264);
+    } else {
+        eprintln!("libx264 missing: only the mpeg4 fallback is tested");
+    }
+    for enc in encoders {
+        let path = dir.path().join(format!("pan_{enc:?}.mp4"));
+        write_pan(&tools, enc, &path, &pic);
+        let info = probe(&VideoInput::File(path.clone())).unwrap();
+        assert_eq!((info.width, info.height), (W, H), "{enc:?}");
+        assert!((info.fps.unwrap() - 10.0).abs() < 1e-9, "{info:?}");
+        assert_eq!(info.frame_count, Some(FRAMES as u64));
+        let mut reader = VideoReader::open(&VideoInput::File(path.clone())).unwrap();
+        let mut buf = RgbFrame::default();
+        let mut n = 0;
+        while let Some((index, t)) = reader.read_into(&mut buf).unwrap() {
+            assert_eq!(index, n as u64);
+            assert!((t - n as f64 / 10.0).abs() < 1e-9);
+            let d = mean_abs_diff(&buf, &pan_frame(&pic, n));
+            assert!(d < 6.0, "{enc:?} frame {n}: mean abs diff {d}");
+            // The right frame, not just a similar one: the neighbour differs more.
+            if n + 3 < FRAMES {
+                let other = mean_abs_diff(&buf, &pan_frame(&pic, n + 3));
+                assert!(
+                    other > d + 2.0,
+                    "{enc:?} frame {n}: {d} vs neighbour {other}"
+                );
+            }
+            n += 1;
+        }
+        assert_eq!(n, FRAMES, "{enc:?}");
+        // After the end it stays ended.
+        assert!(reader.read_into(&mut buf).unwrap().is_none());
+    }
+}
+
+#[test]
+fn truncated_video_gives_good_frames_then_an_error() {
+    let Some(tools) = tools() else { return };
+    let pic = picture();
+    let dir = tempfile::tempdir().unwrap();
+    // MP4 (index at the end: nothing is decodable) and MKV (streamable: a prefix is).
+    for ext in ["mp4", "mkv"] {
+        let path = dir.path().join(format!("full.{ext}"));
+        write_pan(&tools, Encoder::Mpeg4, &path, &pic);
+        let bytes = std::fs::read(&path).unwrap();
+        let cut = dir.path().join(format!("cut.{ext}"));
+        std::fs::write(&cut, &bytes[..bytes.len() * 6 / 10]).unwrap();
+        let name = cut.display().to_string();
+        let mut good = 0;
+        let err = match VideoReader::open(&VideoInput::File(cut.clone())) {
+            Err(e) => e,
+            Ok(reader) => {
+                let mut err = None;
+                for f in reader {
+                    match f {
+                        Ok(f) => {
+                            assert_eq!(f.index, good);
+                            assert!(mean_abs_diff(&f.image, &pan_frame(&pic, good as usize)) < 6.0);
+                            good += 1;
+                        }
+                        Err(e) => {
+                            err = Some(e);
+                            break;
+                        }
+                    }
+                }
+                err.expect("a truncated video must end with an error")
+            }
+        };
+        let msg = err.to_string();
+        assert!(matches!(err, IoError::Video { .. }), "{msg}");
+        assert!(msg.contains(&name), "{msg}");
+        assert!(good < FRAMES as u64, "{ext}: {good} frames from a cut file");
+        eprintln!("{ext}: {good} good frames, then: {msg}");
+        if ext == "mkv" {
+            assert!(good > 0, "the streamable prefix should decode");
+            assert!(
+                msg.contains(&format!("after {good} good frame(s)")),
+                "{msg}"
+            );
+        }
+    }
+}
+
+#[test]
+fn not_a_video_and_missing_files_are_clear_errors() {
+    let Some(_tools) = tools() else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let txt = dir.path().join("notes.mp4");
+    std::fs::write(&txt, "this is not a video\n").unwrap();
+    let e = VideoReader::open(&VideoInput::File(txt.clone())).unwrap_err();
+    let msg = e.to_string();
+    assert!(
+        msg.contains("notes.mp4") && msg.contains("Invalid data"),
+        "{msg}"
+    );
+    let empty = dir.path().join("empty.mkv");
+    std::fs::write(&empty, b"").unwrap();
+    let msg = VideoReader::open(&VideoInput::File(empty))
+        .unwrap_err()
+        .to_string();
+    assert!(msg.contains("empty.mkv"), "{msg}");
+    let missing = dir.path().join("missing.mp4");
+    let msg = probe(&VideoInput::File(missing)).unwrap_err().to_string();
+    assert!(
+        msg.contains("missing.mp4") && msg.contains("no such file"),
+        "{msg}"
+    );
+}
+
+#[test]
+fn writer_reports_ffmpeg_errors_and_size_mismatches() {
+    let Some(tools) = tools() else { return };
+    let dir = tempfile::tempdir().unwrap();
+    // A directory that does not exist: ffmpeg fails; the error says so.
+    let bad = dir.path().join("no/such/dir/out.mp4");
+    let mut w = VideoWriter::create_with(&tools, Encoder::Mpeg4, &bad, 64, 48, 25.0).unwrap();
+    let frame = RgbFrame::new(64, 48);
+    let mut result = Ok(());
+    for _ in 0..50 {
+        result = w.write(&frame);
+        if result.is_err() {
+            break;
+        }
+    }
+    let e = match result {
+        Err(e) => e,
+        Ok(()) => w.finish().unwrap_err(),
+    };
+    assert!(e.to_string().contains("out.mp4"), "{e}");
+    let ok = dir.path().join("ok.mkv");
+    let mut w = VideoWriter::create_with(&tools, Encoder::Mpeg4, &ok, 64, 48, 25.0).unwrap();
+    let e = w.write(&RgbFrame::new(32, 48)).unwrap_err().to_string();
+    assert!(e.contains("32x48") && e.contains("64x48"), "{e}");
+    assert!(VideoWriter::create_with(&tools, Encoder::Mpeg4, &ok, 0, 48, 25.0).is_err());
+    assert!(VideoWriter::create_with(&tools, Encoder::Mpeg4, &ok, 8, 8, f64::NAN).is_err());
+}
+
+#[test]
+fn dropped_writer_leaves_a_playable_file_and_odd_sizes_work() {
+    let Some(tools) = tools() else { return };
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("dropped.mp4");
+    {
+        let mut w = VideoWriter::create_with(&tools, Encoder::Mpeg4, &path, 33, 17, 5.0).unwrap();
+        let mut f = RgbFrame::new(33, 17);
+        for i in 0..7u8 {
+            f.data.fill(30 * i);
+            w.write(&f).unwrap();
+        }
+        // Dropped without finish(), as on an early return.
+    }
+    let r = VideoReader::open(&VideoInput::File(path)).unwrap();
+    // Padded to even size for yuv420p.
+    assert_eq!((r.info().width, r.info().height), (34, 18));
+    let frames: Vec<_> = r.collect::<Result<_, _>>().unwrap();
+    assert_eq!(frames.len(), 7);
+    let mid = frames[6].image.pixel(10, 8).unwrap();
+    assert!(mid.iter().all(|&c| c.abs_diff(180) < 8), "{mid:?}");
+}
