@@ -32,6 +32,7 @@
 
 pub mod camera;
 pub mod error;
+pub mod filtering;
 pub mod fitting;
 pub mod hand_model;
 pub mod kinematics;
