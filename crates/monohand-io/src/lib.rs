@@ -11,6 +11,7 @@
 //! - [`openpose`]: OpenPose `--write_json` hand keypoints, read and written.
 //! - [`skeleton`]: bone-length files for sizing the hand model.
 //! - [`jsonl`]: the project's JSON Lines output (one frame per line), read and written.
+//! - [`export`]: CSV, OpenPose-style JSON with 3D, and an animated glTF (`.glb`) 3D view.
 //! - [`overlay`]: drawing hand skeletons, boxes and labels on video frames.
 //! - [`video`]: video files and webcams in and out through the `ffmpeg` command-line tools.
 //!
@@ -21,6 +22,7 @@
 
 pub mod calibration;
 pub mod error;
+pub mod export;
 pub mod jsonl;
 pub mod mat;
 pub mod openpose;

@@ -1,0 +1,828 @@
+//! Exports of the per-frame results for other tools (see `docs/output-format.md`):
+//!
+//! - [`CsvWriter`]: one CSV row per hand per frame, flushed per row, for
+//!   spreadsheets and pandas.
+//! - [`openpose_people`] / [`write_openpose_frame`]: one OpenPose-style JSON
+//!   file per frame with `hand_{left,right}_keypoints_2d` and
+//!   `hand_{left,right}_keypoints_3d` (built on [`crate::openpose`]).
+//! - [`GltfWriter`]: an animated glTF 2.0 binary (`.glb`) of the 3D joints and
+//!   bones, for viewing without code (Blender: File > Import > glTF 2.0; or a
+//!   browser glTF viewer such as <https://gltf-viewer.donmccurdy.com>, which
+//!   loads the file locally).
+
+use crate::error::{name_of, IoError, IoResult};
+use crate::jsonl::{FrameRecord, HandRecord};
+use crate::openpose::{write_openpose_file, OpenPoseHandOut, OpenPosePerson};
+use monohand_core::hand_model::{HandSide, BONES, JOINT_NAMES, NUM_JOINTS};
+use monohand_core::observation::Keypoints2d;
+use nalgebra::Vector3;
+use serde_json::{json, Value};
+use std::io::{BufWriter, Write};
+use std::path::{Path, PathBuf};
+
+// ---------------------------------------------------------------- CSV
+
+/// The CSV header: `frame,source,id,side,score,reprojection_error_px`, then for
+/// each joint of [`JOINT_NAMES`] `{name}_u,{name}_v,{name}_conf,{name}_x_mm,{name}_y_mm,{name}_z_mm`.
+pub fn csv_header() -> String {
+    let mut cols: Vec<String> = [
+        "frame",
+        "source",
+        "id",
+        "side",
+        "score",
+        "reprojection_error_px",
+    ]
+    .map(String::from)
+    .to_vec();
+    for n in JOINT_NAMES {
+        for s in ["u", "v", "conf", "x_mm", "y_mm", "z_mm"] {
+            cols.push(format!("{n}_{s}"));
+        }
+    }
+    cols.join(",")
+}
+
+/// A CSV field: quoted (RFC 4180) if it contains a comma, quote or line break.
+fn csv_text(s: &str) -> String {
+    if s.contains([',', '"', '\n', '\r']) {
+        format!("\"{}\"", s.replace('"', "\"\""))
+    } else {
+        s.to_string()
+    }
+}
+
+/// A number as the shortest text that reads back to the same `f64`; empty if not finite.
+fn csv_num(v: f64) -> String {
+    if v.is_finite() {
+        format!("{v}")
+    } else {
+        String::new()
+    }
+}
+
+/// The CSV rows (without line ends) of one frame: one per hand, none if the
+/// frame has no hands. Absent values (no id, no 3D, ...) are empty fields.
+pub fn csv_rows(frame: &FrameRecord) -> Vec<String> {
+    frame
+        .hands
+        .iter()
+        .map(|h| {
+            let mut f: Vec<String> = vec![
+                frame.frame.to_string(),
+                frame.source.as_deref().map(csv_text).unwrap_or_default(),
+                h.id.map(|i| i.to_string()).unwrap_or_default(),
+                h.side.to_string(),
+                h.score.map(csv_num).unwrap_or_default(),
+                h.reprojection_error_px.map(csv_num).unwrap_or_default(),
+            ];
+            for j in 0..NUM_JOINTS {
+                f.extend(h.keypoints_2d[j].map(csv_num));
+                match h.joints_3d_mm {
+                    Some(x) => f.extend(x[j].map(csv_num)),
+                    None => f.extend([String::new(), String::new(), String::new()]),
+                }
+            }
+            f.join(",")
+        })
+        .collect()
+}
+
+/// Writes frames as CSV ([`csv_header`], then [`csv_rows`]), flushing after
+/// every frame so an interrupted run leaves complete rows.
+pub struct CsvWriter {
+    out: BufWriter<Box<dyn Write>>,
+    name: String,
+    rows: usize,
+}
+
+impl std::fmt::Debug for CsvWriter {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("CsvWriter")
+            .field("name", &self.name)
+            .field("rows", &self.rows)
+            .finish()
+    }
+}
+
+impl CsvWriter {
+    /// Creates (or truncates) a file and writes the header.
+    pub fn create(path: impl AsRef<Path>) -> IoResult<CsvWriter> {
+        let path = path.as_ref();
+        let f = std::fs::File::create(path).map_err(|error| IoError::Write {
+            path: path.to_path_buf(),
+            error,
+        })?;
+        CsvWriter::new(Box::new(f), &name_of(path))
+    }
+
+    /// Writes to any sink (header first); `name` is used in errors.
+    pub fn new(sink: Box<dyn Write>, name: &str) -> IoResult<CsvWriter> {
+        let mut w = CsvWriter {
+            out: BufWriter::new(sink),
+            name: name.to_string(),
+            rows: 0,
+        };
+        let header = csv_header();
+        w.put(&header)?;
+        Ok(w)
+    }
+
+    fn put(&mut self, line: &str) -> IoResult<()> {
+        let path = PathBuf::from(&self.name);
+        let werr = |error| IoError::Write {
+            path: path.clone(),
+            error,
+        };
+        self.out.write_all(line.as_bytes()).map_err(werr)?;
+        self.out.write_all(b"\n").map_err(werr)?;
+        Ok(())
+    }
+
+    /// Writes the rows of one frame and flushes.
+    pub fn write_frame(&mut self, frame: &FrameRecord) -> IoResult<()> {
+        for row in csv_rows(frame) {
+            self.put(&row)?;
+            self.rows += 1;
+        }
+        self.out.flush().map_err(|error| IoError::Write {
+            path: PathBuf::from(&self.name),
+            error,
+        })
+    }
+
+    /// Data rows written (not counting the header).
+    pub fn rows_written(&self) -> usize {
+        self.rows
+    }
+}
+
+// ---------------------------------------------------------------- OpenPose
+
+/// The OpenPose people of a frame. OpenPose groups hands by person; monohand
+/// does not know persons, so a frame with at most one left and one right hand
+/// gives one person holding both, and any other frame one person per hand
+/// (in the frame's order).
+pub fn openpose_people(frame: &FrameRecord) -> Vec<OpenPosePerson> {
+    let out = |h: &HandRecord| OpenPoseHandOut {
+        keypoints_2d: Keypoints2d {
+            points: h.keypoints_2d,
+        },
+        joints_3d: h.joints_3d_mm.map(|j| j.map(Vector3::from)),
+    };
+    let count = |s: HandSide| frame.hands.iter().filter(|h| h.side == s).count();
+    if count(HandSide::Left) <= 1 && count(HandSide::Right) <= 1 {
+        if frame.hands.is_empty() {
+            return Vec::new();
+        }
+        let pick = |s: HandSide| frame.hands.iter().find(|h| h.side == s).map(out);
+        return vec![OpenPosePerson {
+            left: pick(HandSide::Left),
+            right: pick(HandSide::Right),
+        }];
+    }
+    frame
+        .hands
+        .iter()
+        .map(|h| match h.side {
+            HandSide::Left => OpenPosePerson {
+                left: Some(out(h)),
+                right: None,
+            },
+            HandSide::Right => OpenPosePerson {
+                left: None,
+                right: Some(out(h)),
+            },
+        })
+        .collect()
+}
+
+/// The file name OpenPose uses for a frame: `{stem}_{frame:012}_keypoints.json`.
+pub fn openpose_file_name(stem: &str, frame: u64) -> String {
+    format!("{stem}_{frame:012}_keypoints.json")
+}
+
+/// Writes one frame as `dir/{stem}_{frame:012}_keypoints.json` and returns the path.
+/// The directory must exist. [`crate::openpose::read_openpose`] reads the
+/// directory back (2D keypoints).
+pub fn write_openpose_frame(dir: &Path, stem: &str, frame: &FrameRecord) -> IoResult<PathBuf> {
+    let path = dir.join(openpose_file_name(stem, frame.frame));
+    write_openpose_file(&path, &openpose_people(frame))?;
+    Ok(path)
+}
+
+// ---------------------------------------------------------------- glTF
+
+/// Radius of the joint octahedra, metres.
+const JOINT_RADIUS_M: f32 = 0.005;
+/// Half-width of the bone pyramids, metres.
+const BONE_HALF_WIDTH_M: f32 = 0.004;
+/// Where along the bone the pyramid is widest (fraction of its length).
+const BONE_WAIST: f32 = 0.2;
+
+/// From the camera frame (mm, x right, y down, z forward) to glTF (m, x right,
+/// y up, z toward the viewer).
+fn to_gltf(p: [f64; 3]) -> [f32; 3] {
+    [
+        (p[0] / 1000.0) as f32,
+        (-p[1] / 1000.0) as f32,
+        (-p[2] / 1000.0) as f32,
+    ]
+}
+
+/// The unit quaternion `[x, y, z, w]` turning +Y onto the unit vector `d`.
+fn rotation_from_y(d: [f32; 3]) -> [f32; 4] {
+    let w = 1.0 + d[1];
+    if w < 1e-6 {
+        return [1.0, 0.0, 0.0, 0.0]; // half turn about x
+    }
+    // cross((0, 1, 0), d) = (d.z, 0, -d.x)
+    let q = [d[2], 0.0, -d[0], w];
+    let n = q.iter().map(|v| v * v).sum::<f32>().sqrt();
+    q.map(|v| v / n)
+}
+
+/// An octahedron-like solid: centre `c`, tips at `c +- (ax, ay, az)` on each
+/// axis given as `(minus, plus)` per axis. Returns 6 positions and 8 outward triangles.
+fn double_pyramid(x: (f32, f32), y: (f32, f32), z: (f32, f32), c: [f32; 3]) -> Vec<[f32; 3]> {
+    vec![
+        [c[0] + x.1, c[1], c[2]],
+        [c[0] - x.0, c[1], c[2]],
+        [c[0], c[1] + y.1, c[2]],
+        [c[0], c[1] - y.0, c[2]],
+        [c[0], c[1], c[2] + z.1],
+        [c[0], c[1], c[2] - z.0],
+    ]
+}
+
+/// The triangles of [`double_pyramid`], counter-clockwise seen from outside.
+fn double_pyramid_indices() -> Vec<u16> {
+    let mut idx = Vec::new();
+    for sx in [0u16, 1] {
+        for sy in [0u16, 1] {
+            for sz in [0u16, 1] {
+                let t = [sx, 2 + sy, 4 + sz];
+                // Vertex 0/2/4 are the + tips; an odd number of - tips flips the winding.
+                if (sx + sy + sz) % 2 == 0 {
+                    idx.extend(t);
+                } else {
+                    idx.extend([t[0], t[2], t[1]]);
+                }
+            }
+        }
+    }
+    idx
+}
+
+/// The track of one hand: its 3D joints (glTF coordinates) per frame, `None` when absent.
+#[derive(Debug, Clone)]
+struct Track {
+    side: HandSide,
+    id: Option<u64>,
+    samples: Vec<Option<[[f32; 3]; NUM_JOINTS]>>,
+}
+
+/// Accumulates the 3D joints of every frame and writes an animated glTF 2.0
+/// binary (`.glb`) on [`GltfWriter::finish`].
+///
+/// Each hand track (a hand `id`, or the side for hands without one) becomes a
+/// node `hand_{id}_{side}` with 21 joint nodes (small octahedra, named after
+/// [`JOINT_NAMES`]) and 20 bone nodes (tapered pyramids, coloured per finger)
+/// whose translation, rotation and scale are animated at the frame timestamps
+/// (linear interpolation; visibility uses step interpolation of the scale:
+/// a hand absent from a frame is scaled to 0). Coordinates are glTF's:
+/// metres, x right, y up, z toward the viewer, i.e. the camera frame's
+/// `(x, -y, -z) / 1000`; a glTF camera at the origin looks along -z, so it
+/// sees the scene as the real camera did.
+///
+/// Memory: 21 x 3 floats per hand per frame (about 250 bytes). The file is
+/// written to `PATH.tmp` and renamed, so it is either complete or absent.
+/// Nothing is written unless `finish` is called.
+#[derive(Debug, Clone)]
+pub struct GltfWriter {
+    path: PathBuf,
+    times: Vec<f64>,
+    tracks: Vec<Track>,
+    yfov_rad: f64,
+    aspect: Option<f64>,
+}
+
+/// Key of a track in a frame.
+fn track_key(h: &HandRecord) -> (Option<u64>, HandSide) {
+    (h.id, h.side)
+}
+
+impl GltfWriter {
+    /// A writer for `path` (nothing is written until [`GltfWriter::finish`]).
+    pub fn new(path: impl AsRef<Path>) -> GltfWriter {
+        GltfWriter {
+            path: path.as_ref().to_path_buf(),
+            times: Vec::new(),
+            tracks: Vec::new(),
+            yfov_rad: 0.8,
+            aspect: None,
+        }
+    }
+
+    /// Sets the field of view of the scene's camera to the real camera's:
+    /// `yfov = 2 atan(height / (2 fy))`, `aspect = width / height`.
+    pub fn set_camera(&mut self, yfov_rad: f64, aspect: f64) {
+        if yfov_rad.is_finite() && yfov_rad > 0.0 && yfov_rad < std::f64::consts::PI {
+            self.yfov_rad = yfov_rad;
+        }
+        self.aspect = (aspect.is_finite() && aspect > 0.0).then_some(aspect);
+    }
+
+    /// Frames added so far.
+    pub fn frames(&self) -> usize {
+        self.times.len()
+    }
+
+    /// Adds a frame at time `t_s` (seconds; must increase from frame to frame).
+    /// Hands without `joints_3d_mm` count as absent; of two hands with the same
+    /// track key (id and side) only the first is used.
+    pub fn add_frame(&mut self, t_s: f64, hands: &[HandRecord]) -> IoResult<()> {
+        let name = name_of(&self.path);
+        if !t_s.is_finite() || self.times.last().is_some_and(|&last| t_s <= last) {
+            return Err(IoError::field(
+                name,
+                format!("frame {}", self.times.len()),
+                format!("timestamp {t_s} s is not finite or does not increase"),
+            ));
+        }
+        let n = self.times.len();
+        self.times.push(t_s);
+        for t in &mut self.tracks {
+            t.samples.push(None);
+        }
+        for h in hands {
+            let Some(joints) = h.joints_3d_mm else {
+                continue;
+            };
+            if joints.iter().flatten().any(|v| !v.is_finite()) {
+                continue;
+            }
+            let key = track_key(h);
+            let i = match self.tracks.iter().position(|t| (t.id, t.side) == key) {
+                Some(i) => i,
+                None => {
+                    self.tracks.push(Track {
+                        side: h.side,
+                        id: h.id,
+                        samples: vec![None; n + 1],
+                    });
+                    self.tracks.len() - 1
+                }
+            };
+            if self.tracks[i].samples[n].is_none() {
+                self.tracks[i].samples[n] = Some(joints.map(to_gltf));
+            }
+        }
+        Ok(())
+    }
+
+    /// [`GltfWriter::add_frame`] with the hands of a frame record.
+    pub fn add_record(&mut self, t_s: f64, frame: &FrameRecord) -> IoResult<()> {
+        self.add_frame(t_s, &frame.hands)
+    }
+
+    /// The whole `.glb` file as bytes.
+    pub fn to_glb(&self) -> Vec<u8> {
+        let mut b = GlbBuilder::default();
+        // Geometry: joint octahedron and bone pyramid (base at the origin, tip at +Y 1).
+        let r = JOINT_RADIUS_M;
+        let joint_pos = double_pyramid((r, r), (r, r), (r, r), [0.0; 3]);
+        let w = BONE_HALF_WIDTH_M;
+        let bone_pos = double_pyramid(
+            (w, w),
+            (BONE_WAIST, 1.0 - BONE_WAIST),
+            (w, w),
+            [0.0, BONE_WAIST, 0.0],
+        );
+        let idx = double_pyramid_indices();
+        let joint_acc = b.vec3_accessor(&joint_pos, Some(34962));
+        let bone_acc = b.vec3_accessor(&bone_pos, Some(34962));
+        let idx_acc = b.index_accessor(&idx);
+
+        let mut materials = Vec::new();
+        let mut material = |name: &str, rgb: [u8; 3]| {
+            let c: Vec<f64> = rgb.iter().map(|&v| srgb_to_linear(v)).collect();
+            materials.push(json!({"name": name, "pbrMetallicRoughness": {
+                "baseColorFactor": [c[0], c[1], c[2], 1.0], "metallicFactor": 0.0,
+                "roughnessFactor": 0.6}}));
+            materials.len() - 1
+        };
+        let mut meshes = Vec::new();
+        let mut mesh = |name: &str, pos: usize, mat: usize| {
+            meshes.push(
+                json!({"name": name, "primitives": [{"attributes": {"POSITION": pos},
+                "indices": idx_acc, "material": mat, "mode": 4}]}),
+            );
+            meshes.len() - 1
+        };
+        let side_mesh = [HandSide::Left, HandSide::Right].map(|s| {
+            let m = material(&format!("{s}_joint"), crate::overlay::side_color(s));
+            mesh(&format!("{s}_joint"), joint_acc, m)
+        });
+        let side_index = |s: HandSide| match s {
+            HandSide::Left => 0,
+            HandSide::Right => 1,
+        };
+        let finger_mesh: Vec<usize> = monohand_core::hand_model::Finger::ALL
+            .iter()
+            .map(|f| {
+                let m = material(
+                    &format!("{}_bone", f.name()),
+                    crate::overlay::FINGER_COLORS[f.index()],
+                );
+                mesh(&format!("{}_bone", f.name()), bone_acc, m)
+            })
+            .collect();
+
+        let mut nodes: Vec<Value> = Vec::new();
+        let mut scene_roots = Vec::new();
+        let mut channels = Vec::new();
+        let mut samplers = Vec::new();
+        // The camera, at the origin looking along -z as the real camera.
+        let mut cam = json!({"type": "perspective", "perspective": {
+            "yfov": self.yfov_rad, "znear": 0.01, "zfar": 100.0}});
+        if let Some(a) = self.aspect {
+            cam["perspective"]["aspectRatio"] = json!(a);
+        }
+        nodes.push(json!({"name": "camera", "camera": 0}));
+        scene_roots.push(0);
+
+        let time_acc = (!self.times.is_empty() && !self.tracks.is_empty()).then(|| {
+            let t: Vec<f32> = self.times.iter().map(|&t| t as f32).collect();
+            b.scalar_accessor(&t)
+        });
+        for track in &self.tracks {
+            let filled = fill_gaps(&track.samples);
+            let visible: Vec<bool> = track.samples.iter().map(Option::is_some).collect();
+            let id = track.id.map_or("na".to_string(), |i| i.to_string());
+            let mut children = Vec::new();
+            let mut anim = |node: usize, path: &str, data: Vec<f32>, comps: usize, step: bool| {
+                let Some(input) = time_acc else { return };
+                let out = b.float_accessor(&data, comps);
+                samplers.push(json!({"input": input, "output": out,
+                    "interpolation": if step { "STEP" } else { "LINEAR" }}));
+                channels.push(json!({"sampler": samplers.len() - 1,
+                    "target": {"node": node, "path": path}}));
+            };
+            for (j, name) in JOINT_NAMES.iter().enumerate() {
+                let node = nodes.len();
+                let first = filled.first().map_or([0.0; 3], |f| f[j]);
+                nodes.push(json!({"name": format!("{name}_{id}_{}", track.side),
+                    "mesh": side_mesh[side_index(track.side)], "translation": first}));
+                children.push(node);
+                let tr: Vec<f32> = filled.iter().flat_map(|f| f[j]).collect();
+                let sc: Vec<f32> = visible
+                    .iter()
+                    .flat_map(|&v| if v { [1.0; 3] } else { [0.0; 3] })
+                    .collect();
+                anim(node, "translation", tr, 3, false);
+                anim(node, "scale", sc, 3, true);
+            }
+            for &(a, c) in &BONES {
+                let node = nodes.len();
+                let finger = (c - 1) / 4;
+                nodes.push(json!({"name": format!("bone_{}_{}_{id}_{}",
+                    JOINT_NAMES[a], JOINT_NAMES[c], track.side), "mesh": finger_mesh[finger]}));
+                children.push(node);
+                let (mut tr, mut rot, mut sc) = (Vec::new(), Vec::new(), Vec::new());
+                let mut prev_q: Option<[f32; 4]> = None;
+                for (f, &v) in filled.iter().zip(&visible) {
+                    let (p, q) = (f[a], f[c]);
+                    let d = [q[0] - p[0], q[1] - p[1], q[2] - p[2]];
+                    let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+                    let mut rq = if len > 1e-7 {
+                        rotation_from_y(d.map(|x| x / len))
+                    } else {
+                        prev_q.unwrap_or([0.0, 0.0, 0.0, 1.0])
+                    };
+                    // Stay in the hemisphere of the previous key so interpolation takes the short way.
+                    if let Some(pq) = prev_q {
+                        if pq.iter().zip(&rq).map(|(x, y)| x * y).sum::<f32>() < 0.0 {
+                            rq = rq.map(|x| -x);
+                        }
+                    }
+                    prev_q = Some(rq);
+                    tr.extend(p);
+                    rot.extend(rq);
+                    sc.extend(if v { [1.0, len, 1.0] } else { [0.0; 3] });
+                }
+                if let (Some(t0), Some(r0)) = (tr.get(0..3), rot.get(0..4)) {
+                    nodes[node]["translation"] = json!(t0);
+                    nodes[node]["rotation"] = json!(r0);
+                }
+                anim(node, "translation", tr, 3, false);
+                anim(node, "rotation", rot, 4, false);
+                anim(node, "scale", sc, 3, true);
+            }
+            let hand = nodes.len();
+            nodes.push(json!({"name": format!("hand_{id}_{}", track.side), "children": children}));
+            scene_roots.push(hand);
+        }
+
+        let mut doc = json!({
+            "asset": {"version": "2.0", "generator": concat!("monohand-io ", env!("CARGO_PKG_VERSION"))},
+            "scene": 0,
+            "scenes": [{"name": "monohand", "nodes": scene_roots}],
+            "nodes": nodes,
+            "cameras": [cam],
+            "materials": materials,
+            "meshes": meshes,
+        });
+        if !channels.is_empty() {
+            doc["animations"] =
+                json!([{"name": "tracking", "channels": channels, "samplers": samplers}]);
+        }
+        b.finish(doc)
+    }
+
+    /// Writes the file (to `PATH.tmp`, then renamed to `PATH`).
+    pub fn finish(self) -> IoResult<()> {
+        let bytes = self.to_glb();
+        let mut tmp = self.path.clone().into_os_string();
+        tmp.push(".tmp");
+        let tmp = PathBuf::from(tmp);
+        let werr = |path: &Path| {
+            let path = path.to_path_buf();
+            move |error| IoError::Write { path, error }
+        };
+        std::fs::write(&tmp, &bytes).map_err(werr(&tmp))?;
+        std::fs::rename(&tmp, &self.path).map_err(|e| {
+            let _ = std::fs::remove_file(&tmp);
+            werr(&self.path)(e)
+        })
+    }
+}
+
+/// Replaces the gaps of a track by the nearest earlier sample (or, before the
+/// first one, the first), so hidden hands do not fly to the origin.
+fn fill_gaps(samples: &[Option<[[f32; 3]; NUM_JOINTS]>]) -> Vec<[[f32; 3]; NUM_JOINTS]> {
+    let first = samples
+        .iter()
+        .flatten()
+        .next()
+        .copied()
+        .unwrap_or([[0.0; 3]; NUM_JOINTS]);
+    let mut last = first;
+    samples
+        .iter()
+        .map(|s| {
+            if let Some(s) = s {
+                last = *s;
+            }
+            last
+        })
+        .collect()
+}
+
+/// sRGB 8-bit to linear, as glTF's `baseColorFactor` is linear.
+fn srgb_to_linear(v: u8) -> f64 {
+    let c = v as f64 / 255.0;
+    let l = if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    };
+    (l * 1e4).round() / 1e4
+}
+
+/// Collects binary data, buffer views and accessors of a GLB.
+#[derive(Default)]
+struct GlbBuilder {
+    bin: Vec<u8>,
+    views: Vec<Value>,
+    accessors: Vec<Value>,
+}
+
+impl GlbBuilder {
+    /// Appends bytes as a new buffer view (4-byte aligned); returns its index.
+    fn view(&mut self, bytes: &[u8], target: Option<u32>) -> usize {
+        while self.bin.len() % 4 != 0 {
+            self.bin.push(0);
+        }
+        let mut v = json!({"buffer": 0, "byteOffset": self.bin.len(), "byteLength": bytes.len()});
+        if let Some(t) = target {
+            v["target"] = json!(t);
+        }
+        self.bin.extend_from_slice(bytes);
+        self.views.push(v);
+        self.views.len() - 1
+    }
+
+    fn floats(data: &[f32]) -> Vec<u8> {
+        data.iter().flat_map(|v| v.to_le_bytes()).collect()
+    }
+
+    /// A float accessor of `comps` components (1, 3 or 4) with min/max.
+    fn float_accessor(&mut self, data: &[f32], comps: usize) -> usize {
+        self.float_accessor_target(data, comps, None)
+    }
+
+    fn float_accessor_target(&mut self, data: &[f32], comps: usize, target: Option<u32>) -> usize {
+        let view = self.view(&Self::floats(data), target);
+        let mut min = vec![f32::INFINITY; comps];
+        let mut max = vec![f32::NEG_INFINITY; comps];
+        for chunk in data.chunks(comps) {
+            for (k, &v) in chunk.iter().enumerate() {
+                min[k] = min[k].min(v);
+                max[k] = max[k].max(v);
+            }
+        }
+        let ty = match comps {
+            1 => "SCALAR",
+            3 => "VEC3",
+            _ => "VEC4",
+        };
+        self.accessors
+            .push(json!({"bufferView": view, "componentType": 5126,
+            "count": data.len() / comps, "type": ty, "min": min, "max": max}));
+        self.accessors.len() - 1
+    }
+
+    fn vec3_accessor(&mut self, pos: &[[f32; 3]], target: Option<u32>) -> usize {
+        let flat: Vec<f32> = pos.iter().flatten().copied().collect();
+        self.float_accessor_target(&flat, 3, target)
+    }
+
+    fn scalar_accessor(&mut self, data: &[f32]) -> usize {
+        self.float_accessor(data, 1)
+    }
+
+    fn index_accessor(&mut self, idx: &[u16]) -> usize {
+        let bytes: Vec<u8> = idx.iter().flat_map(|v| v.to_le_bytes()).collect();
+        let view = self.view(&bytes, Some(34963));
+        self.accessors
+            .push(json!({"bufferView": view, "componentType": 5123,
+            "count": idx.len(), "type": "SCALAR"}));
+        self.accessors.len() - 1
+    }
+
+    /// The GLB container: header, JSON chunk, BIN chunk.
+    fn finish(mut self, mut doc: Value) -> Vec<u8> {
+        while self.bin.len() % 4 != 0 {
+            self.bin.push(0);
+        }
+        doc["buffers"] = json!([{"byteLength": self.bin.len()}]);
+        doc["bufferViews"] = json!(self.views);
+        doc["accessors"] = json!(self.accessors);
+        let mut js = doc.to_string().into_bytes();
+        while js.len() % 4 != 0 {
+            js.push(b' ');
+        }
+        let total = 12 + 8 + js.len() + 8 + self.bin.len();
+        let mut out = Vec::with_capacity(total);
+        out.extend_from_slice(b"glTF");
+        out.extend_from_slice(&2u32.to_le_bytes());
+        out.extend_from_slice(&(total as u32).to_le_bytes());
+        out.extend_from_slice(&(js.len() as u32).to_le_bytes());
+        out.extend_from_slice(b"JSON");
+        out.extend_from_slice(&js);
+        out.extend_from_slice(&(self.bin.len() as u32).to_le_bytes());
+        out.extend_from_slice(b"BIN\0");
+        out.extend_from_slice(&self.bin);
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn hand(side: HandSide, id: Option<u64>, z: f64) -> HandRecord {
+        let mut kp = Keypoints2d::default();
+        for (j, p) in kp.points.iter_mut().enumerate() {
+            *p = [100.0 + j as f64, 50.5, 0.75];
+        }
+        let mut h = HandRecord::from_keypoints(side, &kp);
+        h.joints_3d_mm = Some(std::array::from_fn(|j| {
+            [10.0 * j as f64, -5.0 * j as f64, z + j as f64]
+        }));
+        h.id = id;
+        h.score = Some(0.97);
+        h
+    }
+
+    #[test]
+    fn csv_header_and_rows() {
+        let header = csv_header();
+        let cols: Vec<&str> = header.split(',').collect();
+        assert_eq!(cols.len(), 6 + 6 * NUM_JOINTS);
+        assert_eq!(cols[6], "wrist_u");
+        assert_eq!(cols[11], "wrist_z_mm");
+        assert_eq!(cols.last(), Some(&"little_tip_z_mm"));
+        let mut two_d = hand(HandSide::Left, None, 400.0);
+        two_d.joints_3d_mm = None;
+        two_d.score = None;
+        let frame = FrameRecord {
+            frame: 7,
+            source: Some("a,\"b\".png".into()),
+            hands: vec![hand(HandSide::Right, Some(3), 500.0), two_d],
+            timings_ms: None,
+        };
+        let rows = csv_rows(&frame);
+        assert_eq!(rows.len(), 2);
+        assert!(
+            rows[0].starts_with("7,\"a,\"\"b\"\".png\",3,right,0.97,,100,50.5,0.75,0,-0,500,"),
+            "{}",
+            rows[0]
+        );
+        assert!(
+            rows[1].starts_with("7,\"a,\"\"b\"\".png\",,left,,,100,50.5,0.75,,,,101,"),
+            "{}",
+            rows[1]
+        );
+        // Same number of fields as the header (the quoted source holds one comma).
+        assert_eq!(rows[0].split(',').count(), cols.len() + 1);
+        assert_eq!(rows[1].split(',').count(), cols.len() + 1);
+        assert!(csv_rows(&FrameRecord::default()).is_empty());
+    }
+
+    #[test]
+    fn csv_writer_flushes_each_frame() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("out.csv");
+        let mut w = CsvWriter::create(&path).unwrap();
+        let f = FrameRecord {
+            frame: 0,
+            hands: vec![hand(HandSide::Left, Some(1), 300.0)],
+            ..Default::default()
+        };
+        w.write_frame(&f).unwrap();
+        // Readable before the writer is dropped.
+        let text = std::fs::read_to_string(&path).unwrap();
+        assert_eq!(text.lines().count(), 2);
+        assert_eq!(text.lines().next(), Some(csv_header().as_str()));
+        w.write_frame(&FrameRecord::default()).unwrap();
+        assert_eq!(w.rows_written(), 1);
+        let e = CsvWriter::create(dir.path().join("no/dir/x.csv")).unwrap_err();
+        assert!(e.to_string().contains("x.csv"), "{e}");
+    }
+
+    #[test]
+    fn openpose_export_pairs_hands_and_round_trips() {
+        let dir = tempfile::tempdir().unwrap();
+        let frame = FrameRecord {
+            frame: 12,
+            hands: vec![
+                hand(HandSide::Right, Some(1), 500.0),
+                hand(HandSide::Left, Some(2), 450.0),
+            ],
+            ..Default::default()
+        };
+        let people = openpose_people(&frame);
+        assert_eq!(people.len(), 1);
+        assert!(people[0].left.is_some() && people[0].right.is_some());
+        let path = write_openpose_frame(dir.path(), "clip", &frame).unwrap();
+        assert!(path.ends_with("clip_000000000012_keypoints.json"));
+        let v: Value = serde_json::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+        let l3 = v["people"][0]["hand_left_keypoints_3d"].as_array().unwrap();
+        assert_eq!(l3.len(), 4 * NUM_JOINTS);
+        assert_eq!(l3[4 * 2 + 2].as_f64(), Some(452.0));
+        assert_eq!(l3[3].as_f64(), Some(0.75));
+        let back = crate::openpose::read_openpose(dir.path()).unwrap();
+        assert_eq!(back[0].hands.len(), 2);
+        assert_eq!(
+            back[0].hand(HandSide::Right).unwrap().keypoints.points[3],
+            [103.0, 50.5, 0.75]
+        );
+        // Two right hands: one person each.
+        let two = FrameRecord {
+            hands: vec![
+                hand(HandSide::Right, Some(1), 1.0),
+                hand(HandSide::Right, Some(2), 2.0),
+            ],
+            ..Default::default()
+        };
+        assert_eq!(openpose_people(&two).len(), 2);
+        assert!(openpose_people(&FrameRecord::default()).is_empty());
+    }
+
+    #[test]
+    fn bone_rotation_turns_y_onto_the_bone() {
+        for d in [
+            [1.0f32, 0.0, 0.0],
+            [0.0, -1.0, 0.0],
+            [0.6, 0.0, 0.8],
+            [0.0, 1.0, 0.0],
+        ] {
+            let [x, y, z, w] = rotation_from_y(d);
+            // Rotate (0, 1, 0) by q: v' = v + 2w (q x v) + 2 q x (q x v).
+            let q = Vector3::new(x, y, z);
+            let v = Vector3::new(0.0, 1.0, 0.0);
+            let t = q.cross(&v) * 2.0;
+            let r = v + t * w + q.cross(&t);
+            assert!((r - Vector3::from(d)).norm() < 1e-5, "{d:?} -> {r:?}");
+        }
+        // Winding: every octahedron face normal points away from the centre.
+        let pos = double_pyramid((1.0, 1.0), (1.0, 1.0), (1.0, 1.0), [0.0; 3]);
+        for t in double_pyramid_indices().chunks(3) {
+            let [a, b, c] = [t[0], t[1], t[2]].map(|i| Vector3::from(pos[i as usize]));
+            let n = (b - a).cross(&(c - a));
+            assert!(n.dot(&(a + b + c)) > 0.0, "{t:?}");
+        }
+    }
+}
