@@ -54,7 +54,9 @@ fn csv_text(s: &str) -> String {
 
 /// A number as the shortest text that reads back to the same `f64`; empty if not finite.
 fn csv_num(v: f64) -> String {
-    if v.is_finite() {
+    if v == 0.0 {
+        "0".to_string() // not "-0"
+    } else if v.is_finite() {
         format!("{v}")
     } else {
         String::new()
@@ -343,11 +345,17 @@ impl GltfWriter {
     /// track key (id and side) only the first is used.
     pub fn add_frame(&mut self, t_s: f64, hands: &[HandRecord]) -> IoResult<()> {
         let name = name_of(&self.path);
-        if !t_s.is_finite() || self.times.last().is_some_and(|&last| t_s <= last) {
+        // Compared as stored (f32): glTF needs strictly increasing key times.
+        if !t_s.is_finite()
+            || self
+                .times
+                .last()
+                .is_some_and(|&last| t_s as f32 <= last as f32)
+        {
             return Err(IoError::field(
                 name,
                 format!("frame {}", self.times.len()),
-                format!("timestamp {t_s} s is not finite or does not increase"),
+                format!("timestamp {t_s} s is not finite or does not increase (as a 32-bit float)"),
             ));
         }
         let n = self.times.len();
@@ -726,7 +734,7 @@ mod tests {
         let rows = csv_rows(&frame);
         assert_eq!(rows.len(), 2);
         assert!(
-            rows[0].starts_with("7,\"a,\"\"b\"\".png\",3,right,0.97,,100,50.5,0.75,0,-0,500,"),
+            rows[0].starts_with("7,\"a,\"\"b\"\".png\",3,right,0.97,,100,50.5,0.75,0,0,500,"),
             "{}",
             rows[0]
         );

@@ -36,9 +36,11 @@
 
 use crate::error::{IoError, IoResult};
 use serde_json::Value;
+use std::collections::HashMap;
 use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
 use std::process::{Child, ChildStdin, ChildStdout, Command, Stdio};
+use std::sync::{Mutex, OnceLock};
 use std::thread::JoinHandle;
 
 /// The frame rate assumed when a video does not state one (frames per second).
@@ -137,18 +139,31 @@ impl FfmpegTools {
             .is_ok_and(|s| s.success())
     }
 
-    /// Whether `ffmpeg` has this encoder (as listed by `ffmpeg -encoders`).
+    /// Whether `ffmpeg` has this encoder, as listed by `ffmpeg -encoders`
+    /// (asked once per process and executable, then remembered).
     pub fn has_encoder(&self, name: &str) -> bool {
-        let Ok(out) = Command::new(&self.ffmpeg)
-            .args(["-hide_banner", "-encoders"])
-            .stdin(Stdio::null())
-            .stderr(Stdio::null())
-            .output()
-        else {
-            return false;
+        static LISTS: OnceLock<Mutex<HashMap<PathBuf, String>>> = OnceLock::new();
+        let lists = LISTS.get_or_init(|| Mutex::new(HashMap::new()));
+        let cached = lists.lock().ok().and_then(|m| m.get(&self.ffmpeg).cloned());
+        let list = match cached {
+            Some(l) => l,
+            None => {
+                let Ok(out) = Command::new(&self.ffmpeg)
+                    .args(["-hide_banner", "-encoders"])
+                    .stdin(Stdio::null())
+                    .stderr(Stdio::null())
+                    .output()
+                else {
+                    return false;
+                };
+                let l = String::from_utf8_lossy(&out.stdout).to_string();
+                if let Ok(mut m) = lists.lock() {
+                    m.insert(self.ffmpeg.clone(), l.clone());
+                }
+                l
+            }
         };
-        String::from_utf8_lossy(&out.stdout)
-            .lines()
+        list.lines()
             .any(|l| l.split_whitespace().nth(1) == Some(name))
     }
 }

@@ -108,6 +108,10 @@ fn pan_round_trip_with_each_encoder() {
         assert_eq!(n, FRAMES, "{enc:?}");
         // After the end it stays ended.
         assert!(reader.read_into(&mut buf).unwrap().is_none());
+        // Stopping early (dropping mid-video) ends ffmpeg without hanging.
+        let mut early = VideoReader::open(&VideoInput::File(path.clone())).unwrap();
+        assert_eq!(early.next_frame().unwrap().unwrap().index, 0);
+        drop(early);
     }
 }
 
