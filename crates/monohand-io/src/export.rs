@@ -335,6 +335,16 @@ impl GltfWriter {
         self.aspect = (aspect.is_finite() && aspect > 0.0).then_some(aspect);
     }
 
+    /// Sets the scene camera's field of view from a calibrated camera
+    /// (see [`GltfWriter::set_camera`]).
+    pub fn set_camera_from(&mut self, camera: &monohand_core::camera::Camera) {
+        let k = &camera.intrinsics;
+        if k.height > 0 && k.fy > 0.0 {
+            let yfov = 2.0 * (k.height as f64 / (2.0 * k.fy)).atan();
+            self.set_camera(yfov, k.width as f64 / k.height as f64);
+        }
+    }
+
     /// Frames added so far.
     pub fn frames(&self) -> usize {
         self.times.len()

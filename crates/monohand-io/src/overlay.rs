@@ -17,7 +17,9 @@
 //! ```
 
 use crate::video::RgbFrame;
+use monohand_core::camera::Camera;
 use monohand_core::hand_model::{HandSide, BONES, NUM_JOINTS, WRIST};
+use nalgebra::Vector3;
 
 /// An 8-bit RGB colour.
 pub type Rgb = [u8; 3];
@@ -439,6 +441,23 @@ pub fn hand_label(side: HandSide, id: Option<u64>, score: Option<f64>) -> String
     s
 }
 
+/// Projects 3D joints (mm, in the camera's reference frame, e.g. a fit's
+/// `joints_3d_mm`) into the image for [`draw_hand`]; joints behind the camera
+/// or non-finite become NaN, which drawing skips.
+pub fn project_joints(
+    camera: &Camera,
+    joints_mm: &[[f64; 3]; NUM_JOINTS],
+) -> [[f64; 2]; NUM_JOINTS] {
+    joints_mm.map(|p| {
+        if p.iter().any(|v| !v.is_finite()) {
+            return [f64::NAN; 2];
+        }
+        camera
+            .project(&Vector3::from(p))
+            .map_or([f64::NAN; 2], |q| [q.x, q.y])
+    })
+}
+
 /// Draws one hand:
 ///
 /// - the 2D skeleton from `keypoints_2d` (`[u, v, confidence]`): bones in the
@@ -707,6 +726,29 @@ mod tests {
                 [20.0 + 15.0 * f, 70.0 - 12.0 * k, 0.9]
             }
         })
+    }
+
+    #[test]
+    fn projected_joints_land_where_the_camera_says() {
+        let cam = Camera::pinhole(500.0, 500.0, 320.0, 240.0, 640, 480).unwrap();
+        let mut j = [[10.0, -20.0, 500.0]; NUM_JOINTS];
+        j[1] = [0.0, 0.0, -100.0]; // behind the camera
+        j[2] = [f64::NAN, 0.0, 500.0];
+        let p = project_joints(&cam, &j);
+        assert!((p[0][0] - 330.0).abs() < 1e-9 && (p[0][1] - 220.0).abs() < 1e-9);
+        assert!(p[1][0].is_nan() && p[2][0].is_nan());
+        // Drawing the model with NaN joints does not panic and skips them.
+        let mut f = RgbFrame::new(640, 480);
+        draw_hand(
+            &mut f,
+            &[[0.0; 3]; NUM_JOINTS],
+            Some(&p),
+            HandSide::Left,
+            None,
+            None,
+            &HandStyle::default(),
+        );
+        assert_eq!(f.pixel(330, 220 - 3), Some(side_color(HandSide::Left)));
     }
 
     #[test]

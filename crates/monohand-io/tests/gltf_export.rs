@@ -92,7 +92,9 @@ fn animated_glb_parses_back_consistently() {
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("hands.glb");
     let mut w = GltfWriter::new(&path);
-    w.set_camera(0.9, 4.0 / 3.0);
+    let cam = monohand_core::camera::Camera::pinhole(500.0, 500.0, 320.0, 240.0, 640, 480).unwrap();
+    w.set_camera_from(&cam);
+    let yfov = 2.0 * (240.0f64 / 500.0).atan();
     // Right hand #1 in every frame; left hand #2 only in frames 1 and 2.
     let times = [0.0, 0.1, 0.2, 0.3];
     for (i, &t) in times.iter().enumerate() {
@@ -117,7 +119,11 @@ fn animated_glb_parses_back_consistently() {
     // Camera + 2 hands x (21 joints + 20 bones + 1 group).
     let nodes = j["nodes"].as_array().unwrap();
     assert_eq!(nodes.len(), 1 + 2 * 42);
-    assert_eq!(j["cameras"][0]["perspective"]["yfov"], 0.9);
+    assert_eq!(j["cameras"][0]["perspective"]["yfov"].as_f64(), Some(yfov));
+    assert_eq!(
+        j["cameras"][0]["perspective"]["aspectRatio"].as_f64(),
+        Some(640.0 / 480.0)
+    );
     let roots = j["scenes"][0]["nodes"].as_array().unwrap();
     assert_eq!(roots.len(), 3);
     // Every accessor is consistent with its view and bounds.
