@@ -15,27 +15,31 @@ fn hand_png() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/images/pinto/hand.png")
 }
 
-/// The tools, or `None` (and a message) if this machine cannot run the tests.
+/// The tools, or `None` (and a message) if ffmpeg is not installed.
 fn tools() -> Option<FfmpegTools> {
     let t = FfmpegTools::default();
     if !t.available() {
-        eprintln!("SKIPPED: ffmpeg is not installed (apt-get install ffmpeg)");
-        return None;
-    }
-    if !hand_png().exists() {
-        eprintln!("SKIPPED: {} is missing", hand_png().display());
+        eprintln!("SKIP: ffmpeg is not installed (apt-get install ffmpeg)");
         return None;
     }
     Some(t)
 }
 
-/// The picture, decoded by ffmpeg as a one-frame video.
-fn picture() -> RgbFrame {
+/// The picture, decoded by ffmpeg as a one-frame video; `None` (and a message)
+/// without the shared data.
+fn picture() -> Option<RgbFrame> {
+    if !hand_png().exists() {
+        eprintln!(
+            "SKIP: {} not found (needs ../shared beside the repo)",
+            hand_png().display()
+        );
+        return None;
+    }
     let mut r = VideoReader::open(&VideoInput::File(hand_png())).unwrap();
     assert_eq!((r.info().width, r.info().height), (640, 480));
     let f = r.next_frame().unwrap().unwrap();
     assert!(r.next_frame().unwrap().is_none());
-    f.image
+    Some(f.image)
 }
 
 /// Frame `i` of a pan across the picture: a `W x H` window moving right and down.
@@ -72,7 +76,7 @@ fn write_pan(tools: &FfmpegTools, encoder: Encoder, path: &Path, pic: &RgbFrame)
 #[test]
 fn pan_round_trip_with_each_encoder() {
     let Some(tools) = tools() else { return };
-    let pic = picture();
+    let Some(pic) = picture() else { return };
     let dir = tempfile::tempdir().unwrap();
     let mut encoders = vec![Encoder::Mpeg4];
     if tools.has_encoder("libx264") {
@@ -118,7 +122,7 @@ fn pan_round_trip_with_each_encoder() {
 #[test]
 fn truncated_video_gives_good_frames_then_an_error() {
     let Some(tools) = tools() else { return };
-    let pic = picture();
+    let Some(pic) = picture() else { return };
     let dir = tempfile::tempdir().unwrap();
     // MP4 (index at the end: nothing is decodable) and MKV (streamable: a prefix is).
     for ext in ["mp4", "mkv"] {
