@@ -1,5 +1,6 @@
 //! `monohand lift`: read cameras and 2D keypoints, fit, write JSON Lines.
 
+use crate::hand_args::{is_finite, HandScale};
 use crate::LiftArgs;
 use anyhow::{bail, Context, Result};
 use monohand_core::prelude::*;
@@ -133,28 +134,6 @@ impl Solver {
     }
 }
 
-fn skeleton(args: &LiftArgs, side: HandSide) -> Result<HandSkeleton> {
-    let mut sk = HandSkeleton::default_for(side)
-        .scaled(args.hand_scale)
-        .context("--hand-scale")?;
-    if let Some(p) = &args.bone_lengths {
-        let lengths = monohand_io::skeleton::read_bone_lengths(p)?;
-        sk = sk
-            .with_bone_lengths(&lengths)
-            .with_context(|| format!("{}: impossible bone lengths", p.display()))?;
-    }
-    Ok(sk)
-}
-
-fn is_finite(fit: &FitResult) -> bool {
-    fit.pose.is_finite()
-        && fit.reprojection_error_px.is_finite()
-        && fit
-            .joints_3d
-            .iter()
-            .all(|x| x.iter().all(|v| v.is_finite()))
-}
-
 /// Runs `monohand lift`.
 pub(crate) fn run(args: &LiftArgs) -> Result<()> {
     // Everything that can be checked is checked before the output is created.
@@ -186,17 +165,19 @@ pub(crate) fn run(args: &LiftArgs) -> Result<()> {
         }
         cameras.push(cam);
     }
-    let options = FitOptions {
-        min_confidence: args.min_confidence,
-        confidence_power: args.confidence_power,
-        ..FitOptions::default()
+    let options = args.hand.fit_options()?;
+    let scale = match args.hand.hand_scale {
+        HandScale::Fixed(s) => s,
+        HandScale::Auto => {
+            warn!(
+                "--hand-scale auto is done by `monohand run`; `lift` keeps the default size (1.0)"
+            );
+            1.0
+        }
     };
-    options
-        .validate()
-        .context("--min-confidence / --confidence-power")?;
     let mut solvers = Vec::new();
     for side in [HandSide::Left, HandSide::Right] {
-        let sk = skeleton(args, side)?;
+        let sk = args.hand.skeleton(side, scale)?;
         solvers.push(if args.track {
             Solver::Tracking(Box::new(HandTracker::new(sk, options)?))
         } else {

@@ -1,12 +1,20 @@
-//! `monohand`: lift 2D hand keypoints to absolute 3D hand poses.
+//! `monohand`: hands in images, video and 2D keypoint files to absolute 3D hand poses.
 //!
 //! ```text
+//! monohand detect photos/ --output hands.jsonl
+//! monohand models fetch
 //! monohand lift --camera cam.json --openpose json_dir/ --output poses.jsonl
 //! monohand lift --camera left.yml --openpose L/ --camera right.yml --openpose R/ --output -
 //! monohand camera --width 1280 --height 720 > cam.json
 //! ```
 
+mod detect;
+mod hand_args;
 mod lift;
+mod models;
+mod progress;
+mod run;
+mod vision;
 
 use anyhow::{Context, Result};
 use clap::{Args, Parser, Subcommand};
@@ -14,10 +22,11 @@ use monohand_core::prelude::*;
 use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::process::ExitCode;
+use std::sync::atomic::{AtomicBool, Ordering};
 
-/// Lift 2D hand keypoints (OpenPose JSON or JSON Lines) from one or more calibrated
-/// cameras to absolute 3D hand poses in millimetres, by fitting a 26-DoF hand model
-/// (Panteleris et al., WACV 2018).
+/// Absolute 3D hand poses (21 joints, millimetres, camera frame) from ordinary RGB
+/// cameras: hands are detected, 21 2D keypoints found by MediaPipe's networks, and a
+/// 26-DoF hand model fitted to them (Panteleris et al., WACV 2018).
 #[derive(Debug, Parser)]
 #[command(name = "monohand", version, about, long_about = None)]
 struct Cli {
@@ -33,6 +42,18 @@ struct Cli {
 
 #[derive(Debug, Subcommand)]
 enum Command {
+    /// Find hands (box, score, left/right, 21 keypoints with confidences) and heads in
+    /// images; write one JSON Lines record per image (docs/output-format.md).
+    Detect(detect::DetectArgs),
+    /// Hands in images, a video, a webcam or a calibrated multi-camera rig to absolute 3D
+    /// joints: detection, 21 keypoints and the 3D fit for every hand in every frame.
+    ///
+    /// Videos are tracked (crops from the last keypoints, fits from the last pose, stable
+    /// hand ids); images are treated one by one on all cores. Output: JSON Lines (default),
+    /// CSV or OpenPose JSON; optionally overlays and an animated glTF of the 3D hands.
+    Run(Box<run::RunArgs>),
+    /// Fetch or list the MediaPipe networks (downloaded with pip, checked, cached).
+    Models(models::ModelsArgs),
     /// Fit the hand model to 2D keypoints and write 3D poses as JSON Lines.
     ///
     /// Give one --camera per view and, in the same order, one --openpose (or one
@@ -81,21 +102,8 @@ pub(crate) struct LiftArgs {
     /// Faster and steadier on video; leave off for unrelated images.
     #[arg(long)]
     pub track: bool,
-    /// Scale the default adult hand model (hand length ~185 mm) by this factor,
-    /// e.g. 0.9 for a small hand. The absolute depth scales with it.
-    #[arg(long, value_name = "S", default_value_t = 1.0)]
-    pub hand_scale: f64,
-    /// JSON file with the subject's 20 bone lengths in mm (a plain array or
-    /// {"bone_lengths_mm": [...]}, per finger thumb..little: wrist-to-base, then
-    /// three phalanges). Applied after --hand-scale.
-    #[arg(long, value_name = "FILE.json")]
-    pub bone_lengths: Option<PathBuf>,
-    /// Keypoints with a confidence below this are ignored (paper: 0.1).
-    #[arg(long, value_name = "P", default_value_t = 0.1)]
-    pub min_confidence: f64,
-    /// Residuals are weighted by confidence^K (paper: 3); 0 weights all kept joints equally.
-    #[arg(long, value_name = "K", default_value_t = 3.0)]
-    pub confidence_power: f64,
+    #[command(flatten)]
+    pub hand: hand_args::HandModelArgs,
 }
 
 /// Arguments of `monohand camera`.
@@ -138,8 +146,50 @@ fn camera_command(args: &CameraArgs) -> Result<()> {
     Ok(())
 }
 
+/// Set by Ctrl-C: long runs finish the current frame, close their files and stop.
+static INTERRUPTED: AtomicBool = AtomicBool::new(false);
+/// Whether `--quiet` was given.
+static QUIET: AtomicBool = AtomicBool::new(false);
+
+/// Whether `--quiet` was given.
+pub(crate) fn is_quiet() -> bool {
+    QUIET.load(Ordering::Relaxed)
+}
+
+/// True once Ctrl-C was pressed.
+pub(crate) fn interrupted() -> bool {
+    INTERRUPTED.load(Ordering::Relaxed)
+}
+
+/// Prints a message for the user on stderr unless `--quiet`.
+pub(crate) fn say(msg: &str) {
+    if !QUIET.load(Ordering::Relaxed) {
+        eprintln!("{msg}");
+    }
+}
+
+/// A thread pool of `threads` workers (all cores when `None`).
+pub(crate) fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
+    let mut builder = rayon::ThreadPoolBuilder::new();
+    if let Some(n) = threads {
+        if n == 0 {
+            anyhow::bail!("--threads must be at least 1");
+        }
+        builder = builder.num_threads(n);
+    }
+    builder.build().context("could not start worker threads")
+}
+
 fn main() -> ExitCode {
     let cli = Cli::parse();
+    QUIET.store(cli.quiet, Ordering::Relaxed);
+    // The first Ctrl-C asks long runs to stop cleanly; a second one kills the process.
+    let _ = ctrlc::set_handler(|| {
+        if INTERRUPTED.swap(true, Ordering::Relaxed) {
+            std::process::exit(130);
+        }
+        eprintln!("\ninterrupted: finishing the current frame (Ctrl-C again to kill)");
+    });
     let level = if cli.quiet {
         tracing::Level::ERROR
     } else {
@@ -157,6 +207,9 @@ fn main() -> ExitCode {
         .with_max_level(level)
         .init();
     let result = match &cli.command {
+        Command::Detect(args) => detect::run(args),
+        Command::Models(args) => models::run(args),
+        Command::Run(args) => run::run(args),
         Command::Lift(args) => lift::run(args),
         Command::Camera(args) => camera_command(args),
     };

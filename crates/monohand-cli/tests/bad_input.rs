@@ -275,7 +275,7 @@ fn stdout_output_and_jsonl_input_agree_with_openpose_input() {
             frame: i,
             source: Some(format!("f_{i}_keypoints.json")),
             hands: vec![HandRecord::from_keypoints(HandSide::Right, &kp)],
-            timings_ms: None,
+            ..Default::default()
         })
         .unwrap();
     }

@@ -739,7 +739,7 @@ mod tests {
             frame: 7,
             source: Some("a,\"b\".png".into()),
             hands: vec![hand(HandSide::Right, Some(3), 500.0), two_d],
-            timings_ms: None,
+            ..Default::default()
         };
         let rows = csv_rows(&frame);
         assert_eq!(rows.len(), 2);

@@ -113,6 +113,34 @@ pub struct HandRecord {
     /// Track identity, stable across frames.
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub id: Option<u64>,
+    /// Probability of `side` in `[0.5, 1]`, when a network decided it.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub side_score: Option<f64>,
+    /// The hand's oriented box in the first view (rotated with the hand).
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub oriented_box: Option<OrientedBox>,
+}
+
+/// A rotated rectangle in pixels.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct OrientedBox {
+    /// Centre `[u, v]`, pixels.
+    pub center: [f64; 2],
+    /// `[width, height]`, pixels.
+    pub size: [f64; 2],
+    /// Rotation in degrees, clockwise in the image (y down), of the box's height axis from
+    /// "up": 0 is an upright hand with the fingers towards the top of the image.
+    pub angle_deg: f64,
+}
+
+/// A detected head (used as context for the hands' sides, as in the paper).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct HeadRecord {
+    /// Head box `[x_min, y_min, x_max, y_max]`, pixels.
+    #[serde(rename = "box")]
+    pub bbox: [f64; 4],
+    /// Detection score in `[0, 1]`.
+    pub score: f64,
 }
 
 impl HandRecord {
@@ -129,6 +157,8 @@ impl HandRecord {
             bbox: None,
             score: None,
             id: None,
+            side_score: None,
+            oriented_box: None,
         }
     }
 
@@ -181,6 +211,14 @@ impl HandRecord {
         if self.score.is_some_and(|s| !s.is_finite()) {
             return Some("score");
         }
+        if self.side_score.is_some_and(|s| !s.is_finite()) {
+            return Some("side_score");
+        }
+        if let Some(b) = &self.oriented_box {
+            if bad(b.center.iter().chain(&b.size).chain([&b.angle_deg])) {
+                return Some("oriented_box");
+            }
+        }
         None
     }
 }
@@ -198,9 +236,21 @@ pub struct FrameRecord {
     /// The input the frame came from (file name), if known.
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub source: Option<String>,
+    /// Time of the frame in the input video, seconds, when it came from one.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub time_s: Option<f64>,
+    /// Image size `[width, height]` of the first view, pixels, when known.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub image_size: Option<[u32; 2]>,
     /// The hands (possibly none).
     #[serde(default)]
     pub hands: Vec<HandRecord>,
+    /// Detected heads, when head detection ran.
+    #[serde(skip_serializing_if = "Vec::is_empty", default)]
+    pub heads: Vec<HeadRecord>,
+    /// Why this frame has no result (it could not be read or processed); the run went on.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub error: Option<String>,
     /// Per-stage processing times, milliseconds.
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub timings_ms: Option<BTreeMap<String, f64>>,
@@ -344,7 +394,12 @@ mod tests {
             frame: 7,
             source: Some("f.json".into()),
             hands: vec![rec.clone()],
-            timings_ms: None,
+            image_size: Some([640, 480]),
+            heads: vec![HeadRecord {
+                bbox: [1.0, 2.0, 30.0, 40.0],
+                score: 0.9,
+            }],
+            ..Default::default()
         };
         let dir = tempfile::tempdir().unwrap();
         let p = dir.path().join("o.jsonl");

@@ -65,6 +65,18 @@ pub trait KeypointEstimator: Send + Sync {
         region: &HandRegion,
         side_hint: Option<HandSide>,
     ) -> Result<HandKeypoints>;
+
+    /// Keypoints for a region predicted from the previous frame's keypoints (video
+    /// tracking): such a region is already tight, so estimators that re-crop around their own
+    /// first answer may skip that. The default is [`KeypointEstimator::estimate`].
+    fn estimate_tracked(
+        &self,
+        img: &RgbImage,
+        region: &HandRegion,
+        side_hint: Option<HandSide>,
+    ) -> Result<HandKeypoints> {
+        self.estimate(img, region, side_hint)
+    }
 }
 
 impl HandDetector for PalmDetector {
@@ -122,20 +134,14 @@ impl MediaPipeKeypoints {
     }
 }
 
-impl KeypointEstimator for MediaPipeKeypoints {
-    fn estimate(
-        &self,
-        img: &RgbImage,
-        region: &HandRegion,
-        _hint: Option<HandSide>,
-    ) -> Result<HandKeypoints> {
-        let lm = self.landmarks(img, &region.roi)?;
+impl MediaPipeKeypoints {
+    fn keypoints(&self, lm: HandLandmarks) -> HandKeypoints {
         let mut points = [[0.0; 3]; NUM_LANDMARKS];
         for (p, (q, c)) in points.iter_mut().zip(lm.image.iter().zip(&lm.confidence)) {
             *p = [q[0], q[1], *c];
         }
         // P(MediaPipe label "Left") = P(physical right hand) in an unmirrored image.
-        let p_label_left = lm.handedness_raw.clamp(0.0, 1.0) as f64 as f32;
+        let p_label_left = lm.handedness_raw.clamp(0.0, 1.0);
         let (p_right, p_left) = if self.mirrored_input {
             (1.0 - p_label_left, p_label_left)
         } else {
@@ -146,12 +152,32 @@ impl KeypointEstimator for MediaPipeKeypoints {
         } else {
             (HandSide::Left, p_left)
         };
-        Ok(HandKeypoints {
+        HandKeypoints {
             points,
             presence: lm.presence,
             side: Some(side),
             world: Some(lm.world),
-        })
+        }
+    }
+}
+
+impl KeypointEstimator for MediaPipeKeypoints {
+    fn estimate(
+        &self,
+        img: &RgbImage,
+        region: &HandRegion,
+        _hint: Option<HandSide>,
+    ) -> Result<HandKeypoints> {
+        Ok(self.keypoints(self.landmarks(img, &region.roi)?))
+    }
+
+    fn estimate_tracked(
+        &self,
+        img: &RgbImage,
+        region: &HandRegion,
+        _hint: Option<HandSide>,
+    ) -> Result<HandKeypoints> {
+        Ok(self.keypoints(self.model.estimate(img, &region.roi)?))
     }
 }
 
@@ -416,41 +442,62 @@ impl HandPipeline {
 
     /// Hands and heads in an RGB image.
     pub fn detect(&self, img: &RgbImage) -> Result<Detections> {
-        let mut regions = self.detector.detect_hands(img)?;
-        regions.sort_by(|a, b| b.score.total_cmp(&a.score));
+        Ok(self.track(img, &[], true)?.0)
+    }
+
+    /// Video tracking, as MediaPipe does it: each hand of the previous frame is looked for
+    /// again in the crop its keypoints predict (one landmark inference, no detector), and the
+    /// palm detector runs only when `detect_new` is set (on the first frame, when a hand was
+    /// lost, or every N frames for new hands), and so does the head detector. Returns the
+    /// detections and, per hand, the index
+    /// in `previous` it continues (`None` for a new detection). A tracked hand whose presence
+    /// falls below [`PipelineOptions::min_presence`] is dropped (lost).
+    pub fn track(
+        &self,
+        img: &RgbImage,
+        previous: &[DetectedHand],
+        detect_new: bool,
+    ) -> Result<(Detections, Vec<Option<usize>>)> {
         let mut hands: Vec<DetectedHand> = Vec::new();
-        for region in regions {
+        let mut origin: Vec<Option<usize>> = Vec::new();
+        for (i, prev) in previous.iter().enumerate() {
             if hands.len() >= self.options.max_hands {
                 break;
             }
-            let kp = match &self.side_source {
-                None => self.estimator.estimate(img, &region, None)?,
-                Some(mp) => {
-                    let first = mp.estimate(img, &region, None)?;
-                    let mut kp = self
-                        .estimator
-                        .estimate(img, &region, first.side.map(|s| s.0))?;
-                    kp.presence = first.presence;
-                    kp.side = first.side;
-                    kp
-                }
+            let mut lm = [[0.0; 3]; NUM_LANDMARKS];
+            for (dst, p) in lm.iter_mut().zip(&prev.keypoints.points) {
+                // Back from pixel-centre to continuous coordinates.
+                *dst = [p[0] + 0.5, p[1] + 0.5, p[2]];
+            }
+            if lm.iter().any(|p| !(p[0].is_finite() && p[1].is_finite())) {
+                continue;
+            }
+            let region = HandRegion {
+                score: prev.detection_score,
+                roi: roi_from_landmarks(&lm),
             };
-            if kp.presence < self.options.min_presence {
-                continue;
+            if let Some(hand) = self.estimate_region(img, &region, true, &hands)? {
+                hands.push(hand);
+                origin.push(Some(i));
             }
-            let hand = to_detected(&region, kp);
-            let b = point_bounds(&hand.keypoints);
-            if hands
-                .iter()
-                .any(|h| iou(&point_bounds(&h.keypoints), &b) > self.options.duplicate_iou)
-            {
-                continue;
-            }
-            hands.push(hand);
         }
-        // A face detection lying mostly on a detected hand is a palm seen as a face.
+        if detect_new {
+            let mut regions = self.detector.detect_hands(img)?;
+            regions.sort_by(|a, b| b.score.total_cmp(&a.score));
+            for region in regions {
+                if hands.len() >= self.options.max_hands {
+                    break;
+                }
+                if let Some(hand) = self.estimate_region(img, &region, false, &hands)? {
+                    hands.push(hand);
+                    origin.push(None);
+                }
+            }
+        }
+        // A face detection lying mostly on a detected hand is a palm seen as a face. Heads
+        // are context for new hands, so they are looked for when the detector runs.
         let heads = match &self.face {
-            Some(f) => f
+            Some(f) if detect_new => f
                 .detect(img)?
                 .into_iter()
                 .map(to_head)
@@ -460,13 +507,54 @@ impl HandPipeline {
                     })
                 })
                 .collect(),
-            None => Vec::new(),
+            _ => Vec::new(),
         };
-        Ok(Detections {
+        let detections = Detections {
             image_size: img.dimensions(),
             hands,
             heads,
-        })
+        };
+        Ok((detections, origin))
+    }
+
+    /// Keypoints in one region; `None` when no hand is present there or it duplicates one of
+    /// `found`.
+    fn estimate_region(
+        &self,
+        img: &RgbImage,
+        region: &HandRegion,
+        tracked: bool,
+        found: &[DetectedHand],
+    ) -> Result<Option<DetectedHand>> {
+        let estimate = |e: &dyn KeypointEstimator, hint| {
+            if tracked {
+                e.estimate_tracked(img, region, hint)
+            } else {
+                e.estimate(img, region, hint)
+            }
+        };
+        let kp = match &self.side_source {
+            None => estimate(self.estimator.as_ref(), None)?,
+            Some(mp) => {
+                let first = estimate(mp, None)?;
+                let mut kp = estimate(self.estimator.as_ref(), first.side.map(|s| s.0))?;
+                kp.presence = first.presence;
+                kp.side = first.side;
+                kp
+            }
+        };
+        if kp.presence < self.options.min_presence {
+            return Ok(None);
+        }
+        let hand = to_detected(region, kp);
+        let b = point_bounds(&hand.keypoints);
+        if found
+            .iter()
+            .any(|h| iou(&point_bounds(&h.keypoints), &b) > self.options.duplicate_iou)
+        {
+            return Ok(None);
+        }
+        Ok(Some(hand))
     }
 }
 

@@ -17,8 +17,10 @@
 pub mod init;
 pub mod lm;
 mod options;
+mod scale;
 mod tracker;
 
 pub use lm::{FitResult, HandFitter};
 pub use options::{FitOptions, View};
+pub use scale::{estimate_hand_scale, ScaleEstimate, MIN_COST_CONTRAST};
 pub use tracker::HandTracker;

@@ -1,0 +1,122 @@
+//! The hand model and fitting options shared by `lift` and `run`.
+
+use anyhow::{bail, Context, Result};
+use clap::Args;
+use monohand_core::prelude::*;
+use std::path::PathBuf;
+use std::str::FromStr;
+
+/// The hand's size: a fixed factor on the default adult hand, or measured from the input.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) enum HandScale {
+    /// Multiply the default hand (hand length ~185 mm) by this.
+    Fixed(f64),
+    /// Estimate the factor from the first frames (needs two or more calibrated views).
+    Auto,
+}
+
+impl FromStr for HandScale {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        if s.eq_ignore_ascii_case("auto") {
+            return Ok(HandScale::Auto);
+        }
+        match s.parse::<f64>() {
+            Ok(v) if v.is_finite() && v > 0.3 && v < 3.0 => Ok(HandScale::Fixed(v)),
+            _ => Err(format!(
+                "{s:?} is neither \"auto\" nor a factor between 0.3 and 3"
+            )),
+        }
+    }
+}
+
+/// Hand model and fitting options.
+#[derive(Debug, Clone, Args)]
+pub(crate) struct HandModelArgs {
+    /// Size of the hand: a factor on the default adult hand model (hand length ~185 mm;
+    /// e.g. 0.9 for a small hand; the absolute depth scales with it), or "auto" to measure
+    /// it over the first frames (`--scale-frames`); "auto" needs two or more calibrated
+    /// views: with one camera the size is not observable and the default is kept (see
+    /// docs/accuracy.md).
+    #[arg(long, value_name = "S|auto", default_value = "1.0")]
+    pub hand_scale: HandScale,
+    /// Frames used by --hand-scale auto.
+    #[arg(long, value_name = "N", default_value_t = 30)]
+    pub scale_frames: usize,
+    /// JSON file with the subject's 20 bone lengths in mm (a plain array or
+    /// {"bone_lengths_mm": [...]}, per finger thumb..little: wrist-to-base, then
+    /// three phalanges). Applied after --hand-scale.
+    #[arg(long, value_name = "FILE.json")]
+    pub bone_lengths: Option<PathBuf>,
+    /// Keypoints with a confidence below this are ignored (paper: 0.1).
+    #[arg(long, value_name = "P", default_value_t = 0.1)]
+    pub min_confidence: f64,
+    /// Residuals are weighted by confidence^K (paper: 3); 0 weights all kept joints equally.
+    #[arg(long, value_name = "K", default_value_t = 3.0)]
+    pub confidence_power: f64,
+}
+
+impl HandModelArgs {
+    /// The fixed scale factor (1 for "auto" until it is measured).
+    pub fn initial_scale(&self) -> f64 {
+        match self.hand_scale {
+            HandScale::Fixed(s) => s,
+            HandScale::Auto => 1.0,
+        }
+    }
+
+    /// The skeleton of one side at scale `scale`, with --bone-lengths applied.
+    pub fn skeleton(&self, side: HandSide, scale: f64) -> Result<HandSkeleton> {
+        let mut sk = HandSkeleton::default_for(side)
+            .scaled(scale)
+            .context("--hand-scale")?;
+        if let Some(p) = &self.bone_lengths {
+            let lengths = monohand_io::skeleton::read_bone_lengths(p)?;
+            let lengths = lengths.map(|l| l * scale);
+            sk = sk
+                .with_bone_lengths(&lengths)
+                .with_context(|| format!("{}: impossible bone lengths", p.display()))?;
+        }
+        Ok(sk)
+    }
+
+    /// The fitter's options, checked.
+    pub fn fit_options(&self) -> Result<FitOptions> {
+        let options = FitOptions {
+            min_confidence: self.min_confidence,
+            confidence_power: self.confidence_power,
+            ..FitOptions::default()
+        };
+        options
+            .validate()
+            .context("--min-confidence / --confidence-power")?;
+        if self.hand_scale == HandScale::Auto && self.scale_frames == 0 {
+            bail!("--scale-frames must be at least 1");
+        }
+        Ok(options)
+    }
+}
+
+/// Whether a fit is usable (no NaN anywhere).
+pub(crate) fn is_finite(fit: &FitResult) -> bool {
+    fit.pose.is_finite()
+        && fit.reprojection_error_px.is_finite()
+        && fit
+            .joints_3d
+            .iter()
+            .all(|x| x.iter().all(|v| v.is_finite()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn hand_scale_parses() {
+        assert_eq!("auto".parse::<HandScale>(), Ok(HandScale::Auto));
+        assert_eq!("0.9".parse::<HandScale>(), Ok(HandScale::Fixed(0.9)));
+        assert!("0".parse::<HandScale>().is_err());
+        assert!("NaN".parse::<HandScale>().is_err());
+        assert!("big".parse::<HandScale>().is_err());
+    }
+}

@@ -1,0 +1,231 @@
+//! Where `monohand run` writes: the poses (JSON Lines, CSV or OpenPose JSON), overlays
+//! (video or PNG folder) and the animated glTF.
+
+use super::RunArgs;
+use anyhow::{bail, Context, Result};
+use clap::ValueEnum;
+use monohand_core::prelude::*;
+use monohand_io::export::{write_openpose_frame, CsvWriter, GltfWriter};
+use monohand_io::jsonl::{FrameRecord, JsonlWriter};
+use monohand_io::overlay::{draw_hand, project_joints, HandStyle};
+use monohand_io::video::{RgbFrame, VideoWriter};
+use monohand_vision::RgbImage;
+use std::path::{Path, PathBuf};
+
+/// Format of the poses file.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub(crate) enum OutputFormat {
+    /// JSON Lines, one record per frame (docs/output-format.md).
+    Jsonl,
+    /// CSV, one row per hand per frame, with a header.
+    Csv,
+    /// OpenPose JSON, one `{stem}_{frame:012}_keypoints.json` per frame in the --output
+    /// folder, with `hand_*_keypoints_2d` and `hand_*_keypoints_3d`.
+    Openpose,
+}
+
+/// The poses file(s).
+enum Poses {
+    Jsonl(JsonlWriter),
+    Csv(CsvWriter),
+    OpenPose { dir: PathBuf, stem: String },
+}
+
+/// Where overlays go.
+enum Overlay {
+    /// Encoded on the fly (started at the first frame, when the size is known).
+    Video {
+        path: PathBuf,
+        fps: f64,
+        /// The encoder and its frame size.
+        writer: Option<(VideoWriter, usize, usize)>,
+    },
+    /// `frame_000123.png` files.
+    Folder(PathBuf),
+}
+
+/// All outputs of a run.
+pub(crate) struct Outputs {
+    poses: Poses,
+    overlay: Option<Overlay>,
+    gltf: Option<GltfWriter>,
+    camera: Option<Camera>,
+}
+
+/// Overlay paths with one of these extensions are videos; others are folders.
+const VIDEO_EXTENSIONS: &[&str] = &["mp4", "mkv", "avi", "mov", "webm"];
+
+impl Outputs {
+    /// Opens every output (nothing is created if an argument is wrong).
+    pub fn create(args: &RunArgs, fps: Option<f64>, camera: Option<Camera>) -> Result<Outputs> {
+        let overlay = match &args.overlay {
+            None => None,
+            Some(p) if is_video_path(p) => Some(Overlay::Video {
+                path: p.clone(),
+                fps: fps.unwrap_or(30.0),
+                writer: None,
+            }),
+            Some(p) => {
+                if p.exists() && !p.is_dir() {
+                    bail!(
+                        "--overlay {}: not a folder, and not a video name ({})",
+                        p.display(),
+                        VIDEO_EXTENSIONS.join(", ")
+                    );
+                }
+                std::fs::create_dir_all(p).with_context(|| {
+                    format!("--overlay {}: cannot create the folder", p.display())
+                })?;
+                Some(Overlay::Folder(p.clone()))
+            }
+        };
+        let stdout = args.output.as_os_str() == "-";
+        let poses = match args.format {
+            OutputFormat::Jsonl if stdout => Poses::Jsonl(JsonlWriter::stdout()),
+            OutputFormat::Jsonl => Poses::Jsonl(JsonlWriter::create(&args.output)?),
+            OutputFormat::Csv if stdout => {
+                Poses::Csv(CsvWriter::new(Box::new(std::io::stdout()), "<stdout>")?)
+            }
+            OutputFormat::Csv => Poses::Csv(CsvWriter::create(&args.output)?),
+            OutputFormat::Openpose => {
+                if stdout {
+                    bail!("--format openpose writes one file per frame: give a folder as --output");
+                }
+                std::fs::create_dir_all(&args.output).with_context(|| {
+                    format!(
+                        "--output {}: cannot create the folder",
+                        args.output.display()
+                    )
+                })?;
+                let stem = args
+                    .input
+                    .as_deref()
+                    .or(args.views.first().map(String::as_str))
+                    .and_then(|i| Path::new(i).file_stem())
+                    .map(|s| s.to_string_lossy().into_owned())
+                    .unwrap_or_else(|| "monohand".into());
+                Poses::OpenPose {
+                    dir: args.output.clone(),
+                    stem,
+                }
+            }
+        };
+        let gltf = args.gltf.as_ref().map(|p| {
+            let mut g = GltfWriter::new(p);
+            if let Some(c) = &camera {
+                g.set_camera_from(c);
+            }
+            g
+        });
+        Ok(Outputs {
+            poses,
+            overlay,
+            gltf,
+            camera,
+        })
+    }
+
+    /// Whether the frames' pixels are needed (overlays).
+    pub fn wants_images(&self) -> bool {
+        self.overlay.is_some()
+    }
+
+    /// Writes one frame's results (and its overlay, from `image`).
+    pub fn write(&mut self, record: &FrameRecord, image: Option<RgbImage>) -> Result<()> {
+        match &mut self.poses {
+            Poses::Jsonl(w) => w.write_frame(record)?,
+            Poses::Csv(w) => w.write_frame(record)?,
+            Poses::OpenPose { dir, stem } => {
+                write_openpose_frame(dir, stem, record)?;
+            }
+        }
+        if let Some(g) = &mut self.gltf {
+            let t = record.time_s.unwrap_or(record.frame as f64 / 30.0);
+            if let Err(e) = g.add_record(t, record) {
+                tracing::warn!("frame {}: not added to the glTF: {e}", record.frame);
+            }
+        }
+        if let (Some(overlay), Some(image)) = (&mut self.overlay, image) {
+            let (w, h) = image.dimensions();
+            let Some(mut frame) = RgbFrame::from_raw(w as usize, h as usize, image.into_raw())
+            else {
+                return Ok(());
+            };
+            let camera = match self.camera {
+                Some(c) => Some(c),
+                None => Camera::generic(w, h).ok(),
+            };
+            draw_record(&mut frame, record, camera.as_ref());
+            match overlay {
+                Overlay::Video { path, fps, writer } => {
+                    if writer.is_none() {
+                        let w = VideoWriter::create(&*path, frame.width, frame.height, *fps)?;
+                        *writer = Some((w, frame.width, frame.height));
+                    }
+                    if let Some((wr, ww, wh)) = writer {
+                        if (frame.width, frame.height) == (*ww, *wh) {
+                            wr.write(&frame)?;
+                        } else {
+                            tracing::warn!(
+                                "frame {}: size differs from the overlay video's; not drawn",
+                                record.frame
+                            );
+                        }
+                    }
+                }
+                Overlay::Folder(dir) => {
+                    let path = dir.join(format!("frame_{:06}.png", record.frame));
+                    let img =
+                        RgbImage::from_raw(frame.width as u32, frame.height as u32, frame.data);
+                    if let Some(img) = img {
+                        img.save(&path)
+                            .with_context(|| format!("cannot write {}", path.display()))?;
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Closes every output (the overlay video is finalised so it plays).
+    pub fn finish(self) -> Result<()> {
+        if let Some(g) = self.gltf {
+            g.finish()?;
+        }
+        if let Some(Overlay::Video {
+            writer: Some((w, _, _)),
+            ..
+        }) = self.overlay
+        {
+            w.finish()?;
+        }
+        Ok(())
+    }
+}
+
+fn is_video_path(p: &Path) -> bool {
+    p.extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| VIDEO_EXTENSIONS.contains(&e.to_ascii_lowercase().as_str()))
+}
+
+/// Draws every hand of a record: its 2D keypoints and, when fitted, the 3D model projected
+/// with `camera` (the first view's).
+pub(crate) fn draw_record(frame: &mut RgbFrame, record: &FrameRecord, camera: Option<&Camera>) {
+    let style = HandStyle::for_image(frame.width, frame.height);
+    for hand in &record.hands {
+        let projected = match (&hand.joints_3d_mm, camera) {
+            (Some(joints), Some(cam)) => Some(project_joints(cam, joints)),
+            _ => None,
+        };
+        draw_hand(
+            frame,
+            &hand.keypoints_2d,
+            projected.as_ref(),
+            hand.side,
+            hand.id,
+            hand.score,
+            &style,
+        );
+    }
+}

@@ -1,0 +1,194 @@
+//! Options shared by the commands that run the networks (`detect`, `run`, `models`), and
+//! the conversion of the front end's detections to the output records.
+
+use anyhow::{bail, Context, Result};
+use clap::{Args, ValueEnum};
+use monohand_io::jsonl::{FrameRecord, HandRecord, HeadRecord, OrientedBox};
+use monohand_vision::heatmap::HeatmapModelConfig;
+use monohand_vision::{
+    DetectedHand, Detections, HandPipeline, ModelOptions, ModelStore, ModelVariant, PipelineOptions,
+};
+use std::path::PathBuf;
+
+/// Size of a MediaPipe network.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub(crate) enum Variant {
+    /// The larger, more accurate network.
+    Full,
+    /// The smaller, faster network.
+    Lite,
+}
+
+impl From<Variant> for ModelVariant {
+    fn from(v: Variant) -> Self {
+        match v {
+            Variant::Full => ModelVariant::Full,
+            Variant::Lite => ModelVariant::Lite,
+        }
+    }
+}
+
+/// How a custom keypoint network's output is read.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub(crate) enum KeypointFormat {
+    /// 21 heatmaps (OpenPose-hand / RTMPose-style); peak with sub-pixel refinement,
+    /// confidence = peak value.
+    Heatmap,
+}
+
+/// Where the networks come from and how they run.
+#[derive(Debug, Clone, Args)]
+pub(crate) struct ModelArgs {
+    /// Folder of the cached MediaPipe weights (default: $MONOHAND_MODEL_DIR, else
+    /// $XDG_CACHE_HOME/monohand/models, else ~/.cache/monohand/models). Fetched there with
+    /// pip on first use.
+    #[arg(long, value_name = "DIR", global = true)]
+    pub model_dir: Option<PathBuf>,
+    /// Palm detector size.
+    #[arg(long, value_enum, default_value = "full", value_name = "SIZE")]
+    pub palm_model: Variant,
+    /// Hand landmark model size.
+    #[arg(long, value_enum, default_value = "full", value_name = "SIZE")]
+    pub landmark_model: Variant,
+    /// Do not detect heads (the paper's context for left/right; they cost ~3 ms per image).
+    #[arg(long)]
+    pub no_heads: bool,
+    /// The most hands per image.
+    #[arg(long = "hands", value_name = "N", default_value_t = 4)]
+    pub max_hands: usize,
+    /// Hands whose presence score (landmark network) is below this are dropped.
+    #[arg(long, value_name = "P", default_value_t = 0.5)]
+    pub min_presence: f32,
+    /// Images are selfie-mirrored (front cameras): swap left and right.
+    #[arg(long)]
+    pub mirrored: bool,
+    /// An ONNX keypoint network to use instead of MediaPipe's landmark model (MediaPipe's
+    /// still tells the side and presence; one-sided networks get mirrored crops).
+    #[arg(long, value_name = "MODEL.onnx", requires = "keypoint_format")]
+    pub keypoint_model: Option<PathBuf>,
+    /// Output format of --keypoint-model.
+    #[arg(long, value_enum, value_name = "FORMAT")]
+    pub keypoint_format: Option<KeypointFormat>,
+    /// Input size of --keypoint-model, WxH (OpenPose hand: 368x368).
+    #[arg(long, value_name = "WxH", default_value = "368x368")]
+    pub keypoint_input: String,
+    /// The only side --keypoint-model was trained on (the other side is mirrored).
+    #[arg(long, value_name = "SIDE")]
+    pub keypoint_trained_side: Option<SideArg>,
+}
+
+/// A hand side on the command line.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub(crate) enum SideArg {
+    /// Left hand.
+    Left,
+    /// Right hand.
+    Right,
+}
+
+impl ModelArgs {
+    /// The model store these options point at.
+    pub fn store(&self) -> Result<ModelStore> {
+        Ok(ModelStore::new(self.model_dir.clone())?)
+    }
+
+    /// Builds the front end (fetching the weights if needed).
+    pub fn pipeline(&self, refine_passes: usize) -> Result<HandPipeline> {
+        if self.max_hands == 0 {
+            bail!("--hands must be at least 1");
+        }
+        if !(0.0..=1.0).contains(&self.min_presence) {
+            bail!("--min-presence {} must be in [0, 1]", self.min_presence);
+        }
+        let models = ModelOptions {
+            model_dir: self.model_dir.clone(),
+            palm: self.palm_model.into(),
+            landmark: self.landmark_model.into(),
+            detect_heads: !self.no_heads,
+        };
+        let options = PipelineOptions {
+            max_hands: self.max_hands,
+            min_presence: self.min_presence,
+            mirrored_input: self.mirrored,
+            refine_passes,
+            ..PipelineOptions::default()
+        };
+        let pipeline = match (&self.keypoint_model, self.keypoint_format) {
+            (Some(path), Some(KeypointFormat::Heatmap)) => {
+                let (w, h) = parse_size(&self.keypoint_input)?;
+                let config = HeatmapModelConfig {
+                    input_size: (w, h),
+                    trained_side: self.keypoint_trained_side.map(|s| match s {
+                        SideArg::Left => monohand_core::hand_model::HandSide::Left,
+                        SideArg::Right => monohand_core::hand_model::HandSide::Right,
+                    }),
+                    ..HeatmapModelConfig::default()
+                };
+                let estimator = monohand_vision::heatmap::OnnxHeatmapEstimator::load(path, config)?;
+                HandPipeline::with_keypoint_estimator(&models, options, Box::new(estimator))
+            }
+            (Some(_), None) => bail!("--keypoint-model needs --keypoint-format"),
+            _ => HandPipeline::new(&models, options),
+        };
+        pipeline.context("could not set up the hand networks")
+    }
+}
+
+fn parse_size(s: &str) -> Result<(usize, usize)> {
+    let parse = |t: &str| t.trim().parse::<usize>().ok().filter(|&n| n > 0);
+    match s.split_once(['x', 'X']) {
+        Some((w, h)) => match (parse(w), parse(h)) {
+            (Some(w), Some(h)) => Ok((w, h)),
+            _ => bail!("size {s:?} is not WxH with positive integers"),
+        },
+        None => bail!("size {s:?} is not WxH"),
+    }
+}
+
+/// The output record of one detected hand (no 3D yet).
+pub(crate) fn hand_record(hand: &DetectedHand) -> HandRecord {
+    let r = &hand.oriented_box;
+    let mut record = HandRecord::from_keypoints(hand.side, &hand.keypoints);
+    record.bbox = Some(monohand_vision::pipeline::point_bounds(&hand.keypoints));
+    record.score = Some(f64::from(hand.detection_score));
+    record.side_score = Some(f64::from(hand.side_score));
+    record.oriented_box = Some(OrientedBox {
+        center: r.center,
+        size: [r.width, r.height],
+        angle_deg: r.rotation.to_degrees(),
+    });
+    record
+}
+
+/// The output record of one image's detections.
+pub(crate) fn frame_record(frame: u64, source: Option<String>, found: &Detections) -> FrameRecord {
+    FrameRecord {
+        frame,
+        source,
+        image_size: Some([found.image_size.0, found.image_size.1]),
+        hands: found.hands.iter().map(hand_record).collect(),
+        heads: found
+            .heads
+            .iter()
+            .map(|h| HeadRecord {
+                bbox: h.head_box,
+                score: f64::from(h.score),
+            })
+            .collect(),
+        ..FrameRecord::default()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sizes_parse_or_explain() {
+        assert_eq!(parse_size("368x368").unwrap(), (368, 368));
+        assert_eq!(parse_size("256X192").unwrap(), (256, 192));
+        assert!(parse_size("368").is_err());
+        assert!(parse_size("0x5").is_err());
+        assert!(parse_size("ax5").is_err());
+    }
+}
