@@ -139,6 +139,30 @@ impl HandFitter {
         Ok(self.finish(sol, used))
     }
 
+    /// The poses [`HandFitter::fit`] starts its full Levenberg-Marquardt runs
+    /// from, in the order it tries them (at most 8): the closed-form
+    /// weak-perspective palm estimates (both mirror solutions) refined on the
+    /// palm joints, or the orientation sweep when fewer than three palm joints
+    /// are seen, each with its fingers set from the keypoint rays.
+    ///
+    /// `fit` runs the solver from each of these (with
+    /// [`FitOptions::max_iterations`]), re-seats the fingers on each result and
+    /// solves once more (the second pass), and keeps the lowest cost. The
+    /// first part alone is [`HandFitter::fit_from`] on each start with
+    /// `max_iterations_tracking` set to `max_iterations`; benchmarks use this
+    /// to give another solver exactly the starts ours iterates from.
+    ///
+    /// Errors as [`HandFitter::fit`] for bad views or too few joints; the list
+    /// is empty if no start could be placed in front of the cameras.
+    pub fn starting_poses(&mut self, views: &[View]) -> CoreResult<Vec<HandPose>> {
+        self.prepare(views)?;
+        let observed = self.observed_joints();
+        Ok(init::root_candidates(self, &observed)
+            .into_iter()
+            .flatten()
+            .collect())
+    }
+
     /// Fits starting from a previous pose (tracking). Angles of joints that are
     /// not observed in any view keep their previous values, so those joints keep
     /// their last position relative to the hand and move with its root (the
