@@ -378,6 +378,31 @@ impl HandFitter {
             let taken = step_between(&pose, &candidate, &step);
             let predicted = -(2.0 * g.dot(&taken) + taken.dot(&(h * taken)));
             let new_cost = self.cost(&candidate, mask);
+            // A failed step is first shortened once (to the minimiser of the
+            // quadratic through the cost at 0 and 1 and the slope at 0) before
+            // the damping is raised: in the curved valleys of the monocular
+            // cost the Gauss-Newton direction is often good but too long.
+            let (candidate, taken, new_cost) = match new_cost {
+                Some(nc) if nc < cost => (candidate, taken, new_cost),
+                _ if taken.amax() > self.options.step_tolerance => {
+                    let slope = 2.0 * g.dot(&taken);
+                    let alpha = match new_cost {
+                        Some(nc) if slope < 0.0 => {
+                            (-slope / (2.0 * (nc - cost - slope))).clamp(0.1, 0.5)
+                        }
+                        _ => 0.25,
+                    };
+                    let short_step = step * alpha;
+                    let short = apply_step(&pose, &short_step, limits);
+                    match self.cost(&short, mask) {
+                        Some(c) if c < cost => {
+                            (short, step_between(&pose, &short, &short_step), Some(c))
+                        }
+                        _ => (candidate, taken, new_cost),
+                    }
+                }
+                _ => (candidate, taken, new_cost),
+            };
             match new_cost {
                 Some(nc) if nc < cost => {
                     let rho = if predicted > 0.0 {
