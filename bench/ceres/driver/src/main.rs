@@ -8,8 +8,11 @@
 //!      (`HandFitter::starting_poses`), one LM run from each (cap
 //!      `max_iterations`), best kept; and, separately, the whole `fit`
 //!      (initialisation + LM + second finger-seating pass);
-//!    - *warm*: frame i starts from our warm-started solution of frame i - 1
-//!      (frame 0: our full fit), one LM run with cap `max_iterations_tracking`.
+//!    - *warm*: frame i starts from the previous frame's solution, the same
+//!      for both solvers: our whole from-scratch `fit` of frame i - 1 (not a
+//!      chain of warm solutions, which could drift into a wrong local minimum
+//!      and make the problems depend on the solver); one LM run with cap
+//!      `max_iterations_tracking`.
 //! 3. Writes the same problems and starts for `ceres_fit`, runs it, reads its
 //!    solutions and prints the comparison (Markdown) to stdout and
 //!    `OUT/report.md`; per-problem numbers go to `OUT/per_problem.tsv`.
@@ -283,7 +286,7 @@ fn run() -> Res<()> {
             });
         }
 
-        // Warm-started from our previous solution.
+        // Warm-started from the previous frame's solution (our full fit).
         let mut warm = Case {
             name: format!("noise{noise}px-warm"),
             noise,
@@ -295,8 +298,8 @@ fn run() -> Res<()> {
             ceres: Vec::new(),
             ceres_minimizer_ns: Vec::new(),
         };
-        let mut prev = scratch.ours_full.first().ok_or("no frames")?.pose;
         for (i, kp) in kps.iter().enumerate().skip(1) {
+            let prev = scratch.ours_full[i - 1].pose;
             let views = [View {
                 camera: &cam,
                 keypoints: kp,
@@ -318,7 +321,6 @@ fn run() -> Res<()> {
                 keypoints: *kp,
                 starts: vec![prev],
             });
-            prev = r.pose;
         }
         eprintln!("noise {noise} px: our solves done");
         cases.push(scratch);
