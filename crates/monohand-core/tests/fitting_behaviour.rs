@@ -186,3 +186,51 @@ fn tracking_follows_motion_and_keeps_vanished_joints_on_the_hand() {
         }
     }
 }
+
+#[test]
+fn starting_poses_are_the_starts_fit_iterates_from() {
+    let (cam, sk, pose) = scene();
+    let truth = forward_kinematics(&sk, &pose);
+    let kp = project(&cam, &truth, 2.0, &mut rng(5)).unwrap();
+    let views = [View {
+        camera: &cam,
+        keypoints: &kp,
+    }];
+    let opts = FitOptions::default();
+    let mut fitter = HandFitter::new(sk, opts).unwrap();
+    let starts = fitter.starting_poses(&views).unwrap();
+    assert!(!starts.is_empty() && starts.len() <= 8);
+    for s in &starts {
+        assert!(sk.limits.contains(&s.angles, 0.0));
+        assert!(forward_kinematics(&sk, s).iter().all(|x| x.z > 1.0));
+    }
+    // The LM part alone: one run per start with the from-scratch iteration cap.
+    let mut lm_only = HandFitter::new(
+        sk,
+        FitOptions {
+            max_iterations_tracking: opts.max_iterations,
+            ..opts
+        },
+    )
+    .unwrap();
+    let best = starts
+        .iter()
+        .map(|s| lm_only.fit_from(&views, s).unwrap().cost)
+        .fold(f64::INFINITY, f64::min);
+    // `fit` runs exactly these solves and then a second pass that only keeps improvements.
+    let full = fitter.fit(&views).unwrap();
+    assert!(
+        full.cost <= best,
+        "fit {} vs best LM-only {best}",
+        full.cost
+    );
+    assert!(full.reprojection_error_px < 5.0);
+    // Bad input is an error, as for `fit`.
+    let empty = Keypoints2d::default();
+    assert!(fitter
+        .starting_poses(&[View {
+            camera: &cam,
+            keypoints: &empty,
+        }])
+        .is_err());
+}

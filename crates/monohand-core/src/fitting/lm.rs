@@ -139,6 +139,30 @@ impl HandFitter {
         Ok(self.finish(sol, used))
     }
 
+    /// The poses [`HandFitter::fit`] starts its full Levenberg-Marquardt runs
+    /// from, in the order it tries them (at most 8): the closed-form
+    /// weak-perspective palm estimates (both mirror solutions) refined on the
+    /// palm joints, or the orientation sweep when fewer than three palm joints
+    /// are seen, each with its fingers set from the keypoint rays.
+    ///
+    /// `fit` runs the solver from each of these (with
+    /// [`FitOptions::max_iterations`]), re-seats the fingers on each result and
+    /// solves once more (the second pass), and keeps the lowest cost. The
+    /// first part alone is [`HandFitter::fit_from`] on each start with
+    /// `max_iterations_tracking` set to `max_iterations`; benchmarks use this
+    /// to give another solver exactly the starts ours iterates from.
+    ///
+    /// Errors as [`HandFitter::fit`] for bad views or too few joints; the list
+    /// is empty if no start could be placed in front of the cameras.
+    pub fn starting_poses(&mut self, views: &[View]) -> CoreResult<Vec<HandPose>> {
+        self.prepare(views)?;
+        let observed = self.observed_joints();
+        Ok(init::root_candidates(self, &observed)
+            .into_iter()
+            .flatten()
+            .collect())
+    }
+
     /// Fits starting from a previous pose (tracking). Angles of joints that are
     /// not observed in any view keep their previous values, so those joints keep
     /// their last position relative to the hand and move with its root (the
@@ -354,6 +378,31 @@ impl HandFitter {
             let taken = step_between(&pose, &candidate, &step);
             let predicted = -(2.0 * g.dot(&taken) + taken.dot(&(h * taken)));
             let new_cost = self.cost(&candidate, mask);
+            // A failed step is first shortened once (to the minimiser of the
+            // quadratic through the cost at 0 and 1 and the slope at 0) before
+            // the damping is raised: in the curved valleys of the monocular
+            // cost the Gauss-Newton direction is often good but too long.
+            let (candidate, taken, new_cost) = match new_cost {
+                Some(nc) if nc < cost => (candidate, taken, new_cost),
+                _ if taken.amax() > self.options.step_tolerance => {
+                    let slope = 2.0 * g.dot(&taken);
+                    let alpha = match new_cost {
+                        Some(nc) if slope < 0.0 => {
+                            (-slope / (2.0 * (nc - cost - slope))).clamp(0.1, 0.5)
+                        }
+                        _ => 0.25,
+                    };
+                    let short_step = step * alpha;
+                    let short = apply_step(&pose, &short_step, limits);
+                    match self.cost(&short, mask) {
+                        Some(c) if c < cost => {
+                            (short, step_between(&pose, &short, &short_step), Some(c))
+                        }
+                        _ => (candidate, taken, new_cost),
+                    }
+                }
+                _ => (candidate, taken, new_cost),
+            };
             match new_cost {
                 Some(nc) if nc < cost => {
                     let rho = if predicted > 0.0 {
