@@ -128,7 +128,12 @@ impl Report {
         let mut s = String::from(
             "run,mode,noise_px,sequence,frame,side,detected,mpjpe_mm,root_relative_mm,aligned_mm,pa_mm,abs_x_mm,abs_y_mm,abs_z_mm,keypoints_px,reprojection_px,seconds",
         );
-        for n in JOINT_NAMES {
+        for (j, n) in JOINT_NAMES.iter().enumerate() {
+            let n = if j == 0 && self.root == RootJoint::PalmCentre {
+                "palm_centre"
+            } else {
+                n
+            };
             let _ = write!(s, ",abs_{n}_mm");
         }
         s.push('\n');
@@ -327,6 +332,11 @@ impl Report {
                     width: 1,
                 });
             }
+            // The largest errors first, so that the smaller ones stay visible on top.
+            lines.sort_by(|a, b| {
+                let m = |l: &Line| metrics::mean(&l.points.iter().map(|p| p.1).collect::<Vec<_>>());
+                m(b).total_cmp(&m(a))
+            });
             let name = format!("time_{k:02}_{}.png", file_safe(seq));
             let p = dir.join(&name);
             plot::draw_charts(
@@ -397,8 +407,14 @@ impl Report {
                     .unwrap_or_default()
             );
         }
-        if let Some(r) = self.runs.first() {
-            let _ = writeln!(s, "- keypoints: {}", r.source);
+        let mut sources: Vec<&str> = Vec::new();
+        for r in &self.runs {
+            if !sources.contains(&r.source.as_str()) {
+                sources.push(&r.source);
+            }
+        }
+        for src in sources {
+            let _ = writeln!(s, "- keypoints: {src}");
         }
         let _ = writeln!(
             s,
