@@ -6,9 +6,11 @@
 //! monohand lift --camera cam.json --openpose json_dir/ --output poses.jsonl
 //! monohand lift --camera left.yml --openpose L/ --camera right.yml --openpose R/ --output -
 //! monohand camera --width 1280 --height 720 > cam.json
+//! monohand eval --dataset ../shared/data/stb_b1counting --noise-px 0,2,5 --report stb_report/
 //! ```
 
 mod detect;
+mod eval;
 mod hand_args;
 mod lift;
 mod models;
@@ -68,6 +70,15 @@ enum Command {
     /// and phones in video mode). A wrong guess scales the recovered depth by
     /// tan(guess/2) / tan(true/2): calibrate the camera for absolute accuracy.
     Camera(CameraArgs),
+    /// Measure accuracy on a 3D hand dataset: print a table, optionally write a report.
+    ///
+    /// The dataset is a manifest (docs/evaluation.md) or an STB folder. --stage lift
+    /// fits ground-truth 2D keypoints (projected labels, optional noise and dropped
+    /// joints), mono and stereo on the same frames; the table gives absolute,
+    /// root-relative, aligned (Zimmermann & Brox) and Procrustes-aligned errors,
+    /// per-axis errors, AUC of the 3D PCK over 20-50 mm, 2D errors, detection rate
+    /// and fps. --report DIR writes report.md, errors.csv and PNG plots.
+    Eval(eval::EvalArgs),
 }
 
 /// Arguments of `monohand lift`.
@@ -212,6 +223,7 @@ fn main() -> ExitCode {
         Command::Run(args) => run::run(args),
         Command::Lift(args) => lift::run(args),
         Command::Camera(args) => camera_command(args),
+        Command::Eval(args) => eval::run(args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -1,0 +1,113 @@
+//! `monohand eval` end to end: the STB folder read natively, the same frames
+//! converted to a manifest and evaluated again, the report folder, and the
+//! errors a user can make.
+
+mod common;
+use common::*;
+
+/// The table rows of stdout without the fps column (timings differ run to run).
+fn rows(stdout: &str) -> Vec<String> {
+    stdout
+        .lines()
+        .filter(|l| l.starts_with("| mono") || l.starts_with("| stereo"))
+        .map(|l| {
+            let cells: Vec<&str> = l.split('|').collect();
+            cells[..cells.len() - 2].join("|")
+        })
+        .collect()
+}
+
+fn cell(row: &str, col: usize) -> f64 {
+    row.split('|').nth(col + 1).unwrap().trim().parse().unwrap()
+}
+
+#[test]
+fn stb_folder_then_manifest_give_the_same_numbers() {
+    let Some(dir) = stb_dir() else { return };
+    let tmp = tempfile::tempdir().unwrap();
+    let report = tmp.path().join("report");
+    let manifest = tmp.path().join("stb.jsonl");
+    let out = monohand(&[
+        "eval",
+        "--dataset",
+        p(&dir),
+        "--noise-px",
+        "0,2",
+        "--step",
+        "10",
+        "--report",
+        p(&report),
+        "--write-manifest",
+        p(&manifest),
+    ]);
+    ok(&out);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    println!("{stdout}");
+    let r = rows(&stdout);
+    assert_eq!(r.len(), 4, "{stdout}");
+    assert!(r[0].starts_with("| mono, 0 px | 150 | 100.0%"), "{}", r[0]);
+    // Columns: 3 MPJPE, 10 AUC abs joints. Noise-free stereo is near-exact;
+    // with 2 px noise stereo beats mono (full-sequence bounds: crates/monohand-eval/tests).
+    assert!(cell(&r[1], 3) < 1.5 && cell(&r[1], 10) > 0.99, "{}", r[1]);
+    assert!(cell(&r[3], 3) < cell(&r[2], 3), "{stdout}");
+    for f in [
+        "report.md",
+        "errors.csv",
+        "pck.png",
+        "axis_errors.png",
+        "time_00_B1Counting.png",
+    ] {
+        assert!(report.join(f).is_file(), "{f} missing");
+    }
+    let md = std::fs::read_to_string(report.join("report.md")).unwrap();
+    assert!(md.contains("stage: lift") && md.contains("skeleton for B1Counting"));
+    let csv = std::fs::read_to_string(report.join("errors.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 1 + 4 * 150);
+
+    // The manifest holds the same 150 frames and gives the same table.
+    assert_eq!(
+        std::fs::read_to_string(&manifest).unwrap().lines().count(),
+        150
+    );
+    let again = monohand(&["eval", "--dataset", p(&manifest), "--noise-px", "0,2"]);
+    ok(&again);
+    assert_eq!(rows(&String::from_utf8_lossy(&again.stdout)), r);
+}
+
+#[test]
+fn user_errors_are_clear() {
+    let tmp = tempfile::tempdir().unwrap();
+    let m = tmp.path().join("bad.jsonl");
+    let cam = r#"{"fx": 800, "fy": 800, "cx": 320, "cy": 240, "width": 640, "height": 480}"#;
+    let joints: Vec<String> = (0..21).map(|j| format!("[{j}, 0, 500]")).collect();
+    let good = format!(
+        r#"{{"cameras": [{cam}], "hands": [{{"side": "right", "joints_3d": [{}]}}]}}"#,
+        joints.join(",")
+    );
+    let bad = good.replace("\"side\"", "\"sdie\"");
+    std::fs::write(&m, format!("{good}\n{good}\n{bad}\n")).unwrap();
+    let out = monohand(&["eval", "--dataset", p(&m)]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("bad.jsonl: line 3:") && err.contains("sdie"),
+        "{err}"
+    );
+
+    std::fs::write(&m, format!("{good}\n")).unwrap();
+    let out = monohand(&["eval", "--dataset", p(&m), "--views", "stereo"]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("stereo needs two cameras"), "{err}");
+    let out = monohand(&["eval", "--dataset", p(&m), "--stage", "full"]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("--stage full is not available yet"), "{err}");
+    let out = monohand(&["eval", "--dataset", p(tmp.path())]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("not a dataset"), "{err}");
+    // One camera, default views: mono only, and it runs.
+    let out = monohand(&["eval", "--dataset", p(&m), "--skeleton", "default"]);
+    ok(&out);
+    assert_eq!(rows(&String::from_utf8_lossy(&out.stdout)).len(), 1);
+}

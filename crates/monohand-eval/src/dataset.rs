@@ -1,0 +1,161 @@
+//! The in-memory form every dataset is converted to: frames with cameras,
+//! image paths and ground-truth hands.
+
+use crate::error::{EvalError, EvalResult};
+use crate::metrics::Joints;
+use monohand_core::prelude::*;
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+
+/// What joint 0 of the ground truth is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum RootJoint {
+    /// The wrist, as in OpenPose / MediaPipe (the default).
+    Wrist,
+    /// The palm centre, as in STB (which has no wrist label).
+    PalmCentre,
+}
+
+impl RootJoint {
+    /// `"wrist"` or `"palm_centre"`.
+    pub const fn as_str(self) -> &'static str {
+        match self {
+            RootJoint::Wrist => "wrist",
+            RootJoint::PalmCentre => "palm_centre",
+        }
+    }
+}
+
+/// One ground-truth hand of a frame.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GtHand {
+    /// Left or right.
+    pub side: HandSide,
+    /// 21 joints, mm, in the first camera's frame, OpenPose/MediaPipe order
+    /// (joint 0 per [`Dataset::root`]).
+    pub joints_3d: Joints,
+    /// Optional ground-truth 2D keypoints, one set per camera (pixels, with a
+    /// confidence; 0 = not labelled). When absent the 3D joints are projected.
+    pub keypoints_2d: Option<Vec<Keypoints2d>>,
+}
+
+/// One frame: its cameras, images and hands.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Frame {
+    /// The sequence the frame belongs to ("" if the dataset has none).
+    pub sequence: String,
+    /// The frame's index in its sequence.
+    pub index: usize,
+    /// One image per camera (resolved paths), or empty for label-only data.
+    pub images: Vec<PathBuf>,
+    /// The cameras; the first is the reference frame, the others carry
+    /// extrinsics mapping the first camera's frame into theirs.
+    pub cameras: Vec<Camera>,
+    /// The labelled hands.
+    pub hands: Vec<GtHand>,
+}
+
+impl Frame {
+    /// The ground-truth 2D keypoints of a hand in a view: the labelled ones if
+    /// the dataset has them, else the 3D joints projected (confidence 1; a
+    /// joint behind the camera gets confidence 0).
+    pub fn gt_keypoints(&self, hand: usize, view: usize) -> Keypoints2d {
+        let h = &self.hands[hand];
+        if let Some(k) = h.keypoints_2d.as_ref().and_then(|k| k.get(view)) {
+            return *k;
+        }
+        project_joints(&self.cameras[view], &h.joints_3d)
+    }
+}
+
+/// Projects 21 joints into a camera (confidence 1, or 0 behind the camera).
+pub fn project_joints(camera: &Camera, joints: &Joints) -> Keypoints2d {
+    let mut kp = Keypoints2d::default();
+    for (j, p) in joints.iter().enumerate() {
+        if let Some(px) = camera.project(&nalgebra::Vector3::new(p[0], p[1], p[2])) {
+            kp.points[j] = [px.x, px.y, 1.0];
+        }
+    }
+    kp
+}
+
+/// A dataset: frames in order, grouped by sequence.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Dataset {
+    /// A short name (folder or manifest name).
+    pub name: String,
+    /// Where it was read from.
+    pub source: PathBuf,
+    /// What joint 0 is.
+    pub root: RootJoint,
+    /// The frames, sequences contiguous.
+    pub frames: Vec<Frame>,
+}
+
+impl Dataset {
+    /// Reads a dataset, telling the kind from the path: a `.jsonl` file (or a
+    /// folder holding `manifest.jsonl`) is a manifest ([`crate::manifest`]); a
+    /// folder with `labels/*_BB.mat` is STB ([`crate::datasets::stb`]).
+    pub fn load(path: impl AsRef<Path>) -> EvalResult<Dataset> {
+        let path = path.as_ref();
+        if path.is_file() {
+            return crate::manifest::read_manifest(path);
+        }
+        if !path.is_dir() {
+            return Err(EvalError::dataset(path, "no such file or folder"));
+        }
+        let m = path.join("manifest.jsonl");
+        if m.is_file() {
+            return crate::manifest::read_manifest(&m);
+        }
+        if crate::datasets::stb::is_stb_folder(path) {
+            return crate::datasets::stb::load_stb(path);
+        }
+        Err(EvalError::dataset(
+            path,
+            "not a dataset: expected a manifest (.jsonl file, or a folder with manifest.jsonl) \
+             or an STB folder (labels/*_BB.mat)",
+        ))
+    }
+
+    /// The sequence names in order of first appearance.
+    pub fn sequences(&self) -> Vec<&str> {
+        let mut out: Vec<&str> = Vec::new();
+        for f in &self.frames {
+            if out.last() != Some(&f.sequence.as_str()) && !out.contains(&f.sequence.as_str()) {
+                out.push(&f.sequence);
+            }
+        }
+        out
+    }
+
+    /// The largest number of cameras of any frame.
+    pub fn max_cameras(&self) -> usize {
+        self.frames
+            .iter()
+            .map(|f| f.cameras.len())
+            .max()
+            .unwrap_or(0)
+    }
+
+    /// Number of labelled hands over all frames.
+    pub fn num_hands(&self) -> usize {
+        self.frames.iter().map(|f| f.hands.len()).sum()
+    }
+
+    /// Keeps every `step`-th frame of each sequence, then at most `max` frames in all.
+    pub fn subsample(&mut self, step: usize, max: Option<usize>) {
+        let step = step.max(1);
+        let mut seq_pos = std::collections::HashMap::<String, usize>::new();
+        self.frames.retain(|f| {
+            let c = seq_pos.entry(f.sequence.clone()).or_insert(0);
+            let keep = *c % step == 0;
+            *c += 1;
+            keep
+        });
+        if let Some(m) = max {
+            self.frames.truncate(m);
+        }
+    }
+}

@@ -1,0 +1,606 @@
+//! Running an evaluation: keypoints from a [`KeypointSource`] (projected
+//! labels for `--stage lift`, a detector for `--stage full`), fitted per frame
+//! in each [`ViewMode`], compared with the ground truth.
+//!
+//! Decisions (documented in `docs/evaluation.md`):
+//! - Mono and stereo see **the same frames and the same keypoints** (noise and
+//!   dropped joints are drawn once per frame and view).
+//! - Each frame is fitted **from scratch** unless [`EvalSettings::track`] is set,
+//!   which warm-starts from the previous frame of the same sequence, mode and hand.
+//! - Skeleton: [`SkeletonChoice::Subject`] fits the model to each sequence's
+//!   ground truth (an oracle hand size: the bound of what the lifting can do);
+//!   [`SkeletonChoice::Default`] uses the average adult hand times
+//!   [`EvalSettings::hand_scale`].
+//! - A hand whose fit fails (too few joints, no view) is **not detected**: it
+//!   counts in the detection rate and is left out of the 3D errors.
+
+use crate::dataset::{Dataset, Frame, RootJoint};
+use crate::error::{EvalError, EvalResult};
+use crate::metrics::{self, HandErrors, JointMask, Joints, ALL_JOINTS};
+use monohand_core::hand_model::fit_skeleton;
+use monohand_core::prelude::*;
+use nalgebra::Vector3;
+use rand::rngs::StdRng;
+use rand::seq::index::sample;
+use rand::SeedableRng;
+use rand_distr::{Distribution, Normal};
+use std::collections::HashMap;
+use std::path::Path;
+use std::time::Instant;
+
+/// Which cameras a fit uses.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum ViewMode {
+    /// The first camera alone.
+    Mono,
+    /// Every camera of the frame (at least two).
+    Stereo,
+}
+
+impl ViewMode {
+    /// `"mono"` or `"stereo"`.
+    pub const fn as_str(self) -> &'static str {
+        match self {
+            ViewMode::Mono => "mono",
+            ViewMode::Stereo => "stereo",
+        }
+    }
+}
+
+/// Which hand model the fitter uses.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SkeletonChoice {
+    /// Fitted to each sequence's ground-truth 3D joints (`fit_skeleton`).
+    Subject,
+    /// The default adult hand, scaled by [`EvalSettings::hand_scale`].
+    Default,
+}
+
+impl SkeletonChoice {
+    /// `"subject"` or `"default"`.
+    pub const fn as_str(self) -> &'static str {
+        match self {
+            SkeletonChoice::Subject => "subject",
+            SkeletonChoice::Default => "default",
+        }
+    }
+}
+
+/// Settings of one evaluation run.
+#[derive(Debug, Clone, PartialEq)]
+pub struct EvalSettings {
+    /// The view modes to evaluate, each on the same frames.
+    pub modes: Vec<ViewMode>,
+    /// Warm-start each fit from the previous frame.
+    pub track: bool,
+    /// The hand model.
+    pub skeleton: SkeletonChoice,
+    /// Scale of the default skeleton (ignored for [`SkeletonChoice::Subject`]).
+    pub hand_scale: f64,
+    /// Fitter settings.
+    pub fit_options: FitOptions,
+}
+
+impl Default for EvalSettings {
+    fn default() -> Self {
+        EvalSettings {
+            modes: vec![ViewMode::Mono, ViewMode::Stereo],
+            track: false,
+            skeleton: SkeletonChoice::Subject,
+            hand_scale: 1.0,
+            fit_options: FitOptions::default(),
+        }
+    }
+}
+
+/// What gives the fitter its 2D keypoints.
+pub trait KeypointSource {
+    /// A one-line description for the report ("projected labels, 2 px noise").
+    fn describe(&self) -> String;
+    /// The keypoints of every ground-truth hand of a frame in every view:
+    /// `out[hand][view]`, `None` where the hand was not found in that view.
+    fn keypoints(&mut self, frame: &Frame) -> EvalResult<Vec<Vec<Option<Keypoints2d>>>>;
+}
+
+/// `--stage lift`: the ground-truth 2D keypoints (labelled, or the 3D labels
+/// projected), with optional Gaussian noise and dropped joints.
+#[derive(Debug, Clone)]
+pub struct ProjectedLabels {
+    noise_px: f64,
+    drop_joints: usize,
+    rng: StdRng,
+}
+
+impl ProjectedLabels {
+    /// Noise of standard deviation `noise_px` per pixel coordinate; `drop_joints`
+    /// joints chosen at random per view get confidence 0; `seed` fixes both.
+    pub fn new(noise_px: f64, drop_joints: usize, seed: u64) -> EvalResult<ProjectedLabels> {
+        if !(noise_px.is_finite() && noise_px >= 0.0) {
+            return Err(EvalError::Settings(format!(
+                "noise {noise_px} px must be a finite number >= 0"
+            )));
+        }
+        if drop_joints > NUM_JOINTS {
+            return Err(EvalError::Settings(format!(
+                "cannot drop {drop_joints} of {NUM_JOINTS} joints"
+            )));
+        }
+        Ok(ProjectedLabels {
+            noise_px,
+            drop_joints,
+            rng: StdRng::seed_from_u64(seed),
+        })
+    }
+}
+
+impl KeypointSource for ProjectedLabels {
+    fn describe(&self) -> String {
+        format!(
+            "ground-truth 2D keypoints, Gaussian noise sigma {} px per coordinate, {} joints dropped per view",
+            self.noise_px, self.drop_joints
+        )
+    }
+
+    fn keypoints(&mut self, frame: &Frame) -> EvalResult<Vec<Vec<Option<Keypoints2d>>>> {
+        let normal = Normal::new(0.0, self.noise_px.max(1e-300))
+            .map_err(|e| EvalError::Settings(e.to_string()))?;
+        let mut out = Vec::with_capacity(frame.hands.len());
+        for h in 0..frame.hands.len() {
+            let mut views = Vec::with_capacity(frame.cameras.len());
+            for v in 0..frame.cameras.len() {
+                let mut kp = frame.gt_keypoints(h, v);
+                for p in kp.points.iter_mut() {
+                    // Drawn for every joint so that the stream does not depend on the data.
+                    let (du, dv) = (normal.sample(&mut self.rng), normal.sample(&mut self.rng));
+                    if self.noise_px > 0.0 {
+                        p[0] += du;
+                        p[1] += dv;
+                    }
+                }
+                if self.drop_joints > 0 {
+                    for j in sample(&mut self.rng, NUM_JOINTS, self.drop_joints) {
+                        kp.points[j][2] = 0.0;
+                    }
+                }
+                views.push(Some(kp));
+            }
+            out.push(views);
+        }
+        Ok(out)
+    }
+}
+
+/// A 2D hand detector for `--stage full`: image (with its camera) to the hands found.
+pub trait HandDetector {
+    /// A one-line description for the report (model names, versions).
+    fn describe(&self) -> String;
+    /// The hands found in one image.
+    fn detect(&mut self, image: &Path, camera: &Camera) -> Result<Vec<HandObservation>, String>;
+}
+
+/// `--stage full`: keypoints from a [`HandDetector`] run on the frame's images.
+/// Of several detections of the ground-truth hand's side, the one with the
+/// highest mean confidence is kept.
+pub struct Detected<D: HandDetector>(pub D);
+
+impl<D: HandDetector> KeypointSource for Detected<D> {
+    fn describe(&self) -> String {
+        format!("detector: {}", self.0.describe())
+    }
+
+    fn keypoints(&mut self, frame: &Frame) -> EvalResult<Vec<Vec<Option<Keypoints2d>>>> {
+        if frame.images.len() != frame.cameras.len() {
+            return Err(EvalError::Detector(format!(
+                "frame {} of sequence {:?} has no image for every camera (the full stage needs images)",
+                frame.index, frame.sequence
+            )));
+        }
+        let mut per_view = Vec::with_capacity(frame.cameras.len());
+        for (img, cam) in frame.images.iter().zip(&frame.cameras) {
+            let found = self
+                .0
+                .detect(img, cam)
+                .map_err(|e| EvalError::Detector(format!("{}: {e}", img.display())))?;
+            per_view.push(found);
+        }
+        Ok(frame
+            .hands
+            .iter()
+            .map(|h| {
+                per_view
+                    .iter()
+                    .map(|found| {
+                        found
+                            .iter()
+                            .filter(|o| o.side == h.side)
+                            .max_by(|a, b| {
+                                mean_conf(&a.keypoints).total_cmp(&mean_conf(&b.keypoints))
+                            })
+                            .map(|o| o.keypoints)
+                    })
+                    .collect()
+            })
+            .collect())
+    }
+}
+
+fn mean_conf(k: &Keypoints2d) -> f64 {
+    k.points.iter().map(|p| p[2]).sum::<f64>() / NUM_JOINTS as f64
+}
+
+/// The outcome for one ground-truth hand in one frame and mode.
+#[derive(Debug, Clone, PartialEq)]
+pub struct HandResult {
+    /// Sequence name.
+    pub sequence: String,
+    /// Frame index in the sequence.
+    pub frame: usize,
+    /// Which hand.
+    pub side: HandSide,
+    /// The fitted joints (mm, first camera frame), `None` if not detected.
+    pub pred: Option<Joints>,
+    /// The ground truth.
+    pub gt: Joints,
+    /// The errors, `None` if not detected.
+    pub errors: Option<HandErrors>,
+    /// Mean 2D error of the input keypoints in the first view against the
+    /// ground truth (pixels), over joints present in both.
+    pub keypoints_px: Option<f64>,
+    /// Mean 2D error of the fitted joints projected into the first view
+    /// against the ground-truth 2D keypoints (pixels).
+    pub reprojection_px: Option<f64>,
+    /// Time spent on this hand: keypoint source share + fit (seconds).
+    pub seconds: f64,
+}
+
+/// Every hand of a run: one mode, one keypoint source.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RunResult {
+    /// A short label, e.g. "mono, 2 px".
+    pub label: String,
+    /// The view mode.
+    pub mode: ViewMode,
+    /// The keypoint source's description.
+    pub source: String,
+    /// The input noise (pixels) for lift runs, `None` for detector runs.
+    pub noise_px: Option<f64>,
+    /// Per-hand outcomes in dataset order.
+    pub hands: Vec<HandResult>,
+}
+
+/// One skeleton used in a run, and how well it explains the ground truth.
+#[derive(Debug, Clone, PartialEq)]
+pub struct SkeletonNote {
+    /// The sequence.
+    pub sequence: String,
+    /// Which hand.
+    pub side: HandSide,
+    /// Mean residual of `fit_skeleton` on the ground truth (mm); `None` for the default skeleton.
+    pub residual_mm: Option<f64>,
+    /// The skeleton's wrist-to-middle-tip length (mm).
+    pub hand_length_mm: f64,
+}
+
+/// The evaluated-joint mask for a root convention: all 21 points (for STB the
+/// palm centre and the 20 finger joints, as published STB numbers are computed).
+pub fn evaluated_joints(_root: RootJoint) -> JointMask {
+    ALL_JOINTS
+}
+
+/// Skeletons by (sequence, side).
+pub type SkeletonMap = HashMap<(String, HandSide), HandSkeleton>;
+
+/// The skeletons a run will use, by (sequence, side).
+pub fn skeletons(
+    dataset: &Dataset,
+    settings: &EvalSettings,
+) -> EvalResult<(SkeletonMap, Vec<SkeletonNote>)> {
+    let mut gt: HashMap<(String, HandSide), Vec<[Vector3<f64>; NUM_JOINTS]>> = HashMap::new();
+    let mut order = Vec::new();
+    for f in &dataset.frames {
+        for h in &f.hands {
+            let key = (f.sequence.clone(), h.side);
+            if !gt.contains_key(&key) {
+                order.push(key.clone());
+            }
+            gt.entry(key)
+                .or_default()
+                .push(h.joints_3d.map(|p| Vector3::new(p[0], p[1], p[2])));
+        }
+    }
+    let mut map = HashMap::new();
+    let mut notes = Vec::new();
+    for key in order {
+        let template = HandSkeleton::default_for(key.1);
+        let (sk, residual) = match settings.skeleton {
+            SkeletonChoice::Subject => {
+                let fit = fit_skeleton(&gt[&key], &template).map_err(|e| {
+                    EvalError::core(format!("fitting the skeleton of sequence {:?}", key.0), e)
+                })?;
+                (fit.skeleton, Some(fit.residual_mm))
+            }
+            SkeletonChoice::Default => (
+                template
+                    .scaled(settings.hand_scale)
+                    .map_err(|e| EvalError::core("--hand-scale", e))?,
+                None,
+            ),
+        };
+        notes.push(SkeletonNote {
+            sequence: key.0.clone(),
+            side: key.1,
+            residual_mm: residual,
+            hand_length_mm: sk.hand_length(),
+        });
+        map.insert(key, sk);
+    }
+    Ok((map, notes))
+}
+
+/// Runs every mode of `settings` over the dataset with keypoints from `source`.
+/// `noise_px` is only recorded (for labels and plots).
+pub fn evaluate(
+    dataset: &Dataset,
+    source: &mut dyn KeypointSource,
+    settings: &EvalSettings,
+    noise_px: Option<f64>,
+) -> EvalResult<(Vec<RunResult>, Vec<SkeletonNote>)> {
+    if settings.modes.is_empty() {
+        return Err(EvalError::Settings("no view mode to evaluate".into()));
+    }
+    if settings.modes.contains(&ViewMode::Stereo) {
+        if let Some(f) = dataset.frames.iter().find(|f| f.cameras.len() < 2) {
+            return Err(EvalError::Settings(format!(
+                "stereo needs two cameras, frame {} of sequence {:?} has one",
+                f.index, f.sequence
+            )));
+        }
+    }
+    settings
+        .fit_options
+        .validate()
+        .map_err(|e| EvalError::core("fit options", e))?;
+    let (sks, notes) = skeletons(dataset, settings)?;
+    let desc = source.describe();
+    let mut runs: Vec<RunResult> = settings
+        .modes
+        .iter()
+        .map(|&mode| RunResult {
+            label: match noise_px {
+                Some(n) => format!("{}, {n} px", mode.as_str()),
+                None => mode.as_str().to_string(),
+            },
+            mode,
+            source: desc.clone(),
+            noise_px,
+            hands: Vec::new(),
+        })
+        .collect();
+    // One tracker per (mode, sequence, side); without tracking it is reset
+    // before every frame, i.e. every fit starts from scratch.
+    let mut solvers: HashMap<(usize, String, HandSide), HandTracker> = HashMap::new();
+    let palm_root = dataset.root == RootJoint::PalmCentre;
+    let default_sk = settings.skeleton == SkeletonChoice::Default;
+    let mask = evaluated_joints(dataset.root);
+    for frame in &dataset.frames {
+        let t0 = Instant::now();
+        let mut kps = source.keypoints(frame)?;
+        let source_s = t0.elapsed().as_secs_f64() / frame.hands.len().max(1) as f64;
+        for (h, hand) in frame.hands.iter().enumerate() {
+            let views_kp = kps.get_mut(h).ok_or_else(|| {
+                EvalError::Detector("the keypoint source returned fewer hands than labelled".into())
+            })?;
+            if palm_root && default_sk {
+                // The default model's joint 0 is a wrist: never feed it the palm centre.
+                for k in views_kp.iter_mut().flatten() {
+                    k.points[0][2] = 0.0;
+                }
+            }
+            let gt2d = frame.gt_keypoints(h, 0);
+            let keypoints_px = views_kp
+                .first()
+                .copied()
+                .flatten()
+                .and_then(|k| mean_px(&metrics::keypoint_errors_px(&k.points, &gt2d.points)));
+            let key_sk = (frame.sequence.clone(), hand.side);
+            let sk = sks.get(&key_sk).copied().ok_or_else(|| {
+                EvalError::Settings(format!("no skeleton for sequence {:?}", frame.sequence))
+            })?;
+            for (m, run) in runs.iter_mut().enumerate() {
+                let n_views = match run.mode {
+                    ViewMode::Mono => 1,
+                    ViewMode::Stereo => frame.cameras.len(),
+                };
+                let views: Vec<View> = frame.cameras[..n_views]
+                    .iter()
+                    .zip(views_kp.iter())
+                    .filter_map(|(camera, k)| {
+                        k.as_ref().map(|keypoints| View { camera, keypoints })
+                    })
+                    .collect();
+                let key = (m, frame.sequence.clone(), hand.side);
+                if !solvers.contains_key(&key) {
+                    let t = HandTracker::new(sk, settings.fit_options)
+                        .map_err(|e| EvalError::core("creating the fitter", e))?;
+                    solvers.insert(key.clone(), t);
+                }
+                let t1 = Instant::now();
+                let fit = match (views.is_empty(), solvers.get_mut(&key)) {
+                    (false, Some(t)) => {
+                        if !settings.track {
+                            t.reset();
+                        }
+                        t.update(&views).ok()
+                    }
+                    _ => None,
+                };
+                let fit_s = t1.elapsed().as_secs_f64();
+                let pred = fit.map(|f| {
+                    let mut j = metrics::to_joints(&f.joints_3d);
+                    if palm_root && default_sk {
+                        j[0] = palm_centre_estimate(&f.joints_3d);
+                    }
+                    j
+                });
+                let errors = pred
+                    .as_ref()
+                    .map(|p| HandErrors::compute(p, &hand.joints_3d, &mask, 0));
+                let reprojection_px = pred.as_ref().and_then(|p| {
+                    let k = crate::dataset::project_joints(&frame.cameras[0], p);
+                    mean_px(&metrics::keypoint_errors_px(&k.points, &gt2d.points))
+                });
+                run.hands.push(HandResult {
+                    sequence: frame.sequence.clone(),
+                    frame: frame.index,
+                    side: hand.side,
+                    pred,
+                    gt: hand.joints_3d,
+                    errors,
+                    keypoints_px,
+                    reprojection_px,
+                    seconds: source_s + fit_s,
+                });
+            }
+        }
+    }
+    Ok((runs, notes))
+}
+
+/// Where the default (wrist-rooted) model puts an STB-style palm centre: the
+/// midpoint of the wrist and the middle-finger MCP.
+pub fn palm_centre_estimate(joints: &[Vector3<f64>; NUM_JOINTS]) -> [f64; 3] {
+    let c = (joints[0] + joints[9]) * 0.5;
+    [c.x, c.y, c.z]
+}
+
+fn mean_px(e: &[Option<f64>; NUM_JOINTS]) -> Option<f64> {
+    let v: Vec<f64> = e.iter().flatten().copied().collect();
+    (!v.is_empty()).then(|| metrics::mean(&v))
+}
+
+/// The numbers of one run, as in the printed table.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RunSummary {
+    /// The run's label.
+    pub label: String,
+    /// Labelled hands.
+    pub hands: usize,
+    /// Hands with a fit.
+    pub detected: usize,
+    /// Mean absolute error over detected hands and evaluated joints (mm).
+    pub mpjpe: f64,
+    /// Median of the per-frame absolute error (mm).
+    pub median: f64,
+    /// Root-relative MPJPE (mm).
+    pub root_relative: f64,
+    /// Zimmermann-Brox aligned MPJPE (mm).
+    pub aligned: f64,
+    /// Procrustes-aligned MPJPE (mm).
+    pub pa_mpjpe: f64,
+    /// Mean absolute error along x, y, z (mm).
+    pub axis: [f64; 3],
+    /// AUC(20-50 mm) of the per-joint absolute PCK.
+    pub auc_abs_joint: f64,
+    /// AUC(20-50 mm) of the per-frame absolute PCK.
+    pub auc_abs_frame: f64,
+    /// AUC(20-50 mm) of the per-joint root-relative PCK.
+    pub auc_rr_joint: f64,
+    /// AUC(20-50 mm) of the per-joint Zimmermann-Brox aligned PCK (what STB tables quote).
+    pub auc_aligned_joint: f64,
+    /// AUC(20-50 mm) of the per-frame aligned PCK.
+    pub auc_aligned_frame: f64,
+    /// AUC(20-50 mm) of the per-joint Procrustes-aligned PCK.
+    pub auc_pa_joint: f64,
+    /// Mean 2D error of the input keypoints, first view (pixels).
+    pub keypoints_px: f64,
+    /// Mean 2D error of the fitted joints reprojected into the first view (pixels).
+    pub reprojection_px: f64,
+    /// Frames per second over keypoint source and fit.
+    pub fps: f64,
+}
+
+/// Error lists of a run: pooled per joint and per frame.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct ErrorLists {
+    /// Every evaluated joint of every detected hand.
+    pub joints: Vec<f64>,
+    /// The mean over evaluated joints of every detected hand.
+    pub frames: Vec<f64>,
+}
+
+impl RunResult {
+    /// The pooled error lists of one metric, picked by `pick`.
+    pub fn errors(
+        &self,
+        mask: &JointMask,
+        pick: impl Fn(&HandErrors) -> &[f64; NUM_JOINTS],
+    ) -> ErrorLists {
+        let mut out = ErrorLists::default();
+        for e in self.hands.iter().filter_map(|h| h.errors.as_ref()) {
+            let a = pick(e);
+            out.joints
+                .extend((0..NUM_JOINTS).filter(|&j| mask[j]).map(|j| a[j]));
+            out.frames.push(metrics::masked_mean(a, mask));
+        }
+        out
+    }
+
+    /// The summary numbers.
+    pub fn summary(&self, mask: &JointMask) -> RunSummary {
+        let (lo, hi) = metrics::AUC_RANGE_MM;
+        let abs = self.errors(mask, |e| &e.absolute);
+        let rr = self.errors(mask, |e| &e.root_relative);
+        let al = self.errors(mask, |e| &e.aligned);
+        let pa = self.errors(mask, |e| &e.procrustes);
+        let det: Vec<&HandErrors> = self
+            .hands
+            .iter()
+            .filter_map(|h| h.errors.as_ref())
+            .collect();
+        let axis = std::array::from_fn(|a| {
+            metrics::mean(&det.iter().map(|e| e.axis[a]).collect::<Vec<_>>())
+        });
+        let kp: Vec<f64> = self.hands.iter().filter_map(|h| h.keypoints_px).collect();
+        let rp: Vec<f64> = self
+            .hands
+            .iter()
+            .filter_map(|h| h.reprojection_px)
+            .collect();
+        let secs: f64 = self.hands.iter().map(|h| h.seconds).sum();
+        RunSummary {
+            label: self.label.clone(),
+            hands: self.hands.len(),
+            detected: det.len(),
+            mpjpe: metrics::mean(&abs.joints),
+            median: metrics::quantile(&abs.frames, 0.5),
+            root_relative: metrics::mean(&rr.joints),
+            aligned: metrics::mean(&al.joints),
+            pa_mpjpe: metrics::mean(&pa.joints),
+            axis,
+            auc_abs_joint: metrics::auc(&abs.joints, lo, hi),
+            auc_abs_frame: metrics::auc(&abs.frames, lo, hi),
+            auc_rr_joint: metrics::auc(&rr.joints, lo, hi),
+            auc_aligned_joint: metrics::auc(&al.joints, lo, hi),
+            auc_aligned_frame: metrics::auc(&al.frames, lo, hi),
+            auc_pa_joint: metrics::auc(&pa.joints, lo, hi),
+            keypoints_px: metrics::mean(&kp),
+            reprojection_px: metrics::mean(&rp),
+            fps: if secs > 0.0 {
+                self.hands.len() as f64 / secs
+            } else {
+                f64::NAN
+            },
+        }
+    }
+}
+
+impl RunSummary {
+    /// Fraction of labelled hands with a fit.
+    pub fn detection_rate(&self) -> f64 {
+        if self.hands == 0 {
+            0.0
+        } else {
+            self.detected as f64 / self.hands as f64
+        }
+    }
+}

@@ -1,0 +1,32 @@
+//! # monohand-eval
+//!
+//! Evaluating monohand against 3D hand-pose datasets, so that its numbers can
+//! be put next to published ones in one step (`monohand eval`).
+//!
+//! - [`dataset`]: the in-memory form of every dataset; [`manifest`]: the JSON
+//!   Lines manifest any dataset can be converted to; [`datasets::stb`]: the
+//!   Stereo Hand Pose Benchmark read natively.
+//! - [`metrics`]: absolute, root-relative, Zimmermann-Brox aligned and
+//!   Procrustes-aligned errors, per-axis errors, PCK and its AUC, 2D errors.
+//! - [`evaluate`]: the lift stage (ground-truth 2D, noise, dropped joints) and
+//!   the full stage (any [`evaluate::HandDetector`]), mono and stereo on the same frames.
+//! - [`report`]: the printed table and the report folder (Markdown, CSV, PNG plots).
+//!
+//! Definitions of every metric and convention: `docs/evaluation.md`.
+
+#![deny(missing_docs)]
+
+pub mod dataset;
+pub mod datasets;
+pub mod error;
+pub mod evaluate;
+pub mod manifest;
+pub mod metrics;
+pub mod report;
+
+pub use dataset::{Dataset, Frame, GtHand, RootJoint};
+pub use error::{EvalError, EvalResult};
+pub use evaluate::{
+    evaluate, Detected, EvalSettings, HandDetector, KeypointSource, ProjectedLabels, RunResult,
+    RunSummary, SkeletonChoice, ViewMode,
+};
