@@ -5,8 +5,14 @@ use clap::{Args, ValueEnum};
 use monohand_core::prelude::*;
 use monohand_eval::evaluate::evaluated_joints;
 use monohand_eval::report::Report;
-use monohand_eval::{evaluate, Dataset, EvalSettings, ProjectedLabels, SkeletonChoice, ViewMode};
-use std::path::PathBuf;
+use monohand_eval::{
+    evaluate, Dataset, Detected, EvalSettings, HandDetector, ProjectedLabels, SkeletonChoice,
+    ViewMode,
+};
+use monohand_vision::HandPipeline;
+use std::path::{Path, PathBuf};
+
+use crate::vision::ModelArgs;
 
 /// Which stage to evaluate.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -94,6 +100,29 @@ pub(crate) struct EvalArgs {
     /// a natively read dataset such as STB.
     #[arg(long, value_name = "OUT.jsonl")]
     pub write_manifest: Option<PathBuf>,
+    /// The networks of --stage full.
+    #[command(flatten)]
+    pub models: ModelArgs,
+}
+
+/// The vision front end as the evaluation's detector.
+struct VisionDetector {
+    pipeline: HandPipeline,
+    description: String,
+}
+
+impl HandDetector for VisionDetector {
+    fn describe(&self) -> String {
+        self.description.clone()
+    }
+
+    fn detect(&mut self, image: &Path, _camera: &Camera) -> Result<Vec<HandObservation>, String> {
+        let found = self
+            .pipeline
+            .detect_file(image)
+            .map_err(|e| e.to_string())?;
+        Ok(found.hands.iter().map(|h| h.observation()).collect())
+    }
 }
 
 pub(crate) fn run(args: &EvalArgs) -> Result<()> {
@@ -113,11 +142,25 @@ pub(crate) fn run(args: &EvalArgs) -> Result<()> {
         tracing::info!("manifest written to {}", out.display());
     }
     if args.stage == Stage::Full {
-        bail!(
-            "--stage full is not available yet: the vision front end (crates/monohand-vision) is \
-             not wired into the CLI. Use --stage lift (ground-truth 2D keypoints); the library \
-             side is ready (monohand_eval::Detected takes any HandDetector)"
-        );
+        // Only frames whose images are all on disk can be run through the networks.
+        let before = ds.frames.len();
+        ds.frames
+            .retain(|f| !f.images.is_empty() && f.images.iter().all(|p| p.is_file()));
+        if ds.frames.is_empty() {
+            bail!(
+                "{}: --stage full needs the images, and none of the {before} frames has all of its images on disk",
+                args.dataset.display()
+            );
+        }
+        if ds.frames.len() < before {
+            eprintln!(
+                "--stage full: {} of {before} frames have their images on disk; evaluating those",
+                ds.frames.len()
+            );
+        }
+        if args.noise_px.iter().any(|&n| n != 0.0) || args.drop_joints > 0 {
+            bail!("--noise-px and --drop-joints apply to --stage lift only");
+        }
     }
     let stereo_ok = ds.max_cameras() >= 2;
     let modes = match args.views {
@@ -140,7 +183,11 @@ pub(crate) fn run(args: &EvalArgs) -> Result<()> {
         fit_options: FitOptions::default(),
     };
     let mask = evaluated_joints(ds.root);
-    let mut report = Report::new(&ds, "lift (ground-truth 2D keypoints)", mask);
+    let stage_name = match args.stage {
+        Stage::Lift => "lift (ground-truth 2D keypoints)",
+        Stage::Full => "full (detector + keypoints + lifting on the images)",
+    };
+    let mut report = Report::new(&ds, stage_name, mask);
     let seqs = ds.sequences();
     report.settings = vec![
         (
@@ -199,18 +246,41 @@ pub(crate) fn run(args: &EvalArgs) -> Result<()> {
         args.dataset.display(),
         ds.frames.len()
     );
-    for &noise in &args.noise_px {
-        let mut source = ProjectedLabels::new(noise, args.drop_joints, args.seed)?;
-        let (runs, notes) = evaluate(&ds, &mut source, &settings, Some(noise))
-            .with_context(|| format!("evaluating with {noise} px noise"))?;
-        report.runs.extend(runs);
-        report.skeletons = notes;
+    match args.stage {
+        Stage::Lift => {
+            for &noise in &args.noise_px {
+                let mut source = ProjectedLabels::new(noise, args.drop_joints, args.seed)?;
+                let (runs, notes) = evaluate(&ds, &mut source, &settings, Some(noise))
+                    .with_context(|| format!("evaluating with {noise} px noise"))?;
+                report.runs.extend(runs);
+                report.skeletons = notes;
+            }
+        }
+        Stage::Full => {
+            let pipeline = args.models.pipeline(1)?;
+            let description = format!(
+                "MediaPipe 0.10.14 palm detector ({:?}) + hand landmarks ({:?}) in tract",
+                args.models.palm_model, args.models.landmark_model
+            );
+            let mut source = Detected(VisionDetector {
+                pipeline,
+                description,
+            });
+            let (runs, notes) = evaluate(&ds, &mut source, &settings, None)
+                .context("evaluating the full pipeline")?;
+            report.runs.extend(runs);
+            report.skeletons = notes;
+        }
     }
     println!(
-        "monohand {} eval: {} ({}), stage lift, root {}, {} evaluated joints",
+        "monohand {} eval: {} ({}), stage {}, root {}, {} evaluated joints",
         env!("CARGO_PKG_VERSION"),
         ds.name,
         args.dataset.display(),
+        match args.stage {
+            Stage::Lift => "lift",
+            Stage::Full => "full",
+        },
         ds.root.as_str(),
         mask.iter().filter(|&&m| m).count()
     );
