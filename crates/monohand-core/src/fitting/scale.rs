@@ -33,7 +33,9 @@ pub struct ScaleEstimate {
 }
 
 /// Below this relative cost contrast over the search range the size counts as unobservable.
-pub const MIN_COST_CONTRAST: f64 = 0.02;
+/// Measured on STB (30 frames): stereo 0.94-0.96; mono 0.003 without noise and 0.02 with
+/// 2 px noise (different local minima, not information about the size).
+pub const MIN_COST_CONTRAST: f64 = 0.2;
 
 /// Estimates one global scale of `template` from `frames` (each frame: the views of the
 /// same hand), searching `[min_scale, max_scale]`.
