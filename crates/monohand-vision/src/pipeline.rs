@@ -488,6 +488,15 @@ impl HandPipeline {
                 if hands.len() >= self.options.max_hands {
                     break;
                 }
+                // A palm inside a hand already found is that hand: skip the landmark
+                // inference (MediaPipe drops such detections the same way).
+                let [cx, cy] = to_pixel_centres(region.roi.center);
+                if hands.iter().any(|h| {
+                    let b = point_bounds(&h.keypoints);
+                    b[0] <= cx && cx <= b[2] && b[1] <= cy && cy <= b[3]
+                }) {
+                    continue;
+                }
                 if let Some(hand) = self.estimate_region(img, &region, false, &hands)? {
                     hands.push(hand);
                     origin.push(None);
