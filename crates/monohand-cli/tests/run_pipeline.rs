@@ -336,3 +336,128 @@ fn run_rejects_bad_arguments_before_writing() {
     assert!(!r.status.success());
     assert!(String::from_utf8_lossy(&r.stderr).contains("webcam:N"));
 }
+
+#[test]
+fn output_formats_and_camera_checks() {
+    let Some(photo_path) = shared_image("pinto/hand.png") else {
+        return;
+    };
+    if !ffmpeg_ready() || !networks_ready() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let video = dir.path().join("clip.mkv");
+    make_video(&image_of(&photo_path), 12, &video);
+
+    // CSV: a header and one row per hand per frame.
+    let csv = dir.path().join("hands.csv");
+    let glb = dir.path().join("hands.glb");
+    ok(&monohand(&[
+        "run",
+        p(&video),
+        "--format",
+        "csv",
+        "-o",
+        p(&csv),
+        "--gltf",
+        p(&glb),
+    ]));
+    let text = std::fs::read_to_string(&csv).unwrap();
+    let lines: Vec<&str> = text.lines().collect();
+    assert!(lines[0].starts_with("frame,source,id,side"), "{}", lines[0]);
+    assert_eq!(lines.len(), 1 + 12, "one row per hand per frame");
+    let glb_bytes = std::fs::read(&glb).unwrap();
+    assert_eq!(&glb_bytes[..4], b"glTF");
+
+    // OpenPose: one file per frame with 2D and 3D.
+    let op = dir.path().join("openpose");
+    ok(&monohand(&[
+        "run",
+        p(&video),
+        "--format",
+        "openpose",
+        "-o",
+        p(&op),
+    ]));
+    let files: Vec<_> = std::fs::read_dir(&op).unwrap().collect();
+    assert_eq!(files.len(), 12);
+    let first = std::fs::read_to_string(op.join("clip_000000000000_keypoints.json")).unwrap();
+    assert!(first.contains("_keypoints_3d"), "{first}");
+
+    // A calibration for another size is refused before anything is written.
+    let cam = dir.path().join("hd.json");
+    let hd = Camera::generic(1280, 720).unwrap();
+    write_camera_json(&cam, &hd).unwrap();
+    let out = dir.path().join("never.jsonl");
+    let r = monohand(&["run", p(&video), "--camera", p(&cam), "-o", p(&out)]);
+    assert!(!r.status.success());
+    assert!(String::from_utf8_lossy(&r.stderr).contains("1280x720"));
+    assert!(!out.exists());
+
+    // One camera cannot measure the hand size: said, and the run goes on.
+    let r = monohand(&["run", p(&video), "--hand-scale", "auto", "-o", p(&out)]);
+    ok(&r);
+    assert!(String::from_utf8_lossy(&r.stderr).contains("not observable"));
+    assert_eq!(read_jsonl(&out).unwrap().len(), 12);
+}
+
+#[cfg(unix)]
+#[test]
+fn ctrl_c_finishes_the_frame_and_closes_the_files() {
+    let Some(photo_path) = shared_image("pinto/hand.png") else {
+        return;
+    };
+    if !ffmpeg_ready() || !networks_ready() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let video = dir.path().join("long.mkv");
+    make_video(&image_of(&photo_path), 150, &video);
+    let out = dir.path().join("partial.jsonl");
+    let overlay = dir.path().join("partial.mp4");
+    let child = Command::new(env!("CARGO_BIN_EXE_monohand"))
+        .args(["run", p(&video), "-o", p(&out), "--overlay", p(&overlay)])
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Interrupt once a few frames are written.
+    let t = std::time::Instant::now();
+    while std::fs::read_to_string(&out).map_or(0, |s| s.lines().count()) < 5 {
+        assert!(t.elapsed().as_secs() < 120, "no output after 2 minutes");
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    let status = Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let result = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&result.stderr);
+    assert!(result.status.success(), "{stderr}");
+    let frames = read_jsonl(&out).unwrap();
+    eprintln!("interrupted after {} of 150 frames", frames.len());
+    assert!(frames.len() >= 5, "{stderr}");
+    for (i, f) in frames.iter().enumerate() {
+        assert_eq!(f.frame, i as u64);
+    }
+    if frames.len() < 150 {
+        assert!(stderr.contains("interrupted"), "{stderr}");
+    }
+    // The overlay video was finalised: ffprobe reads it and counts its frames.
+    let probe = Command::new("ffprobe")
+        .args(["-v", "error", "-count_frames", "-select_streams", "v:0"])
+        .args(["-show_entries", "stream=nb_read_frames", "-of", "csv=p=0"])
+        .arg(&overlay)
+        .output()
+        .unwrap();
+    assert!(
+        probe.status.success(),
+        "{}",
+        String::from_utf8_lossy(&probe.stderr)
+    );
+    let n: usize = String::from_utf8_lossy(&probe.stdout)
+        .trim()
+        .parse()
+        .unwrap();
+    assert_eq!(n, frames.len(), "one overlay frame per output frame");
+}
