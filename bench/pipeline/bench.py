@@ -266,6 +266,22 @@ def make_report(a, results, startup):
                               + ", ".join(f"{x:.1f}" for x in pj))
     lines.append("")
     lines.append(per_joint_line)
+    # Runs that produce the very same keypoints (e.g. the detector's extra regions are all
+    # dropped as duplicates of the tracked hand) make the rows above equal; say so.
+    kp = {n: load_monohand(os.path.join(a.out, f"monohand{k}.jsonl"))[0]
+          for k, n in enumerate(mono_names)}
+    same = [n for n in mono_names[1:] if kp[n] == kp[mono_names[0]]]
+    lines.append("")
+    lines.append(f"monohand runs with keypoints identical to `{mono_names[0]}`: "
+                 + (", ".join(f"`{n}`" for n in same) or "none"))
+    mps = {}
+    for n, _ in MEDIAPIPE_RUNS:
+        with open(os.path.join(a.out, mp_files[n])) as f:
+            mps[n] = json.load(f)
+    first = MEDIAPIPE_RUNS[0][0]
+    same = [n for n, _ in MEDIAPIPE_RUNS[1:] if mps[n] == mps[first]]
+    lines.append(f"MediaPipe runs with landmarks identical to `{first}`: "
+                 + (", ".join(f"`{n}`" for n in same) or "none"))
     lines.append("")
     lines.append("Stage times from monohand's `timings_ms` (mean ms per frame, last round; "
                  "the three stages run on different threads and overlap):")
