@@ -163,11 +163,39 @@ def load_monohand(path):
     return frames, timings
 
 
+def roi_from_landmarks(lm):
+    """MediaPipe's tracking crop from a hand's landmarks (HandLandmarksToRect + scale 2,
+    square; our `roi_from_landmarks`): (rotation in radians, side in pixels)."""
+    x0, y0 = lm[0]
+    x1 = ((lm[6][0] + lm[14][0]) / 2 + lm[10][0]) / 2
+    y1 = ((lm[6][1] + lm[14][1]) / 2 + lm[10][1]) / 2
+    rot = math.pi / 2 - math.atan2(-(y1 - y0), x1 - x0)
+    s, c = math.sin(rot), math.cos(rot)
+    r = [(c * lm[j][0] + s * lm[j][1], -s * lm[j][0] + c * lm[j][1])
+         for j in [0, 1, 2, 3, 5, 6, 9, 10, 13, 14, 17, 18]]
+    w = max(a for a, _ in r) - min(a for a, _ in r)
+    h = max(b for _, b in r) - min(b for _, b in r)
+    return rot, 2 * max(w, h)
+
+
+def convention_offset(prev_lm):
+    """The offset (ours - MediaPipe, px) that two half-pixel conventions predict for a crop
+    made from `prev_lm` (docs/performance.md): (+0.5, +0.5) from MediaPipe's CPU x*W being
+    a pixel index already, and -0.5 (side/224) R(rotation) (1, 1) from its crop corners
+    mapped to crop pixel indices 0 and 224."""
+    rot, side = roi_from_landmarks(prev_lm)
+    k = 0.5 * side / 224
+    c, s = math.cos(rot), math.sin(rot)
+    return 0.5 - k * (c - s), 0.5 - k * (s + c)
+
+
 def compare_keypoints(ours, theirs, max_wrist_px=60.0):
     """Per matched hand: mean over the 21 joints of the 2D distance; matched greedily by
     wrist distance (at most max_wrist_px)."""
     dists, dx, dy, per_joint = [], [], [], [[] for _ in range(21)]
+    corrected, per_joint_corrected = [], [[] for _ in range(21)]
     only_ours = only_theirs = 0
+    prev = None
     for fo, ft in zip(ours, theirs):
         pairs = sorted(
             (math.dist(o["keypoints_2d"][0], t["keypoints_2d"][0]), i, j)
@@ -185,10 +213,20 @@ def compare_keypoints(ours, theirs, max_wrist_px=60.0):
             dists.append(sum(e) / 21)
             dx.append(sum(p[0] - q[0] for p, q in zip(ko, kt)) / 21)
             dy.append(sum(p[1] - q[1] for p, q in zip(ko, kt)) / 21)
+            # With one hand in consecutive frames, its crop came from MediaPipe's previous
+            # landmarks: remove the offset the conventions predict for that crop.
+            if prev is not None and len(ft) == 1 and len(prev) == 1:
+                ox, oy = convention_offset(prev[0]["keypoints_2d"])
+                e = [math.hypot(p[0] - q[0] - ox, p[1] - q[1] - oy) for p, q in zip(ko, kt)]
+                corrected.append(sum(e) / 21)
+                for k in range(21):
+                    per_joint_corrected[k].append(e[k])
+        prev = ft
         only_ours += len(fo) - len(used_o)
         only_theirs += len(ft) - len(used_t)
     return {"matched": len(dists), "only_ours": only_ours, "only_theirs": only_theirs,
-            "dists": dists, "dx": dx, "dy": dy, "per_joint": per_joint}
+            "dists": dists, "dx": dx, "dy": dy, "per_joint": per_joint,
+            "corrected": corrected, "per_joint_corrected": per_joint_corrected}
 
 
 def pct(xs, q):
@@ -243,8 +281,9 @@ def make_report(a, results, startup):
     lines.append("")
     lines.append("| monohand run | MediaPipe run | what both do | fps ratio monohand / MediaPipe "
                  "| mean 2D disagreement (px) | median | 95th pct | max | mean offset dx, dy (px) "
+                 "| mean after removing the half-pixel conventions (px) | 95th pct "
                  "| hands matched / only monohand / only MediaPipe |")
-    lines.append("|---|---|---|---|---|---|---|---|---|---|")
+    lines.append("|---|---|---|---|---|---|---|---|---|---|---|---|")
     mono_names = [n for n, _ in MONOHAND_RUNS]
     mp_files = {n: f"mp{mh}.json" for n, mh in MEDIAPIPE_RUNS}
     for ours, theirs, what in PAIRS:
@@ -259,11 +298,15 @@ def make_report(a, results, startup):
             f"| `{ours.replace('monohand run', '').strip() or 'defaults'}` | `{theirs.replace('mediapipe ', '')}` | {what} | "
             f"{med[ours] / med[theirs]:.2f} | {mean(d):.2f} | {pct(d, 0.5):.2f} | {pct(d, 0.95):.2f} | "
             f"{max(d) if d else float('nan'):.2f} | {mean(c['dx']):+.2f}, {mean(c['dy']):+.2f} | "
+            f"{mean(c['corrected']):.2f} | {pct(c['corrected'], 0.95):.2f} | "
             f"{c['matched']} / {c['only_ours']} / {c['only_theirs']} |")
         if ours == PAIRS[0][0]:
             pj = [mean(x) for x in c["per_joint"]]
+            pjc = [mean(x) for x in c["per_joint_corrected"]]
             per_joint_line = ("Mean disagreement per joint (px, wrist first), first pair: "
-                              + ", ".join(f"{x:.1f}" for x in pj))
+                              + ", ".join(f"{x:.1f}" for x in pj)
+                              + "; after removing the half-pixel conventions: "
+                              + ", ".join(f"{x:.1f}" for x in pjc))
     lines.append("")
     lines.append(per_joint_line)
     # Runs that produce the very same keypoints (e.g. the detector's extra regions are all
