@@ -1,5 +1,6 @@
 //! Per-stage latency: decode, palm detection (preprocess + network), landmark crop, landmark
-//! network, face detection, and the whole pipeline, on `../shared/data/images/pinto/hand.png`.
+//! network, face detection, the whole pipeline on a still image and one tracked video frame
+//! (with and without the palm detector), on `../shared/data/images/pinto/hand.png`.
 //!
 //! Compare with LiteRT (1 thread) from `tools/litert_reference.py`, which prints its own
 //! ms/inference for the same models.
@@ -90,6 +91,17 @@ fn stages(c: &mut Criterion) {
     .expect("pipeline");
     c.bench_function("pipeline_full_single_pass", |b| {
         b.iter(|| pipeline.detect(&img).expect("detect"))
+    });
+    // One video frame as `monohand run` processes it: the landmark network in the crop
+    // predicted by the previous frame's keypoints, without / with the palm detector (and
+    // the landmark network on its regions, and the face detector if loaded).
+    let previous = pipeline.detect(&img).expect("detect").hands;
+    assert!(!previous.is_empty(), "a hand in hand.png");
+    c.bench_function("pipeline_full_track_frame", |b| {
+        b.iter(|| pipeline.track(&img, &previous, false).expect("track"))
+    });
+    c.bench_function("pipeline_full_track_and_detect_frame", |b| {
+        b.iter(|| pipeline.track(&img, &previous, true).expect("track"))
     });
 }
 

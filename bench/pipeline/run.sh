@@ -1,0 +1,65 @@
+#!/usr/bin/env bash
+# MediaPipe's own Python hand pipeline (mediapipe==0.10.14, legacy solutions.hands) against
+# `monohand run` on the same video: frames per second of each, their ratio, monohand's time
+# per stage, and the 2D disagreement between the two sets of keypoints.
+# Not part of .ci/run (it installs MediaPipe from PyPI and takes minutes). See
+# docs/performance.md.
+#
+# Usage: bench/pipeline/run.sh [--rounds N] [--frames N] [--cpus LIST]
+#   --rounds N   alternating rounds (default 3); fps are the median over rounds
+#   --frames N   length of the video (default 300, 640x480 at 30 fps)
+#   --cpus LIST  run both tools under `taskset -c LIST` (default: no pinning, whole machine)
+# Environment: PHOTO (default ../shared/data/images/pinto/hand.png beside the repo),
+#   OUT (default target/pipeline-bench), CARGO_TARGET_DIR (default target), PYTHON (the
+#   interpreter that creates the virtual environment, default python3; MediaPipe 0.10.14
+#   has wheels for CPython 3.8 to 3.12).
+set -euo pipefail
+cd "$(dirname "$0")/../.."
+root=$(pwd)
+rounds=3 frames=300 cpus=""
+while [ $# -gt 0 ]; do
+    case "$1" in
+        --rounds) rounds=$2; shift 2 ;;
+        --frames) frames=$2; shift 2 ;;
+        --cpus) cpus=$2; shift 2 ;;
+        *) echo "unknown option $1 (see the header of $0)" >&2; exit 2 ;;
+    esac
+done
+PHOTO=${PHOTO:-$root/../shared/data/images/pinto/hand.png}
+OUT=${OUT:-$root/target/pipeline-bench}
+export CARGO_TARGET_DIR=${CARGO_TARGET_DIR:-$root/target}
+PYTHON=${PYTHON:-python3}
+venv=$root/bench/pipeline/.venv
+
+[ -f "$PHOTO" ] || { echo "photo not found: $PHOTO (set PHOTO)" >&2; exit 1; }
+command -v ffmpeg >/dev/null || { echo "ffmpeg not found (apt-get install ffmpeg)" >&2; exit 1; }
+mkdir -p "$OUT"
+
+echo "== machine" >&2
+lscpu | grep -E '^(Model name|CPU\(s\)|Thread|Core|Socket)' >&2 || true
+uptime >&2
+
+if [ ! -x "$venv/bin/python" ] || ! "$venv/bin/python" -c 'import mediapipe' 2>/dev/null; then
+    echo "== virtual environment $venv (mediapipe==0.10.14)" >&2
+    "$PYTHON" -m venv "$venv"
+    "$venv/bin/pip" install --quiet --upgrade pip
+    "$venv/bin/pip" install --quiet mediapipe==0.10.14
+fi
+"$venv/bin/python" -c 'import sys, mediapipe, cv2, numpy; print("python", sys.version.split()[0], "mediapipe", mediapipe.__version__, "opencv", cv2.__version__, "numpy", numpy.__version__)' >&2
+
+echo "== build monohand (release)" >&2
+cargo build --release --locked -p monohand-cli
+monohand=$CARGO_TARGET_DIR/release/monohand
+"$monohand" models fetch >&2
+"$monohand" --version >&2 || true
+
+video=$OUT/moving_${frames}.mkv
+if [ ! -f "$video" ]; then
+    echo "== video $video" >&2
+    "$venv/bin/python" bench/pipeline/make_video.py "$PHOTO" "$video" --frames "$frames" >&2
+fi
+
+echo "== run ($rounds rounds)" >&2
+"$venv/bin/python" bench/pipeline/bench.py compare "$video" --monohand "$monohand" \
+    --rounds "$rounds" --out "$OUT" ${cpus:+--cpus "$cpus"}
+echo "== wrote $OUT/report.md, $OUT/results.json" >&2
