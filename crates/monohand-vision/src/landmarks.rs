@@ -24,7 +24,7 @@ use image::RgbImage;
 use crate::error::{Result, VisionError};
 use crate::geometry::RotatedRect;
 use crate::network::TfliteNet;
-use crate::warp::{warp_into, Normalization};
+use crate::warp::{warp_into_with_border, Border, Normalization};
 
 /// Number of hand keypoints.
 pub const NUM_LANDMARKS: usize = 21;
@@ -104,8 +104,17 @@ impl LandmarkModel {
         roi: &RotatedRect,
     ) -> Result<tract_core::prelude::Tensor> {
         let m = roi.crop_to_image(self.size, self.size);
-        self.net
-            .input_with(|buf| warp_into(img, &m, self.size, self.size, Normalization::UNIT, buf))
+        self.net.input_with(|buf| {
+            warp_into_with_border(
+                img,
+                &m,
+                self.size,
+                self.size,
+                Normalization::UNIT,
+                Border::Replicate,
+                buf,
+            )
+        })
     }
 
     /// Runs the model on `roi` of `img`.

@@ -1,8 +1,7 @@
 //! One affine warp from an RGB image straight into a network's f32 NHWC input buffer.
 //!
 //! Every output pixel centre is mapped through `crop → image` and the image is sampled
-//! bilinearly (pixels outside the image read as black, MediaPipe's `BORDER_ZERO`), then
-//! normalised as `value · scale + offset`. There is no intermediate resized or rotated copy.
+//! bilinearly, then normalised as `value · scale + offset`. There is no intermediate resized or rotated copy.
 //! When one output pixel covers more than 2 image pixels (a 4000-pixel photo squeezed into
 //! 192 pixels) the footprint is supersampled on an `n x n` grid (n ≤ 8) so the detector does
 //! not see aliasing; for ordinary crops n = 1 and the warp is plain bilinear, as MediaPipe's.
@@ -31,6 +30,16 @@ impl Normalization {
         scale: 2.0 / 255.0,
         offset: -1.0,
     };
+}
+
+/// What a crop reads outside the image.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Border {
+    /// Black.
+    #[default]
+    Zero,
+    /// The nearest edge pixel.
+    Replicate,
 }
 
 /// Bilinear sample of channel values at continuous image coordinates `(x, y)`, black outside.
@@ -95,6 +104,19 @@ pub fn warp_into(
     norm: Normalization,
     out: &mut [f32],
 ) {
+    warp_into_with_border(img, crop_to_image, out_w, out_h, norm, Border::Zero, out);
+}
+
+/// [`warp_into`] with a choice of what is read outside the image.
+pub fn warp_into_with_border(
+    img: &RgbImage,
+    crop_to_image: &Affine2,
+    out_w: usize,
+    out_h: usize,
+    norm: Normalization,
+    border: Border,
+    out: &mut [f32],
+) {
     debug_assert!(out.len() >= out_w * out_h * 3);
     let n = crop_to_image.scale();
     let n = if n > 2.0 {
@@ -105,7 +127,7 @@ pub fn warp_into(
     let scale = norm.scale / (n * n) as f32;
     let m = crop_to_image.0;
     if m[0][1] == 0.0 && m[1][0] == 0.0 {
-        return warp_axis_aligned(img, &m, out_w, out_h, n, norm, out);
+        return warp_axis_aligned(img, &m, out_w, out_h, n, norm, border, out);
     }
     let (w, h) = (img.width() as i32, img.height() as i32);
     let raw = img.as_raw().as_slice();
@@ -136,7 +158,13 @@ pub fn warp_into(
             let mut acc = [0.0f32; 3];
             let cf = col as f32;
             for &(x0, y0) in &starts {
-                let s = sample(raw, w, h, x0 + dx_col * cf, y0 + dy_col * cf);
+                let (mut x, mut y) = (x0 + dx_col * cf, y0 + dy_col * cf);
+                if border == Border::Replicate {
+                    // Bilinear sampling clamped to the outer pixel centres = edge replication.
+                    x = x.clamp(0.5, w as f32 - 0.5);
+                    y = y.clamp(0.5, h as f32 - 0.5);
+                }
+                let s = sample(raw, w, h, x, y);
                 acc[0] += s[0];
                 acc[1] += s[1];
                 acc[2] += s[2];
@@ -160,11 +188,21 @@ struct Tap {
 
 /// Taps of every sub-sample of every output position along one axis: output `o`, sub-sample
 /// `s` samples source coordinate `scale · (o + (s + ½)/n) + offset`.
-fn axis_taps(len_out: usize, n: usize, scale: f64, offset: f64, len_in: usize) -> Vec<Tap> {
+fn axis_taps(
+    len_out: usize,
+    n: usize,
+    scale: f64,
+    offset: f64,
+    len_in: usize,
+    border: Border,
+) -> Vec<Tap> {
     let mut taps = Vec::with_capacity(len_out * n);
     for o in 0..len_out {
         for s in 0..n {
-            let f = scale * (o as f64 + (s as f64 + 0.5) / n as f64) + offset - 0.5;
+            let mut f = scale * (o as f64 + (s as f64 + 0.5) / n as f64) + offset - 0.5;
+            if border == Border::Replicate {
+                f = f.clamp(0.0, len_in as f64 - 1.0);
+            }
             let f0 = f.floor();
             let frac = (f - f0) as f32;
             let inside = |i: f64| i >= 0.0 && i < len_in as f64;
@@ -189,12 +227,13 @@ fn warp_axis_aligned(
     out_h: usize,
     n: usize,
     norm: Normalization,
+    border: Border,
     out: &mut [f32],
 ) {
     let (w, h) = (img.width() as usize, img.height() as usize);
     let raw = img.as_raw().as_slice();
-    let xs = axis_taps(out_w, n, m[0][0], m[0][2], w);
-    let ys = axis_taps(out_h, n, m[1][1], m[1][2], h);
+    let xs = axis_taps(out_w, n, m[0][0], m[0][2], w, border);
+    let ys = axis_taps(out_h, n, m[1][1], m[1][2], h, border);
     let scale = norm.scale / (n * n) as f32;
     let px = |y: usize, x: usize| {
         let o = (y * w + x) * 3;
@@ -230,6 +269,33 @@ mod tests {
 
     fn gradient() -> RgbImage {
         RgbImage::from_fn(64, 48, |x, y| image::Rgb([(x * 4) as u8, (y * 5) as u8, 7]))
+    }
+
+    #[test]
+    fn replicate_border_repeats_the_edge_pixels() {
+        let img = gradient();
+        let norm = Normalization {
+            scale: 1.0,
+            offset: 0.0,
+        };
+        // A crop shifted 10 px left of the image, axis-aligned and slightly rotated.
+        for m in [
+            Affine2([[1.0, 0.0, -10.0], [0.0, 1.0, 0.0]]),
+            Affine2([[1.0, 1e-9, -10.0], [-1e-9, 1.0, 0.0]]),
+        ] {
+            let mut zero = vec![0.0; 20 * 20 * 3];
+            let mut rep = vec![0.0; 20 * 20 * 3];
+            warp_into_with_border(&img, &m, 20, 20, norm, Border::Zero, &mut zero);
+            warp_into_with_border(&img, &m, 20, 20, norm, Border::Replicate, &mut rep);
+            let at = |b: &[f32], x: usize, y: usize, c: usize| b[(y * 20 + x) * 3 + c];
+            // Column 3 is 7 px left of the image: black, or column 0's pixel (x = 0, so
+            // channel 0 is 0 either way; channel 1 = 5y and channel 2 = 7 tell).
+            assert_eq!(at(&zero, 3, 4, 2), 0.0);
+            assert!((at(&rep, 3, 4, 2) - 7.0).abs() < 1e-4);
+            assert!((at(&rep, 3, 4, 1) - 20.0).abs() < 1e-4);
+            // Inside the image both agree.
+            assert!((at(&zero, 15, 4, 1) - at(&rep, 15, 4, 1)).abs() < 1e-4);
+        }
     }
 
     #[test]
