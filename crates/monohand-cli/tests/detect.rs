@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{monohand, ok, p};
+use common::{monohand, networks_ready, ok, p};
 use monohand_core::hand_model::HandSide;
 use monohand_io::jsonl::read_jsonl;
 use std::path::{Path, PathBuf};
@@ -17,20 +17,6 @@ fn images() -> Option<PathBuf> {
         eprintln!("SKIP: shared images not found at {}", d.display());
         None
     }
-}
-
-/// Fetches the networks through the CLI; `false` (after SKIP) when pip/network is missing.
-fn networks_ready() -> bool {
-    let out = monohand(&["models", "fetch"]);
-    if out.status.success() {
-        return true;
-    }
-    let err = String::from_utf8_lossy(&out.stderr);
-    if std::env::var_os("MONOHAND_REQUIRE_MODELS").is_none() && err.contains("pip") {
-        eprintln!("SKIP: MediaPipe networks unavailable: {err}");
-        return false;
-    }
-    panic!("monohand models fetch failed: {err}");
 }
 
 #[test]

@@ -115,14 +115,8 @@ fn user_errors_are_clear() {
 #[test]
 fn full_stage_runs_the_networks_on_the_stb_images() {
     let Some(dir) = stb_dir() else { return };
-    let fetch = monohand(&["models", "fetch"]);
-    if !fetch.status.success() {
-        let err = String::from_utf8_lossy(&fetch.stderr);
-        if std::env::var_os("MONOHAND_REQUIRE_MODELS").is_none() && err.contains("pip") {
-            eprintln!("SKIP: MediaPipe networks unavailable: {err}");
-            return;
-        }
-        panic!("monohand models fetch failed: {err}");
+    if !networks_ready() {
+        return;
     }
     let out = monohand(&[
         "eval",

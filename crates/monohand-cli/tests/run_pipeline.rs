@@ -5,7 +5,7 @@
 
 mod common;
 
-use common::{monohand, ok, p, stb_dir};
+use common::{monohand, networks_ready, ok, p, stb_dir};
 use monohand_core::prelude::*;
 use monohand_io::calibration::write_camera_json;
 use monohand_io::jsonl::{read_jsonl, FrameRecord};
@@ -13,20 +13,6 @@ use monohand_io::stb::{stb_cameras, StbSequence};
 use monohand_vision::RgbImage;
 use std::path::{Path, PathBuf};
 use std::process::Command;
-
-/// Fetches the networks through the CLI; `false` (after SKIP) when pip/network is missing.
-fn networks_ready() -> bool {
-    let out = monohand(&["models", "fetch"]);
-    if out.status.success() {
-        return true;
-    }
-    let err = String::from_utf8_lossy(&out.stderr);
-    if std::env::var_os("MONOHAND_REQUIRE_MODELS").is_none() && err.contains("pip") {
-        eprintln!("SKIP: MediaPipe networks unavailable: {err}");
-        return false;
-    }
-    panic!("monohand models fetch failed: {err}");
-}
 
 fn ffmpeg_ready() -> bool {
     let found = Command::new("ffmpeg").arg("-version").output().is_ok()

@@ -127,7 +127,7 @@ pub fn warp_into_with_border(
     let scale = norm.scale / (n * n) as f32;
     let m = crop_to_image.0;
     if m[0][1] == 0.0 && m[1][0] == 0.0 {
-        return warp_axis_aligned(img, &m, out_w, out_h, n, norm, border, out);
+        return warp_axis_aligned(img, &m, (out_w, out_h), n, norm, border, out);
     }
     let (w, h) = (img.width() as i32, img.height() as i32);
     let raw = img.as_raw().as_slice();
@@ -223,8 +223,7 @@ fn axis_taps(
 fn warp_axis_aligned(
     img: &RgbImage,
     m: &[[f64; 3]; 2],
-    out_w: usize,
-    out_h: usize,
+    (out_w, out_h): (usize, usize),
     n: usize,
     norm: Normalization,
     border: Border,

@@ -103,3 +103,18 @@ pub fn stats(e: &[f64]) -> (f64, f64) {
 pub fn p(path: &Path) -> &str {
     path.to_str().expect("utf-8 temp path")
 }
+
+/// Fetches the networks through the CLI; `false` (after SKIP) when pip or the network is
+/// missing and `MONOHAND_REQUIRE_MODELS` is unset (CI sets it: there a failure panics).
+pub fn networks_ready() -> bool {
+    let out = monohand(&["models", "fetch"]);
+    if out.status.success() {
+        return true;
+    }
+    let err = String::from_utf8_lossy(&out.stderr);
+    if std::env::var_os("MONOHAND_REQUIRE_MODELS").is_none() && err.contains("pip") {
+        eprintln!("SKIP: MediaPipe networks unavailable: {err}");
+        return false;
+    }
+    panic!("monohand models fetch failed: {err}");
+}
