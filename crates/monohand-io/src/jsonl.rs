@@ -113,7 +113,8 @@ pub struct HandRecord {
     /// Track identity, stable across frames.
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub id: Option<u64>,
-    /// Probability of `side` in `[0.5, 1]`, when a network decided it.
+    /// Probability of `side` in `[0, 1]` according to a network on this frame (below 0.5
+    /// when `side` was decided otherwise, e.g. by a vote over a tracked hand's frames).
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub side_score: Option<f64>,
     /// The hand's oriented box in the first view (rotated with the hand).

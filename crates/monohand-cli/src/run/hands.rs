@@ -2,7 +2,7 @@
 //! crops and of hand identities) and the 3D fit (stage 3, one tracker per hand).
 
 use crate::hand_args::is_finite;
-use crate::vision::{frame_record, hand_record};
+use crate::vision::frame_record;
 use monohand_core::filtering::{OneEuroFilter, OneEuroParams};
 use monohand_core::fitting::{estimate_hand_scale, ScaleEstimate};
 use monohand_core::prelude::*;
@@ -453,12 +453,16 @@ impl FitStage {
             for (h, hand) in first.hands.iter().enumerate() {
                 self.vote_side(ids[h], hand, frame.index);
             }
+            // `record.hands` holds the first view's detections in the order of `first.hands`,
+            // which `associate` keeps.
             let hands = self.associate(&frame);
-            record.hands.clear();
-            for ((id, side, views), detected) in hands.into_iter().zip(&first.hands) {
-                let mut rec = hand_record(detected);
+            for ((id, side, views), rec) in hands.into_iter().zip(record.hands.iter_mut()) {
                 rec.id = Some(id);
-                rec.side = side;
+                if side != rec.side {
+                    // The vote over the track overrules this frame's network.
+                    rec.side = side;
+                    rec.side_score = rec.side_score.map(|p| 1.0 - p);
+                }
                 if let Some(fit) = self.fit_hand(id, &views, frame.index) {
                     let mut joints = fit.joints_3d.map(|x| [x.x, x.y, x.z]);
                     if let Some(f) = self.tracks.get_mut(&id).and_then(|t| t.filter.as_mut()) {
@@ -470,7 +474,6 @@ impl FitStage {
                     rec.converged = Some(fit.converged);
                     rec.iterations = Some(fit.iterations);
                 }
-                record.hands.push(rec);
             }
         }
         // Forget hands not seen for a while.
