@@ -14,7 +14,7 @@ use crate::vision::ModelArgs;
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use hands::{Done, FitStage, VisionFrame, VisionStage};
-use input::{Frame, FrameSource, InputKind};
+use input::{FrameSource, InputKind};
 use monohand_core::prelude::*;
 use monohand_vision::RgbImage;
 use output::{OutputFormat, Outputs};
@@ -363,28 +363,26 @@ pub(crate) fn run(args: &RunArgs) -> Result<()> {
 
 /// The next frame of every view; `Ok(None)` when the first view ended.
 fn next_raw(sources: &mut [FrameSource]) -> Result<Option<RawFrame>, String> {
-    let mut images = Vec::with_capacity(sources.len());
-    let mut first: Option<Frame> = None;
-    let mut decode_ms = 0.0;
-    for (v, s) in sources.iter_mut().enumerate() {
-        match s.next_frame() {
-            Ok(Some(f)) => {
-                decode_ms += f.decode_ms;
-                if v == 0 {
-                    images.push(Ok(RgbImage::new(0, 0)));
-                    first = Some(f);
-                } else {
-                    images.push(f.image);
-                }
+    let Some((first, others)) = sources.split_first_mut() else {
+        return Ok(None);
+    };
+    let Some(f) = first.next_frame().map_err(|e| format!("{e:#}"))? else {
+        return Ok(None);
+    };
+    let mut decode_ms = f.decode_ms;
+    let mut images = Vec::with_capacity(1 + others.len());
+    images.push(f.image);
+    for (k, s) in others.iter_mut().enumerate() {
+        let view = k + 2;
+        images.push(match s.next_frame() {
+            Ok(Some(g)) => {
+                decode_ms += g.decode_ms;
+                g.image
             }
-            Ok(None) if v == 0 => return Ok(None),
-            Ok(None) => images.push(Err(format!("view {} has no more frames", v + 1))),
-            Err(e) if v == 0 => return Err(format!("{e:#}")),
-            Err(e) => images.push(Err(format!("view {}: {e:#}", v + 1))),
-        }
+            Ok(None) => Err(format!("view {view} has no more frames")),
+            Err(e) => Err(format!("view {view}: {e:#}")),
+        });
     }
-    let Some(f) = first else { return Ok(None) };
-    images[0] = f.image;
     Ok(Some(RawFrame {
         index: f.index,
         source: f.source,
