@@ -60,14 +60,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                     .sum::<f64>()
                     / 20.0
             };
-            let vl = View {
-                camera: &left,
-                keypoints: kpl,
-            };
-            let vr = View {
-                camera: &right,
-                keypoints: kpr,
-            };
+            let vl = View::new(&left, kpl);
+            let vr = View::new(&right, kpr);
             let mono = err(fitter.fit(&[vl])?);
             let stereo = err(fitter.fit(&[vl, vr])?);
             println!("| {sigma} | {lo:.2}..{hi:.2} | {name} | {mono:.1} | {stereo:.1} |");

@@ -75,10 +75,17 @@ pub(crate) struct EvalArgs {
     /// Seed of the noise and dropped-joint draws.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
+    /// Weights of the network's 3D cues and of the temporal term (the fit's defaults).
+    #[command(flatten)]
+    pub cues: crate::hand_args::CueArgs,
     /// Warm-start each fit from the previous frame of the sequence (default:
     /// every frame from scratch, as single-image methods are evaluated).
     #[arg(long)]
     pub track: bool,
+    /// Learn the hand's proportions (size kept) from the network's 3D over this many first
+    /// frames of each sequence, then fit the rest with them (docs/accuracy.md).
+    #[arg(long, value_name = "N")]
+    pub proportion_frames: Option<usize>,
     /// Hand model: subject (fitted to each sequence's ground truth: an oracle
     /// hand size) or default (average adult hand times --hand-scale).
     #[arg(long, value_enum, default_value_t = Skeleton::Subject)]
@@ -180,8 +187,13 @@ pub(crate) fn run(args: &EvalArgs) -> Result<()> {
             Skeleton::Default => SkeletonChoice::Default,
         },
         hand_scale: args.hand_scale,
-        fit_options: FitOptions::default(),
+        fit_options: args.cues.apply(FitOptions::default()),
+        proportion_frames: args.proportion_frames,
     };
+    settings
+        .fit_options
+        .validate()
+        .context("--world-weight / --depth-weight / --temporal-weight")?;
     let mask = evaluated_joints(ds.root);
     let stage_name = match args.stage {
         Stage::Lift => "lift (ground-truth 2D keypoints)",

@@ -54,6 +54,38 @@ pub(crate) struct HandModelArgs {
     /// Residuals are weighted by confidence^K (paper: 3); 0 weights all kept joints equally.
     #[arg(long, value_name = "K", default_value_t = 3.0)]
     pub confidence_power: f64,
+    /// Weights of the network's 3D cues and of the temporal term.
+    #[command(flatten)]
+    pub cues: CueArgs,
+}
+
+/// Weights of the terms the fit adds to the paper's 2D cost (docs/accuracy.md).
+#[derive(Debug, Clone, Copy, Args)]
+pub(crate) struct CueArgs {
+    /// Weight of the keypoint network's metric 3D (MediaPipe's world landmarks) as bone
+    /// directions; 0 fits the 2D keypoints alone, as the paper.
+    #[arg(long, value_name = "W", default_value_t = FitOptions::default().world_weight)]
+    pub world_weight: f64,
+    /// Weight of the keypoint network's relative depth (MediaPipe's landmark z) as bone
+    /// directions; 0 turns it off.
+    #[arg(long, value_name = "W", default_value_t = FitOptions::default().depth_weight)]
+    pub depth_weight: f64,
+    /// Weight of the pull of each tracked fit towards the previous frame's joints; 0 turns
+    /// it off.
+    #[arg(long, value_name = "W", default_value_t = FitOptions::default().temporal_weight)]
+    pub temporal_weight: f64,
+}
+
+impl CueArgs {
+    /// `options` with these weights.
+    pub fn apply(&self, options: FitOptions) -> FitOptions {
+        FitOptions {
+            world_weight: self.world_weight,
+            depth_weight: self.depth_weight,
+            temporal_weight: self.temporal_weight,
+            ..options
+        }
+    }
 }
 
 impl HandModelArgs {
@@ -82,14 +114,14 @@ impl HandModelArgs {
 
     /// The fitter's options, checked.
     pub fn fit_options(&self) -> Result<FitOptions> {
-        let options = FitOptions {
+        let options = self.cues.apply(FitOptions {
             min_confidence: self.min_confidence,
             confidence_power: self.confidence_power,
             ..FitOptions::default()
-        };
-        options
-            .validate()
-            .context("--min-confidence / --confidence-power")?;
+        });
+        options.validate().context(
+            "--min-confidence / --confidence-power / --world-weight / --depth-weight / --temporal-weight",
+        )?;
         if self.hand_scale == HandScale::Auto && self.scale_frames == 0 {
             bail!("--scale-frames must be at least 1");
         }

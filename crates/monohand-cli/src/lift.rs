@@ -86,10 +86,14 @@ impl ViewInput {
                     let keypoints = hand.keypoints().map_err(|e| {
                         format!("{}: frame {i} hands[{h}].keypoints_2d: {e}", path.display())
                     })?;
+                    let cues = hand
+                        .cues()
+                        .map_err(|e| format!("{}: frame {i} hands[{h}]: {e}", path.display()))?;
                     if !keypoints.is_empty() {
                         hands.push(HandObservation {
                             side: hand.side,
                             keypoints,
+                            cues,
                         });
                     }
                 }
@@ -99,22 +103,15 @@ impl ViewInput {
     }
 }
 
-/// The hand of this side in a view: the one with the largest total confidence.
-fn pick(hands: &[HandObservation], side: HandSide) -> (Option<Keypoints2d>, usize) {
-    let mut of_side = hands.iter().filter(|h| h.side == side);
+/// The hand of this side in a view: the one with the largest total confidence (the first
+/// of equals).
+fn pick(hands: &[HandObservation], side: HandSide) -> (Option<&HandObservation>, usize) {
+    let total = |h: &HandObservation| h.keypoints.points.iter().map(|p| p[2]).sum::<f64>();
+    let of_side = hands.iter().filter(|h| h.side == side);
     let count = of_side.clone().count();
-    let total = |k: &Keypoints2d| k.points.iter().map(|p| p[2]).sum::<f64>();
-    let best = of_side.next().map(|first| {
-        hands
-            .iter()
-            .filter(|h| h.side == side)
-            .fold(first.keypoints, |best, h| {
-                if total(&h.keypoints) > total(&best) {
-                    h.keypoints
-                } else {
-                    best
-                }
-            })
+    let best = of_side.fold(None, |best: Option<&HandObservation>, h| match best {
+        Some(b) if total(h) <= total(b) => Some(b),
+        _ => Some(h),
     });
     (best, count)
 }
@@ -236,7 +233,7 @@ pub(crate) fn run(args: &LiftArgs) -> Result<()> {
             continue;
         }
         for (s, side) in [HandSide::Left, HandSide::Right].into_iter().enumerate() {
-            let mut seen: Vec<(usize, Keypoints2d)> = Vec::new();
+            let mut seen: Vec<(usize, &HandObservation)> = Vec::new();
             for (v, f) in per_view.iter().enumerate() {
                 let (kp, count) = pick(&f.hands, side);
                 if count > 1 && !warned_multi {
@@ -255,15 +252,12 @@ pub(crate) fn run(args: &LiftArgs) -> Result<()> {
             }
             let views: Vec<View> = seen
                 .iter()
-                .map(|(v, kp)| View {
-                    camera: &cameras[*v],
-                    keypoints: kp,
-                })
+                .map(|(v, h)| View::new(&cameras[*v], &h.keypoints).with_cues(h.cues.as_ref()))
                 .collect();
             let first_view_kp = seen
                 .iter()
                 .find(|(v, _)| *v == 0)
-                .map(|(_, kp)| *kp)
+                .map(|(_, h)| h.keypoints)
                 .unwrap_or_default();
             match solvers[s].solve(&views) {
                 Ok(fit) if is_finite(&fit) => {

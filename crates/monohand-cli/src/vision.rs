@@ -157,7 +157,7 @@ pub(crate) fn hand_record(hand: &DetectedHand) -> HandRecord {
         size: [r.width, r.height],
         angle_deg: r.rotation.to_degrees(),
     });
-    record
+    record.with_cues(hand.cues.as_ref())
 }
 
 /// The output record of one image's detections.

@@ -380,3 +380,77 @@ fn hand_seen_only_in_the_second_view_and_several_hands_per_side() {
         "max error {err} mm: wrong hand chosen or wrong frame"
     );
 }
+
+#[test]
+fn lift_uses_network_3d_cues_from_json_lines() {
+    let s = Setup::new(0);
+    let (truth, kp) = keypoints();
+    // 2D keypoints with a fixed pseudo-random error of up to 4 px, and the hand's true
+    // relative 3D as a network would give it (image axes, origin anywhere on the hand).
+    let noisy = Keypoints2d {
+        points: std::array::from_fn(|j| {
+            let [u, v, c] = kp.points[j];
+            [
+                u + 4.0 * (j as f64 * 1.7).sin(),
+                v + 4.0 * (j as f64 * 2.3).cos(),
+                c,
+            ]
+        }),
+    };
+    let world: [[f64; 3]; 21] =
+        truth.map(|x| [x.x - truth[9].x, x.y - truth[9].y, x.z - truth[9].z]);
+    let input = s.path("in.jsonl");
+    let mut w = JsonlWriter::create(&input).unwrap();
+    w.write_frame(&FrameRecord {
+        frame: 0,
+        hands: vec![HandRecord {
+            world_mm: Some(world),
+            ..HandRecord::from_keypoints(HandSide::Right, &noisy)
+        }],
+        ..Default::default()
+    })
+    .unwrap();
+    drop(w);
+    let cam = s.path("cam.json");
+    let lift = |extra: &[&str]| {
+        let out = s.path("out.jsonl");
+        let mut args = vec![
+            "lift",
+            "--camera",
+            p(&cam),
+            "--jsonl",
+            p(&input),
+            "--output",
+            p(&out),
+        ];
+        args.extend_from_slice(extra);
+        ok(&monohand(&args));
+        let j = read_jsonl(&out).unwrap()[0].hands[0].joints_3d().unwrap();
+        (0..21).map(|k| (j[k] - truth[k]).norm()).sum::<f64>() / 21.0
+    };
+    let with = lift(&[]);
+    let without = lift(&["--world-weight", "0"]);
+    assert!(
+        with < 0.7 * without,
+        "with cues {with} mm, without {without} mm"
+    );
+    // A malformed cue names the file and the line.
+    let text = std::fs::read_to_string(&input).unwrap();
+    std::fs::write(
+        &input,
+        text.replacen("\"world_mm\":[[", "\"world_mm\":[[1e999,", 1),
+    )
+    .unwrap();
+    let out = s.path("out.jsonl");
+    let o = monohand(&[
+        "lift",
+        "--camera",
+        p(&cam),
+        "--jsonl",
+        p(&input),
+        "--output",
+        p(&out),
+    ]);
+    assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
+    assert!(stderr(&o).contains("in.jsonl: line 1"), "{}", stderr(&o));
+}

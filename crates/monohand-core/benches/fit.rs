@@ -4,6 +4,7 @@
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use monohand_core::kinematics::{forward_kinematics_with_jacobian, LOCAL_DOF};
+use monohand_core::observation::NetworkCues;
 use monohand_core::prelude::*;
 use nalgebra::{Rotation3, SMatrix, UnitQuaternion, Vector3};
 use rand::rngs::StdRng;
@@ -54,6 +55,19 @@ fn bench(c: &mut Criterion) {
         })
         .collect();
 
+    // The network's relative 3D as MediaPipe gives it: metric joints about the hand's
+    // centre, and the depth of each joint behind the wrist in pixels.
+    let cues: Vec<NetworkCues> = poses
+        .iter()
+        .map(|p| {
+            let j = forward_kinematics(&sk, p);
+            let z = 822.79 / j[0].z;
+            NetworkCues {
+                world_mm: Some(j.map(|x| [x.x - j[9].x, x.y - j[9].y, x.z - j[9].z])),
+                depth_px: Some(j.map(|x| (x.z - j[0].z) * z)),
+            }
+        })
+        .collect();
     c.bench_function("forward_kinematics", |b| {
         b.iter(|| forward_kinematics(&sk, black_box(&poses[0])))
     });
@@ -68,10 +82,16 @@ fn bench(c: &mut Criterion) {
         b.iter(|| {
             i = (i + 1) % obs.len();
             fitter
-                .fit(&[View {
-                    camera: &left,
-                    keypoints: &obs[i].0,
-                }])
+                .fit(&[View::new(&left, &obs[i].0)])
+                .map(|r| r.cost)
+                .ok()
+        })
+    });
+    c.bench_function("fit_mono_from_scratch_with_cues", |b| {
+        b.iter(|| {
+            i = (i + 1) % obs.len();
+            fitter
+                .fit(&[View::new(&left, &obs[i].0).with_cues(Some(&cues[i]))])
                 .map(|r| r.cost)
                 .ok()
         })
@@ -79,16 +99,7 @@ fn bench(c: &mut Criterion) {
     c.bench_function("fit_stereo_from_scratch", |b| {
         b.iter(|| {
             i = (i + 1) % obs.len();
-            let v = [
-                View {
-                    camera: &left,
-                    keypoints: &obs[i].0,
-                },
-                View {
-                    camera: &right,
-                    keypoints: &obs[i].1,
-                },
-            ];
+            let v = [View::new(&left, &obs[i].0), View::new(&right, &obs[i].1)];
             fitter.fit(&v).map(|r| r.cost).ok()
         })
     });
@@ -107,11 +118,17 @@ fn bench(c: &mut Criterion) {
         b.iter(|| {
             i = (i + 1) % obs.len();
             fitter
+                .fit_from(&[View::new(&left, &obs[i].0)], &starts[i])
+                .map(|r| r.cost)
+                .ok()
+        })
+    });
+    c.bench_function("fit_mono_tracking_warm_start_with_cues", |b| {
+        b.iter(|| {
+            i = (i + 1) % obs.len();
+            fitter
                 .fit_from(
-                    &[View {
-                        camera: &left,
-                        keypoints: &obs[i].0,
-                    }],
+                    &[View::new(&left, &obs[i].0).with_cues(Some(&cues[i]))],
                     &starts[i],
                 )
                 .map(|r| r.cost)

@@ -153,7 +153,10 @@ mod tests {
         base: &HandPose,
     ) -> [D; 3] {
         // x = translation offset (3), rotation vector perturbation (3), finger angles (4)
-        let f = finger_of(joint).unwrap();
+        let Some(f) = finger_of(joint) else {
+            // The wrist is the root: only the translation moves it.
+            return std::array::from_fn(|i| x[i] + base.translation[i]);
+        };
         let g = &sk.fingers[f.index()];
         let k = (joint - 1) % 4;
         let v = |p: Vector3<f64>| [D::from(p.x), D::from(p.y), D::from(p.z)];
@@ -203,6 +206,37 @@ mod tests {
         ];
         let _ = th2;
         std::array::from_fn(|i| q[i] + cr[i] + x[i] + base.translation[i])
+    }
+
+    /// The bone vectors the fitter's cue residuals use, `X_child - X_parent`, and their
+    /// Jacobian `J_child - J_parent` in the child's local columns.
+    #[test]
+    fn bone_vector_jacobian_matches_dual_numbers() {
+        let sk = HandSkeleton::default_for(HandSide::Left);
+        let mut pose = HandPose::default();
+        pose.translation = Vector3::new(-40.0, 10.0, 380.0);
+        pose.rotation = UnitQuaternion::from_euler_angles(-0.3, 0.9, 0.4);
+        for (i, a) in pose.angles.iter_mut().enumerate() {
+            *a = 0.25 - 0.02 * i as f64;
+        }
+        let mut pts = [Vector3::zeros(); NUM_JOINTS];
+        let mut jac = [nalgebra::SMatrix::<f64, 3, LOCAL_DOF>::zeros(); NUM_JOINTS];
+        forward_kinematics_with_jacobian(&sk, &pose, &mut pts, &mut jac);
+        for &(p, c) in crate::hand_model::BONES.iter() {
+            let (val, jd) = jacobian(
+                |x: nalgebra::SVector<DualVec64<nalgebra::Const<10>>, 10>| {
+                    let arr: [DualVec64<nalgebra::Const<10>>; 10] = std::array::from_fn(|i| x[i]);
+                    let a = fk_generic(&sk, c, &arr, &pose);
+                    let b = fk_generic(&sk, p, &arr, &pose);
+                    nalgebra::SVector::from([a[0] - b[0], a[1] - b[1], a[2] - b[2]])
+                },
+                &nalgebra::SVector::<f64, 10>::zeros(),
+            );
+            let bone = pts[c] - pts[p];
+            assert!((Vector3::new(val[0], val[1], val[2]) - bone).norm() < 1e-9);
+            let err = (jd - (jac[c] - jac[p])).abs().max();
+            assert!(err < 1e-8, "bone ({p}, {c}): jacobian mismatch {err}");
+        }
     }
 
     #[test]

@@ -24,7 +24,7 @@
 //!     kp.points[j] = [px.x, px.y, 1.0];
 //! }
 //! let mut fitter = HandFitter::new(skeleton, FitOptions::default()).unwrap();
-//! let fit = fitter.fit(&[View { camera: &camera, keypoints: &kp }]).unwrap();
+//! let fit = fitter.fit(&[View::new(&camera, &kp)]).unwrap();
 //! assert!((fit.joints_3d[8] - joints[8]).norm() < 1.0);
 //! ```
 

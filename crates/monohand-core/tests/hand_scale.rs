@@ -39,16 +39,7 @@ fn stereo_error(
         l.points[0][2] = 0.0;
         r.points[0][2] = 0.0;
         let fit = fitter
-            .fit(&[
-                View {
-                    camera: left,
-                    keypoints: &l,
-                },
-                View {
-                    camera: right,
-                    keypoints: &r,
-                },
-            ])
+            .fit(&[View::new(left, &l), View::new(right, &r)])
             .unwrap();
         sum += (1..21)
             .map(|k| (fit.joints_3d[k] - j[k]).norm())
@@ -86,18 +77,7 @@ fn hand_size_from_the_first_frames_of_stb() {
             .collect();
         let stereo: Vec<Vec<View>> = kps
             .iter()
-            .map(|[l, r]| {
-                vec![
-                    View {
-                        camera: &left,
-                        keypoints: l,
-                    },
-                    View {
-                        camera: &right,
-                        keypoints: r,
-                    },
-                ]
-            })
+            .map(|[l, r]| vec![View::new(&left, l), View::new(&right, r)])
             .collect();
         let mono: Vec<Vec<View>> = stereo.iter().map(|v| v[..1].to_vec()).collect();
         let est =

@@ -46,16 +46,7 @@ fn run(
         .map(|joints| {
             let kl = project(&left, joints, noise, &mut rng).unwrap();
             let kr = project(&right, joints, noise, &mut rng).unwrap();
-            let views = [
-                View {
-                    camera: &left,
-                    keypoints: &kl,
-                },
-                View {
-                    camera: &right,
-                    keypoints: &kr,
-                },
-            ];
+            let views = [View::new(&left, &kl), View::new(&right, &kr)];
             let fit = fitter
                 .fit(if stereo { &views } else { &views[..1] })
                 .unwrap();

@@ -33,12 +33,7 @@ fn synthetic_mono_round_trip_under_1mm() {
                 continue;
             };
             n += 1;
-            let fit = fitter
-                .fit(&[View {
-                    camera: &cam,
-                    keypoints: &kp,
-                }])
-                .unwrap();
+            let fit = fitter.fit(&[View::new(&cam, &kp)]).unwrap();
             let e = mean_error(&fit.joints_3d, &joints);
             assert!(
                 sk.limits.contains(&fit.pose.angles, 1e-12),
@@ -87,16 +82,7 @@ fn synthetic_stereo_round_trip_under_1mm() {
             continue;
         };
         let fit = fitter
-            .fit(&[
-                View {
-                    camera: &left,
-                    keypoints: &kl,
-                },
-                View {
-                    camera: &right,
-                    keypoints: &kr,
-                },
-            ])
+            .fit(&[View::new(&left, &kl), View::new(&right, &kr)])
             .unwrap();
         worst = worst.max(mean_error(&fit.joints_3d, &joints));
     }

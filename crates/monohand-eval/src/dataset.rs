@@ -96,7 +96,9 @@ pub struct Dataset {
 impl Dataset {
     /// Reads a dataset, telling the kind from the path: a `.jsonl` file (or a
     /// folder holding `manifest.jsonl`) is a manifest ([`crate::manifest`]); a
-    /// folder with `labels/*_BB.mat` is STB ([`crate::datasets::stb`]).
+    /// folder with `labels/*_BB.mat` is STB ([`crate::datasets::stb`]); a folder
+    /// with hand-graph-cnn's `labels.json` is read by
+    /// [`crate::datasets::hand_graph_cnn`].
     pub fn load(path: impl AsRef<Path>) -> EvalResult<Dataset> {
         let path = path.as_ref();
         if path.is_file() {
@@ -112,10 +114,13 @@ impl Dataset {
         if crate::datasets::stb::is_stb_folder(path) {
             return crate::datasets::stb::load_stb(path);
         }
+        if crate::datasets::hand_graph_cnn::is_hand_graph_cnn_folder(path) {
+            return crate::datasets::hand_graph_cnn::load_hand_graph_cnn(path);
+        }
         Err(EvalError::dataset(
             path,
-            "not a dataset: expected a manifest (.jsonl file, or a folder with manifest.jsonl) \
-             or an STB folder (labels/*_BB.mat)",
+            "not a dataset: expected a manifest (.jsonl file, or a folder with manifest.jsonl), \
+             an STB folder (labels/*_BB.mat) or a hand-graph-cnn folder (labels.json with crop boxes)",
         ))
     }
 

@@ -17,7 +17,9 @@
 use crate::dataset::{Dataset, Frame, RootJoint};
 use crate::error::{EvalError, EvalResult};
 use crate::metrics::{self, HandErrors, JointMask, Joints, ALL_JOINTS};
+use monohand_core::fitting::estimate_proportions;
 use monohand_core::hand_model::fit_skeleton;
+use monohand_core::observation::NetworkCues;
 use monohand_core::prelude::*;
 use nalgebra::Vector3;
 use rand::rngs::StdRng;
@@ -79,6 +81,10 @@ pub struct EvalSettings {
     pub hand_scale: f64,
     /// Fitter settings.
     pub fit_options: FitOptions,
+    /// Learn the hand's proportions from the network's 3D of this many first
+    /// frames of each sequence and hand ([`estimate_proportions`]); later
+    /// frames are fitted with them. `None` keeps the skeleton's.
+    pub proportion_frames: Option<usize>,
 }
 
 impl Default for EvalSettings {
@@ -89,6 +95,7 @@ impl Default for EvalSettings {
             skeleton: SkeletonChoice::Subject,
             hand_scale: 1.0,
             fit_options: FitOptions::default(),
+            proportion_frames: None,
         }
     }
 }
@@ -97,9 +104,10 @@ impl Default for EvalSettings {
 pub trait KeypointSource {
     /// A one-line description for the report ("projected labels, 2 px noise").
     fn describe(&self) -> String;
-    /// The keypoints of every ground-truth hand of a frame in every view:
-    /// `out[hand][view]`, `None` where the hand was not found in that view.
-    fn keypoints(&mut self, frame: &Frame) -> EvalResult<Vec<Vec<Option<Keypoints2d>>>>;
+    /// The keypoints (and the network's 3D cues, if any) of every ground-truth
+    /// hand of a frame in every view: `out[hand][view]`, `None` where the hand
+    /// was not found in that view.
+    fn keypoints(&mut self, frame: &Frame) -> EvalResult<Vec<Vec<Option<HandObservation>>>>;
 }
 
 /// `--stage lift`: the ground-truth 2D keypoints (labelled, or the 3D labels
@@ -141,7 +149,7 @@ impl KeypointSource for ProjectedLabels {
         )
     }
 
-    fn keypoints(&mut self, frame: &Frame) -> EvalResult<Vec<Vec<Option<Keypoints2d>>>> {
+    fn keypoints(&mut self, frame: &Frame) -> EvalResult<Vec<Vec<Option<HandObservation>>>> {
         let normal = Normal::new(0.0, self.noise_px.max(1e-300))
             .map_err(|e| EvalError::Settings(e.to_string()))?;
         let mut out = Vec::with_capacity(frame.hands.len());
@@ -162,7 +170,11 @@ impl KeypointSource for ProjectedLabels {
                         kp.points[j][2] = 0.0;
                     }
                 }
-                views.push(Some(kp));
+                views.push(Some(HandObservation {
+                    side: frame.hands[h].side,
+                    keypoints: kp,
+                    cues: None,
+                }));
             }
             out.push(views);
         }
@@ -188,7 +200,7 @@ impl<D: HandDetector> KeypointSource for Detected<D> {
         format!("detector: {}", self.0.describe())
     }
 
-    fn keypoints(&mut self, frame: &Frame) -> EvalResult<Vec<Vec<Option<Keypoints2d>>>> {
+    fn keypoints(&mut self, frame: &Frame) -> EvalResult<Vec<Vec<Option<HandObservation>>>> {
         if frame.images.len() != frame.cameras.len() {
             return Err(EvalError::Detector(format!(
                 "frame {} of sequence {:?} has no image for every camera (the full stage needs images)",
@@ -216,7 +228,7 @@ impl<D: HandDetector> KeypointSource for Detected<D> {
                             .max_by(|a, b| {
                                 mean_conf(&a.keypoints).total_cmp(&mean_conf(&b.keypoints))
                             })
-                            .map(|o| o.keypoints)
+                            .copied()
                     })
                     .collect()
             })
@@ -264,9 +276,16 @@ pub struct RunResult {
     pub source: String,
     /// The input noise (pixels) for lift runs, `None` for detector runs.
     pub noise_px: Option<f64>,
+    /// True for the keypoint network's own relative 3D (its "world" landmarks),
+    /// which has no position: its joints are placed at the ground truth's
+    /// centroid, and the absolute metrics and jitter are not defined.
+    pub relative_only: bool,
     /// Per-hand outcomes in dataset order.
     pub hands: Vec<HandResult>,
 }
+
+/// Label of the run that scores the keypoint network's own 3D.
+pub const NETWORK_RUN_LABEL: &str = "network 3D (no position)";
 
 /// One skeleton used in a run, and how well it explains the ground truth.
 #[derive(Debug, Clone, PartialEq)]
@@ -373,9 +392,24 @@ pub fn evaluate(
             mode,
             source: desc.clone(),
             noise_px,
+            relative_only: false,
             hands: Vec::new(),
         })
         .collect();
+    // The network's own 3D of the first view, scored beside the fits when the
+    // source gives it (same frames, same detections).
+    let mut network = RunResult {
+        label: NETWORK_RUN_LABEL.to_string(),
+        mode: ViewMode::Mono,
+        source: format!("{desc}; its metric 3D landmarks, first view"),
+        noise_px,
+        relative_only: true,
+        hands: Vec::new(),
+    };
+    let mut network_seen = false;
+    // Network 3D gathered per (sequence, side) until the proportions are learnt.
+    let mut gathered: HashMap<(String, HandSide), Vec<NetworkCues>> = HashMap::new();
+    let mut learnt: HashMap<(String, HandSide), HandSkeleton> = HashMap::new();
     // One tracker per (mode, sequence, side); without tracking it is reset
     // before every frame, i.e. every fit starts from scratch.
     let mut solvers: HashMap<(usize, String, HandSide), HandTracker> = HashMap::new();
@@ -392,20 +426,68 @@ pub fn evaluate(
             })?;
             if palm_root && default_sk {
                 // The default model's joint 0 is a wrist: never feed it the palm centre.
-                for k in views_kp.iter_mut().flatten() {
-                    k.points[0][2] = 0.0;
+                for o in views_kp.iter_mut().flatten() {
+                    o.keypoints.points[0][2] = 0.0;
                 }
             }
             let gt2d = frame.gt_keypoints(h, 0);
-            let keypoints_px = views_kp
+            let keypoints_px = views_kp.first().copied().flatten().and_then(|o| {
+                mean_px(&metrics::keypoint_errors_px(
+                    &o.keypoints.points,
+                    &gt2d.points,
+                ))
+            });
+            let world = views_kp
                 .first()
                 .copied()
                 .flatten()
-                .and_then(|k| mean_px(&metrics::keypoint_errors_px(&k.points, &gt2d.points)));
+                .and_then(|o| o.cues)
+                .and_then(|c| c.world_mm);
+            network_seen |= world.is_some();
+            let network_pred = world.map(|w| {
+                let (cw, cg) = (
+                    metrics::centroid(&w, &mask),
+                    metrics::centroid(&hand.joints_3d, &mask),
+                );
+                w.map(|p| std::array::from_fn(|k| p[k] - cw[k] + cg[k]))
+            });
+            network.hands.push(HandResult {
+                sequence: frame.sequence.clone(),
+                frame: frame.index,
+                side: hand.side,
+                errors: network_pred.map(|p| HandErrors::compute(&p, &hand.joints_3d, &mask, 0)),
+                pred: network_pred,
+                gt: hand.joints_3d,
+                keypoints_px,
+                reprojection_px: None,
+                seconds: source_s,
+            });
             let key_sk = (frame.sequence.clone(), hand.side);
-            let sk = sks.get(&key_sk).copied().ok_or_else(|| {
+            let mut sk = sks.get(&key_sk).copied().ok_or_else(|| {
                 EvalError::Settings(format!("no skeleton for sequence {:?}", frame.sequence))
             })?;
+            if let Some(n) = settings.proportion_frames {
+                let cues = views_kp.first().copied().flatten().and_then(|o| o.cues);
+                if let (Some(c), false) = (cues, learnt.contains_key(&key_sk)) {
+                    let g = gathered.entry(key_sk.clone()).or_default();
+                    g.push(c);
+                    if g.len() >= n {
+                        if let Ok(est) = estimate_proportions(&sk, g) {
+                            learnt.insert(key_sk.clone(), est.skeleton);
+                            for (key, t) in solvers.iter_mut() {
+                                if key.1 == key_sk.0 && key.2 == key_sk.1 {
+                                    t.fitter_mut()
+                                        .set_skeleton(est.skeleton)
+                                        .map_err(|e| EvalError::core("learnt proportions", e))?;
+                                }
+                            }
+                        }
+                    }
+                }
+                if let Some(l) = learnt.get(&key_sk) {
+                    sk = *l;
+                }
+            }
             for (m, run) in runs.iter_mut().enumerate() {
                 let n_views = match run.mode {
                     ViewMode::Mono => 1,
@@ -414,8 +496,9 @@ pub fn evaluate(
                 let views: Vec<View> = frame.cameras[..n_views]
                     .iter()
                     .zip(views_kp.iter())
-                    .filter_map(|(camera, k)| {
-                        k.as_ref().map(|keypoints| View { camera, keypoints })
+                    .filter_map(|(camera, o)| {
+                        o.as_ref()
+                            .map(|o| View::new(camera, &o.keypoints).with_cues(o.cues.as_ref()))
                     })
                     .collect();
                 let key = (m, frame.sequence.clone(), hand.side);
@@ -463,6 +546,9 @@ pub fn evaluate(
             }
         }
     }
+    if network_seen {
+        runs.push(network);
+    }
     Ok((runs, notes))
 }
 
@@ -497,6 +583,15 @@ pub struct RunSummary {
     pub aligned: f64,
     /// Procrustes-aligned MPJPE (mm).
     pub pa_mpjpe: f64,
+    /// Centroid-aligned MPJPE (mm).
+    pub centroid: f64,
+    /// Jitter: mean joint acceleration over runs of three consecutive fitted
+    /// frames, mm per frame squared (NaN without such runs, or for a
+    /// relative-only run).
+    pub jitter: f64,
+    /// The same acceleration of the ground truth on those frames (the motion
+    /// itself, a floor for the jitter).
+    pub gt_jitter: f64,
     /// Mean absolute error along x, y, z (mm).
     pub axis: [f64; 3],
     /// AUC(20-50 mm) of the per-joint absolute PCK.
@@ -552,6 +647,21 @@ impl RunResult {
         let rr = self.errors(mask, |e| &e.root_relative);
         let al = self.errors(mask, |e| &e.aligned);
         let pa = self.errors(mask, |e| &e.procrustes);
+        let ce = self.errors(mask, |e| &e.centroid);
+        let (mut acc, mut gt_acc) = (Vec::new(), Vec::new());
+        for w in self.hands.windows(3) {
+            let same = w
+                .iter()
+                .all(|h| h.sequence == w[0].sequence && h.side == w[0].side);
+            let consecutive = w[1].frame == w[0].frame + 1 && w[2].frame == w[1].frame + 1;
+            if let (true, true, Some(a), Some(b), Some(c)) =
+                (same, consecutive, &w[0].pred, &w[1].pred, &w[2].pred)
+            {
+                acc.push(metrics::acceleration(a, b, c, mask));
+                gt_acc.push(metrics::acceleration(&w[0].gt, &w[1].gt, &w[2].gt, mask));
+            }
+        }
+        let nan_if_relative = |x: f64| if self.relative_only { f64::NAN } else { x };
         let det: Vec<&HandErrors> = self
             .hands
             .iter()
@@ -571,14 +681,17 @@ impl RunResult {
             label: self.label.clone(),
             hands: self.hands.len(),
             detected: det.len(),
-            mpjpe: metrics::mean(&abs.joints),
-            median: metrics::quantile(&abs.frames, 0.5),
+            mpjpe: nan_if_relative(metrics::mean(&abs.joints)),
+            median: nan_if_relative(metrics::quantile(&abs.frames, 0.5)),
             root_relative: metrics::mean(&rr.joints),
             aligned: metrics::mean(&al.joints),
             pa_mpjpe: metrics::mean(&pa.joints),
-            axis,
-            auc_abs_joint: metrics::auc(&abs.joints, lo, hi),
-            auc_abs_frame: metrics::auc(&abs.frames, lo, hi),
+            centroid: metrics::mean(&ce.joints),
+            jitter: nan_if_relative(metrics::mean(&acc)),
+            gt_jitter: metrics::mean(&gt_acc),
+            axis: axis.map(nan_if_relative),
+            auc_abs_joint: nan_if_relative(metrics::auc(&abs.joints, lo, hi)),
+            auc_abs_frame: nan_if_relative(metrics::auc(&abs.frames, lo, hi)),
             auc_rr_joint: metrics::auc(&rr.joints, lo, hi),
             auc_aligned_joint: metrics::auc(&al.joints, lo, hi),
             auc_aligned_frame: metrics::auc(&al.frames, lo, hi),

@@ -244,6 +244,35 @@ pub fn quantile(x: &[f64], q: f64) -> f64 {
     }
 }
 
+/// The mean of the masked joints.
+pub fn centroid(joints: &Joints, mask: &JointMask) -> [f64; 3] {
+    let n = mask.iter().filter(|&&m| m).count().max(1) as f64;
+    let mut c = [0.0; 3];
+    for (p, _) in joints.iter().zip(mask).filter(|(_, &m)| m) {
+        for k in 0..3 {
+            c[k] += p[k] / n;
+        }
+    }
+    c
+}
+
+/// Per-joint errors after shifting both hands to their centroids (over `mask`).
+pub fn centroid_errors(pred: &Joints, gt: &Joints, mask: &JointMask) -> [f64; NUM_JOINTS] {
+    let (cp, cg) = (centroid(pred, mask), centroid(gt, mask));
+    let shift = |j: &Joints, c: [f64; 3]| j.map(|p| [p[0] - c[0], p[1] - c[1], p[2] - c[2]]);
+    joint_errors(&shift(pred, cp), &shift(gt, cg))
+}
+
+/// Mean over joints of the second difference `|x(t+1) - 2 x(t) + x(t-1)|` (mm per
+/// frame squared): the jitter of a joint trajectory, for three consecutive frames.
+pub fn acceleration(prev: &Joints, now: &Joints, next: &Joints, mask: &JointMask) -> f64 {
+    let a: [f64; NUM_JOINTS] = std::array::from_fn(|j| {
+        let d: [f64; 3] = std::array::from_fn(|k| next[j][k] - 2.0 * now[j][k] + prev[j][k]);
+        (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt()
+    });
+    masked_mean(&a, mask)
+}
+
 /// All per-joint errors of one evaluated hand.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct HandErrors {
@@ -255,6 +284,9 @@ pub struct HandErrors {
     pub aligned: [f64; NUM_JOINTS],
     /// Procrustes-aligned error per joint (mm).
     pub procrustes: [f64; NUM_JOINTS],
+    /// Centroid-aligned error per joint: both hands shifted to their mean over
+    /// the evaluated joints, no rotation or scale (mm).
+    pub centroid: [f64; NUM_JOINTS],
     /// Mean absolute error along x, y, z over the evaluated joints (mm).
     pub axis: [f64; 3],
 }
@@ -268,6 +300,7 @@ impl HandErrors {
             root_relative: root_relative_errors(pred, gt, root),
             aligned: zb_aligned_errors(pred, gt, root, ZB_REFERENCE_BONE),
             procrustes: procrustes_errors(pred, gt, mask),
+            centroid: centroid_errors(pred, gt, mask),
             axis: axis_abs_errors(pred, gt, mask),
         }
     }
@@ -318,6 +351,25 @@ mod tests {
             // But not zero absolute error.
             assert!(masked_mean(&joint_errors(&p, &g), &ALL_JOINTS) > 10.0);
         }
+    }
+
+    #[test]
+    fn centroid_alignment_removes_shift_not_rotation_and_acceleration_sees_jitter() {
+        let g = hand();
+        let shifted = g.map(|q| [q[0] + 30.0, q[1], q[2] - 12.0]);
+        let e = centroid_errors(&shifted, &g, &ALL_JOINTS);
+        assert!(e.iter().all(|&x| x < 1e-9), "{e:?}");
+        let r = Rotation3::from_euler_angles(0.0, 0.0, 0.5);
+        let turned = g.map(|q| {
+            let x = r * Vector3::new(q[0], q[1], q[2] - 540.0);
+            [x.x, x.y, x.z + 540.0]
+        });
+        assert!(masked_mean(&centroid_errors(&turned, &g, &ALL_JOINTS), &ALL_JOINTS) > 5.0);
+        // Uniform motion has no acceleration; a 2 mm kick on every joint has 2 * 2 mm.
+        let step = |d: f64| g.map(|q| [q[0] + d, q[1], q[2]]);
+        assert!(acceleration(&step(0.0), &step(1.0), &step(2.0), &ALL_JOINTS) < 1e-12);
+        let a = acceleration(&step(0.0), &step(2.0), &step(0.0), &ALL_JOINTS);
+        assert!((a - 4.0).abs() < 1e-12, "{a}");
     }
 
     #[test]

@@ -30,6 +30,7 @@ impl HandDetector for TableDetector {
             .map(|(_, k)| HandObservation {
                 side: HandSide::Right,
                 keypoints: *k,
+                cues: None,
             })
             .collect())
     }

@@ -29,6 +29,7 @@
 //! ```
 
 use crate::error::{name_of, IoError, IoResult};
+use monohand_core::observation::NetworkCues;
 use monohand_core::prelude::*;
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
 use serde::{Deserialize, Serialize};
@@ -120,6 +121,14 @@ pub struct HandRecord {
     /// The hand's oriented box in the first view (rotated with the hand).
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub oriented_box: Option<OrientedBox>,
+    /// The keypoint network's metric 3D in the first view, mm, relative to the hand, in the
+    /// image's axes (MediaPipe's world landmarks). `lift` uses it as a cue when present.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub world_mm: Option<[[f64; 3]; NUM_JOINTS]>,
+    /// The keypoint network's depth of each joint relative to the wrist, in image pixels,
+    /// negative towards the camera (MediaPipe's landmark `z`). `lift` uses it when present.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub depth_px: Option<[f64; NUM_JOINTS]>,
 }
 
 /// A rotated rectangle in pixels.
@@ -160,7 +169,29 @@ impl HandRecord {
             id: None,
             side_score: None,
             oriented_box: None,
+            world_mm: None,
+            depth_px: None,
         }
+    }
+
+    /// The same record carrying the network's 3D cues (if any).
+    pub fn with_cues(mut self, cues: Option<&NetworkCues>) -> HandRecord {
+        self.world_mm = cues.and_then(|c| c.world_mm);
+        self.depth_px = cues.and_then(|c| c.depth_px);
+        self
+    }
+
+    /// The network's 3D cues, if the record has any (checked: finite numbers).
+    pub fn cues(&self) -> Result<Option<NetworkCues>, CoreError> {
+        let cues = NetworkCues {
+            world_mm: self.world_mm,
+            depth_px: self.depth_px,
+        };
+        if cues.is_empty() {
+            return Ok(None);
+        }
+        cues.validate()?;
+        Ok(Some(cues))
     }
 
     /// A record of a fit: the keypoints of the first view and the fit's results.
@@ -219,6 +250,12 @@ impl HandRecord {
             if bad(b.center.iter().chain(&b.size).chain([&b.angle_deg])) {
                 return Some("oriented_box");
             }
+        }
+        if self.world_mm.is_some_and(|w| bad(w.iter().flatten())) {
+            return Some("world_mm");
+        }
+        if self.depth_px.is_some_and(|d| bad(d.iter())) {
+            return Some("depth_px");
         }
         None
     }

@@ -181,6 +181,7 @@ pub fn parse_openpose(text: &str, file: &str) -> IoResult<OpenPoseFrame> {
                 frame.hands.push(HandObservation {
                     side,
                     keypoints: kp,
+                    cues: None,
                 });
                 frame.person_of_hand.push(i);
             }

@@ -185,7 +185,7 @@ mod onnx_model {
                 points,
                 presence,
                 side: side_hint.map(|s| (s, 0.5)),
-                world: None,
+                cues: None,
             })
         }
     }

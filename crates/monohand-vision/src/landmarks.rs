@@ -61,7 +61,9 @@ pub struct HandLandmarks {
     /// for *mirrored* (selfie) images, i.e. of a physical right hand in an unmirrored image;
     /// see [`crate::pipeline`].
     pub handedness_raw: f32,
-    /// Metric 3D landmarks in metres (the network's "world" output).
+    /// Metric 3D landmarks in metres (the network's "world" output, origin near the hand's
+    /// centre), turned from the crop's axes to the image's (x right, y down, z away from the
+    /// camera), as MediaPipe's `WorldLandmarkProjectionCalculator` does.
     pub world: [[f64; 3]; NUM_LANDMARKS],
     /// The crop the landmarks were read from.
     pub roi: RotatedRect,
@@ -138,6 +140,7 @@ impl LandmarkModel {
         };
         let to_image = roi.crop_to_image(self.size, self.size);
         let z_scale = roi.width / self.size as f64;
+        let (sin, cos) = roi.rotation.sin_cos();
         let mut image = [[0.0; 3]; NUM_LANDMARKS];
         let mut crop = [[0.0; 2]; NUM_LANDMARKS];
         let mut w3 = [[0.0; 3]; NUM_LANDMARKS];
@@ -150,9 +153,10 @@ impl LandmarkModel {
             let p = to_image.apply([x, y]);
             image[j] = [p[0], p[1], z * z_scale];
             crop[j] = [x, y];
+            let (wx, wy) = (world[3 * j] as f64, world[3 * j + 1] as f64);
             w3[j] = [
-                world[3 * j] as f64,
-                world[3 * j + 1] as f64,
+                cos * wx - sin * wy,
+                sin * wx + cos * wy,
                 world[3 * j + 2] as f64,
             ];
         }

@@ -16,7 +16,7 @@ use std::path::{Path, PathBuf};
 
 use image::RgbImage;
 use monohand_core::hand_model::HandSide;
-use monohand_core::observation::{HandObservation, Keypoints2d};
+use monohand_core::observation::{HandObservation, Keypoints2d, NetworkCues};
 
 use crate::error::Result;
 use crate::face::{FaceDetector, HeadDetection};
@@ -51,8 +51,8 @@ pub struct HandKeypoints {
     pub presence: f32,
     /// Physical side and its probability, if the network tells.
     pub side: Option<(HandSide, f32)>,
-    /// Metric 3D landmarks (metres) if the network regresses them.
-    pub world: Option<[[f64; 3]; NUM_LANDMARKS]>,
+    /// The network's relative 3D (metric landmarks, relative depth) if it gives it.
+    pub cues: Option<NetworkCues>,
 }
 
 /// Estimates 21 keypoints for a hand region.
@@ -156,7 +156,10 @@ impl MediaPipeKeypoints {
             points,
             presence: lm.presence,
             side: Some(side),
-            world: Some(lm.world),
+            cues: Some(NetworkCues {
+                world_mm: Some(lm.world.map(|w| w.map(|v| v * 1000.0))),
+                depth_px: Some(lm.image.map(|p| p[2])),
+            }),
         }
     }
 }
@@ -291,8 +294,9 @@ pub struct DetectedHand {
     pub side_score: f32,
     /// 21 keypoints `[u, v, confidence]`, MediaPipe/OpenPose order.
     pub keypoints: Keypoints2d,
-    /// Metric 3D landmarks (metres, hand-centred) when the network gives them.
-    pub world_landmarks: Option<[[f64; 3]; NUM_LANDMARKS]>,
+    /// The network's relative 3D when it gives it (MediaPipe: metric landmarks in mm and
+    /// relative depth in image pixels, both in the image's axes).
+    pub cues: Option<NetworkCues>,
 }
 
 impl DetectedHand {
@@ -301,6 +305,7 @@ impl DetectedHand {
         HandObservation {
             side: self.side,
             keypoints: self.keypoints,
+            cues: self.cues,
         }
     }
 }
@@ -620,7 +625,7 @@ fn to_detected(region: &HandRegion, kp: HandKeypoints) -> DetectedHand {
         side,
         side_score,
         keypoints,
-        world_landmarks: kp.world,
+        cues: kp.cues,
     }
 }
 

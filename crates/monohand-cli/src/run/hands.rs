@@ -5,6 +5,7 @@ use crate::hand_args::is_finite;
 use crate::vision::frame_record;
 use monohand_core::filtering::{OneEuroFilter, OneEuroParams};
 use monohand_core::fitting::{estimate_hand_scale, ScaleEstimate};
+use monohand_core::observation::NetworkCues;
 use monohand_core::prelude::*;
 use monohand_io::jsonl::FrameRecord;
 use monohand_vision::{DetectedHand, Detections, HandPipeline, RgbImage};
@@ -14,9 +15,12 @@ use std::time::Instant;
 /// Identity of a tracked hand.
 pub(crate) type HandId = u64;
 
-/// One hand of a frame across views: its id, side, and `(view, keypoints)` per view that
-/// sees it.
-type HandViews = (HandId, HandSide, Vec<(usize, Keypoints2d)>);
+/// One hand of a frame across views: its id, side, and `(view, keypoints, network cues)` per
+/// view that sees it.
+type HandViews = (HandId, HandSide, Vec<SeenIn>);
+
+/// A hand as seen in one view: the view's index, its keypoints and the network's 3D cues.
+type SeenIn = (usize, Keypoints2d, Option<NetworkCues>);
 
 /// A fitted frame and, for overlays, its first view's image.
 pub(crate) type Done = (FrameRecord, Option<RgbImage>);
@@ -341,7 +345,7 @@ impl FitStage {
             return;
         };
         let mut side = HandSide::Right;
-        let mut obs: Vec<Vec<(usize, Keypoints2d)>> = Vec::new();
+        let mut obs: Vec<Vec<SeenIn>> = Vec::new();
         for hands in per_frame {
             for (id, s, views) in hands {
                 if id == best && views.len() >= 2 {
@@ -354,10 +358,7 @@ impl FitStage {
             .iter()
             .map(|vs| {
                 vs.iter()
-                    .map(|(v, kp)| View {
-                        camera: &self.cameras[*v],
-                        keypoints: kp,
-                    })
+                    .map(|(v, kp, _)| View::new(&self.cameras[*v], kp))
                     .collect()
             })
             .collect();
@@ -406,7 +407,7 @@ impl FitStage {
         let mut out = Vec::new();
         for (h, hand) in first.hands.iter().enumerate() {
             let side = self.tracks.get(&ids[h]).map_or(hand.side, |t| t.side);
-            let mut views = vec![(0, hand.keypoints)];
+            let mut views = vec![(0, hand.keypoints, hand.cues)];
             for (v, view) in frame.views.iter().enumerate().skip(1) {
                 let Ok((d, _)) = view else { continue };
                 let best = d
@@ -417,7 +418,7 @@ impl FitStage {
                     .max_by(|a, b| a.1.detection_score.total_cmp(&b.1.detection_score));
                 if let Some((k, o)) = best {
                     used[v][k] = true;
-                    views.push((v, o.keypoints));
+                    views.push((v, o.keypoints, o.cues));
                 }
             }
             out.push((ids[h], side, views));
@@ -522,22 +523,14 @@ impl FitStage {
         }
     }
 
-    fn fit_hand(
-        &mut self,
-        id: HandId,
-        views: &[(usize, Keypoints2d)],
-        index: u64,
-    ) -> Option<FitResult> {
+    fn fit_hand(&mut self, id: HandId, views: &[SeenIn], index: u64) -> Option<FitResult> {
         let track = self.tracks.get_mut(&id)?;
         if !self.tracking {
             track.tracker.reset();
         }
         let views: Vec<View> = views
             .iter()
-            .map(|(v, kp)| View {
-                camera: &self.cameras[*v],
-                keypoints: kp,
-            })
+            .map(|(v, kp, cues)| View::new(&self.cameras[*v], kp).with_cues(cues.as_ref()))
             .collect();
         match track.tracker.update(&views) {
             Ok(fit) if is_finite(&fit) => Some(fit),

@@ -12,11 +12,12 @@ use super::options::{FitOptions, View};
 use crate::camera::Camera;
 use crate::error::{CoreError, CoreResult};
 use crate::hand_model::params::ANGLES_PER_FINGER;
-use crate::hand_model::{HandPose, HandSkeleton, NUM_DOF, NUM_JOINTS};
+use crate::hand_model::{HandPose, HandSkeleton, BONES, NUM_DOF, NUM_JOINTS};
 use crate::kinematics::{
     finger_of, forward_kinematics, forward_kinematics_with_jacobian, LOCAL_DOF,
 };
-use nalgebra::{Matrix2x3, SMatrix, SVector, UnitQuaternion, Vector2, Vector3};
+use crate::observation::NetworkCues;
+use nalgebra::{Matrix2x3, Rotation3, SMatrix, SVector, UnitQuaternion, Vector2, Vector3};
 
 pub(crate) type Mat26 = SMatrix<f64, NUM_DOF, NUM_DOF>;
 pub(crate) type Vec26 = SVector<f64, NUM_DOF>;
@@ -56,7 +57,17 @@ pub(crate) struct PreparedView {
     pub targets: [[f64; 2]; NUM_JOINTS],
     /// `p^k`, or 0 for dropped joints.
     pub weights: [f64; NUM_JOINTS],
+    /// Target unit direction of each bone in this camera's frame, from the
+    /// network's cues: `[0]` metric 3D, `[1]` relative depth.
+    pub bone_targets: [[Vector3<f64>; NUM_BONES]; NUM_CUES],
+    /// Weight of each bone residual per cue (0 where the cue is absent).
+    pub bone_weights: [[f64; NUM_BONES]; NUM_CUES],
 }
+
+/// Number of bones (one per non-wrist joint).
+const NUM_BONES: usize = BONES.len();
+/// Cues that give bone directions: the network's metric 3D and its relative depth.
+const NUM_CUES: usize = 2;
 
 /// A solver run's result before it is turned into a [`FitResult`].
 #[derive(Debug, Clone, Copy)]
@@ -74,6 +85,10 @@ pub struct HandFitter {
     skeleton: HandSkeleton,
     options: FitOptions,
     pub(crate) views: Vec<PreparedView>,
+    /// Bone lengths of the skeleton, in [`BONES`] order.
+    bone_lengths: [f64; NUM_BONES],
+    /// Joints the temporal term pulls towards (reference frame), in tracking.
+    prior: Option<[Vector3<f64>; NUM_JOINTS]>,
 }
 
 impl HandFitter {
@@ -82,9 +97,11 @@ impl HandFitter {
         skeleton.validate()?;
         options.validate()?;
         Ok(HandFitter {
+            bone_lengths: skeleton.bone_lengths(),
             skeleton,
             options,
             views: Vec::with_capacity(2),
+            prior: None,
         })
     }
 
@@ -96,6 +113,7 @@ impl HandFitter {
     /// Replaces the skeleton (e.g. after estimating the hand's size).
     pub fn set_skeleton(&mut self, skeleton: HandSkeleton) -> CoreResult<()> {
         skeleton.validate()?;
+        self.bone_lengths = skeleton.bone_lengths();
         self.skeleton = skeleton;
         Ok(())
     }
@@ -113,6 +131,7 @@ impl HandFitter {
     /// lowest-cost result wins.
     pub fn fit(&mut self, views: &[View]) -> CoreResult<FitResult> {
         let used = self.prepare(views)?;
+        self.prior = None;
         let observed = self.observed_joints();
         let free = free_dofs(&observed);
         let starts = init::root_candidates(self, &observed);
@@ -166,8 +185,23 @@ impl HandFitter {
     /// Fits starting from a previous pose (tracking). Angles of joints that are
     /// not observed in any view keep their previous values, so those joints keep
     /// their last position relative to the hand and move with its root (the
-    /// paper's rule for vanishing joints).
+    /// paper's rule for vanishing joints). With
+    /// [`FitOptions::temporal_weight`] above 0, every joint is also pulled
+    /// towards its position in `start`.
     pub fn fit_from(&mut self, views: &[View], start: &HandPose) -> CoreResult<FitResult> {
+        let towards = forward_kinematics(&self.skeleton, start);
+        self.fit_from_towards(views, start, Some(towards))
+    }
+
+    /// [`HandFitter::fit_from`] with the temporal term pulling towards `towards`
+    /// (the joints predicted for this frame, reference frame), or without it
+    /// (`None`).
+    pub(crate) fn fit_from_towards(
+        &mut self,
+        views: &[View],
+        start: &HandPose,
+        towards: Option<[Vector3<f64>; NUM_JOINTS]>,
+    ) -> CoreResult<FitResult> {
         if !start.is_finite() {
             return Err(CoreError::InvalidOptions(
                 "starting pose is not finite".into(),
@@ -181,6 +215,7 @@ impl HandFitter {
         if !self.in_front(&start) {
             return self.fit(views);
         }
+        self.prior = towards.filter(|_| self.options.temporal_weight > 0.0);
         let sol = self.solve(
             start,
             &observed,
@@ -209,6 +244,8 @@ impl HandFitter {
                 raw: [[0.0; 2]; NUM_JOINTS],
                 targets: [[0.0; 2]; NUM_JOINTS],
                 weights: [0.0; NUM_JOINTS],
+                bone_targets: [[Vector3::zeros(); NUM_BONES]; NUM_CUES],
+                bone_weights: [[0.0; NUM_BONES]; NUM_CUES],
             };
             for (j, p) in v.keypoints.points.iter().enumerate() {
                 pv.raw[j] = [p[0], p[1]];
@@ -219,7 +256,24 @@ impl HandFitter {
                     used += 1;
                 }
             }
+            if let Some(cues) = v.cues {
+                cues.validate()
+                    .map_err(|e| CoreError::InvalidKeypoints(format!("view {vi}: {e}")))?;
+                set_bone_targets(&mut pv, cues, o);
+            }
             self.views.push(pv);
+        }
+        // Several views' network 3D are estimates of one shape: together they weigh as
+        // much as one view's (the pixel terms, which add geometry, are summed as they are).
+        let with_cues = views.iter().filter(|v| v.cues.is_some()).count();
+        if with_cues > 1 {
+            let share = (1.0 / with_cues as f64).sqrt();
+            for pv in &mut self.views {
+                pv.bone_weights
+                    .iter_mut()
+                    .flatten()
+                    .for_each(|w| *w *= share);
+            }
         }
         let joints = self.observed_joints().iter().filter(|&&b| b).count();
         if joints < o.min_joints {
@@ -245,6 +299,14 @@ impl HandFitter {
 
     fn finish(&self, sol: Solution, used: usize) -> FitResult {
         let joints_3d = forward_kinematics(&self.skeleton, &sol.pose);
+        // The temporal pull is left out of the reported cost, so that a
+        // warm-started and a from-scratch fit of one frame compare fairly.
+        let cost = match self.prior {
+            Some(_) => self
+                .data_cost(&joints_3d, &self.observed_joints())
+                .unwrap_or(sol.cost),
+            None => sol.cost,
+        };
         let mut sum = 0.0;
         let mut n = 0usize;
         for v in &self.views {
@@ -263,7 +325,7 @@ impl HandFitter {
             reprojection_error_px: if n > 0 { sum / n as f64 } else { f64::NAN },
             iterations: sol.iterations,
             converged: sol.converged,
-            cost: sol.cost,
+            cost,
             used_observations: used,
         }
     }
@@ -271,6 +333,19 @@ impl HandFitter {
     /// Cost of a pose over the masked joints; `None` if a joint is behind a camera.
     pub(crate) fn cost(&self, pose: &HandPose, mask: &JointMask) -> Option<f64> {
         let pts = forward_kinematics(&self.skeleton, pose);
+        let mut cost = self.data_cost(&pts, mask)?;
+        if let Some(prior) = &self.prior {
+            let w = self.options.temporal_weight;
+            for j in (0..NUM_JOINTS).filter(|&j| mask[j]) {
+                cost += w * w * (pts[j] - prior[j]).norm_squared();
+            }
+        }
+        Some(cost)
+    }
+
+    /// The pixel and cue terms of the cost for given joints; `None` if a joint
+    /// is behind a camera.
+    fn data_cost(&self, pts: &[Vector3<f64>; NUM_JOINTS], mask: &JointMask) -> Option<f64> {
         let mut cost = 0.0;
         for v in &self.views {
             let ext = &v.camera.extrinsics;
@@ -287,6 +362,16 @@ impl HandFitter {
                 let du = k.fx * x.x / x.z + k.cx - v.targets[j][0];
                 let dv = k.fy * x.y / x.z + k.cy - v.targets[j][1];
                 cost += w * w * (du * du + dv * dv);
+            }
+            let r = v.camera.extrinsics.rotation.matrix();
+            for (cue, weights) in v.bone_weights.iter().enumerate() {
+                for (b, &(p, c)) in BONES.iter().enumerate() {
+                    if weights[b] > 0.0 && mask[p] && mask[c] {
+                        let d =
+                            r * (pts[c] - pts[p]) - self.bone_lengths[b] * v.bone_targets[cue][b];
+                        cost += weights[b] * weights[b] * d.norm_squared();
+                    }
+                }
             }
         }
         Some(cost)
@@ -322,16 +407,31 @@ impl HandFitter {
                 let res = w * (uv - Vector2::new(v.targets[j][0], v.targets[j][1]));
                 cost += res.norm_squared();
                 let j2: SMatrix<f64, 2, LOCAL_DOF> = (pj * r * w) * jac[j];
-                let jtj = j2.tr_mul(&j2);
-                let jtr = j2.tr_mul(&res);
-                let idx = dof_index_map(j);
-                let n = if j == 0 { 6 } else { LOCAL_DOF };
-                for a in 0..n {
-                    g[idx[a]] += jtr[a];
-                    for b in 0..n {
-                        h[(idx[a], idx[b])] += jtj[(a, b)];
+                accumulate(h, g, &j2, &res, j);
+            }
+            // Bone directions from the network's cues: the child's 10 local
+            // degrees of freedom cover its parent's (same finger, or the wrist).
+            for (cue, weights) in v.bone_weights.iter().enumerate() {
+                for (b, &(p, c)) in BONES.iter().enumerate() {
+                    let w = weights[b];
+                    if w <= 0.0 || !mask[p] || !mask[c] {
+                        continue;
                     }
+                    let res =
+                        w * (r * (pts[c] - pts[p]) - self.bone_lengths[b] * v.bone_targets[cue][b]);
+                    cost += res.norm_squared();
+                    let jb: SMatrix<f64, 3, LOCAL_DOF> = (r * w) * (jac[c] - jac[p]);
+                    accumulate(h, g, &jb, &res, c);
                 }
+            }
+        }
+        if let Some(prior) = &self.prior {
+            let w = self.options.temporal_weight;
+            for j in (0..NUM_JOINTS).filter(|&j| mask[j]) {
+                let res = w * (pts[j] - prior[j]);
+                cost += res.norm_squared();
+                let jt: SMatrix<f64, 3, LOCAL_DOF> = jac[j] * w;
+                accumulate(h, g, &jt, &res, j);
             }
         }
         Some(cost)
@@ -448,6 +548,76 @@ impl HandFitter {
     }
 }
 
+/// Adds one residual block `res` with Jacobian `jb` (columns: the local
+/// degrees of freedom of `joint`) to `J^T J` and `J^T r`.
+#[inline]
+fn accumulate<const R: usize>(
+    h: &mut Mat26,
+    g: &mut Vec26,
+    jb: &SMatrix<f64, R, LOCAL_DOF>,
+    res: &SVector<f64, R>,
+    joint: usize,
+) {
+    let jtj = jb.tr_mul(jb);
+    let jtr = jb.tr_mul(res);
+    let idx = dof_index_map(joint);
+    let n = if joint == 0 { 6 } else { LOCAL_DOF };
+    for a in 0..n {
+        g[idx[a]] += jtr[a];
+        for b in 0..n {
+            h[(idx[a], idx[b])] += jtj[(a, b)];
+        }
+    }
+}
+
+/// Sets a prepared view's bone-direction targets from the network's cues.
+///
+/// The network saw a crop centred on the hand as if it looked straight at
+/// it, so its directions are turned by the rotation that takes the optical
+/// axis to the viewing ray through the observed joints' mean. A bone's weight
+/// is the cue's weight times the smaller confidence weight of its two joints.
+fn set_bone_targets(pv: &mut PreparedView, cues: &NetworkCues, o: &FitOptions) {
+    let (su, sv, n) = (0..NUM_JOINTS)
+        .filter(|&j| pv.weights[j] > 0.0)
+        .fold((0.0, 0.0, 0.0), |(u, v, n), j| {
+            (u + pv.targets[j][0], v + pv.targets[j][1], n + 1.0)
+        });
+    if n == 0.0 {
+        return;
+    }
+    let k = &pv.camera.intrinsics;
+    let ray = Vector3::new((su / n - k.cx) / k.fx, (sv / n - k.cy) / k.fy, 1.0);
+    let turn = Rotation3::rotation_between(&Vector3::z(), &ray).unwrap_or_else(Rotation3::identity);
+    for (b, &(p, c)) in BONES.iter().enumerate() {
+        let w = pv.weights[p].min(pv.weights[c]);
+        if w <= 0.0 {
+            continue;
+        }
+        let world = cues
+            .world_mm
+            .map(|m| Vector3::from(m[c]) - Vector3::from(m[p]));
+        let depth = cues.depth_px.map(|z| {
+            Vector3::new(
+                (pv.targets[c][0] - pv.targets[p][0]) / k.fx,
+                (pv.targets[c][1] - pv.targets[p][1]) / k.fy,
+                (z[c] - z[p]) / k.fx,
+            )
+        });
+        for (cue, (d, weight)) in [(world, o.world_weight), (depth, o.depth_weight)]
+            .into_iter()
+            .enumerate()
+        {
+            if let Some(unit) = d
+                .filter(|_| weight > 0.0)
+                .and_then(|d| (turn * d).try_normalize(1e-12))
+            {
+                pv.bone_targets[cue][b] = unit;
+                pv.bone_weights[cue][b] = weight * w;
+            }
+        }
+    }
+}
+
 /// Degrees of freedom that a joint's 10 Jacobian columns map to.
 #[inline]
 fn dof_index_map(joint: usize) -> [usize; LOCAL_DOF] {
@@ -553,4 +723,108 @@ fn step_between(from: &HandPose, to: &HandPose, requested: &Vec26) -> Vec26 {
         s[6 + k] = to.angles[k] - from.angles[k];
     }
     s
+}
+
+#[cfg(test)]
+#[allow(clippy::unwrap_used, clippy::field_reassign_with_default)]
+mod tests {
+    use super::*;
+    use crate::hand_model::HandSide;
+
+    /// A pose, a second camera, keypoints near (not at) the pose's projection, network
+    /// cues that disagree with the pose, and a temporal prior elsewhere: every term of the
+    /// cost is non-zero.
+    fn problem() -> (HandFitter, HandPose, [bool; NUM_JOINTS]) {
+        let sk = HandSkeleton::default_for(HandSide::Left);
+        let mut pose = HandPose::default();
+        pose.translation = Vector3::new(25.0, -15.0, 420.0);
+        pose.rotation = UnitQuaternion::from_euler_angles(0.5, -0.4, 2.2);
+        for (i, a) in pose.angles.iter_mut().enumerate() {
+            *a = 0.02 * i as f64;
+        }
+        let left = Camera::pinhole(800.0, 790.0, 320.0, 240.0, 640, 480).unwrap();
+        let right = left.with_extrinsics(crate::camera::Extrinsics {
+            rotation: Rotation3::from_euler_angles(0.02, -0.2, 0.01),
+            translation: Vector3::new(-100.0, 2.0, 10.0),
+        });
+        let joints = forward_kinematics(&sk, &pose);
+        let mut other = pose;
+        other.angles.iter_mut().for_each(|a| *a += 0.15);
+        other.rotation = UnitQuaternion::from_euler_angles(0.6, -0.3, 2.1);
+        let cue_joints = forward_kinematics(&sk, &other);
+        let mut kps = [crate::observation::Keypoints2d::default(); 2];
+        for (cam, kp) in [left, right].iter().zip(kps.iter_mut()) {
+            for (j, x) in joints.iter().enumerate() {
+                let p = cam.project(x).unwrap();
+                kp.points[j] = [
+                    p.x + (j as f64).sin() * 3.0,
+                    p.y - 2.0,
+                    0.5 + 0.02 * j as f64,
+                ];
+            }
+        }
+        let cues = NetworkCues {
+            world_mm: Some(cue_joints.map(|x| [x.x, x.y, x.z])),
+            depth_px: Some(std::array::from_fn(|j| cue_joints[j].z - cue_joints[0].z)),
+        };
+        let options = FitOptions {
+            world_weight: 0.7,
+            depth_weight: 0.4,
+            temporal_weight: 0.3,
+            ..FitOptions::default()
+        };
+        let mut fitter = HandFitter::new(sk, options).unwrap();
+        let views = [
+            View::new(&left, &kps[0]).with_cues(Some(&cues)),
+            View::new(&right, &kps[1]).with_cues(Some(&cues)),
+        ];
+        fitter.prepare(&views).unwrap();
+        let mut prior = joints;
+        prior
+            .iter_mut()
+            .for_each(|x| *x += Vector3::new(3.0, -2.0, 5.0));
+        fitter.prior = Some(prior);
+        let mask = [true; NUM_JOINTS];
+        (fitter, pose, mask)
+    }
+
+    #[test]
+    fn gradient_and_gauss_newton_matrix_match_the_cost() {
+        let (fitter, pose, mask) = problem();
+        let (mut h, mut g) = (Mat26::zeros(), Vec26::zeros());
+        let cost = fitter.linearise(&pose, &mask, &mut h, &mut g).unwrap();
+        assert!((cost - fitter.cost(&pose, &mask).unwrap()).abs() < 1e-9 * cost);
+        let limits = crate::hand_model::JointLimits {
+            lower: [-10.0; crate::hand_model::NUM_ANGLES],
+            upper: [10.0; crate::hand_model::NUM_ANGLES],
+        };
+        // d cost / d step = 2 J^T r, by central differences on the manifold.
+        let eps = 1e-6;
+        for i in 0..NUM_DOF {
+            let mut step = Vec26::zeros();
+            step[i] = eps;
+            let up = fitter
+                .cost(&apply_step(&pose, &step, &limits), &mask)
+                .unwrap();
+            let down = fitter
+                .cost(&apply_step(&pose, &(-step), &limits), &mask)
+                .unwrap();
+            let numeric = (up - down) / (2.0 * eps);
+            assert!(
+                (numeric - 2.0 * g[i]).abs() < 1e-4 * (1.0 + numeric.abs()),
+                "dof {i}: numeric {numeric}, analytic {}",
+                2.0 * g[i]
+            );
+        }
+        // J^T J is symmetric positive semi-definite, and a Gauss-Newton step lowers the cost.
+        assert!((h - h.transpose()).amax() < 1e-9 * h.amax());
+        let step = -(h + Mat26::identity() * 1e-6 * h.amax())
+            .cholesky()
+            .unwrap()
+            .solve(&g);
+        let after = fitter
+            .cost(&apply_step(&pose, &(step * 0.5), &limits), &mask)
+            .unwrap();
+        assert!(after < cost, "{after} >= {cost}");
+    }
 }

@@ -17,10 +17,12 @@
 pub mod init;
 pub mod lm;
 mod options;
+mod proportions;
 mod scale;
 mod tracker;
 
 pub use lm::{FitResult, HandFitter};
 pub use options::{FitOptions, View};
+pub use proportions::{estimate_proportions, ProportionEstimate, SETTLED_CHANGE};
 pub use scale::{estimate_hand_scale, ScaleEstimate, MIN_COST_CONTRAST};
 pub use tracker::HandTracker;

@@ -1,14 +1,34 @@
 use crate::camera::Camera;
 use crate::error::{CoreError, CoreResult};
-use crate::observation::Keypoints2d;
+use crate::observation::{Keypoints2d, NetworkCues};
 
-/// One calibrated view of the hand: a camera and the keypoints seen in it.
+/// One calibrated view of the hand: a camera, the keypoints seen in it and,
+/// optionally, the keypoint network's own relative 3D.
 #[derive(Debug, Clone, Copy)]
 pub struct View<'a> {
     /// The camera (its extrinsics map the reference frame into it).
     pub camera: &'a Camera,
     /// The 2D keypoints in this camera's image, pixels.
     pub keypoints: &'a Keypoints2d,
+    /// The network's relative 3D for the same hand in this view.
+    pub cues: Option<&'a NetworkCues>,
+}
+
+impl<'a> View<'a> {
+    /// A view with 2D keypoints only (the paper's cost).
+    pub fn new(camera: &'a Camera, keypoints: &'a Keypoints2d) -> View<'a> {
+        View {
+            camera,
+            keypoints,
+            cues: None,
+        }
+    }
+
+    /// The same view with the network's relative 3D added.
+    pub fn with_cues(mut self, cues: Option<&'a NetworkCues>) -> View<'a> {
+        self.cues = cues;
+        self
+    }
 }
 
 /// Settings of the fitter.
@@ -33,6 +53,19 @@ pub struct FitOptions {
     /// In tracking, refit from scratch when the warm-started fit's mean
     /// reprojection error exceeds this (pixels).
     pub tracking_reset_px: f64,
+    /// Weight of the network's metric 3D ([`NetworkCues::world_mm`]): each
+    /// bone adds `w p^k L (d_model - d_world)` (mm, `L` the bone's length, `d`
+    /// unit directions, `p^k` the smaller confidence weight of its two joints)
+    /// beside the pixel residuals. 0 turns the cue off. Chosen on the
+    /// development set, see `docs/accuracy.md`.
+    pub world_weight: f64,
+    /// Weight of the network's relative depth ([`NetworkCues::depth_px`]),
+    /// the same bone-direction residual with the direction taken from
+    /// `(du, dv, dz)` in pixels. 0 turns the cue off.
+    pub depth_weight: f64,
+    /// Weight of the pull towards the previous frame in tracking: every joint
+    /// adds `w (X - X_previous)` (mm). 0 turns it off.
+    pub temporal_weight: f64,
 }
 
 impl Default for FitOptions {
@@ -47,6 +80,11 @@ impl Default for FitOptions {
             step_tolerance: 1e-7,
             initial_damping: 1e-3,
             tracking_reset_px: 5.0,
+            // Chosen on the development set (hand_graph_cnn_dev, 292 frames, tracked):
+            // docs/accuracy.md has the table that chose them.
+            world_weight: 1.0,
+            depth_weight: 0.3,
+            temporal_weight: 0.1,
         }
     }
 }
@@ -70,6 +108,17 @@ impl FitOptions {
         if !(self.cost_tolerance >= 0.0 && self.step_tolerance >= 0.0 && self.initial_damping > 0.0)
         {
             return bad("tolerances must be >= 0 and damping > 0");
+        }
+        for (name, w) in [
+            ("world_weight", self.world_weight),
+            ("depth_weight", self.depth_weight),
+            ("temporal_weight", self.temporal_weight),
+        ] {
+            if !(w.is_finite() && w >= 0.0) {
+                return Err(CoreError::InvalidOptions(format!(
+                    "{name} must be finite and >= 0"
+                )));
+            }
         }
         Ok(())
     }

@@ -69,7 +69,7 @@ pub const MIN_COST_CONTRAST: f64 = 0.2;
 /// }
 /// let views: Vec<Vec<View>> = frames
 ///     .iter()
-///     .map(|[a, b]| vec![View { camera: &left, keypoints: a }, View { camera: &right, keypoints: b }])
+///     .map(|[a, b]| vec![View::new(&left, a), View::new(&right, b)])
 ///     .collect();
 /// let est = estimate_hand_scale(&template, &FitOptions::default(), &views, 0.7, 1.4)?;
 /// assert!(est.observable);
@@ -90,7 +90,13 @@ pub fn estimate_hand_scale(
         )));
     }
     let total = |s: f64| -> CoreResult<(f64, usize)> {
-        let mut tracker = HandTracker::new(template.scaled(s)?, *options)?;
+        // The temporal pull would make each scale's fits differ by how they track, not by
+        // how well they explain the views: the comparison uses the views' cost alone.
+        let options = FitOptions {
+            temporal_weight: 0.0,
+            ..*options
+        };
+        let mut tracker = HandTracker::new(template.scaled(s)?, options)?;
         let (mut cost, mut used) = (0.0, 0);
         for views in frames {
             // Frames with too few joints carry no information about the size.

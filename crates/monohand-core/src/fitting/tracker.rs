@@ -1,7 +1,8 @@
 use super::lm::{FitResult, HandFitter};
 use super::options::{FitOptions, View};
 use crate::error::CoreResult;
-use crate::hand_model::{HandPose, HandSkeleton};
+use crate::hand_model::{HandPose, HandSkeleton, NUM_JOINTS};
+use nalgebra::Vector3;
 
 /// Fits a hand frame after frame, starting each fit from the previous solution.
 ///
@@ -9,10 +10,16 @@ use crate::hand_model::{HandPose, HandSkeleton};
 /// above [`FitOptions::tracking_reset_px`]) a fit from scratch is also run and
 /// the one with the lower cost kept, so large jumps between frames recover. Frames with too few joints return the error and keep the
 /// last pose for the next frame.
+///
+/// The temporal term ([`FitOptions::temporal_weight`]) pulls each joint towards
+/// where constant velocity puts it (`2 x(t-1) - x(t-2)`; from the third frame
+/// of a track on), so a hand moving steadily is not held back.
 #[derive(Debug, Clone)]
 pub struct HandTracker {
     fitter: HandFitter,
     last: Option<HandPose>,
+    /// Joints of the last two fits, oldest first.
+    history: [Option<[Vector3<f64>; NUM_JOINTS]>; 2],
 }
 
 impl HandTracker {
@@ -21,6 +28,7 @@ impl HandTracker {
         Ok(HandTracker {
             fitter: HandFitter::new(skeleton, options)?,
             last: None,
+            history: [None, None],
         })
     }
 
@@ -28,7 +36,12 @@ impl HandTracker {
     pub fn update(&mut self, views: &[View]) -> CoreResult<FitResult> {
         let result = match self.last {
             Some(prev) => {
-                let warm = self.fitter.fit_from(views, &prev)?;
+                // No velocity yet after one frame: no temporal pull then.
+                let predicted = match self.history {
+                    [Some(a), Some(b)] => Some(std::array::from_fn(|j| 2.0 * b[j] - a[j])),
+                    _ => None,
+                };
+                let warm = self.fitter.fit_from_towards(views, &prev, predicted)?;
                 if !warm.converged
                     || warm.reprojection_error_px > self.fitter.options().tracking_reset_px
                 {
@@ -45,12 +58,14 @@ impl HandTracker {
             None => self.fitter.fit(views)?,
         };
         self.last = Some(result.pose);
+        self.history = [self.history[1], Some(result.joints_3d)];
         Ok(result)
     }
 
     /// Forgets the previous pose (e.g. after a cut in the video).
     pub fn reset(&mut self) {
         self.last = None;
+        self.history = [None, None];
     }
 
     /// The last fitted pose, if any.

@@ -5,7 +5,7 @@ pub mod plot;
 
 use crate::dataset::{Dataset, RootJoint};
 use crate::error::{EvalError, EvalResult};
-use crate::evaluate::{RunResult, RunSummary, SkeletonNote};
+use crate::evaluate::{RunResult, RunSummary, SkeletonNote, NETWORK_RUN_LABEL};
 use crate::metrics::{self, JointMask, AUC_RANGE_MM};
 use monohand_core::hand_model::{JOINT_NAMES, NUM_JOINTS};
 use plot::{Chart, Line};
@@ -76,13 +76,16 @@ impl Report {
     pub fn table(&self) -> String {
         let mut s = String::new();
         s.push_str(
-            "| run | hands | detected | MPJPE abs (mm) | median (mm) | root-rel (mm) | aligned (mm) | PA-MPJPE (mm) | x / y / z (mm) | AUC abs joints | AUC abs frames | AUC aligned joints | AUC aligned frames | AUC PA joints | 2D in (px) | reproj (px) | fps |\n",
+            "| run | hands | detected | MPJPE abs (mm) | median (mm) | root-rel (mm) | aligned (mm) | centroid (mm) | PA-MPJPE (mm) | jitter (mm/f²) | x / y / z (mm) | AUC abs joints | AUC abs frames | AUC aligned joints | AUC aligned frames | AUC PA joints | 2D in (px) | reproj (px) | fps |\n",
         );
-        s.push_str("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n");
-        for r in self.summaries() {
+        s.push_str(
+            "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
+        );
+        let summaries = self.summaries();
+        for r in &summaries {
             let _ = writeln!(
                 s,
-                "| {} | {} | {:.1}% | {} | {} | {} | {} | {} | {} / {} / {} | {} | {} | {} | {} | {} | {} | {} | {} |",
+                "| {} | {} | {:.1}% | {} | {} | {} | {} | {} | {} | {} | {} / {} / {} | {} | {} | {} | {} | {} | {} | {} | {} |",
                 r.label,
                 r.hands,
                 100.0 * r.detection_rate(),
@@ -90,7 +93,9 @@ impl Report {
                 f(r.median, 2),
                 f(r.root_relative, 2),
                 f(r.aligned, 2),
+                f(r.centroid, 2),
                 f(r.pa_mpjpe, 2),
+                f(r.jitter, 2),
                 f(r.axis[0], 1),
                 f(r.axis[1], 1),
                 f(r.axis[2], 1),
@@ -102,6 +107,26 @@ impl Report {
                 f(r.keypoints_px, 2),
                 f(r.reprojection_px, 2),
                 f(r.fps, 0),
+            );
+        }
+        let network = summaries.iter().find(|r| r.label == NETWORK_RUN_LABEL);
+        if let Some(n) = network {
+            for r in summaries.iter().filter(|r| r.label != NETWORK_RUN_LABEL) {
+                let _ = writeln!(
+                    s,
+                    "\n{} against the network's own 3D: PA-MPJPE {} x, centroid-aligned {} x, root-relative {} x",
+                    r.label,
+                    f(r.pa_mpjpe / n.pa_mpjpe, 2),
+                    f(r.centroid / n.centroid, 2),
+                    f(r.root_relative / n.root_relative, 2),
+                );
+            }
+        }
+        if let Some(r) = summaries.iter().find(|r| r.gt_jitter.is_finite()) {
+            let _ = writeln!(
+                s,
+                "\nJitter of the ground truth itself on the same frames: {} mm/f²",
+                f(r.gt_jitter, 2)
             );
         }
         s
