@@ -133,7 +133,7 @@ fn dropped_joints_and_bad_settings() {
     };
     let mut src = ProjectedLabels::new(0.0, 5, 3).unwrap();
     let k = src.keypoints(&frame).unwrap()[0][0].unwrap();
-    assert_eq!(k.count_usable(0.5), 16);
+    assert_eq!(k.keypoints.count_usable(0.5), 16);
     assert!(ProjectedLabels::new(-1.0, 0, 0).is_err());
     assert!(ProjectedLabels::new(1.0, 22, 0).is_err());
     let ds = Dataset {

@@ -6,6 +6,13 @@
 //! is the projection of the model joint and `(u, v)` the observed keypoint
 //! (undistorted once up front, so the solver works on ideal pinhole pixels).
 //!
+//! Beyond the paper, two more terms (each with a weight in [`FitOptions`], 0
+//! turns it off): the keypoint network's own relative 3D
+//! ([`crate::observation::NetworkCues`]) as bone directions, which resolves
+//! the depth ambiguity of the 2D cost with one camera, and in tracking a pull
+//! of every joint towards its constant-velocity prediction. `docs/accuracy.md`
+//! has the measurements that chose the weights.
+//!
 //! The solver ([`lm`]) is a Levenberg-Marquardt over 26 degrees of freedom:
 //! translation, a rotation increment on the unit-quaternion manifold (the
 //! quaternion is never off unit length, unlike the paper's 4 free numbers),
@@ -23,6 +30,6 @@ mod tracker;
 
 pub use lm::{FitResult, HandFitter};
 pub use options::{FitOptions, View};
-pub use proportions::{estimate_proportions, ProportionEstimate, SETTLED_CHANGE};
+pub use proportions::{estimate_proportions, ProportionEstimate, MIN_FRAMES, SETTLED_CHANGE};
 pub use scale::{estimate_hand_scale, ScaleEstimate, MIN_COST_CONTRAST};
 pub use tracker::HandTracker;

@@ -18,8 +18,9 @@ use crate::hand_model::{HandSkeleton, BONES, NUM_JOINTS};
 use crate::observation::NetworkCues;
 
 /// Largest relative change of any bone between the medians of the two halves of the
-/// frames for the estimate to count as settled (2 %: on the development set the two
-/// halves of 30 frames agree within 1.6 %, docs/accuracy.md).
+/// frames for the estimate to count as settled (2 %: a round number, not tuned on any
+/// data; the estimator is an experiment that `run` and `lift` do not use, see
+/// `docs/accuracy.md`).
 pub const SETTLED_CHANGE: f64 = 0.02;
 
 /// Fewest frames an estimate is made from.
