@@ -190,10 +190,6 @@ pub(crate) fn run(args: &EvalArgs) -> Result<()> {
         fit_options: args.cues.apply(FitOptions::default()),
         proportion_frames: args.proportion_frames,
     };
-    settings
-        .fit_options
-        .validate()
-        .context("--world-weight / --depth-weight / --temporal-weight")?;
     let mask = evaluated_joints(ds.root);
     let stage_name = match args.stage {
         Stage::Lift => "lift (ground-truth 2D keypoints)",

@@ -70,8 +70,8 @@ pub(crate) struct CueArgs {
     /// directions; 0 turns it off.
     #[arg(long, value_name = "W", default_value_t = FitOptions::default().depth_weight)]
     pub depth_weight: f64,
-    /// Weight of the pull of each tracked fit towards the previous frame's joints; 0 turns
-    /// it off.
+    /// Weight of the pull of each tracked fit towards where constant velocity puts the
+    /// joints (from the last two frames); 0 turns it off.
     #[arg(long, value_name = "W", default_value_t = FitOptions::default().temporal_weight)]
     pub temporal_weight: f64,
 }

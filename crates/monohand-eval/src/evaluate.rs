@@ -431,18 +431,14 @@ pub fn evaluate(
                 }
             }
             let gt2d = frame.gt_keypoints(h, 0);
-            let keypoints_px = views_kp.first().copied().flatten().and_then(|o| {
+            let first = views_kp.first().copied().flatten();
+            let keypoints_px = first.and_then(|o| {
                 mean_px(&metrics::keypoint_errors_px(
                     &o.keypoints.points,
                     &gt2d.points,
                 ))
             });
-            let world = views_kp
-                .first()
-                .copied()
-                .flatten()
-                .and_then(|o| o.cues)
-                .and_then(|c| c.world_mm);
+            let world = first.and_then(|o| o.cues).and_then(|c| c.world_mm);
             network_seen |= world.is_some();
             let network_pred = world.map(|w| {
                 let (cw, cg) = (
@@ -467,7 +463,7 @@ pub fn evaluate(
                 EvalError::Settings(format!("no skeleton for sequence {:?}", frame.sequence))
             })?;
             if let Some(n) = settings.proportion_frames {
-                let cues = views_kp.first().copied().flatten().and_then(|o| o.cues);
+                let cues = first.and_then(|o| o.cues);
                 if let (Some(c), false) = (cues, learnt.contains_key(&key_sk)) {
                     let g = gathered.entry(key_sk.clone()).or_default();
                     g.push(c);

@@ -131,7 +131,6 @@ impl HandFitter {
     /// lowest-cost result wins.
     pub fn fit(&mut self, views: &[View]) -> CoreResult<FitResult> {
         let used = self.prepare(views)?;
-        self.prior = None;
         let observed = self.observed_joints();
         let free = free_dofs(&observed);
         let starts = init::root_candidates(self, &observed);
@@ -232,6 +231,8 @@ impl HandFitter {
             return Err(CoreError::ViewMismatch("no views given".into()));
         }
         self.views.clear();
+        // Only a tracking fit sets a temporal target, after preparing.
+        self.prior = None;
         let o = &self.options;
         let mut used = 0;
         for (vi, v) in views.iter().enumerate() {
@@ -333,14 +334,11 @@ impl HandFitter {
     /// Cost of a pose over the masked joints; `None` if a joint is behind a camera.
     pub(crate) fn cost(&self, pose: &HandPose, mask: &JointMask) -> Option<f64> {
         let pts = forward_kinematics(&self.skeleton, pose);
-        let mut cost = self.data_cost(&pts, mask)?;
-        if let Some(prior) = &self.prior {
-            let w = self.options.temporal_weight;
-            for j in (0..NUM_JOINTS).filter(|&j| mask[j]) {
-                cost += w * w * (pts[j] - prior[j]).norm_squared();
-            }
-        }
-        Some(cost)
+        let temporal: f64 = (0..NUM_JOINTS)
+            .filter_map(|j| self.temporal_residual(j, &pts, mask))
+            .map(|r| r.norm_squared())
+            .sum();
+        Some(self.data_cost(&pts, mask)? + temporal)
     }
 
     /// The pixel and cue terms of the cost for given joints; `None` if a joint
@@ -363,13 +361,10 @@ impl HandFitter {
                 let dv = k.fy * x.y / x.z + k.cy - v.targets[j][1];
                 cost += w * w * (du * du + dv * dv);
             }
-            let r = v.camera.extrinsics.rotation.matrix();
-            for (cue, weights) in v.bone_weights.iter().enumerate() {
-                for (b, &(p, c)) in BONES.iter().enumerate() {
-                    if weights[b] > 0.0 && mask[p] && mask[c] {
-                        let d =
-                            r * (pts[c] - pts[p]) - self.bone_lengths[b] * v.bone_targets[cue][b];
-                        cost += weights[b] * weights[b] * d.norm_squared();
+            for cue in 0..NUM_CUES {
+                for b in 0..NUM_BONES {
+                    if let Some(res) = self.bone_residual(v, cue, b, pts, mask) {
+                        cost += res.norm_squared();
                     }
                 }
             }
@@ -411,30 +406,57 @@ impl HandFitter {
             }
             // Bone directions from the network's cues: the child's 10 local
             // degrees of freedom cover its parent's (same finger, or the wrist).
-            for (cue, weights) in v.bone_weights.iter().enumerate() {
+            for cue in 0..NUM_CUES {
                 for (b, &(p, c)) in BONES.iter().enumerate() {
-                    let w = weights[b];
-                    if w <= 0.0 || !mask[p] || !mask[c] {
-                        continue;
+                    if let Some(res) = self.bone_residual(v, cue, b, &pts, mask) {
+                        cost += res.norm_squared();
+                        let w = v.bone_weights[cue][b];
+                        let jb: SMatrix<f64, 3, LOCAL_DOF> = (r * w) * (jac[c] - jac[p]);
+                        accumulate(h, g, &jb, &res, c);
                     }
-                    let res =
-                        w * (r * (pts[c] - pts[p]) - self.bone_lengths[b] * v.bone_targets[cue][b]);
-                    cost += res.norm_squared();
-                    let jb: SMatrix<f64, 3, LOCAL_DOF> = (r * w) * (jac[c] - jac[p]);
-                    accumulate(h, g, &jb, &res, c);
                 }
             }
         }
-        if let Some(prior) = &self.prior {
-            let w = self.options.temporal_weight;
-            for j in (0..NUM_JOINTS).filter(|&j| mask[j]) {
-                let res = w * (pts[j] - prior[j]);
+        for (j, jac_j) in jac.iter().enumerate() {
+            if let Some(res) = self.temporal_residual(j, &pts, mask) {
                 cost += res.norm_squared();
-                let jt: SMatrix<f64, 3, LOCAL_DOF> = jac[j] * w;
+                let jt: SMatrix<f64, 3, LOCAL_DOF> = jac_j * self.options.temporal_weight;
                 accumulate(h, g, &jt, &res, j);
             }
         }
         Some(cost)
+    }
+
+    /// The weighted residual of bone `b` against cue `cue` in view `v` (mm), `None`
+    /// where the cue is absent or a joint of the bone is masked out.
+    #[inline]
+    fn bone_residual(
+        &self,
+        v: &PreparedView,
+        cue: usize,
+        b: usize,
+        pts: &[Vector3<f64>; NUM_JOINTS],
+        mask: &JointMask,
+    ) -> Option<Vector3<f64>> {
+        let w = v.bone_weights[cue][b];
+        let (p, c) = BONES[b];
+        (w > 0.0 && mask[p] && mask[c]).then(|| {
+            let bone = v.camera.extrinsics.rotation * (pts[c] - pts[p]);
+            w * (bone - self.bone_lengths[b] * v.bone_targets[cue][b])
+        })
+    }
+
+    /// The weighted pull of joint `j` towards its temporal target (mm), `None`
+    /// outside tracking or for a masked-out joint.
+    #[inline]
+    fn temporal_residual(
+        &self,
+        j: usize,
+        pts: &[Vector3<f64>; NUM_JOINTS],
+        mask: &JointMask,
+    ) -> Option<Vector3<f64>> {
+        let prior = self.prior.as_ref().filter(|_| mask[j])?;
+        Some(self.options.temporal_weight * (pts[j] - prior[j]))
     }
 
     /// Levenberg-Marquardt from `start` over the free degrees of freedom.
