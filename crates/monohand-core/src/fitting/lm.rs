@@ -597,7 +597,9 @@ fn accumulate<const R: usize>(
 /// The network saw a crop centred on the hand as if it looked straight at
 /// it, so its directions are turned by the rotation that takes the optical
 /// axis to the viewing ray through the observed joints' mean. A bone's weight
-/// is the cue's weight times the smaller confidence weight of its two joints.
+/// is the cue's weight times its segment's reliability
+/// ([`FitOptions::cue_segment_weights`]) times the smaller confidence weight of
+/// its two joints.
 fn set_bone_targets(pv: &mut PreparedView, cues: &NetworkCues, o: &FitOptions) {
     let (su, sv, n) = (0..NUM_JOINTS)
         .filter(|&j| pv.weights[j] > 0.0)
@@ -634,10 +636,17 @@ fn set_bone_targets(pv: &mut PreparedView, cues: &NetworkCues, o: &FitOptions) {
                 .and_then(|d| (turn * d).try_normalize(1e-12))
             {
                 pv.bone_targets[cue][b] = unit;
-                pv.bone_weights[cue][b] = weight * w;
+                pv.bone_weights[cue][b] = weight * w * o.cue_segment_weights[cue][bone_segment(b)];
             }
         }
     }
+}
+
+/// The place of bone `b` in its finger: 0 wrist to base, 1 proximal, 2 middle,
+/// 3 distal ([`BONES`] runs finger by finger, base to tip, four bones each).
+#[inline]
+const fn bone_segment(b: usize) -> usize {
+    b % 4
 }
 
 /// Degrees of freedom that a joint's 10 Jacobian columns map to.
@@ -808,6 +817,18 @@ mod tests {
         fitter.prior = Some(prior);
         let mask = [true; NUM_JOINTS];
         (fitter, pose, mask)
+    }
+
+    #[test]
+    fn bone_segments_follow_the_bone_order() {
+        for (b, &(p, c)) in BONES.iter().enumerate() {
+            // Segment 0 starts at the wrist; every other bone continues the previous one.
+            assert_eq!(bone_segment(b) == 0, p == 0, "bone {b}");
+            if bone_segment(b) > 0 {
+                assert_eq!(BONES[b - 1].1, p, "bone {b}");
+            }
+            assert_eq!(finger_of(c), finger_of(BONES[b - bone_segment(b)].1));
+        }
     }
 
     #[test]

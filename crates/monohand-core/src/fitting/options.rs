@@ -63,9 +63,39 @@ pub struct FitOptions {
     /// the same bone-direction residual with the direction taken from
     /// `(du, dv, dz)` in pixels. 0 turns the cue off.
     pub depth_weight: f64,
-    /// Weight of the pull towards the previous frame in tracking: every joint
-    /// adds `w (X - X_previous)` (mm). 0 turns it off.
+    /// Relative weight of each cue's bone residuals by the bone's place in its
+    /// finger (`[cue][segment]`, cue 0 world landmarks, 1 relative depth; segment 0
+    /// the wrist-to-base bone, 1 proximal, 2 middle, 3 distal): how far the
+    /// network's bone directions can be trusted there. Multiplies
+    /// [`world_weight`](Self::world_weight) / [`depth_weight`](Self::depth_weight).
+    /// Default: the inverse of the measured angular error, [`CUE_BONE_ERROR_DEG`].
+    pub cue_segment_weights: [[f64; 4]; 2],
+    /// Weight of the pull in tracking towards where constant velocity puts the
+    /// joints (from the last two frames): every joint adds `w (X - X_predicted)`
+    /// (mm). 0 turns it off.
     pub temporal_weight: f64,
+}
+
+/// Angular error (RMS, degrees) of the landmark network's bone directions against
+/// the 3D labels of the development set (hand_graph_cnn_dev, 288 detected frames,
+/// `[cue][segment]` as [`FitOptions::cue_segment_weights`]): world landmarks, then
+/// relative depth, pooled over the five fingers and all confidences
+/// (`bench/cue_reliability/cue_reliability.py` prints them). The default weights
+/// are the smallest of them over each (inverse-variance weighting: one residual's
+/// standard deviation is the bone's length times its angular error). Confidence
+/// predicts the error only on the fingers' outer bones, which the confidence
+/// factor of each bone's weight already covers (docs/accuracy.md).
+pub const CUE_BONE_ERROR_DEG: [[f64; 4]; 2] = [[13.0, 17.1, 20.3, 25.5], [12.4, 26.9, 28.3, 27.2]];
+
+/// Inverse-error weights from [`CUE_BONE_ERROR_DEG`], relative to the most
+/// reliable entry.
+fn cue_segment_weights_from(errors: &[[f64; 4]; 2]) -> [[f64; 4]; 2] {
+    let best = errors
+        .iter()
+        .flatten()
+        .copied()
+        .fold(f64::INFINITY, f64::min);
+    errors.map(|cue| cue.map(|e| best / e))
 }
 
 impl Default for FitOptions {
@@ -83,7 +113,8 @@ impl Default for FitOptions {
             // Chosen on the development set (hand_graph_cnn_dev, 292 frames, tracked):
             // docs/accuracy.md has the table that chose them.
             world_weight: 1.0,
-            depth_weight: 0.3,
+            depth_weight: 1.0,
+            cue_segment_weights: cue_segment_weights_from(&CUE_BONE_ERROR_DEG),
             temporal_weight: 0.1,
         }
     }
@@ -113,7 +144,14 @@ impl FitOptions {
             ("world_weight", self.world_weight),
             ("depth_weight", self.depth_weight),
             ("temporal_weight", self.temporal_weight),
-        ] {
+        ]
+        .into_iter()
+        .chain(
+            self.cue_segment_weights
+                .iter()
+                .flatten()
+                .map(|&w| ("cue_segment_weights", w)),
+        ) {
             if !(w.is_finite() && w >= 0.0) {
                 return Err(CoreError::InvalidOptions(format!(
                     "{name} must be finite and >= 0"
