@@ -129,16 +129,6 @@ impl HandModelArgs {
     }
 }
 
-/// Whether a fit is usable (no NaN anywhere).
-pub(crate) fn is_finite(fit: &FitResult) -> bool {
-    fit.pose.is_finite()
-        && fit.reprojection_error_px.is_finite()
-        && fit
-            .joints_3d
-            .iter()
-            .all(|x| x.iter().all(|v| v.is_finite()))
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -1,8 +1,9 @@
 //! `monohand lift`: read cameras and 2D keypoints, fit, write JSON Lines.
 
-use crate::hand_args::{is_finite, HandScale};
+use crate::hand_args::HandScale;
 use crate::LiftArgs;
 use anyhow::{bail, Context, Result};
+use monohand::{FitOutcome, Lifter};
 use monohand_core::prelude::*;
 use monohand_io::jsonl::{read_jsonl, FrameRecord, HandRecord, JsonlWriter};
 use monohand_io::openpose::{list_openpose_files, read_openpose_file};
@@ -105,33 +106,6 @@ impl ViewInput {
 
 /// The hand of this side in a view: the one with the largest total confidence (the first
 /// of equals).
-fn pick(hands: &[HandObservation], side: HandSide) -> (Option<&HandObservation>, usize) {
-    let total = |h: &HandObservation| h.keypoints.points.iter().map(|p| p[2]).sum::<f64>();
-    let of_side = hands.iter().filter(|h| h.side == side);
-    let count = of_side.clone().count();
-    let best = of_side.fold(None, |best: Option<&HandObservation>, h| match best {
-        Some(b) if total(h) <= total(b) => Some(b),
-        _ => Some(h),
-    });
-    (best, count)
-}
-
-/// One fitter (or tracker) per hand side.
-enum Solver {
-    Single(Box<HandFitter>),
-    Tracking(Box<HandTracker>),
-}
-
-impl Solver {
-    fn solve(&mut self, views: &[View]) -> Result<FitResult, CoreError> {
-        match self {
-            Solver::Single(f) => f.fit(views),
-            Solver::Tracking(t) => t.update(views),
-        }
-    }
-}
-
-/// Runs `monohand lift`.
 pub(crate) fn run(args: &LiftArgs) -> Result<()> {
     // Everything that can be checked is checked before the output is created.
     let inputs: Vec<(&str, &PathBuf)> = if args.jsonl.is_empty() {
@@ -172,15 +146,11 @@ pub(crate) fn run(args: &LiftArgs) -> Result<()> {
             1.0
         }
     };
-    let mut solvers = Vec::new();
-    for side in [HandSide::Left, HandSide::Right] {
-        let sk = args.hand.skeleton(side, scale)?;
-        solvers.push(if args.track {
-            Solver::Tracking(Box::new(HandTracker::new(sk, options)?))
-        } else {
-            Solver::Single(Box::new(HandFitter::new(sk, options)?))
-        });
-    }
+    let skeletons = [
+        args.hand.skeleton(HandSide::Left, scale)?,
+        args.hand.skeleton(HandSide::Right, scale)?,
+    ];
+    let mut lifter = Lifter::new(cameras, skeletons, options, args.track)?;
     let mut views_in = Vec::with_capacity(inputs.len());
     for (i, (flag, p)) in inputs.iter().enumerate() {
         let v = if *flag == "--jsonl" {
@@ -232,38 +202,29 @@ pub(crate) fn run(args: &LiftArgs) -> Result<()> {
             writer.write_frame(&record)?;
             continue;
         }
-        for (s, side) in [HandSide::Left, HandSide::Right].into_iter().enumerate() {
-            let mut seen: Vec<(usize, &HandObservation)> = Vec::new();
-            for (v, f) in per_view.iter().enumerate() {
-                let (kp, count) = pick(&f.hands, side);
-                if count > 1 && !warned_multi {
-                    warn!(
-                        "frame {i}: view {} has {count} {side} hands; using the most confident one per view (several people are not supported; further such warnings suppressed)",
-                        v + 1
-                    );
-                    warned_multi = true;
-                }
-                if let Some(kp) = kp {
-                    seen.push((v, kp));
-                }
+        let hands: Vec<&[HandObservation]> = per_view.iter().map(|f| f.hands.as_slice()).collect();
+        for lifted in lifter.lift(&hands) {
+            let side = lifted.side;
+            if let Some(&(v, count)) = lifted.crowded_views.first().filter(|_| !warned_multi) {
+                warn!(
+                    "frame {i}: view {} has {count} {side} hands; using the most confident one per view (several people are not supported; further such warnings suppressed)",
+                    v + 1
+                );
+                warned_multi = true;
             }
-            if seen.is_empty() {
-                continue;
-            }
-            let views: Vec<View> = seen
+            // The first view's keypoints (all zero when only other views see the hand).
+            let first_view_kp = lifted
+                .views
                 .iter()
-                .map(|(v, h)| View::new(&cameras[*v], &h.keypoints).with_cues(h.cues.as_ref()))
-                .collect();
-            let first_view_kp = seen
-                .iter()
-                .find(|(v, _)| *v == 0)
-                .map(|(_, h)| h.keypoints)
+                .find(|&&(v, _)| v == 0)
+                .and_then(|&(_, k)| hands.first()?.get(k))
+                .map(|h| h.keypoints)
                 .unwrap_or_default();
-            match solvers[s].solve(&views) {
-                Ok(fit) if is_finite(&fit) => {
+            match lifted.outcome {
+                FitOutcome::Fitted(fit) => {
                     debug!(
                         "frame {i}: {side} hand in {} view(s), {:.2} px, {} iterations",
-                        views.len(),
+                        lifted.views.len(),
                         fit.reprojection_error_px,
                         fit.iterations
                     );
@@ -271,11 +232,11 @@ pub(crate) fn run(args: &LiftArgs) -> Result<()> {
                         .hands
                         .push(HandRecord::from_fit(side, &first_view_kp, &fit));
                 }
-                Ok(_) => {
+                FitOutcome::Diverged => {
                     warn!("frame {i}: {side} hand: the fit diverged (non-finite result), skipped");
                     skipped += 1;
                 }
-                Err(CoreError::TooFewJoints {
+                FitOutcome::Failed(CoreError::TooFewJoints {
                     usable,
                     threshold,
                     needed,
@@ -285,7 +246,7 @@ pub(crate) fn run(args: &LiftArgs) -> Result<()> {
                     );
                     skipped += 1;
                 }
-                Err(e) => {
+                FitOutcome::Failed(e) => {
                     warn!("frame {i}: {side} hand skipped: {e}");
                     skipped += 1;
                 }

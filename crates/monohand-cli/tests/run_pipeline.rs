@@ -1,7 +1,8 @@
 //! `monohand run` end to end on real data: the STB stereo pair (mono and stereo against the
 //! labels), a video made from a real photo by a moving virtual camera (tracking), and
 //! broken inputs. Needs the MediaPipe networks (fetched with pip) and ffmpeg for videos;
-//! without them the tests print SKIP (CI installs both and requires the networks).
+//! without them the tests fail (CI installs ffmpeg and requires the networks).
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a failed test or bench is a panic
 
 mod common;
 
@@ -17,9 +18,10 @@ use std::process::Command;
 fn ffmpeg_ready() -> bool {
     let found = Command::new("ffmpeg").arg("-version").output().is_ok()
         && Command::new("ffprobe").arg("-version").output().is_ok();
-    if !found {
-        eprintln!("SKIP: ffmpeg/ffprobe not installed (apt-get install ffmpeg)");
-    }
+    assert!(
+        found,
+        "ffmpeg/ffprobe not installed (apt-get install ffmpeg)"
+    );
     found
 }
 
@@ -30,8 +32,10 @@ fn shared_image(rel: &str) -> Option<PathBuf> {
     if path.is_file() {
         Some(path)
     } else {
-        eprintln!("SKIP: {} not found", path.display());
-        None
+        panic!(
+            "{} not found (../shared beside the repository)",
+            path.display()
+        )
     }
 }
 
@@ -312,6 +316,59 @@ fn truncated_video_and_bad_image_keep_the_output_valid() {
     assert!(frames[1].error.is_some() && frames[1].hands.is_empty());
     assert_eq!(frames[2].hands.len(), 1);
     assert!(String::from_utf8_lossy(&csv_run.stderr).contains("1 unreadable"));
+}
+
+#[test]
+fn an_image_overlay_is_one_png_file() {
+    let Some(photo_path) = shared_image("pinto/hand.png") else {
+        return;
+    };
+    if !networks_ready() {
+        return;
+    }
+    let photo = image_of(&photo_path);
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("hand.jsonl");
+    let png = dir.path().join("overlay.png");
+    ok(&monohand(&[
+        "run",
+        p(&photo_path),
+        "-o",
+        p(&out),
+        "--overlay",
+        p(&png),
+    ]));
+    let drawn = image_of(&png);
+    assert_eq!(drawn.dimensions(), photo.dimensions());
+    // The hand is drawn where the output says: the pixels at its keypoints changed.
+    let frames = read_jsonl(&out).unwrap();
+    let kp = &frames[0].hands[0].keypoints_2d;
+    let changed = kp
+        .iter()
+        .filter(|q| {
+            let (x, y) = (q[0].round() as u32, q[1].round() as u32);
+            drawn.get_pixel(x, y) != photo.get_pixel(x, y)
+        })
+        .count();
+    assert!(changed >= 15, "{changed} of 21 keypoints drawn");
+
+    // An image file cannot hold several frames: refused before anything is written.
+    let folder = dir.path().join("imgs");
+    std::fs::create_dir(&folder).unwrap();
+    std::fs::copy(&photo_path, folder.join("a.png")).unwrap();
+    std::fs::copy(&photo_path, folder.join("b.png")).unwrap();
+    let never = dir.path().join("never.jsonl");
+    let r = monohand(&[
+        "run",
+        p(&folder),
+        "-o",
+        p(&never),
+        "--overlay",
+        p(&dir.path().join("x.png")),
+    ]);
+    assert!(!r.status.success());
+    assert!(String::from_utf8_lossy(&r.stderr).contains("an image file holds one frame"));
+    assert!(!never.exists());
 }
 
 #[test]

@@ -13,8 +13,9 @@ use crate::hand_args::{HandModelArgs, HandScale};
 use crate::vision::ModelArgs;
 use anyhow::{bail, Context, Result};
 use clap::Args;
-use hands::{Done, FitStage, VisionFrame, VisionStage};
+use hands::{Done, FrameExtra};
 use input::{FrameSource, InputKind};
+use monohand::{CropTracker, FitSettings, HandsFitter, VisionFrame};
 use monohand_core::prelude::*;
 use monohand_vision::RgbImage;
 use output::{OutputFormat, Outputs};
@@ -50,8 +51,9 @@ pub(crate) struct RunArgs {
     #[arg(long, value_enum, default_value = "jsonl")]
     pub format: OutputFormat,
     /// Draw the 2D keypoints and the fitted 3D model on the frames: a video file
-    /// (.mp4/.mkv/.avi/.mov/.webm, through ffmpeg) or a folder of PNG images.
-    #[arg(long, value_name = "OUT.mp4|DIR")]
+    /// (.mp4/.mkv/.avi/.mov/.webm, through ffmpeg), a folder of PNG images, or, for an
+    /// input of one image, an image file (.png/.jpg).
+    #[arg(long, value_name = "OUT.mp4|DIR|OUT.png")]
     pub overlay: Option<PathBuf>,
     /// Write the 3D hands as an animated glTF binary (.glb) that Blender or any glTF
     /// viewer plays.
@@ -203,19 +205,23 @@ pub(crate) fn run(args: &RunArgs) -> Result<()> {
         .len_hint()
         .map(|n| args.max_frames.map_or(n, |m| n.min(m)));
     let pipeline = Arc::new(args.models.pipeline(if tracking { 0 } else { 1 })?);
-    let mut outputs = Outputs::create(args, fps, cameras.first().copied())?;
+    let single_image = matches!(kinds.as_slice(), [InputKind::Images(files)] if files.len() == 1);
+    let mut outputs = Outputs::create(args, fps, cameras.first().copied(), single_image)?;
     let auto_frames = (args.hand.hand_scale == HandScale::Auto).then_some(args.hand.scale_frames);
-    let mut fit = FitStage::new(cameras.clone(), skeletons, options, tracking, auto_frames)?;
-    if cameras.is_empty() {
-        fit.use_generic_camera();
-    }
-    if args.smooth {
-        fit.smooth(monohand_core::filtering::OneEuroParams {
-            min_cutoff: args.smooth_min_cutoff,
-            beta: args.smooth_beta,
-            ..Default::default()
-        });
-    }
+    let settings = FitSettings {
+        skeletons,
+        options,
+        tracking,
+        auto_scale_frames: auto_frames,
+        smoothing: args
+            .smooth
+            .then(|| monohand_core::filtering::OneEuroParams {
+                min_cutoff: args.smooth_min_cutoff,
+                beta: args.smooth_beta,
+                ..Default::default()
+            }),
+    };
+    let mut fit = Fit(HandsFitter::new(cameras.clone(), settings)?);
     let progress = crate::progress::Progress::new(total);
     let start = Instant::now();
     let mut summary = Summary::default();
@@ -233,7 +239,7 @@ pub(crate) fn run(args: &RunArgs) -> Result<()> {
         // Decode -> networks -> fit on three threads, in order.
         let max_frames = args.max_frames;
         let (raw_tx, raw_rx) = sync_channel::<RawFrame>(4);
-        let (vis_tx, vis_rx) = sync_channel::<VisionFrame>(4);
+        let (vis_tx, vis_rx) = sync_channel::<(VisionFrame, FrameExtra)>(4);
         let reader = std::thread::spawn(move || -> Option<String> {
             read_all(&mut sources, max_frames, |f| raw_tx.send(f).is_ok())
         });
@@ -241,17 +247,25 @@ pub(crate) fn run(args: &RunArgs) -> Result<()> {
         let detect_every = args.detect_every;
         let pipe = Arc::clone(&pipeline);
         let vision = std::thread::spawn(move || {
-            let mut stage = VisionStage::new(pipe, n_views, tracking, detect_every);
+            let mut stage = CropTracker::new(pipe, n_views, tracking, detect_every);
             for raw in raw_rx {
-                let mut f = stage.process(
-                    raw.index,
-                    raw.source,
-                    raw.timestamp_s,
-                    raw.images,
-                    keep_image,
-                );
-                f.timings_ms.insert(0, ("decode".into(), raw.decode_ms));
-                if vis_tx.send(f).is_err() {
+                let images: Vec<Result<&RgbImage, String>> = raw
+                    .images
+                    .iter()
+                    .map(|i| i.as_ref().map_err(Clone::clone))
+                    .collect();
+                let f = stage.process(raw.index, raw.timestamp_s, &images);
+                let extra = FrameExtra {
+                    source: raw.source,
+                    is_video: tracking,
+                    image: if keep_image {
+                        raw.images.into_iter().next().and_then(Result::ok)
+                    } else {
+                        None
+                    },
+                    decode_ms: raw.decode_ms,
+                };
+                if vis_tx.send((f, extra)).is_err() {
                     break;
                 }
             }
@@ -263,16 +277,26 @@ pub(crate) fn run(args: &RunArgs) -> Result<()> {
             &mut summary,
         );
         drop(vis_rx);
-        let _ = vision.join();
-        summary.input_error = reader
-            .join()
-            .unwrap_or(Some("the reader thread failed".into()));
+        let vision_panicked = vision.join().is_err();
+        let reader = reader.join();
+        let reader_panicked = reader.is_err();
+        summary.input_error = reader.unwrap_or(None);
         result?;
+        if vision_panicked || reader_panicked {
+            // What was written is complete up to the last frame; the exit code says the
+            // run did not finish.
+            outputs.finish()?;
+            bail!(
+                "the {} thread failed after {} frames; the output is complete up to there",
+                if vision_panicked { "network" } else { "reader" },
+                summary.frames
+            );
+        }
     } else {
         // Independent images: the networks on all cores, a chunk at a time, in order.
         let pool = crate::thread_pool(args.threads)?;
         let chunk = 2 * pool.current_num_threads();
-        let mut stage = VisionStage::new(Arc::clone(&pipeline), 1, false, 1);
+        let mut stage = CropTracker::new(Arc::clone(&pipeline), 1, false, 1);
         let mut batch: Vec<RawFrame> = Vec::with_capacity(chunk);
         let mut source = sources.remove(0);
         let mut done = false;
@@ -315,12 +339,14 @@ pub(crate) fn run(args: &RunArgs) -> Result<()> {
             });
             for (raw, (d, ms)) in batch.drain(..).zip(detected) {
                 let image = raw.images.into_iter().next().and_then(Result::ok);
-                let mut f = stage.assign(raw.index, raw.source, raw.timestamp_s, d, ms);
-                f.timings_ms.insert(0, ("decode".into(), raw.decode_ms));
-                if keep_image {
-                    f.image = image;
-                }
-                emit(fit.push(f), &mut summary, &mut outputs)?;
+                let f = stage.assign(raw.index, raw.timestamp_s, d, ms);
+                let extra = FrameExtra {
+                    source: raw.source,
+                    is_video: false,
+                    image: image.filter(|_| keep_image),
+                    decode_ms: raw.decode_ms,
+                };
+                emit(fit.push(f, extra), &mut summary, &mut outputs)?;
             }
         }
         emit(fit.flush(), &mut summary, &mut outputs)?;
@@ -417,15 +443,40 @@ fn read_all(
     }
 }
 
+/// The session's 3D stage, turning its frames into `run`'s records and its notes into
+/// messages.
+struct Fit(HandsFitter<FrameExtra>);
+
+impl Fit {
+    fn push(&mut self, frame: VisionFrame, extra: FrameExtra) -> Vec<Done> {
+        let done = self.0.push(frame, extra);
+        self.records(done)
+    }
+
+    fn flush(&mut self) -> Vec<Done> {
+        let done = self.0.flush();
+        self.records(done)
+    }
+
+    fn records(&mut self, done: Vec<(monohand::FittedFrame, FrameExtra)>) -> Vec<Done> {
+        for note in self.0.take_notes() {
+            crate::say(&note);
+        }
+        done.into_iter()
+            .map(|(f, extra)| hands::record(&f, extra))
+            .collect()
+    }
+}
+
 /// Fits and emits every frame that comes out of the networks.
 fn fit_all(
-    rx: &Receiver<VisionFrame>,
-    fit: &mut FitStage,
+    rx: &Receiver<(VisionFrame, FrameExtra)>,
+    fit: &mut Fit,
     emit: &mut dyn FnMut(Vec<Done>, &mut Summary) -> Result<()>,
     summary: &mut Summary,
 ) -> Result<()> {
-    for f in rx {
-        emit(fit.push(f), summary)?;
+    for (f, extra) in rx {
+        emit(fit.push(f, extra), summary)?;
     }
     emit(fit.flush(), summary)
 }

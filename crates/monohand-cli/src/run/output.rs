@@ -42,6 +42,8 @@ enum Overlay {
     },
     /// `frame_000123.png` files.
     Folder(PathBuf),
+    /// One image file (PNG or JPEG), for an input of one image.
+    Image(PathBuf),
 }
 
 /// All outputs of a run.
@@ -55,11 +57,31 @@ pub(crate) struct Outputs {
 /// Overlay paths with one of these extensions are videos; others are folders.
 const VIDEO_EXTENSIONS: &[&str] = &["mp4", "mkv", "avi", "mov", "webm"];
 
+/// Overlay paths with one of these extensions are one image file (one input image only).
+const IMAGE_EXTENSIONS: &[&str] = &["png", "jpg", "jpeg"];
+
 impl Outputs {
     /// Opens every output (nothing is created if an argument is wrong).
-    pub fn create(args: &RunArgs, fps: Option<f64>, camera: Option<Camera>) -> Result<Outputs> {
+    /// `single_image`: the input is one image (the only case an image-file overlay takes).
+    pub fn create(
+        args: &RunArgs,
+        fps: Option<f64>,
+        camera: Option<Camera>,
+        single_image: bool,
+    ) -> Result<Outputs> {
         let overlay = match &args.overlay {
             None => None,
+            Some(p) if has_extension(p, IMAGE_EXTENSIONS) => {
+                if !single_image {
+                    bail!(
+                        "--overlay {}: an image file holds one frame, and the input has more; give \
+                         a folder (one PNG per frame) or a video name ({})",
+                        p.display(),
+                        VIDEO_EXTENSIONS.join(", ")
+                    );
+                }
+                Some(Overlay::Image(p.clone()))
+            }
             Some(p) if is_video_path(p) => Some(Overlay::Video {
                 path: p.clone(),
                 fps: fps.unwrap_or(30.0),
@@ -174,14 +196,9 @@ impl Outputs {
                     }
                 }
                 Overlay::Folder(dir) => {
-                    let path = dir.join(format!("frame_{:06}.png", record.frame));
-                    let img =
-                        RgbImage::from_raw(frame.width as u32, frame.height as u32, frame.data);
-                    if let Some(img) = img {
-                        img.save(&path)
-                            .with_context(|| format!("cannot write {}", path.display()))?;
-                    }
+                    save_image(frame, &dir.join(format!("frame_{:06}.png", record.frame)))?
                 }
+                Overlay::Image(path) => save_image(frame, path)?,
             }
         }
         Ok(())
@@ -204,9 +221,21 @@ impl Outputs {
 }
 
 fn is_video_path(p: &Path) -> bool {
+    has_extension(p, VIDEO_EXTENSIONS)
+}
+
+fn has_extension(p: &Path, extensions: &[&str]) -> bool {
     p.extension()
         .and_then(|e| e.to_str())
-        .is_some_and(|e| VIDEO_EXTENSIONS.contains(&e.to_ascii_lowercase().as_str()))
+        .is_some_and(|e| extensions.contains(&e.to_ascii_lowercase().as_str()))
+}
+
+/// Writes an overlay frame as an image file (PNG or JPEG, by the name's extension).
+fn save_image(frame: RgbFrame, path: &Path) -> Result<()> {
+    let img = RgbImage::from_raw(frame.width as u32, frame.height as u32, frame.data)
+        .context("overlay frame of inconsistent size")?;
+    img.save(path)
+        .with_context(|| format!("cannot write {}", path.display()))
 }
 
 /// Draws every hand of a record: its 2D keypoints and, when fitted, the 3D model projected

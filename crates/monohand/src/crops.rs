@@ -1,0 +1,180 @@
+//! Stages 1 and 2 over every view, with MediaPipe's crop tracking and hand identities.
+
+use monohand_vision::{Detections, HandPipeline, RgbImage};
+use std::sync::Arc;
+use std::time::Instant;
+
+/// Identity of a tracked hand, unique within a session.
+pub type HandId = u64;
+
+/// One view's hands in one frame: the networks' detections and each one's identity.
+#[derive(Debug, Clone)]
+pub struct ViewHands {
+    /// What the networks found.
+    pub detections: Detections,
+    /// The identity of each of `detections.hands`, in order.
+    pub ids: Vec<HandId>,
+}
+
+/// What the networks found in one frame of every view.
+#[derive(Debug, Clone)]
+pub struct VisionFrame {
+    /// Frame number, from 0.
+    pub index: u64,
+    /// Time of the frame, seconds.
+    pub time_s: f64,
+    /// Per view: its hands, or why the view gave none this frame (an unreadable image, a
+    /// network failure).
+    pub views: Vec<Result<ViewHands, String>>,
+    /// Time the networks took, ms.
+    pub vision_ms: f64,
+}
+
+/// Per view: the hands of the previous frame, for the next crops.
+#[derive(Debug, Default)]
+struct ViewTracks {
+    previous: Vec<monohand_vision::DetectedHand>,
+    ids: Vec<HandId>,
+    frames_since_detection: usize,
+}
+
+/// Runs the networks on the frames of one or several views and keeps each hand's identity.
+///
+/// With tracking (video), each hand of the previous frame is looked for again in the crop
+/// its keypoints predict, the palm detector runs only when a hand is lost or every
+/// `detect_every` frames while fewer than the most hands are tracked, and a continued hand
+/// keeps its id. Without tracking, every frame is detected on its own and every hand gets a
+/// new id.
+pub struct CropTracker {
+    pipeline: Arc<HandPipeline>,
+    views: Vec<ViewTracks>,
+    tracking: bool,
+    detect_every: usize,
+    next_id: HandId,
+}
+
+impl CropTracker {
+    /// A tracker for `views` cameras (`detect_every` is taken as at least 1).
+    pub fn new(
+        pipeline: Arc<HandPipeline>,
+        views: usize,
+        tracking: bool,
+        detect_every: usize,
+    ) -> CropTracker {
+        CropTracker {
+            pipeline,
+            views: (0..views).map(|_| ViewTracks::default()).collect(),
+            tracking,
+            detect_every: detect_every.max(1),
+            next_id: 0,
+        }
+    }
+
+    /// Whether frames are tracked (video) rather than detected each on its own.
+    pub fn is_tracking(&self) -> bool {
+        self.tracking
+    }
+
+    /// Wraps the detections of an independent image of one view, made elsewhere (for
+    /// example on a thread pool): every hand gets a new id.
+    pub fn assign(
+        &mut self,
+        index: u64,
+        time_s: f64,
+        detections: Result<Detections, String>,
+        vision_ms: f64,
+    ) -> VisionFrame {
+        let view = detections.map(|d| {
+            let ids = (0..d.hands.len() as u64)
+                .map(|k| self.next_id + k)
+                .collect();
+            self.next_id += d.hands.len() as u64;
+            ViewHands { detections: d, ids }
+        });
+        VisionFrame {
+            index,
+            time_s,
+            views: vec![view],
+            vision_ms,
+        }
+    }
+
+    /// Runs the networks on one frame of every view; `images[v]` is view `v`'s frame, or
+    /// why it could not be read (which breaks that view's tracking).
+    pub fn process(
+        &mut self,
+        index: u64,
+        time_s: f64,
+        images: &[Result<&RgbImage, String>],
+    ) -> VisionFrame {
+        let t = Instant::now();
+        let mut out = Vec::with_capacity(images.len());
+        let max_hands = self.pipeline.options.max_hands;
+        if self.views.len() < images.len() {
+            self.views.resize_with(images.len(), ViewTracks::default);
+        }
+        for (v, image) in images.iter().enumerate() {
+            let state = &mut self.views[v];
+            let image = match image {
+                Ok(i) => *i,
+                Err(e) => {
+                    state.previous.clear();
+                    state.ids.clear();
+                    out.push(Err(e.clone()));
+                    continue;
+                }
+            };
+            let result = if self.tracking {
+                let detect_new = state.previous.is_empty()
+                    || (state.previous.len() < max_hands
+                        && state.frames_since_detection + 1 >= self.detect_every);
+                self.pipeline
+                    .track(image, &state.previous, detect_new)
+                    .map(|(d, origin)| (d, origin, detect_new))
+            } else {
+                self.pipeline.detect(image).map(|d| (d, Vec::new(), true))
+            };
+            match result {
+                Ok((detections, origin, detected)) => {
+                    let ids: Vec<HandId> = (0..detections.hands.len())
+                        .map(|h| {
+                            match origin
+                                .get(h)
+                                .copied()
+                                .flatten()
+                                .and_then(|prev| state.ids.get(prev))
+                            {
+                                Some(&id) => id,
+                                None => {
+                                    self.next_id += 1;
+                                    self.next_id - 1
+                                }
+                            }
+                        })
+                        .collect();
+                    state.frames_since_detection = if detected {
+                        0
+                    } else {
+                        state.frames_since_detection + 1
+                    };
+                    if self.tracking {
+                        state.previous.clone_from(&detections.hands);
+                        state.ids.clone_from(&ids);
+                    }
+                    out.push(Ok(ViewHands { detections, ids }));
+                }
+                Err(e) => {
+                    state.previous.clear();
+                    state.ids.clear();
+                    out.push(Err(e.to_string()));
+                }
+            }
+        }
+        VisionFrame {
+            index,
+            time_s,
+            views: out,
+            vision_ms: t.elapsed().as_secs_f64() * 1e3,
+        }
+    }
+}

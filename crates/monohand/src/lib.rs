@@ -1,0 +1,45 @@
+//! **monohand**: frames of one or several calibrated cameras in, tracked **absolute 3D
+//! hands** out, in millimetres in the first camera's frame.
+//!
+//! This crate ties the vision front end ([`monohand_vision`]: hand detection and 2D
+//! keypoints with MediaPipe's networks) to the geometry core ([`monohand_core`]: the 26-DoF
+//! hand model and its Levenberg-Marquardt fit, usable alone), with what a video needs in
+//! between: crop tracking, hand identities, a left/right vote, the association of views,
+//! a tracker per hand, smoothing and the hand's size.
+//!
+//! - [`Session`]: images in, [`FittedFrame`]s out, on the calling thread.
+//! - [`CropTracker`] and [`HandsFitter`]: the session's two stages, to run on threads of
+//!   their own (as `monohand run` does).
+//! - [`Lifter`]: 2D keypoints made elsewhere in, 3D out, with the same association policy
+//!   ([`association`]).
+//!
+//! A video file to 3D joints is `examples/video_to_3d.rs`.
+#![deny(missing_docs)]
+
+pub mod association;
+mod crops;
+mod error;
+mod fit;
+mod hands;
+mod lifter;
+mod session;
+
+pub use crops::{CropTracker, HandId, ViewHands, VisionFrame};
+pub use error::{SessionError, SessionResult};
+pub use fit::{fit_views, is_finite, FitOutcome};
+pub use hands::{FitSettings, FittedFrame, HandsFitter, TrackedHand, FORGET_AFTER_FRAMES};
+pub use lifter::{LiftedHand, Lifter};
+pub use session::{Session, SessionOptions};
+
+/// The geometry core (usable without networks).
+pub use monohand_core as core;
+pub use monohand_core::hand_model::HandSide;
+/// The vision front end.
+pub use monohand_vision as vision;
+pub use monohand_vision::{DetectedHand, Detections, HandPipeline, RgbImage};
+
+/// The types most users need.
+pub mod prelude {
+    pub use crate::{FittedFrame, Lifter, Session, SessionOptions, TrackedHand};
+    pub use monohand_core::prelude::*;
+}

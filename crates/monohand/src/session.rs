@@ -1,0 +1,212 @@
+//! The session: frames of one or several cameras in, tracked absolute 3D hands out.
+
+use crate::crops::CropTracker;
+use crate::hands::{FitSettings, FittedFrame, HandsFitter};
+use crate::{SessionError, SessionResult};
+use monohand_core::filtering::OneEuroParams;
+use monohand_core::prelude::*;
+use monohand_vision::{HandPipeline, ModelOptions, PipelineOptions, RgbImage};
+use std::path::PathBuf;
+use std::sync::Arc;
+
+/// Settings of a [`Session`], built with chained setters from [`SessionOptions::default`].
+#[derive(Debug, Clone)]
+pub struct SessionOptions {
+    /// Which weights, from where (fetched with pip on first use).
+    pub models: ModelOptions,
+    /// The networks' thresholds. `refine_passes` is set by the session: 0 when tracking
+    /// (MediaPipe's single pass), 1 for independent images.
+    pub pipeline: PipelineOptions,
+    /// The 3D stage.
+    pub fit: FitSettings,
+    /// While tracking, look for new hands every this many frames.
+    pub detect_every: usize,
+}
+
+impl Default for SessionOptions {
+    /// Video tracking of up to 2 hands with the full networks and the default adult hand.
+    fn default() -> SessionOptions {
+        SessionOptions {
+            models: ModelOptions::default(),
+            pipeline: PipelineOptions {
+                max_hands: 2,
+                ..PipelineOptions::default()
+            },
+            fit: FitSettings::default(),
+            detect_every: 10,
+        }
+    }
+}
+
+impl SessionOptions {
+    /// The most hands per frame.
+    pub fn hands(mut self, n: usize) -> Self {
+        self.pipeline.max_hands = n;
+        self
+    }
+
+    /// Track over a video (default) or treat every frame on its own.
+    pub fn tracking(mut self, on: bool) -> Self {
+        self.fit.tracking = on;
+        self
+    }
+
+    /// Where the weights are cached (default: `$MONOHAND_MODEL_DIR`, else the user cache).
+    pub fn model_dir(mut self, dir: impl Into<PathBuf>) -> Self {
+        self.models.model_dir = Some(dir.into());
+        self
+    }
+
+    /// The fitter's settings.
+    pub fn fit_options(mut self, options: FitOptions) -> Self {
+        self.fit.options = options;
+        self
+    }
+
+    /// The hand models, left then right (default: the average adult hand).
+    pub fn skeletons(mut self, skeletons: [HandSkeleton; 2]) -> Self {
+        self.fit.skeletons = skeletons;
+        self
+    }
+
+    /// Smooth the 3D joints over time with a One Euro filter.
+    pub fn smoothing(mut self, params: Option<OneEuroParams>) -> Self {
+        self.fit.smoothing = params;
+        self
+    }
+
+    /// Also report heads (the paper's context for left and right; about 3 ms per frame).
+    pub fn heads(mut self, on: bool) -> Self {
+        self.models.detect_heads = on;
+        self
+    }
+
+    fn checked(&self) -> SessionResult<()> {
+        if self.pipeline.max_hands == 0 {
+            return Err(SessionError::Invalid("at least one hand per frame".into()));
+        }
+        if !(0.0..=1.0).contains(&self.pipeline.min_presence) {
+            return Err(SessionError::Invalid(format!(
+                "min_presence {} must be in [0, 1]",
+                self.pipeline.min_presence
+            )));
+        }
+        if self.detect_every == 0 {
+            return Err(SessionError::Invalid(
+                "detect_every must be at least 1".into(),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// Frames in, tracked absolute 3D hands out, on the calling thread.
+///
+/// One [`Session::process`] call per frame, with one image per camera (in the cameras'
+/// order) and the frame's time. The networks find and track the hands, and each hand gets
+/// an identity, a side voted over its frames and its fitted 3D in millimetres in the first
+/// camera's frame. (`monohand run` runs the same two stages, [`CropTracker`] and
+/// [`HandsFitter`], on threads of their own.)
+///
+/// ```no_run
+/// use monohand::prelude::*;
+/// use monohand::{Session, SessionOptions};
+///
+/// let camera = Camera::generic(1280, 720)?;
+/// let mut session = Session::new(vec![camera], SessionOptions::default())?;
+/// let frame = monohand::RgbImage::new(1280, 720); // a decoded video frame
+/// for done in session.process(&[&frame], 0.0)? {
+///     for hand in &done.hands {
+///         if let Some(fit) = &hand.fit {
+///             println!("hand {} ({:?}): wrist at {:?} mm", hand.id, hand.side, fit.joints_3d[0]);
+///         }
+///     }
+/// }
+/// # Ok::<(), monohand::SessionError>(())
+/// ```
+pub struct Session {
+    crops: CropTracker,
+    fitter: HandsFitter<()>,
+    views: usize,
+    next_index: u64,
+}
+
+impl Session {
+    /// A session for these cameras (one per view; none: one view with a generic camera for
+    /// the image size). Loads the networks, fetching the weights with pip if they are not
+    /// cached yet.
+    pub fn new(cameras: Vec<Camera>, options: SessionOptions) -> SessionResult<Session> {
+        options.checked()?;
+        let pipeline = HandPipeline::new(
+            &options.models,
+            PipelineOptions {
+                refine_passes: if options.fit.tracking { 0 } else { 1 },
+                ..options.pipeline
+            },
+        )?;
+        Session::with_pipeline(cameras, Arc::new(pipeline), options)
+    }
+
+    /// A session over networks already loaded (they can be shared between sessions).
+    pub fn with_pipeline(
+        cameras: Vec<Camera>,
+        pipeline: Arc<HandPipeline>,
+        options: SessionOptions,
+    ) -> SessionResult<Session> {
+        options.checked()?;
+        let views = cameras.len().max(1);
+        Ok(Session {
+            crops: CropTracker::new(pipeline, views, options.fit.tracking, options.detect_every),
+            fitter: HandsFitter::new(cameras, options.fit)?,
+            views,
+            next_index: 0,
+        })
+    }
+
+    /// Processes one frame: `images[v]` is camera `v`'s image. Returns the frames now
+    /// done: this one, except while the first frames are kept back to measure the hand size
+    /// ([`FitSettings::auto_scale_frames`]); call [`Session::finish`] at the end.
+    pub fn process(
+        &mut self,
+        images: &[&RgbImage],
+        time_s: f64,
+    ) -> SessionResult<Vec<FittedFrame>> {
+        if images.len() != self.views {
+            return Err(SessionError::Invalid(format!(
+                "{} image(s) for {} camera(s): give one image per camera, in order",
+                images.len(),
+                self.views
+            )));
+        }
+        if !time_s.is_finite() {
+            return Err(SessionError::Invalid(format!(
+                "frame time {time_s} is not finite"
+            )));
+        }
+        let images: Vec<Result<&RgbImage, String>> = images.iter().map(|&i| Ok(i)).collect();
+        let frame = self.crops.process(self.next_index, time_s, &images);
+        self.next_index += 1;
+        Ok(self
+            .fitter
+            .push(frame, ())
+            .into_iter()
+            .map(|(f, ())| f)
+            .collect())
+    }
+
+    /// The frames still kept back, at the end of the input.
+    pub fn finish(&mut self) -> Vec<FittedFrame> {
+        self.fitter.flush().into_iter().map(|(f, ())| f).collect()
+    }
+
+    /// Messages for the user since the last call (assumptions made, hand size found).
+    pub fn take_notes(&mut self) -> Vec<String> {
+        self.fitter.take_notes()
+    }
+
+    /// The cameras in use (a generic one, once the first image told its size, if none was
+    /// given).
+    pub fn cameras(&self) -> &[Camera] {
+        self.fitter.cameras()
+    }
+}
