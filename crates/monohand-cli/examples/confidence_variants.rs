@@ -3,6 +3,7 @@
 //! swept (infinite = presence only, the same weight for every joint), fits mono and stereo
 //! with the default and the subject hand, and prints the mean 3D error over the 20 finger
 //! joints. `cargo run --release -p monohand-cli --example confidence_variants`
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a failed test or bench is a panic
 
 use monohand_core::hand_model::fit_skeleton;
 use monohand_core::prelude::*;

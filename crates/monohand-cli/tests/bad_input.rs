@@ -1,6 +1,7 @@
 //! Bad input: exit codes and messages that name the file at fault; partial
 //! failures that leave the good frames written. Uses a synthetic hand (the
 //! default model projected by a known camera) so it needs no shared data.
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a failed test or bench is a panic
 
 mod common;
 use common::*;

@@ -1,6 +1,7 @@
 //! `monohand detect` and `monohand models` on real photos (the networks are fetched with pip
 //! on first use; without pip or network the tests print SKIP, unless
 //! MONOHAND_REQUIRE_MODELS is set, as in CI, where they fail).
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a failed test or bench is a panic
 
 mod common;
 
@@ -14,8 +15,7 @@ fn images() -> Option<PathBuf> {
     if d.is_dir() {
         Some(d)
     } else {
-        eprintln!("SKIP: shared images not found at {}", d.display());
-        None
+        panic!("shared images not found at {}", d.display())
     }
 }
 

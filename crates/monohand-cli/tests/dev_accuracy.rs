@@ -1,6 +1,7 @@
 //! 3D accuracy on real frames with 3D labels (the hand-graph-cnn development set, read
 //! natively by `monohand eval`), through the real networks: the fit that uses the
 //! network's 3D cues against the paper's 2D-only fit and against the network's own 3D.
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a failed test or bench is a panic
 
 mod common;
 use common::*;

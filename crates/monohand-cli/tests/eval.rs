@@ -1,6 +1,7 @@
 //! `monohand eval` end to end: the STB folder read natively, the same frames
 //! converted to a manifest and evaluated again, the report folder, and the
 //! errors a user can make.
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a failed test or bench is a panic
 
 mod common;
 use common::*;

@@ -1,6 +1,7 @@
 //! Speed of the geometry core: one residual evaluation, one analytic Jacobian,
 //! one monocular fit from scratch, one warm-started tracking fit, one stereo fit.
 //! Poses are random inside the joint limits (seeded), seen by the STB camera.
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a failed test or bench is a panic
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use monohand_core::kinematics::{forward_kinematics_with_jacobian, LOCAL_DOF};

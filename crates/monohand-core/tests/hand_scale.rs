@@ -6,6 +6,7 @@
 //! are ~11% shorter, its palm is not), so no single factor is "the" truth: the test checks
 //! what the factor is for, that stereo fits of later frames with the measured size are much
 //! closer to the labels than with the default size.
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a failed test or bench is a panic
 
 mod common;
 use common::*;
@@ -52,10 +53,11 @@ fn stereo_error(
 #[test]
 fn hand_size_from_the_first_frames_of_stb() {
     let d = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/stb_b1counting");
-    if !d.join("labels/B1Counting_BB.mat").is_file() {
-        println!("SKIP: STB data not found at {}", d.display());
-        return;
-    }
+    assert!(
+        d.join("labels/B1Counting_BB.mat").is_file(),
+        "STB data not found at {}",
+        d.display()
+    );
     let seq = monohand_io::stb::StbSequence::load(d.join("labels/B1Counting_BB.mat")).unwrap();
     let all: Vec<_> = seq.frames.iter().map(|f| f.joints).collect();
     let template = HandSkeleton::default_for(HandSide::Left);

@@ -1,5 +1,6 @@
 //! Poses drawn inside the joint limits, projected without noise, must be
 //! recovered from scratch to well under a millimetre, in one and two views.
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a failed test or bench is a panic
 
 mod common;
 use common::*;

@@ -1,5 +1,6 @@
 //! The full stage's bookkeeping with a stand-in detector: detection rate, 2D
 //! error of the detections, fps, and the fit on what was detected.
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a failed test or bench is a panic
 
 use monohand_core::prelude::*;
 use monohand_eval::dataset::project_joints;

@@ -1,5 +1,6 @@
 //! The hand-graph-cnn development set read natively: real frames, real 3D labels, and a
 //! camera per crop that must put the labels on the hand in the image.
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a failed test or bench is a panic
 
 use monohand_eval::evaluate::evaluated_joints;
 use monohand_eval::*;

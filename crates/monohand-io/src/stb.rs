@@ -203,11 +203,10 @@ mod tests {
         if p.exists() {
             Some(p)
         } else {
-            eprintln!(
-                "SKIP: STB test data not found at {} (the shared data directory is absent)",
+            panic!(
+                "STB test data not found at {} (the shared data directory is absent)",
                 p.display()
-            );
-            None
+            )
         }
     }
 

@@ -1,5 +1,6 @@
 //! The animated glTF export, parsed back: GLB container, JSON, accessors and
 //! the animated joint positions.
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a failed test or bench is a panic
 
 use monohand_core::hand_model::{HandSide, NUM_JOINTS};
 use monohand_core::observation::Keypoints2d;

@@ -1,5 +1,6 @@
 //! Round trips through the real `ffmpeg` tools with a picture from the shared data.
 //! Every test is skipped (with a printed reason) where ffmpeg is not installed.
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a failed test or bench is a panic
 
 use monohand_io::video::{
     probe, Encoder, FfmpegTools, RgbFrame, VideoInput, VideoReader, VideoWriter,
@@ -18,23 +19,21 @@ fn hand_png() -> PathBuf {
 /// The tools, or `None` (and a message) if ffmpeg is not installed.
 fn tools() -> Option<FfmpegTools> {
     let t = FfmpegTools::default();
-    if !t.available() {
-        eprintln!("SKIP: ffmpeg is not installed (apt-get install ffmpeg)");
-        return None;
-    }
+    assert!(
+        t.available(),
+        "ffmpeg is not installed (apt-get install ffmpeg)"
+    );
     Some(t)
 }
 
 /// The picture, decoded by ffmpeg as a one-frame video; `None` (and a message)
 /// without the shared data.
 fn picture() -> Option<RgbFrame> {
-    if !hand_png().exists() {
-        eprintln!(
-            "SKIP: {} not found (needs ../shared beside the repo)",
-            hand_png().display()
-        );
-        return None;
-    }
+    assert!(
+        hand_png().exists(),
+        "{} not found (needs ../shared beside the repo)",
+        hand_png().display()
+    );
     let mut r = VideoReader::open(&VideoInput::File(hand_png())).unwrap();
     assert_eq!((r.info().width, r.info().height), (640, 480));
     let f = r.next_frame().unwrap().unwrap();

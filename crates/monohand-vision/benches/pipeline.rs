@@ -4,6 +4,7 @@
 //!
 //! Compare with LiteRT (1 thread) from `tools/litert_reference.py`, which prints its own
 //! ms/inference for the same models.
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a failed test or bench is a panic
 
 use std::path::PathBuf;
 

@@ -1,6 +1,7 @@
 //! Prints what the pipeline finds in images and optionally writes overlays.
 //!
 //! `cargo run --release -p monohand-vision --example detect -- [--overlay DIR] IMAGE...`
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a failed test or bench is a panic
 
 use std::path::PathBuf;
 

@@ -1,6 +1,7 @@
 //! Time per operator type of an imported, optimised network (where does tract spend time?).
 //!
 //! `cargo run --release -p monohand-vision --example profile_net -- palm_detection_full`
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a failed test or bench is a panic
 
 use std::collections::HashMap;
 use std::time::{Duration, Instant};

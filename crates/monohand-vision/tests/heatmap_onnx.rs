@@ -3,6 +3,7 @@
 //! peak finding, sub-pixel refinement, crop → image mapping, and mirroring for a network
 //! trained on right hands only.
 #![cfg(feature = "onnx")]
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a failed test or bench is a panic
 
 mod common;
 

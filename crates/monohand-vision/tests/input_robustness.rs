@@ -1,5 +1,6 @@
 //! Awkward inputs: corrupt files, a 1x1 image, 16-bit, grayscale and RGBA PNGs, a WebP named
 //! `.jpg`, and images without hands.
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a failed test or bench is a panic
 
 mod common;
 

@@ -1,6 +1,7 @@
 //! Hands are found where hands are on the project's real photos. Expected boxes were checked
 //! by eye on overlays once (`examples/detect.rs --overlay`) and pinned here; a detection
 //! matches when its keypoint bounds overlap the pinned box with IoU > 0.5.
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a failed test or bench is a panic
 
 mod common;
 

@@ -1,5 +1,6 @@
 //! The project's TFLite importer + tract agrees with the independent LiteRT interpreter on
 //! the committed fixture (real image crops, outputs by `tools/litert_reference.py`).
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a failed test or bench is a panic
 
 mod common;
 

@@ -1,5 +1,6 @@
 //! Keypoints on the STB stereo benchmark frame `BB_left_0.png` against its 3D ground truth
 //! projected with the left Bumblebee camera.
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a failed test or bench is a panic
 
 mod common;
 

@@ -11,17 +11,16 @@ use nalgebra::Vector3;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-/// The STB data directory, or `None` after printing why the test is skipped.
+/// The STB data directory; missing data fails the test (CI always has ../shared).
 pub fn stb_dir() -> Option<PathBuf> {
     let d = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/stb_b1counting");
     if d.join("labels/B1Counting_BB.mat").is_file() && d.join("camera_params.json").is_file() {
         Some(d)
     } else {
-        eprintln!(
-            "SKIP: STB data not found at {} (the shared data directory must sit beside the repository)",
+        panic!(
+            "STB data not found at {} (the shared data directory must sit beside the repository)",
             d.display()
-        );
-        None
+        )
     }
 }
 

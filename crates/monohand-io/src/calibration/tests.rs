@@ -89,8 +89,7 @@ fn wacv18_path() -> Option<PathBuf> {
     if p.exists() {
         Some(p)
     } else {
-        eprintln!("SKIP: wacv18 calibration not found at {}", p.display());
-        None
+        panic!("wacv18 calibration not found at {}", p.display())
     }
 }
 

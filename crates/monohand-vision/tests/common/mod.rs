@@ -24,15 +24,17 @@ pub fn models() -> Option<ModelStore> {
     }
 }
 
-/// `../shared/data/<rel>` from the repository root, or `None` (after printing SKIP).
+/// `../shared/data/<rel>` from the repository root; a missing file fails the test.
 pub fn shared(rel: &str) -> Option<PathBuf> {
     let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data");
     let p = root.join(rel);
     if p.exists() {
         Some(p)
     } else {
-        eprintln!("SKIP: shared test data {} not found", p.display());
-        None
+        panic!(
+            "shared test data {} not found (../shared beside the repository)",
+            p.display()
+        )
     }
 }
 
