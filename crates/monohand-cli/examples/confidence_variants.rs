@@ -7,7 +7,7 @@
 
 use monohand_core::hand_model::fit_skeleton;
 use monohand_core::prelude::*;
-use monohand_io::stb::{stb_cameras, StbSequence};
+use monohand_eval::stb::{stb_cameras, StbSequence};
 use monohand_vision::landmarks::LandmarkOptions;
 use monohand_vision::{HandPipeline, ModelOptions, PipelineOptions};
 use std::path::Path;

@@ -6,7 +6,7 @@ use monohand_core::prelude::*;
 use monohand_eval::evaluate::evaluated_joints;
 use monohand_eval::report::Report;
 use monohand_eval::{
-    evaluate, Dataset, Detected, EvalSettings, HandDetector, ProjectedLabels, SkeletonChoice,
+    evaluate, Dataset, Detected, EvalSettings, ImageDetector, ProjectedLabels, SkeletonChoice,
     ViewMode,
 };
 use monohand_vision::HandPipeline;
@@ -118,7 +118,7 @@ struct VisionDetector {
     description: String,
 }
 
-impl HandDetector for VisionDetector {
+impl ImageDetector for VisionDetector {
     fn describe(&self) -> String {
         self.description.clone()
     }

@@ -8,9 +8,9 @@ mod common;
 
 use common::{monohand, networks_ready, ok, p, stb_dir};
 use monohand_core::prelude::*;
+use monohand_eval::stb::{stb_cameras, StbSequence};
 use monohand_io::calibration::write_camera_json;
 use monohand_io::jsonl::{read_jsonl, FrameRecord};
-use monohand_io::stb::{stb_cameras, StbSequence};
 use monohand_vision::RgbImage;
 use std::path::{Path, PathBuf};
 use std::process::Command;

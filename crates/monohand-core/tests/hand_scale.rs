@@ -58,7 +58,7 @@ fn hand_size_from_the_first_frames_of_stb() {
         "STB data not found at {}",
         d.display()
     );
-    let seq = monohand_io::stb::StbSequence::load(d.join("labels/B1Counting_BB.mat")).unwrap();
+    let seq = monohand_eval::stb::StbSequence::load(d.join("labels/B1Counting_BB.mat")).unwrap();
     let all: Vec<_> = seq.frames.iter().map(|f| f.joints).collect();
     let template = HandSkeleton::default_for(HandSide::Left);
     let subject = fit_skeleton(&all, &template).unwrap().skeleton;

@@ -65,7 +65,7 @@ fn run(
 #[test]
 fn stb_b1counting_round_trip() {
     let Some(dir) = stb_dir() else { return };
-    let seq = monohand_io::stb::StbSequence::load(dir.join("labels/B1Counting_BB.mat")).unwrap();
+    let seq = monohand_eval::stb::StbSequence::load(dir.join("labels/B1Counting_BB.mat")).unwrap();
     assert_eq!(seq.len(), 1500);
     let frames: Vec<_> = seq.frames.iter().map(|f| f.joints).collect();
     let fit = fit_skeleton(&frames, &HandSkeleton::default_for(HandSide::Left)).unwrap();

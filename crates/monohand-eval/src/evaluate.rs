@@ -183,19 +183,19 @@ impl KeypointSource for ProjectedLabels {
 }
 
 /// A 2D hand detector for `--stage full`: image (with its camera) to the hands found.
-pub trait HandDetector {
+pub trait ImageDetector {
     /// A one-line description for the report (model names, versions).
     fn describe(&self) -> String;
     /// The hands found in one image.
     fn detect(&mut self, image: &Path, camera: &Camera) -> Result<Vec<HandObservation>, String>;
 }
 
-/// `--stage full`: keypoints from a [`HandDetector`] run on the frame's images.
+/// `--stage full`: keypoints from a [`ImageDetector`] run on the frame's images.
 /// Of several detections of the ground-truth hand's side, the one with the
 /// highest mean confidence is kept.
-pub struct Detected<D: HandDetector>(pub D);
+pub struct Detected<D: ImageDetector>(pub D);
 
-impl<D: HandDetector> KeypointSource for Detected<D> {
+impl<D: ImageDetector> KeypointSource for Detected<D> {
     fn describe(&self) -> String {
         format!("detector: {}", self.0.describe())
     }

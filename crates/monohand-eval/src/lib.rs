@@ -5,11 +5,13 @@
 //!
 //! - [`dataset`]: the in-memory form of every dataset; [`manifest`]: the JSON
 //!   Lines manifest any dataset can be converted to; [`datasets::stb`]: the
-//!   Stereo Hand Pose Benchmark read natively.
+//!   Stereo Hand Pose Benchmark read natively, from its label files ([`stb`]:
+//!   labels and stereo camera, [`mat`]: a minimal MATLAB v5 `.mat` reader and
+//!   writer); [`datasets::hand_graph_cnn`]: the hand-graph-cnn real-world set.
 //! - [`metrics`]: absolute, root-relative, Zimmermann-Brox aligned and
 //!   Procrustes-aligned errors, per-axis errors, PCK and its AUC, 2D errors.
 //! - [`evaluate`]: the lift stage (ground-truth 2D, noise, dropped joints) and
-//!   the full stage (any [`evaluate::HandDetector`]), mono and stereo on the same frames.
+//!   the full stage (any [`evaluate::ImageDetector`]), mono and stereo on the same frames.
 //! - [`report`]: the printed table and the report folder (Markdown, CSV, PNG plots).
 //!
 //! Definitions of every metric and convention: `docs/evaluation.md`.
@@ -20,13 +22,16 @@ pub mod dataset;
 pub mod datasets;
 pub mod error;
 pub mod evaluate;
+mod file_errors;
 pub mod manifest;
+pub mod mat;
 pub mod metrics;
 pub mod report;
+pub mod stb;
 
 pub use dataset::{Dataset, Frame, GtHand, RootJoint};
 pub use error::{EvalError, EvalResult};
 pub use evaluate::{
-    evaluate, Detected, EvalSettings, HandDetector, KeypointSource, ProjectedLabels, RunResult,
+    evaluate, Detected, EvalSettings, ImageDetector, KeypointSource, ProjectedLabels, RunResult,
     RunSummary, SkeletonChoice, ViewMode,
 };

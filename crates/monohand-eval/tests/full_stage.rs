@@ -16,7 +16,7 @@ struct TableDetector {
     truth: Vec<(PathBuf, Keypoints2d)>,
 }
 
-impl HandDetector for TableDetector {
+impl ImageDetector for TableDetector {
     fn describe(&self) -> String {
         "table lookup (test)".into()
     }

@@ -145,14 +145,6 @@ impl IoError {
     }
 }
 
-/// Reads a whole file, mapping the error to [`IoError::Read`].
-pub(crate) fn read_bytes(path: &Path) -> IoResult<Vec<u8>> {
-    std::fs::read(path).map_err(|source| IoError::Read {
-        path: path.to_path_buf(),
-        error: source,
-    })
-}
-
 /// Reads a whole text file, mapping the error to [`IoError::Read`].
 pub(crate) fn read_text(path: &Path) -> IoResult<String> {
     std::fs::read_to_string(path).map_err(|source| IoError::Read {

@@ -1,11 +1,9 @@
 //! # monohand-io
 //!
-//! File formats around [`monohand_core`]: reading 3D labels and cameras of
-//! public datasets, camera calibrations, 2D keypoints from detectors, and the
-//! project's JSON Lines output.
+//! File formats around [`monohand_core`]: camera calibrations, 2D keypoints
+//! from detectors, the project's JSON Lines output and its exports, and video.
+//! (Datasets' own files, such as STB's `.mat` labels, are read by `monohand-eval`.)
 //!
-//! - [`mat`]: a minimal MATLAB v5 `.mat` reader (and a writer for `double` arrays).
-//! - [`stb`]: Stereo Hand Pose Benchmark labels and stereo camera.
 //! - [`calibration`]: cameras from the project JSON, the WACV'18 JSON and
 //!   OpenCV FileStorage YAML/XML, and a writer for the project JSON.
 //! - [`openpose`]: OpenPose `--write_json` hand keypoints, read and written.
@@ -24,11 +22,9 @@ pub mod calibration;
 pub mod error;
 pub mod export;
 pub mod jsonl;
-pub mod mat;
 pub mod openpose;
 pub mod overlay;
 pub mod skeleton;
-pub mod stb;
 pub mod video;
 
 pub use error::{IoError, IoResult};

@@ -5,7 +5,7 @@
 mod common;
 
 use monohand_core::hand_model::{HandSide, JOINT_NAMES};
-use monohand_io::stb::{stb_cameras, StbSequence};
+use monohand_eval::stb::{stb_cameras, StbSequence};
 use monohand_vision::{HandPipeline, ModelOptions, PipelineOptions};
 
 #[test]

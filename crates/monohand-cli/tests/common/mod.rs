@@ -4,9 +4,9 @@
 #![allow(dead_code)]
 
 use monohand_core::prelude::*;
+use monohand_eval::stb::{stb_cameras, StbSequence};
 use monohand_io::jsonl::{read_jsonl, FrameRecord};
 use monohand_io::openpose::{write_openpose_file, OpenPoseHandOut, OpenPosePerson};
-use monohand_io::stb::{stb_cameras, StbSequence};
 use nalgebra::Vector3;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};

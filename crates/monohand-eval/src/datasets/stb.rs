@@ -9,7 +9,7 @@
 //! folder if present, else from the published Bumblebee calibration.
 //!
 //! Conventions (see `docs/evaluation.md`): joints are reordered by
-//! [`monohand_io::stb`] into the OpenPose order with the **palm centre** at
+//! [`crate::stb`] into the OpenPose order with the **palm centre** at
 //! index 0 ([`RootJoint::PalmCentre`]); all 21 points (palm centre + 20 finger
 //! joints) are evaluated, as published STB numbers are; every sequence shows
 //! the subject's **left** hand; the right camera sits `baseline` mm to the
@@ -18,8 +18,8 @@
 use crate::dataset::{Dataset, Frame, GtHand, RootJoint};
 use crate::error::{EvalError, EvalResult};
 use crate::metrics::to_joints;
+use crate::stb::{stb_cameras, stb_cameras_from_str, StbSequence};
 use monohand_core::prelude::*;
-use monohand_io::stb::{stb_cameras, stb_cameras_from_str, StbSequence};
 use std::path::{Path, PathBuf};
 
 /// The published Bumblebee calibration, used when the folder has no `camera_params.json`.
@@ -120,7 +120,7 @@ pub fn load_stb(dir: impl AsRef<Path>) -> EvalResult<Dataset> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use monohand_io::mat::{to_bytes, MatArray};
+    use crate::mat::{to_bytes, MatArray};
 
     fn fake_labels(n: usize) -> Vec<u8> {
         // 21 points per frame, STB order, all distinct and finite.

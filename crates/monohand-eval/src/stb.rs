@@ -17,7 +17,7 @@
 //! compare palm centres computed the same way on both sides.
 //!
 //! ```no_run
-//! use monohand_io::stb::{stb_cameras, StbSequence};
+//! use monohand_eval::stb::{stb_cameras, StbSequence};
 //! let seq = StbSequence::load("../shared/data/stb_b1counting/labels/B1Counting_BB.mat")?;
 //! let (left, right) = stb_cameras("../shared/data/stb_b1counting/camera_params.json")?;
 //! let tip = seq.frames[0].joints[8]; // index fingertip, mm, left camera frame
@@ -26,9 +26,10 @@
 //! # Ok::<(), monohand_io::IoError>(())
 //! ```
 
-use crate::error::{name_of, read_text, IoError, IoResult};
+use crate::file_errors::{name_of, read_text, FileError};
 use crate::mat::MatFile;
 use monohand_core::prelude::*;
+use monohand_io::{IoError, IoResult};
 use nalgebra::{Rotation3, Vector3};
 use std::path::Path;
 

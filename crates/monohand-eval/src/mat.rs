@@ -17,16 +17,17 @@
 //! `i0 + d0 * (i1 + d1 * (i2 + ...))`; [`MatArray::get`] does the arithmetic.
 //!
 //! ```
-//! use monohand_io::mat::{MatArray, MatFile};
+//! use monohand_eval::mat::{MatArray, MatFile};
 //! let a = MatArray::new("handPara", vec![3, 2], vec![1.0, 2.0, 3.0, 4.0, 5.0, 6.0]).unwrap();
-//! let bytes = monohand_io::mat::to_bytes(&[a]);
+//! let bytes = monohand_eval::mat::to_bytes(&[a]);
 //! let file = MatFile::from_bytes(&bytes, "<memory>").unwrap();
 //! let back = file.require("handPara").unwrap();
 //! assert_eq!(back.dims, vec![3, 2]);
 //! assert_eq!(back.get(&[2, 1]), Some(6.0)); // row 2, column 1
 //! ```
 
-use crate::error::{name_of, read_bytes, IoError, IoResult};
+use crate::file_errors::{name_of, read_bytes, FileError};
+use monohand_io::{IoError, IoResult};
 use std::io::Read;
 use std::path::Path;
 
