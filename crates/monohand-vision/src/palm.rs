@@ -5,11 +5,11 @@
 
 use image::RgbImage;
 
-use crate::error::{Result, VisionError};
-use crate::geometry::{letterbox_to_image, normalize_angle, Affine2, RotatedRect};
+use crate::error::Result;
+use crate::geometry::{normalize_angle, Affine2, RotatedRect};
 use crate::network::TfliteNet;
-use crate::ssd::{decode, ssd_anchors, weighted_nms, Anchor};
-use crate::warp::{warp_into, Normalization};
+use crate::ssd::{SsdDetection, SsdDetector};
+use crate::warp::Normalization;
 
 /// Index of the wrist among the 7 palm keypoints.
 pub const PALM_WRIST: usize = 0;
@@ -80,94 +80,52 @@ impl Default for PalmOptions {
     }
 }
 
-/// The palm detection network with its anchors.
+/// The palm detection network: an [`SsdDetector`] with 7 keypoints.
 #[derive(Debug, Clone)]
 pub struct PalmDetector {
-    net: TfliteNet,
-    anchors: Vec<Anchor>,
-    size: usize,
+    ssd: SsdDetector<7>,
     /// Thresholds.
     pub options: PalmOptions,
 }
 
 impl PalmDetector {
-    /// Wraps an imported palm network (`palm_detection_{full,lite}.tflite`).
+    /// Wraps a loaded palm detection network.
     pub fn new(net: TfliteNet, options: PalmOptions) -> Result<Self> {
-        let [_, h, w, c] = net.input_shape();
-        if h != w || c != 3 {
-            return Err(VisionError::ModelOutput(format!(
-                "palm detector input {h}x{w}x{c}, expected square RGB"
-            )));
-        }
         Ok(PalmDetector {
-            anchors: ssd_anchors(h, &[8, 16, 16, 16]),
-            net,
-            size: h,
+            ssd: SsdDetector::new(net, Normalization::UNIT, "palm detector")?,
             options,
         })
     }
 
     /// The letterboxed input tensor for `img` and the map from input pixels to image pixels.
     pub fn preprocess(&self, img: &RgbImage) -> Result<(tract_core::prelude::Tensor, Affine2)> {
-        let to_image = letterbox_to_image(img.width(), img.height(), self.size);
-        let input = self.net.input_with(|buf| {
-            warp_into(
-                img,
-                &to_image,
-                self.size,
-                self.size,
-                Normalization::UNIT,
-                buf,
-            )
-        })?;
-        Ok((input, to_image))
+        self.ssd.preprocess(img)
     }
 
     /// Palms in `img`, best first.
     pub fn detect(&self, img: &RgbImage) -> Result<Vec<PalmDetection>> {
-        let (input, to_image) = self.preprocess(img)?;
-        let out = self.net.run(input)?;
-        self.postprocess(&out, &to_image)
+        let found = self
+            .ssd
+            .detect(img, self.options.min_score, self.options.nms_iou)?;
+        Ok(found.into_iter().map(PalmDetection::from).collect())
     }
 
     /// Decoding, NMS and mapping back to the image of raw network outputs.
     pub fn postprocess(&self, out: &[Vec<f32>], to_image: &Affine2) -> Result<Vec<PalmDetection>> {
-        let (boxes, scores) = match out {
-            [b, s] if b.len() == self.anchors.len() * 18 && s.len() == self.anchors.len() => (b, s),
-            _ => {
-                return Err(VisionError::ModelOutput(
-                    "palm detector outputs are not [2016x18, 2016]".into(),
-                ))
-            }
-        };
-        let raw = decode(
-            boxes,
-            scores,
-            &self.anchors,
-            self.size,
-            7,
-            self.options.min_score,
-        );
-        let merged = weighted_nms(raw, self.options.nms_iou);
-        let s = self.size as f64;
-        Ok(merged
-            .into_iter()
-            .map(|d| {
-                let p = |x: f32, y: f32| to_image.apply([x as f64 * s, y as f64 * s]);
-                let [cx, cy, w, h] = d.bbox;
-                let a = p(cx - w / 2.0, cy - h / 2.0);
-                let b = p(cx + w / 2.0, cy + h / 2.0);
-                let mut keypoints = [[0.0; 2]; 7];
-                for (k, v) in keypoints.iter_mut().zip(&d.keypoints) {
-                    *k = p(v[0], v[1]);
-                }
-                PalmDetection {
-                    score: d.score,
-                    bbox: [a[0], a[1], b[0], b[1]],
-                    keypoints,
-                }
-            })
-            .collect())
+        let found =
+            self.ssd
+                .postprocess(out, to_image, self.options.min_score, self.options.nms_iou)?;
+        Ok(found.into_iter().map(PalmDetection::from).collect())
+    }
+}
+
+impl From<SsdDetection<7>> for PalmDetection {
+    fn from(d: SsdDetection<7>) -> PalmDetection {
+        PalmDetection {
+            score: d.score,
+            bbox: d.bbox,
+            keypoints: d.keypoints,
+        }
     }
 }
 

@@ -1,5 +1,5 @@
-//! Single-shot-detector plumbing shared by the palm and face detectors: anchor generation,
-//! box + keypoint decoding, sigmoid scores, and weighted non-maximum suppression — MediaPipe's
+//! The single-shot detector shared by the palm and face detectors ([`SsdDetector`]): anchor
+//! generation, box + keypoint decoding, sigmoid scores, and weighted non-maximum suppression — MediaPipe's
 //! `SsdAnchorsCalculator`, `TensorsToDetectionsCalculator` and `NonMaxSuppressionCalculator`
 //! for the configurations these models use (fixed anchor size 1, two anchors per cell).
 
@@ -149,6 +149,125 @@ pub fn weighted_nms(mut dets: Vec<RawDetection>, iou_threshold: f32) -> Vec<RawD
         out.push(merged);
     }
     out
+}
+
+/// One detection of an [`SsdDetector`], in image pixels (continuous coordinates).
+#[derive(Clone, Debug, PartialEq)]
+pub struct SsdDetection<const K: usize> {
+    /// Score in `[0, 1]`.
+    pub score: f32,
+    /// `[xmin, ymin, xmax, ymax]`.
+    pub bbox: [f64; 4],
+    /// The `K` keypoints `[x, y]`.
+    pub keypoints: [[f64; 2]; K],
+}
+
+/// A single-shot detector of MediaPipe's kind (BlazePalm, BlazeFace) with `K` keypoints:
+/// a square letterboxed input, two anchors per cell at strides 8, 16, 16, 16, a box and
+/// `K` keypoints per anchor, weighted non-maximum suppression. The palm and face detectors
+/// are this with their own outputs.
+#[derive(Debug, Clone)]
+pub struct SsdDetector<const K: usize> {
+    net: crate::network::TfliteNet,
+    anchors: Vec<Anchor>,
+    size: usize,
+    normalization: crate::warp::Normalization,
+    name: &'static str,
+}
+
+impl<const K: usize> SsdDetector<K> {
+    /// Wraps a loaded network; `name` names it in errors.
+    pub fn new(
+        net: crate::network::TfliteNet,
+        normalization: crate::warp::Normalization,
+        name: &'static str,
+    ) -> crate::error::Result<Self> {
+        let [_, h, w, c] = net.input_shape();
+        if h != w || c != 3 {
+            return Err(crate::error::VisionError::ModelOutput(format!(
+                "{name} input {h}x{w}x{c}, expected square RGB"
+            )));
+        }
+        Ok(SsdDetector {
+            anchors: ssd_anchors(h, &[8, 16, 16, 16]),
+            net,
+            size: h,
+            normalization,
+            name,
+        })
+    }
+
+    /// The letterboxed input tensor for `img` and the map from input pixels to image pixels.
+    pub fn preprocess(
+        &self,
+        img: &image::RgbImage,
+    ) -> crate::error::Result<(tract_core::prelude::Tensor, crate::geometry::Affine2)> {
+        let to_image = crate::geometry::letterbox_to_image(img.width(), img.height(), self.size);
+        let input = self.net.input_with(|buf| {
+            crate::warp::warp_into(
+                img,
+                &to_image,
+                self.size,
+                self.size,
+                self.normalization,
+                buf,
+            )
+        })?;
+        Ok((input, to_image))
+    }
+
+    /// Decoding, NMS and mapping back to the image of raw network outputs.
+    pub fn postprocess(
+        &self,
+        out: &[Vec<f32>],
+        to_image: &crate::geometry::Affine2,
+        min_score: f32,
+        nms_iou: f32,
+    ) -> crate::error::Result<Vec<SsdDetection<K>>> {
+        let n = self.anchors.len();
+        let (boxes, scores) = match out {
+            [b, s] if b.len() == n * (4 + 2 * K) && s.len() == n => (b, s),
+            _ => {
+                return Err(crate::error::VisionError::ModelOutput(format!(
+                    "{} outputs are not [{n}x{}, {n}]",
+                    self.name,
+                    4 + 2 * K
+                )))
+            }
+        };
+        let raw = decode(boxes, scores, &self.anchors, self.size, K, min_score);
+        let s = self.size as f64;
+        Ok(weighted_nms(raw, nms_iou)
+            .into_iter()
+            .map(|d| {
+                let p = |x: f32, y: f32| to_image.apply([x as f64 * s, y as f64 * s]);
+                let [cx, cy, w, h] = d.bbox;
+                let a = p(cx - w / 2.0, cy - h / 2.0);
+                let b = p(cx + w / 2.0, cy + h / 2.0);
+                let mut keypoints = [[0.0; 2]; K];
+                for (k, v) in keypoints.iter_mut().zip(&d.keypoints) {
+                    *k = p(v[0], v[1]);
+                }
+                SsdDetection {
+                    score: d.score,
+                    bbox: [a[0], a[1], b[0], b[1]],
+                    keypoints,
+                }
+            })
+            .collect())
+    }
+
+    /// Detections in `img`, best first.
+    pub fn detect(
+        &self,
+        img: &image::RgbImage,
+        min_score: f32,
+        nms_iou: f32,
+    ) -> crate::error::Result<Vec<SsdDetection<K>>> {
+        let (input, to_image) = self.preprocess(img)?;
+        let out = self.net.run(input)?;
+        self.postprocess(&out, &to_image, min_score, nms_iou)
+    }
 }
 
 #[cfg(test)]
