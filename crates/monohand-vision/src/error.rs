@@ -2,7 +2,7 @@
 
 use std::path::PathBuf;
 
-use crate::tflite_import::ImportError;
+use monohand_tflite::ImportError;
 
 /// Everything that can go wrong between an image file and detected hands.
 #[derive(Debug, thiserror::Error)]

@@ -2,8 +2,8 @@
 //!
 //! The vision front end of monohand: finds hands (and heads) in RGB images and gives 21 2D
 //! hand keypoints per hand, using MediaPipe's pretrained palm detector, hand-landmark model
-//! and BlazeFace, run in pure Rust with tract through this crate's own TFLite importer
-//! ([`tflite_import`]).
+//! and BlazeFace, run in pure Rust with tract through the project's own TFLite importer
+//! (the `monohand-tflite` crate, re-exported as [`tflite_import`]).
 //!
 //! ```no_run
 //! use monohand_vision::{HandPipeline, ModelOptions, PipelineOptions};
@@ -29,7 +29,8 @@ pub mod network;
 pub mod palm;
 pub mod pipeline;
 pub mod ssd;
-pub mod tflite_import;
+/// The `.tflite` importer (the `monohand-tflite` crate).
+pub use monohand_tflite as tflite_import;
 pub mod warp;
 
 pub use error::{Result, VisionError};

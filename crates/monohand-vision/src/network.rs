@@ -5,7 +5,7 @@ use std::path::Path;
 use tract_core::internal::*;
 
 use crate::error::{Result, VisionError};
-use crate::tflite_import;
+use monohand_tflite as tflite_import;
 
 /// An optimised tract plan for one TFLite network with a single NHWC f32 input.
 #[derive(Debug, Clone)]

@@ -1,9 +1,9 @@
-//! The project's own importer from a `.tflite` flatbuffer to a tract [`TypedModel`].
+//! monohand's own importer from a `.tflite` flatbuffer to a tract [`TypedModel`].
 //!
 //! `tract-tflite` 0.23 cannot run MediaPipe's hand and face models as published: it has no
 //! `PRELU`, no float16 `DEQUANTIZE` (MediaPipe stores every weight as fp16 behind a
 //! `DEQUANTIZE`), and its `MEAN` on float tensors goes through an integer rescale. Its op
-//! registry is private, so this module walks the flatbuffer itself — through the schema
+//! registry is private, so this crate walks the flatbuffer itself — through the schema
 //! `tract_tflite` re-exports — and wires tract-core operators for exactly the operators the
 //! MediaPipe palm, hand-landmark and face-detection models use:
 //!
@@ -18,6 +18,8 @@
 //! the largest costs of the palm detector: [`NhwcDepthwise`] (depthwise convolution with the
 //! channels innermost) and [`ChannelPrelu`] (PRELU in one pass). [`ImportOptions`] switches
 //! back to tract's built-in operators.
+
+#![deny(missing_docs)]
 
 mod depthwise;
 mod ops;
