@@ -1,4 +1,4 @@
-//! Drawing on [`RgbFrame`]s: anti-aliased thick lines, circles, rectangles,
+//! Drawing on [`RgbImage`]s: anti-aliased thick lines, circles, rectangles,
 //! polygons (e.g. oriented boxes), a built-in 5x7 bitmap font for short
 //! labels, and [`draw_hand`], which draws a detected hand skeleton and the
 //! fitted 3D model projected back into the image.
@@ -9,14 +9,14 @@
 //!
 //! ```
 //! use monohand_io::overlay::{draw_line, draw_text, Pen};
-//! use monohand_io::video::RgbFrame;
-//! let mut img = RgbFrame::new(64, 32);
+//! use monohand_io::video::RgbImage;
+//! let mut img = RgbImage::new(64, 32);
 //! draw_line(&mut img, [2.0, 5.0], [40.0, 5.0], &Pen::new([255, 0, 0], 1.0));
-//! assert_eq!(img.pixel(20, 5), Some([255, 0, 0]));
+//! assert_eq!(img.get_pixel(20, 5).0, [255, 0, 0]);
 //! draw_text(&mut img, "R#3 0.97", [1.0, 10.0], 1, [255, 255, 255]);
 //! ```
 
-use crate::video::RgbFrame;
+use crate::video::RgbImage;
 use monohand_core::camera::Camera;
 use monohand_core::hand_model::{HandSide, BONES, NUM_JOINTS, WRIST};
 use nalgebra::Vector3;
@@ -68,12 +68,14 @@ impl Pen {
 }
 
 /// Blends `color` over the pixel `(x, y)` with weight `alpha`; nothing outside the image.
-pub fn blend_pixel(frame: &mut RgbFrame, x: i64, y: i64, color: Rgb, alpha: f64) {
-    if alpha <= 0.0 || x < 0 || y < 0 || x as usize >= frame.width || y as usize >= frame.height {
+pub fn blend_pixel(frame: &mut RgbImage, x: i64, y: i64, color: Rgb, alpha: f64) {
+    let (Ok(x), Ok(y)) = (u32::try_from(x), u32::try_from(y)) else {
+        return;
+    };
+    if alpha <= 0.0 {
         return;
     }
-    let i = 3 * (y as usize * frame.width + x as usize);
-    let Some(px) = frame.data.get_mut(i..i + 3) else {
+    let Some(px) = frame.get_pixel_mut_checked(x, y).map(|p| &mut p.0) else {
         return;
     };
     let a = alpha.min(1.0);
@@ -93,9 +95,9 @@ fn finite(p: [f64; 2]) -> bool {
 
 /// The rows `y0..=y1` of the image covering `[lo, hi]` (empty if outside).
 #[allow(clippy::reversed_empty_ranges)]
-fn rows(frame: &RgbFrame, lo: f64, hi: f64) -> std::ops::RangeInclusive<i64> {
+fn rows(frame: &RgbImage, lo: f64, hi: f64) -> std::ops::RangeInclusive<i64> {
     let y0 = lo.floor().max(0.0);
-    let y1 = hi.ceil().min(frame.height as f64 - 1.0);
+    let y1 = hi.ceil().min(frame.height() as f64 - 1.0);
     if y0.is_nan() || y1.is_nan() || y0 > y1 {
         return 1..=0;
     }
@@ -104,9 +106,9 @@ fn rows(frame: &RgbFrame, lo: f64, hi: f64) -> std::ops::RangeInclusive<i64> {
 
 /// The columns of the image covering `[lo, hi]`, as a clipped inclusive range.
 #[allow(clippy::reversed_empty_ranges)]
-fn cols(frame: &RgbFrame, lo: f64, hi: f64) -> std::ops::RangeInclusive<i64> {
+fn cols(frame: &RgbImage, lo: f64, hi: f64) -> std::ops::RangeInclusive<i64> {
     let x0 = lo.floor().max(0.0);
-    let x1 = hi.ceil().min(frame.width as f64 - 1.0);
+    let x1 = hi.ceil().min(frame.width() as f64 - 1.0);
     if x0.is_nan() || x1.is_nan() || x0 > x1 {
         return 1..=0;
     }
@@ -114,7 +116,7 @@ fn cols(frame: &RgbFrame, lo: f64, hi: f64) -> std::ops::RangeInclusive<i64> {
 }
 
 /// Draws the segment `a`-`b` with round caps.
-pub fn draw_line(frame: &mut RgbFrame, a: [f64; 2], b: [f64; 2], pen: &Pen) {
+pub fn draw_line(frame: &mut RgbImage, a: [f64; 2], b: [f64; 2], pen: &Pen) {
     if !finite(a) || !finite(b) || !positive(pen.thickness) {
         return;
     }
@@ -150,7 +152,7 @@ pub fn draw_line(frame: &mut RgbFrame, a: [f64; 2], b: [f64; 2], pen: &Pen) {
 }
 
 /// Paints every pixel of the box `[x0, y0, x1, y1]` (clipped) with `alpha(x, y)`.
-fn paint(frame: &mut RgbFrame, bbox: [f64; 4], color: Rgb, alpha: impl Fn(f64, f64) -> f64) {
+fn paint(frame: &mut RgbImage, bbox: [f64; 4], color: Rgb, alpha: impl Fn(f64, f64) -> f64) {
     if bbox.iter().any(|v| !v.is_finite()) {
         return;
     }
@@ -162,7 +164,7 @@ fn paint(frame: &mut RgbFrame, bbox: [f64; 4], color: Rgb, alpha: impl Fn(f64, f
 }
 
 /// Fills a disc of this radius (the pen's thickness is not used).
-pub fn fill_circle(frame: &mut RgbFrame, center: [f64; 2], radius: f64, pen: &Pen) {
+pub fn fill_circle(frame: &mut RgbImage, center: [f64; 2], radius: f64, pen: &Pen) {
     if !finite(center) || !positive(radius) {
         return;
     }
@@ -177,7 +179,7 @@ pub fn fill_circle(frame: &mut RgbFrame, center: [f64; 2], radius: f64, pen: &Pe
 }
 
 /// Draws a circle outline (a ring of the pen's thickness centred on the radius).
-pub fn draw_circle(frame: &mut RgbFrame, center: [f64; 2], radius: f64, pen: &Pen) {
+pub fn draw_circle(frame: &mut RgbImage, center: [f64; 2], radius: f64, pen: &Pen) {
     if !finite(center) || !positive(radius) || !positive(pen.thickness) {
         return;
     }
@@ -196,7 +198,7 @@ pub fn draw_circle(frame: &mut RgbFrame, center: [f64; 2], radius: f64, pen: &Pe
 }
 
 /// Draws a closed polygon outline through `corners` (e.g. the 4 corners of an oriented box).
-pub fn draw_polygon(frame: &mut RgbFrame, corners: &[[f64; 2]], pen: &Pen) {
+pub fn draw_polygon(frame: &mut RgbImage, corners: &[[f64; 2]], pen: &Pen) {
     for (i, &a) in corners.iter().enumerate() {
         let b = corners[(i + 1) % corners.len()];
         draw_line(frame, a, b, pen);
@@ -204,13 +206,13 @@ pub fn draw_polygon(frame: &mut RgbFrame, corners: &[[f64; 2]], pen: &Pen) {
 }
 
 /// Draws the outline of the axis-aligned box `[x_min, y_min, x_max, y_max]`.
-pub fn draw_rect(frame: &mut RgbFrame, bbox: [f64; 4], pen: &Pen) {
+pub fn draw_rect(frame: &mut RgbImage, bbox: [f64; 4], pen: &Pen) {
     let [x0, y0, x1, y1] = bbox;
     draw_polygon(frame, &[[x0, y0], [x1, y0], [x1, y1], [x0, y1]], pen);
 }
 
 /// Fills the pixels whose centres lie in `[x_min, y_min, x_max, y_max]`.
-pub fn fill_rect(frame: &mut RgbFrame, bbox: [f64; 4], color: Rgb, opacity: f64) {
+pub fn fill_rect(frame: &mut RgbImage, bbox: [f64; 4], color: Rgb, opacity: f64) {
     let [x0, y0, x1, y1] = bbox;
     paint(frame, bbox, color, |x, y| {
         if x >= x0 && x <= x1 && y >= y0 && y <= y1 {
@@ -294,7 +296,7 @@ pub fn text_size(text: &str, scale: usize) -> (usize, usize) {
 /// Draws one line of text with its top-left corner at `origin`, each font
 /// pixel a `scale x scale` square. Returns the box drawn `[x0, y0, x1, y1]`.
 pub fn draw_text(
-    frame: &mut RgbFrame,
+    frame: &mut RgbImage,
     text: &str,
     origin: [f64; 2],
     scale: usize,
@@ -335,7 +337,7 @@ pub fn draw_text(
 
 /// Draws text on a filled background box with a `pad`-pixel margin; returns the box.
 pub fn draw_label(
-    frame: &mut RgbFrame,
+    frame: &mut RgbImage,
     text: &str,
     origin: [f64; 2],
     scale: usize,
@@ -470,7 +472,7 @@ pub fn project_joints(
 ///
 /// Non-finite points are skipped.
 pub fn draw_hand(
-    frame: &mut RgbFrame,
+    frame: &mut RgbImage,
     keypoints_2d: &[[f64; 3]; NUM_JOINTS],
     projected_3d: Option<&[[f64; 2]; NUM_JOINTS]>,
     side: HandSide,
@@ -565,10 +567,22 @@ pub fn draw_hand(
 mod tests {
     use super::*;
 
-    fn painted(f: &RgbFrame) -> Vec<(usize, usize)> {
+    /// The colour at `(x, y)`, `None` outside the image.
+    trait Px {
+        fn pixel(&self, x: usize, y: usize) -> Option<[u8; 3]>;
+    }
+
+    impl Px for RgbImage {
+        fn pixel(&self, x: usize, y: usize) -> Option<[u8; 3]> {
+            let (x, y) = (u32::try_from(x).ok()?, u32::try_from(y).ok()?);
+            self.get_pixel_checked(x, y).map(|p| p.0)
+        }
+    }
+
+    fn painted(f: &RgbImage) -> Vec<(usize, usize)> {
         let mut v = Vec::new();
-        for y in 0..f.height {
-            for x in 0..f.width {
+        for y in 0..f.height() as usize {
+            for x in 0..f.width() as usize {
                 if f.pixel(x, y) != Some([0, 0, 0]) {
                     v.push((x, y));
                 }
@@ -579,7 +593,7 @@ mod tests {
 
     #[test]
     fn horizontal_line_sets_exactly_its_pixels() {
-        let mut f = RgbFrame::new(12, 10);
+        let mut f = RgbImage::new(12, 10);
         draw_line(&mut f, [2.0, 5.0], [8.0, 5.0], &Pen::new([255, 0, 0], 1.0));
         let expect: Vec<_> = (2..=8).map(|x| (x, 5)).collect();
         assert_eq!(painted(&f), expect);
@@ -590,7 +604,7 @@ mod tests {
 
     #[test]
     fn thick_diagonal_line_covers_its_band() {
-        let mut f = RgbFrame::new(40, 40);
+        let mut f = RgbImage::new(40, 40);
         let pen = Pen {
             antialias: false,
             ..Pen::new([0, 255, 0], 3.0)
@@ -616,7 +630,7 @@ mod tests {
 
     #[test]
     fn antialiased_edges_are_partial() {
-        let mut f = RgbFrame::new(20, 20);
+        let mut f = RgbImage::new(20, 20);
         draw_line(
             &mut f,
             [2.0, 10.0],
@@ -629,7 +643,7 @@ mod tests {
 
     #[test]
     fn shapes_outside_or_non_finite_are_clipped_not_panicking() {
-        let mut f = RgbFrame::new(16, 16);
+        let mut f = RgbImage::new(16, 16);
         let pen = Pen::new([255, 255, 255], 4.0);
         draw_line(&mut f, [-100.0, -50.0], [-10.0, -3.0], &pen);
         draw_line(&mut f, [1e12, 3.0], [2e12, 9.0], &pen);
@@ -653,7 +667,7 @@ mod tests {
         fill_circle(&mut f, [15.0, 15.0], 5.0, &pen);
         assert_eq!(f.pixel(15, 15), Some([255, 255, 255]));
         // An empty image is fine too.
-        let mut empty = RgbFrame::new(0, 0);
+        let mut empty = RgbImage::new(0, 0);
         draw_line(&mut empty, [0.0, 0.0], [5.0, 5.0], &pen);
         draw_hand(
             &mut empty,
@@ -668,7 +682,7 @@ mod tests {
 
     #[test]
     fn circles_and_rectangles() {
-        let mut f = RgbFrame::new(30, 30);
+        let mut f = RgbImage::new(30, 30);
         let pen = Pen {
             antialias: false,
             ..Pen::new([10, 20, 30], 1.0)
@@ -677,11 +691,11 @@ mod tests {
         assert_eq!(f.pixel(15, 11), Some([10, 20, 30]));
         assert_eq!(f.pixel(15, 10), Some([0, 0, 0]));
         assert_eq!(f.pixel(18, 18), Some([0, 0, 0]), "corner outside radius 4");
-        let mut g = RgbFrame::new(30, 30);
+        let mut g = RgbImage::new(30, 30);
         draw_circle(&mut g, [15.0, 15.0], 6.0, &pen);
         assert_eq!(g.pixel(15, 15), Some([0, 0, 0]), "hollow");
         assert_eq!(g.pixel(21, 15), Some([10, 20, 30]));
-        let mut h = RgbFrame::new(30, 30);
+        let mut h = RgbImage::new(30, 30);
         draw_rect(&mut h, [3.0, 4.0, 20.0, 10.0], &pen);
         assert_eq!(h.pixel(3, 7), Some([10, 20, 30]));
         assert_eq!(h.pixel(12, 10), Some([10, 20, 30]));
@@ -695,7 +709,7 @@ mod tests {
 
     #[test]
     fn font_draws_glyph_bitmaps() {
-        let mut f = RgbFrame::new(20, 10);
+        let mut f = RgbImage::new(20, 10);
         let bbox = draw_text(&mut f, "1", [1.0, 1.0], 1, [255, 255, 255]);
         assert_eq!(bbox, [1.0, 1.0, 6.0, 8.0]);
         // "1": the stem is column 2 of the glyph for all 7 rows; the base is 3 wide.
@@ -705,7 +719,7 @@ mod tests {
         assert_eq!(f.pixel(2, 2), Some([255; 3]));
         assert_eq!(f.pixel(1, 2), Some([0; 3]));
         assert_eq!(painted(&f).len(), 7 + 1 + 2);
-        let mut g = RgbFrame::new(40, 20);
+        let mut g = RgbImage::new(40, 20);
         draw_text(&mut g, "1", [0.0, 0.0], 2, [255; 3]);
         assert_eq!(painted(&g).len(), 4 * painted(&f).len());
         assert_eq!(text_size("R#3 0.97", 1), (47, 7));
@@ -738,7 +752,7 @@ mod tests {
         assert!((p[0][0] - 330.0).abs() < 1e-9 && (p[0][1] - 220.0).abs() < 1e-9);
         assert!(p[1][0].is_nan() && p[2][0].is_nan());
         // Drawing the model with NaN joints does not panic and skips them.
-        let mut f = RgbFrame::new(640, 480);
+        let mut f = RgbImage::new(640, 480);
         draw_hand(
             &mut f,
             &[[0.0; 3]; NUM_JOINTS],
@@ -755,7 +769,7 @@ mod tests {
     fn hand_skeleton_colours_dimming_and_model() {
         let style = HandStyle::default();
         let kp = hand_points();
-        let mut f = RgbFrame::new(120, 120);
+        let mut f = RgbImage::new(120, 120);
         draw_hand(
             &mut f,
             &kp,
@@ -774,7 +788,7 @@ mod tests {
         // Dimmed: low confidence blends with the background instead of covering it.
         let mut dim = kp;
         dim[8][2] = 0.1;
-        let mut g = RgbFrame::new(120, 120);
+        let mut g = RgbImage::new(120, 120);
         draw_hand(&mut g, &dim, None, HandSide::Right, None, None, &style);
         let p = g.pixel(35, 34).unwrap();
         assert!(
@@ -785,12 +799,12 @@ mod tests {
         let mut miss = kp;
         miss[8] = [35.0, 34.0, 0.0];
         miss[12] = [f64::NAN, 1.0, 1.0];
-        let mut h = RgbFrame::new(120, 120);
+        let mut h = RgbImage::new(120, 120);
         draw_hand(&mut h, &miss, None, HandSide::Left, None, None, &style);
         assert_eq!(h.pixel(35, 34), Some([0, 0, 0]));
         // The projected model: hollow joints in the side colour.
         let model: [[f64; 2]; NUM_JOINTS] = std::array::from_fn(|j| [kp[j][0] + 100.0, kp[j][1]]);
-        let mut m = RgbFrame::new(200, 120);
+        let mut m = RgbImage::new(200, 120);
         let st = HandStyle {
             label_scale: 0,
             model_joint_radius: 6.0,

@@ -49,58 +49,9 @@ pub const DEFAULT_FPS: f64 = 30.0;
 /// How many bytes of ffmpeg's standard error are kept for error messages (the tail).
 const STDERR_KEEP: usize = 4096;
 
-/// A packed 8-bit RGB image: `data[3 * (y * width + x) + c]`, rows top to bottom.
-#[derive(Debug, Clone, PartialEq, Eq, Default)]
-pub struct RgbFrame {
-    /// Width in pixels.
-    pub width: usize,
-    /// Height in pixels.
-    pub height: usize,
-    /// `3 * width * height` bytes, R G B per pixel.
-    pub data: Vec<u8>,
-}
-
-impl RgbFrame {
-    /// A black image.
-    pub fn new(width: usize, height: usize) -> RgbFrame {
-        RgbFrame {
-            width,
-            height,
-            data: vec![0; 3 * width * height],
-        }
-    }
-
-    /// Wraps a buffer; `None` if its length is not `3 * width * height`.
-    pub fn from_raw(width: usize, height: usize, data: Vec<u8>) -> Option<RgbFrame> {
-        (width.checked_mul(height)?.checked_mul(3)? == data.len()).then_some(RgbFrame {
-            width,
-            height,
-            data,
-        })
-    }
-
-    /// The colour at `(x, y)`, or `None` outside the image.
-    pub fn pixel(&self, x: usize, y: usize) -> Option<[u8; 3]> {
-        if x >= self.width || y >= self.height {
-            return None;
-        }
-        let i = 3 * (y * self.width + x);
-        Some([self.data[i], self.data[i + 1], self.data[i + 2]])
-    }
-
-    /// Sets the colour at `(x, y)`; does nothing outside the image.
-    pub fn set_pixel(&mut self, x: usize, y: usize, rgb: [u8; 3]) {
-        if x < self.width && y < self.height {
-            let i = 3 * (y * self.width + x);
-            self.data[i..i + 3].copy_from_slice(&rgb);
-        }
-    }
-
-    /// Number of bytes of one frame of this size.
-    pub fn byte_len(&self) -> usize {
-        3 * self.width * self.height
-    }
-}
+/// The one image type of the project: packed 8-bit RGB, rows top to bottom (the `image`
+/// crate's buffer, which the vision front end takes too).
+pub use image::RgbImage;
 
 /// Where the `ffmpeg` and `ffprobe` executables are.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -413,7 +364,7 @@ pub struct VideoFrame {
     /// Nominal time of the frame, seconds: `index / fps` (see [`VideoInfo::fps_or_default`]).
     pub timestamp_s: f64,
     /// The pixels.
-    pub image: RgbFrame,
+    pub image: RgbImage,
 }
 
 /// Decodes a video to RGB frames with an `ffmpeg` child process.
@@ -491,17 +442,26 @@ impl VideoReader {
     /// Reads the next frame into `frame` (resized if needed, so one buffer can
     /// be reused for the whole video) and returns `(index, timestamp_s)`, or
     /// `None` at the end.
-    pub fn read_into(&mut self, frame: &mut RgbFrame) -> IoResult<Option<(u64, f64)>> {
+    pub fn read_into(&mut self, frame: &mut RgbImage) -> IoResult<Option<(u64, f64)>> {
         if self.done {
             return Ok(None);
         }
-        let (w, h) = (self.info.width, self.info.height);
-        frame.width = w;
-        frame.height = h;
-        frame.data.resize(3 * w * h, 0);
+        let size = (
+            u32::try_from(self.info.width),
+            u32::try_from(self.info.height),
+        );
+        let (Ok(w), Ok(h)) = size else {
+            self.done = true;
+            let why = format!("{}x{} is too large", self.info.width, self.info.height);
+            return Err(self.end_error(why));
+        };
+        if frame.dimensions() != (w, h) {
+            *frame = RgbImage::new(w, h);
+        }
+        let data: &mut [u8] = frame;
         let mut filled = 0;
-        while filled < frame.data.len() {
-            match self.stdout.read(&mut frame.data[filled..]) {
+        while filled < data.len() {
+            match self.stdout.read(&mut data[filled..]) {
                 Ok(0) => break,
                 Ok(n) => filled += n,
                 Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
@@ -512,7 +472,8 @@ impl VideoReader {
                 }
             }
         }
-        if filled == frame.data.len() {
+        let len = data.len();
+        if filled == len {
             let index = self.next_index;
             self.next_index += 1;
             return Ok(Some((index, index as f64 / self.info.fps_or_default())));
@@ -536,8 +497,7 @@ impl VideoReader {
         };
         if filled > 0 {
             why.push_str(&format!(
-                "; the last frame is incomplete ({filled} of {} bytes)",
-                frame.data.len()
+                "; the last frame is incomplete ({filled} of {len} bytes)"
             ));
         }
         Err(self.error_with(why, &stderr))
@@ -545,7 +505,7 @@ impl VideoReader {
 
     /// Reads the next frame into a new buffer, or `None` at the end.
     pub fn next_frame(&mut self) -> IoResult<Option<VideoFrame>> {
-        let mut image = RgbFrame::default();
+        let mut image = RgbImage::new(0, 0);
         Ok(self
             .read_into(&mut image)?
             .map(|(index, timestamp_s)| VideoFrame {
@@ -766,22 +726,15 @@ impl VideoWriter {
     }
 
     /// Encodes one frame, which must have the writer's size.
-    pub fn write(&mut self, frame: &RgbFrame) -> IoResult<()> {
+    pub fn write(&mut self, frame: &RgbImage) -> IoResult<()> {
         let name = self.path.display().to_string();
-        if frame.width != self.width
-            || frame.height != self.height
-            || frame.data.len() != frame.byte_len()
-        {
+        let (w, h) = frame.dimensions();
+        if (w as usize, h as usize) != (self.width, self.height) {
             return Err(IoError::Video {
                 input: name,
                 message: format!(
-                    "frame {} is {}x{} ({} bytes), the video is {}x{}",
-                    self.frames,
-                    frame.width,
-                    frame.height,
-                    frame.data.len(),
-                    self.width,
-                    self.height
+                    "frame {} is {w}x{h}, the video is {}x{}",
+                    self.frames, self.width, self.height
                 ),
             });
         }
@@ -791,7 +744,7 @@ impl VideoWriter {
                 message: "the writer is already finished".into(),
             });
         };
-        if let Err(e) = stdin.write_all(&frame.data) {
+        if let Err(e) = stdin.write_all(frame.as_raw()) {
             // ffmpeg has gone (bad path, unsupported container, ...): report what it said.
             let why = format!("cannot send frame {} to ffmpeg: {e}", self.frames);
             return Err(match self.close() {
@@ -937,17 +890,5 @@ mod tests {
             e.contains("/nonexistent/ffmpeg") && e.contains("ffmpeg"),
             "{e}"
         );
-    }
-
-    #[test]
-    fn frame_pixels_and_bounds() {
-        let mut f = RgbFrame::new(3, 2);
-        f.set_pixel(2, 1, [1, 2, 3]);
-        f.set_pixel(3, 0, [9, 9, 9]);
-        assert_eq!(f.pixel(2, 1), Some([1, 2, 3]));
-        assert_eq!(f.pixel(3, 0), None);
-        assert_eq!(f.data.iter().map(|&b| b as u32).sum::<u32>(), 6);
-        assert!(RgbFrame::from_raw(3, 2, vec![0; 17]).is_none());
-        assert!(RgbFrame::from_raw(3, 2, vec![0; 18]).is_some());
     }
 }

@@ -3,7 +3,7 @@
 #![allow(clippy::unwrap_used, clippy::expect_used)] // a failed test or bench is a panic
 
 use monohand_io::video::{
-    probe, Encoder, FfmpegTools, RgbFrame, VideoInput, VideoReader, VideoWriter,
+    probe, Encoder, FfmpegTools, RgbImage, VideoInput, VideoReader, VideoWriter,
 };
 use monohand_io::IoError;
 use std::path::{Path, PathBuf};
@@ -28,7 +28,7 @@ fn tools() -> Option<FfmpegTools> {
 
 /// The picture, decoded by ffmpeg as a one-frame video; `None` (and a message)
 /// without the shared data.
-fn picture() -> Option<RgbFrame> {
+fn picture() -> Option<RgbImage> {
     assert!(
         hand_png().exists(),
         "{} not found (needs ../shared beside the repo)",
@@ -42,28 +42,29 @@ fn picture() -> Option<RgbFrame> {
 }
 
 /// Frame `i` of a pan across the picture: a `W x H` window moving right and down.
-fn pan_frame(pic: &RgbFrame, i: usize) -> RgbFrame {
+fn pan_frame(pic: &RgbImage, i: usize) -> RgbImage {
     let (x0, y0) = (8 * i, 4 * i);
-    let mut f = RgbFrame::new(W, H);
+    let mut f = RgbImage::new(W as u32, H as u32);
     for y in 0..H {
-        let src = 3 * ((y0 + y) * pic.width + x0);
-        f.data[3 * y * W..3 * (y + 1) * W].copy_from_slice(&pic.data[src..src + 3 * W]);
+        let src = 3 * ((y0 + y) * pic.width() as usize + x0);
+        let row = &pic.as_raw()[src..src + 3 * W];
+        (*f)[3 * y * W..3 * (y + 1) * W].copy_from_slice(row);
     }
     f
 }
 
-fn mean_abs_diff(a: &RgbFrame, b: &RgbFrame) -> f64 {
-    assert_eq!(a.data.len(), b.data.len());
+fn mean_abs_diff(a: &RgbImage, b: &RgbImage) -> f64 {
+    assert_eq!(a.len(), b.len());
     let s: u64 = a
-        .data
+        .as_raw()
         .iter()
-        .zip(&b.data)
+        .zip(b.as_raw())
         .map(|(&x, &y)| x.abs_diff(y) as u64)
         .sum();
-    s as f64 / a.data.len() as f64
+    s as f64 / a.len() as f64
 }
 
-fn write_pan(tools: &FfmpegTools, encoder: Encoder, path: &Path, pic: &RgbFrame) {
+fn write_pan(tools: &FfmpegTools, encoder: Encoder, path: &Path, pic: &RgbImage) {
     let mut w = VideoWriter::create_with(tools, encoder, path, W, H, 10.0).unwrap();
     for i in 0..FRAMES {
         w.write(&pan_frame(pic, i)).unwrap();
@@ -91,7 +92,7 @@ fn pan_round_trip_with_each_encoder() {
         assert!((info.fps.unwrap() - 10.0).abs() < 1e-9, "{info:?}");
         assert_eq!(info.frame_count, Some(FRAMES as u64));
         let mut reader = VideoReader::open(&VideoInput::File(path.clone())).unwrap();
-        let mut buf = RgbFrame::default();
+        let mut buf = RgbImage::new(0, 0);
         let mut n = 0;
         while let Some((index, t)) = reader.read_into(&mut buf).unwrap() {
             assert_eq!(index, n as u64);
@@ -200,7 +201,7 @@ fn writer_reports_ffmpeg_errors_and_size_mismatches() {
     // A directory that does not exist: ffmpeg fails; the error says so.
     let bad = dir.path().join("no/such/dir/out.mp4");
     let mut w = VideoWriter::create_with(&tools, Encoder::Mpeg4, &bad, 64, 48, 25.0).unwrap();
-    let frame = RgbFrame::new(64, 48);
+    let frame = RgbImage::new(64, 48);
     let mut result = Ok(());
     for _ in 0..50 {
         result = w.write(&frame);
@@ -215,7 +216,7 @@ fn writer_reports_ffmpeg_errors_and_size_mismatches() {
     assert!(e.to_string().contains("out.mp4"), "{e}");
     let ok = dir.path().join("ok.mkv");
     let mut w = VideoWriter::create_with(&tools, Encoder::Mpeg4, &ok, 64, 48, 25.0).unwrap();
-    let e = w.write(&RgbFrame::new(32, 48)).unwrap_err().to_string();
+    let e = w.write(&RgbImage::new(32, 48)).unwrap_err().to_string();
     assert!(e.contains("32x48") && e.contains("64x48"), "{e}");
     assert!(VideoWriter::create_with(&tools, Encoder::Mpeg4, &ok, 0, 48, 25.0).is_err());
     assert!(VideoWriter::create_with(&tools, Encoder::Mpeg4, &ok, 8, 8, f64::NAN).is_err());
@@ -228,9 +229,9 @@ fn dropped_writer_leaves_a_playable_file_and_odd_sizes_work() {
     let path = dir.path().join("dropped.mp4");
     {
         let mut w = VideoWriter::create_with(&tools, Encoder::Mpeg4, &path, 33, 17, 5.0).unwrap();
-        let mut f = RgbFrame::new(33, 17);
+        let mut f = RgbImage::new(33, 17);
         for i in 0..7u8 {
-            f.data.fill(30 * i);
+            f.fill(30 * i);
             w.write(&f).unwrap();
         }
         // Dropped without finish(), as on an early return.
@@ -240,6 +241,6 @@ fn dropped_writer_leaves_a_playable_file_and_odd_sizes_work() {
     assert_eq!((r.info().width, r.info().height), (34, 18));
     let frames: Vec<_> = r.collect::<Result<_, _>>().unwrap();
     assert_eq!(frames.len(), 7);
-    let mid = frames[6].image.pixel(10, 8).unwrap();
+    let mid = frames[6].image.get_pixel(10, 8).0;
     assert!(mid.iter().all(|&c| c.abs_diff(180) < 8), "{mid:?}");
 }

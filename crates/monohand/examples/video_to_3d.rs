@@ -17,10 +17,7 @@ fn main() -> anyhow::Result<()> {
     let mut session = Session::new(cameras, SessionOptions::default())?;
     for frame in VideoReader::open(&VideoInput::parse(&video))? {
         let frame = frame?;
-        let (w, h) = (frame.image.width as u32, frame.image.height as u32);
-        let image = monohand::RgbImage::from_raw(w, h, frame.image.data)
-            .ok_or(anyhow::anyhow!("bad frame"))?;
-        for done in session.process(&[&image], frame.timestamp_s)? {
+        for done in session.process(&[&frame.image], frame.timestamp_s)? {
             for hand in &done.hands {
                 if let Some(fit) = &hand.fit {
                     let wrist = fit.joints_3d[0];

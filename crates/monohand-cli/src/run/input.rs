@@ -76,10 +76,7 @@ pub(crate) enum FrameSource {
     /// Image files.
     Images { files: Vec<PathBuf>, next: usize },
     /// A running ffmpeg decoder; `None` once finished.
-    Video {
-        reader: Option<VideoReader>,
-        name: String,
-    },
+    Video { reader: Option<VideoReader> },
 }
 
 impl FrameSource {
@@ -92,7 +89,6 @@ impl FrameSource {
             },
             InputKind::Video(v) => FrameSource::Video {
                 reader: Some(VideoReader::open(v)?),
-                name: v.name(),
             },
         })
     }
@@ -143,23 +139,18 @@ impl FrameSource {
                     decode_ms: t.elapsed().as_secs_f64() * 1e3,
                 }))
             }
-            FrameSource::Video { reader, name } => {
+            FrameSource::Video { reader } => {
                 let Some(r) = reader.as_mut() else {
                     return Ok(None);
                 };
                 match r.next_frame() {
-                    Ok(Some(f)) => {
-                        let (w, h) = (f.image.width as u32, f.image.height as u32);
-                        let image = RgbImage::from_raw(w, h, f.image.data)
-                            .ok_or_else(|| format!("{name}: frame {} has a wrong size", f.index));
-                        Ok(Some(Frame {
-                            index: f.index,
-                            source: None,
-                            timestamp_s: f.timestamp_s,
-                            image,
-                            decode_ms: t.elapsed().as_secs_f64() * 1e3,
-                        }))
-                    }
+                    Ok(Some(f)) => Ok(Some(Frame {
+                        index: f.index,
+                        source: None,
+                        timestamp_s: f.timestamp_s,
+                        image: Ok(f.image),
+                        decode_ms: t.elapsed().as_secs_f64() * 1e3,
+                    })),
                     Ok(None) => {
                         *reader = None;
                         Ok(None)

@@ -8,7 +8,7 @@ use monohand_core::prelude::*;
 use monohand_io::export::{write_openpose_frame, CsvWriter, GltfWriter};
 use monohand_io::jsonl::{FrameRecord, JsonlWriter};
 use monohand_io::overlay::{draw_hand, project_joints, HandStyle};
-use monohand_io::video::{RgbFrame, VideoWriter};
+use monohand_io::video::VideoWriter;
 use monohand_vision::RgbImage;
 use std::path::{Path, PathBuf};
 
@@ -167,12 +167,8 @@ impl Outputs {
                 tracing::warn!("frame {}: not added to the glTF: {e}", record.frame);
             }
         }
-        if let (Some(overlay), Some(image)) = (&mut self.overlay, image) {
-            let (w, h) = image.dimensions();
-            let Some(mut frame) = RgbFrame::from_raw(w as usize, h as usize, image.into_raw())
-            else {
-                return Ok(());
-            };
+        if let (Some(overlay), Some(mut frame)) = (&mut self.overlay, image) {
+            let (w, h) = frame.dimensions();
             let camera = match self.camera {
                 Some(c) => Some(c),
                 None => Camera::generic(w, h).ok(),
@@ -181,11 +177,12 @@ impl Outputs {
             match overlay {
                 Overlay::Video { path, fps, writer } => {
                     if writer.is_none() {
-                        let w = VideoWriter::create(&*path, frame.width, frame.height, *fps)?;
-                        *writer = Some((w, frame.width, frame.height));
+                        let (fw, fh) = (w as usize, h as usize);
+                        let w = VideoWriter::create(&*path, fw, fh, *fps)?;
+                        *writer = Some((w, fw, fh));
                     }
                     if let Some((wr, ww, wh)) = writer {
-                        if (frame.width, frame.height) == (*ww, *wh) {
+                        if (w as usize, h as usize) == (*ww, *wh) {
                             wr.write(&frame)?;
                         } else {
                             tracing::warn!(
@@ -231,17 +228,16 @@ fn has_extension(p: &Path, extensions: &[&str]) -> bool {
 }
 
 /// Writes an overlay frame as an image file (PNG or JPEG, by the name's extension).
-fn save_image(frame: RgbFrame, path: &Path) -> Result<()> {
-    let img = RgbImage::from_raw(frame.width as u32, frame.height as u32, frame.data)
-        .context("overlay frame of inconsistent size")?;
-    img.save(path)
+fn save_image(frame: RgbImage, path: &Path) -> Result<()> {
+    frame
+        .save(path)
         .with_context(|| format!("cannot write {}", path.display()))
 }
 
 /// Draws every hand of a record: its 2D keypoints and, when fitted, the 3D model projected
 /// with `camera` (the first view's).
-pub(crate) fn draw_record(frame: &mut RgbFrame, record: &FrameRecord, camera: Option<&Camera>) {
-    let style = HandStyle::for_image(frame.width, frame.height);
+pub(crate) fn draw_record(frame: &mut RgbImage, record: &FrameRecord, camera: Option<&Camera>) {
+    let style = HandStyle::for_image(frame.width() as usize, frame.height() as usize);
     for hand in &record.hands {
         let projected = match (&hand.joints_3d_mm, camera) {
             (Some(joints), Some(cam)) => Some(project_joints(cam, joints)),
