@@ -22,7 +22,6 @@ pub mod dataset;
 pub mod datasets;
 pub mod error;
 pub mod evaluate;
-mod file_errors;
 pub mod manifest;
 pub mod mat;
 pub mod metrics;

@@ -26,7 +26,7 @@
 //! assert_eq!(back.get(&[2, 1]), Some(6.0)); // row 2, column 1
 //! ```
 
-use crate::file_errors::{name_of, read_bytes, FileError};
+use monohand_io::error::{name_of, read_bytes};
 use monohand_io::{IoError, IoResult};
 use std::io::Read;
 use std::path::Path;

@@ -26,9 +26,9 @@
 //! # Ok::<(), monohand_io::IoError>(())
 //! ```
 
-use crate::file_errors::{name_of, read_text, FileError};
 use crate::mat::MatFile;
 use monohand_core::prelude::*;
+use monohand_io::error::{name_of, read_text};
 use monohand_io::{IoError, IoResult};
 use nalgebra::{Rotation3, Vector3};
 use std::path::Path;

@@ -100,13 +100,13 @@ pub enum IoError {
 pub type IoResult<T> = Result<T, IoError>;
 
 /// The display name used for a path in error messages.
-pub(crate) fn name_of(path: &Path) -> String {
+pub fn name_of(path: &Path) -> String {
     path.display().to_string()
 }
 
 impl IoError {
     /// A [`IoError::Field`] error.
-    pub(crate) fn field(
+    pub fn field(
         file: impl Into<String>,
         field: impl Into<String>,
         message: impl Into<String>,
@@ -119,7 +119,7 @@ impl IoError {
     }
 
     /// A [`IoError::Format`] error.
-    pub(crate) fn format(file: impl Into<String>, message: impl Into<String>) -> IoError {
+    pub fn format(file: impl Into<String>, message: impl Into<String>) -> IoError {
         IoError::Format {
             file: file.into(),
             message: message.into(),
@@ -127,7 +127,7 @@ impl IoError {
     }
 
     /// A [`IoError::Json`] error from a serde_json error.
-    pub(crate) fn json(file: impl Into<String>, e: &serde_json::Error) -> IoError {
+    pub fn json(file: impl Into<String>, e: &serde_json::Error) -> IoError {
         IoError::Json {
             file: file.into(),
             line: e.line(),
@@ -137,7 +137,7 @@ impl IoError {
     }
 
     /// A [`IoError::Core`] error.
-    pub(crate) fn core(file: impl Into<String>, source: CoreError) -> IoError {
+    pub fn core(file: impl Into<String>, source: CoreError) -> IoError {
         IoError::Core {
             file: file.into(),
             error: source,
@@ -145,8 +145,16 @@ impl IoError {
     }
 }
 
+/// Reads a whole file, mapping the error to [`IoError::Read`].
+pub fn read_bytes(path: &Path) -> IoResult<Vec<u8>> {
+    std::fs::read(path).map_err(|source| IoError::Read {
+        path: path.to_path_buf(),
+        error: source,
+    })
+}
+
 /// Reads a whole text file, mapping the error to [`IoError::Read`].
-pub(crate) fn read_text(path: &Path) -> IoResult<String> {
+pub fn read_text(path: &Path) -> IoResult<String> {
     std::fs::read_to_string(path).map_err(|source| IoError::Read {
         path: path.to_path_buf(),
         error: source,
