@@ -201,8 +201,8 @@ fn main() {
 fn run() -> Res<()> {
     let args = parse_args()?;
     std::fs::create_dir_all(&args.out)?;
-    let seq = monohand_io::stb::StbSequence::load(args.data.join("labels/B1Counting_BB.mat"))?;
-    let (cam, _) = monohand_io::stb::stb_cameras(args.data.join("camera_params.json"))?;
+    let seq = monohand_eval::stb::StbSequence::load(args.data.join("labels/B1Counting_BB.mat"))?;
+    let (cam, _) = monohand_eval::stb::stb_cameras(args.data.join("camera_params.json"))?;
     let all: Vec<_> = seq.frames.iter().map(|f| f.joints).collect();
     let fit = fit_skeleton(&all, &HandSkeleton::default_for(HandSide::Left))?;
     let sk = fit.skeleton;
@@ -246,10 +246,7 @@ fn run() -> Res<()> {
             ceres_minimizer_ns: Vec::new(),
         };
         for (i, kp) in kps.iter().enumerate() {
-            let views = [View {
-                camera: &cam,
-                keypoints: kp,
-            }];
+            let views = [View::new(&cam, kp)];
             let starts = fitter.starting_poses(&views)?;
             if starts.is_empty() || !starts.iter().all(|s| in_front(&sk, s)) {
                 return Err(format!("frame {i}: no usable start").into());
@@ -300,10 +297,7 @@ fn run() -> Res<()> {
         };
         for (i, kp) in kps.iter().enumerate().skip(1) {
             let prev = scratch.ours_full[i - 1].pose;
-            let views = [View {
-                camera: &cam,
-                keypoints: kp,
-            }];
+            let views = [View::new(&cam, kp)];
             if !in_front(&sk, &prev) {
                 return Err(
                     format!("frame {i}: previous solution not in front of the camera").into(),
