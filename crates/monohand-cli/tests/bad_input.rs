@@ -90,6 +90,19 @@ fn stderr(o: &std::process::Output) -> String {
     String::from_utf8_lossy(&o.stderr).to_string()
 }
 
+/// `monohand lift` of one JSON Lines input with one camera, written to `output`.
+fn lift_jsonl(camera: &Path, input: &Path, output: &str) -> std::process::Output {
+    monohand(&[
+        "lift",
+        "--camera",
+        p(camera),
+        "--jsonl",
+        p(input),
+        "--output",
+        output,
+    ])
+}
+
 #[test]
 fn synthetic_hand_is_recovered() {
     let s = Setup::new(2);
@@ -282,28 +295,12 @@ fn stdout_output_and_jsonl_input_agree_with_openpose_input() {
     }
     drop(w);
     let cam = s.path("cam.json");
-    let o = monohand(&[
-        "lift",
-        "--camera",
-        p(&cam),
-        "--jsonl",
-        p(&input),
-        "--output",
-        "-",
-    ]);
+    let o = lift_jsonl(&cam, &input, "-");
     ok(&o);
     assert_eq!(String::from_utf8_lossy(&o.stdout), from_openpose);
     // A malformed JSON Lines input names the file and the line.
     std::fs::write(&input, "{\"frame\": 0, \"hands\": []}\n{\"frame\": 1,\n").unwrap();
-    let o = monohand(&[
-        "lift",
-        "--camera",
-        p(&cam),
-        "--jsonl",
-        p(&input),
-        "--output",
-        "-",
-    ]);
+    let o = lift_jsonl(&cam, &input, "-");
     assert_eq!(o.status.code(), Some(1));
     assert!(stderr(&o).contains("in.jsonl: line 2"), "{}", stderr(&o));
 }
@@ -443,15 +440,7 @@ fn lift_uses_network_3d_cues_from_json_lines() {
     )
     .unwrap();
     let out = s.path("out.jsonl");
-    let o = monohand(&[
-        "lift",
-        "--camera",
-        p(&cam),
-        "--jsonl",
-        p(&input),
-        "--output",
-        p(&out),
-    ]);
+    let o = lift_jsonl(&cam, &input, p(&out));
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
     assert!(stderr(&o).contains("in.jsonl: line 1"), "{}", stderr(&o));
 }

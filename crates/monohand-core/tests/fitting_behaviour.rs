@@ -35,7 +35,8 @@ fn bad_inputs_are_errors() {
 
     let mut conf = good;
     conf.points[4][2] = 1.5;
-    assert!(fitter.fit(&[View::new(&cam, &conf)]).is_err());
+    let e = fitter.fit(&[View::new(&cam, &conf)]).unwrap_err();
+    assert!(matches!(e, CoreError::InvalidKeypoints(_)), "{e}");
 
     let mut few = good;
     for p in few.points.iter_mut().skip(3) {
@@ -51,9 +52,13 @@ fn bad_inputs_are_errors() {
         fitter.fit(&[]).unwrap_err(),
         CoreError::ViewMismatch(_)
     ));
-    assert!(fitter
+    let e = fitter
         .fit(&[View::new(&cam, &Keypoints2d::default())])
-        .is_err());
+        .unwrap_err();
+    assert!(
+        matches!(e, CoreError::TooFewJoints { usable: 0, .. }),
+        "{e}"
+    );
 
     let mut bad_cam = cam;
     bad_cam.intrinsics.fx = f64::NAN;
@@ -63,15 +68,17 @@ fn bad_inputs_are_errors() {
     ));
     let mut bad_start = pose;
     bad_start.translation.x = f64::INFINITY;
-    assert!(fitter
+    let e = fitter
         .fit_from(&[View::new(&cam, &good)], &bad_start)
-        .is_err());
-    assert!(FitOptions {
+        .unwrap_err();
+    assert!(matches!(e, CoreError::InvalidOptions(_)), "{e}");
+    let e = FitOptions {
         min_confidence: 2.0,
         ..Default::default()
     }
     .validate()
-    .is_err());
+    .unwrap_err();
+    assert!(e.to_string().contains("min_confidence"), "{e}");
 }
 
 #[test]
