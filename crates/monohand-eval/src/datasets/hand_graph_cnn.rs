@@ -28,18 +28,9 @@ pub const SIDE: HandSide = HandSide::Left;
 
 #[derive(Deserialize)]
 struct Labels {
-    camera: LabelCamera,
+    /// The original 1280x720 camera (`fx, fy, cx, cy, width, height`).
+    camera: Intrinsics,
     frames: Vec<LabelFrame>,
-}
-
-#[derive(Deserialize)]
-struct LabelCamera {
-    fx: f64,
-    fy: f64,
-    cx: f64,
-    cy: f64,
-    width: u32,
-    height: u32,
 }
 
 #[derive(Deserialize)]
