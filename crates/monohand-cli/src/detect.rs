@@ -1,8 +1,9 @@
 //! `monohand detect`: hands (box, score, side, 21 keypoints) and heads in images.
 
-use crate::vision::{frame_record, ModelArgs};
+use crate::vision::ModelArgs;
 use anyhow::{bail, Result};
 use clap::Args;
+use monohand::records::detections_record;
 use monohand_io::jsonl::{FrameRecord, JsonlWriter};
 use monohand_vision::image_io::images_in_folder;
 use rayon::prelude::*;
@@ -81,7 +82,7 @@ pub(crate) fn run(args: &DetectArgs) -> Result<()> {
                     let t = Instant::now();
                     match pipeline.detect_file(path) {
                         Ok(found) => {
-                            let mut r = frame_record(frame, Some(source_name(path)), &found);
+                            let mut r = detections_record(frame, Some(source_name(path)), &found);
                             r.timings_ms = Some(
                                 [("total".to_string(), t.elapsed().as_secs_f64() * 1e3)].into(),
                             );

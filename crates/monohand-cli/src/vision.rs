@@ -3,11 +3,8 @@
 
 use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
-use monohand_io::jsonl::{FrameRecord, HandRecord, HeadRecord, OrientedBox};
 use monohand_vision::heatmap::HeatmapModelConfig;
-use monohand_vision::{
-    DetectedHand, Detections, HandPipeline, ModelOptions, ModelStore, ModelVariant, PipelineOptions,
-};
+use monohand_vision::{HandPipeline, ModelOptions, ModelStore, ModelVariant, PipelineOptions};
 use std::path::PathBuf;
 
 /// Size of a MediaPipe network.
@@ -142,40 +139,6 @@ fn parse_size(s: &str) -> Result<(usize, usize)> {
             _ => bail!("size {s:?} is not WxH with positive integers"),
         },
         None => bail!("size {s:?} is not WxH"),
-    }
-}
-
-/// The output record of one detected hand (no 3D yet).
-pub(crate) fn hand_record(hand: &DetectedHand) -> HandRecord {
-    let r = &hand.oriented_box;
-    let mut record = HandRecord::from_keypoints(hand.side, &hand.keypoints);
-    record.bbox = Some(monohand_vision::pipeline::point_bounds(&hand.keypoints));
-    record.score = Some(f64::from(hand.detection_score));
-    record.side_score = Some(f64::from(hand.side_score));
-    record.oriented_box = Some(OrientedBox {
-        center: r.center,
-        size: [r.width, r.height],
-        angle_deg: r.rotation.to_degrees(),
-    });
-    record.with_cues(hand.cues.as_ref())
-}
-
-/// The output record of one image's detections.
-pub(crate) fn frame_record(frame: u64, source: Option<String>, found: &Detections) -> FrameRecord {
-    FrameRecord {
-        frame,
-        source,
-        image_size: Some([found.image_size.0, found.image_size.1]),
-        hands: found.hands.iter().map(hand_record).collect(),
-        heads: found
-            .heads
-            .iter()
-            .map(|h| HeadRecord {
-                bbox: h.head_box,
-                score: f64::from(h.score),
-            })
-            .collect(),
-        ..FrameRecord::default()
     }
 }
 

@@ -13,6 +13,8 @@
 //! - [`Lifter`]: 2D keypoints made elsewhere in, 3D out, with the same association policy
 //!   ([`association`]).
 //!
+//! - [`records`]: the project's JSON Lines records of these results.
+//!
 //! A video file to 3D joints is `examples/video_to_3d.rs`.
 #![deny(missing_docs)]
 
@@ -22,6 +24,7 @@ mod error;
 mod fit;
 mod hands;
 mod lifter;
+pub mod records;
 mod session;
 
 pub use crops::{CropTracker, HandId, ViewHands, VisionFrame};

@@ -1,0 +1,97 @@
+//! The project's output records ([`monohand_io::jsonl`]) of the session's results: one
+//! definition for `monohand run`, `monohand detect` and the Python package, so that they
+//! write the same numbers.
+
+use crate::hands::FittedFrame;
+use monohand_core::observation::Keypoints2d;
+use monohand_io::jsonl::{FrameRecord, HandRecord, HeadRecord, OrientedBox, PoseRecord};
+use monohand_vision::{DetectedHand, Detections};
+
+/// The record of one detected hand: its keypoints, boxes, scores and the network's 3D cues.
+pub fn hand_record(hand: &DetectedHand) -> HandRecord {
+    let r = &hand.oriented_box;
+    let mut record = HandRecord::from_keypoints(hand.side, &hand.keypoints);
+    record.bbox = Some(monohand_vision::pipeline::point_bounds(&hand.keypoints));
+    record.score = Some(f64::from(hand.detection_score));
+    record.side_score = Some(f64::from(hand.side_score));
+    record.oriented_box = Some(OrientedBox {
+        center: r.center,
+        size: [r.width, r.height],
+        angle_deg: r.rotation.to_degrees(),
+    });
+    record.with_cues(hand.cues.as_ref())
+}
+
+/// The record of one image's detections (2D only).
+pub fn detections_record(frame: u64, source: Option<String>, found: &Detections) -> FrameRecord {
+    FrameRecord {
+        frame,
+        source,
+        image_size: Some([found.image_size.0, found.image_size.1]),
+        hands: found.hands.iter().map(hand_record).collect(),
+        heads: found
+            .heads
+            .iter()
+            .map(|h| HeadRecord {
+                bbox: h.head_box,
+                score: f64::from(h.score),
+            })
+            .collect(),
+        ..FrameRecord::default()
+    }
+}
+
+/// The record of a fitted frame: the first view's detections with each hand's id, voted
+/// side and 3D, then the hands only later views see. Time and timings are the caller's.
+pub fn fitted_record(done: &FittedFrame, source: Option<String>) -> FrameRecord {
+    let vision = &done.vision;
+    let mut record = match vision.views.first() {
+        Some(Ok(first)) => detections_record(vision.index, source, &first.detections),
+        Some(Err(e)) => FrameRecord {
+            frame: vision.index,
+            source,
+            error: Some(e.clone()),
+            ..FrameRecord::default()
+        },
+        None => FrameRecord {
+            frame: vision.index,
+            source,
+            ..FrameRecord::default()
+        },
+    };
+    if let Some(e) = &done.error {
+        record.error = Some(e.clone());
+    }
+    for hand in &done.hands {
+        match hand.views.first() {
+            // A hand of the first view: its record is the detection's, with the 3D added.
+            Some(&(0, k)) => {
+                let Some(rec) = record.hands.get_mut(k) else {
+                    continue;
+                };
+                rec.id = Some(hand.id);
+                if hand.side != rec.side {
+                    // The vote over the track overrules this frame's network.
+                    rec.side = hand.side;
+                    rec.side_score = rec.side_score.map(|p| 1.0 - p);
+                }
+                if let Some(fit) = &hand.fit {
+                    rec.joints_3d_mm = Some(fit.joints_3d.map(|x| [x.x, x.y, x.z]));
+                    rec.pose = Some(PoseRecord::from_pose(&fit.pose));
+                    rec.reprojection_error_px = Some(fit.reprojection_error_px);
+                    rec.converged = Some(fit.converged);
+                    rec.iterations = Some(fit.iterations);
+                }
+            }
+            // Only other views see it: no keypoints in the first view, the 3D in its frame.
+            _ => {
+                if let Some(fit) = &hand.fit {
+                    let mut rec = HandRecord::from_fit(hand.side, &Keypoints2d::default(), fit);
+                    rec.id = Some(hand.id);
+                    record.hands.push(rec);
+                }
+            }
+        }
+    }
+    record
+}
