@@ -1,0 +1,184 @@
+"""Type stubs of the native module (Rust, PyO3)."""
+
+from __future__ import annotations
+
+from os import PathLike
+from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
+
+import numpy as np
+import numpy.typing as npt
+
+__version__: str
+NUM_JOINTS: int
+#: The 21 joints: wrist, then 4 per finger, thumb to little (MediaPipe's and OpenPose's order).
+JOINT_NAMES: List[str]
+
+class MonohandError(RuntimeError):
+    """A model, file, video or fit failed (the message says which and why)."""
+
+class Camera:
+    """A pinhole camera (pixels; pixel centres at integer coordinates), optionally with
+    OpenCV lens distortion ``(k1, k2, p1, p2[, k3[, k4, k5, k6]])``."""
+
+    def __init__(
+        self,
+        fx: float,
+        fy: float,
+        cx: float,
+        cy: float,
+        width: int,
+        height: int,
+        distortion: Optional[Sequence[float]] = None,
+    ) -> None: ...
+    @staticmethod
+    def generic(width: int, height: int) -> Camera:
+        """Principal point at the centre and a 60 degree horizontal field of view."""
+    @staticmethod
+    def load(path: Union[str, PathLike[str]]) -> Camera:
+        """A calibration file: the project's JSON, WACV'18 JSON, OpenCV YAML or XML."""
+    @property
+    def fx(self) -> float: ...
+    @property
+    def fy(self) -> float: ...
+    @property
+    def cx(self) -> float: ...
+    @property
+    def cy(self) -> float: ...
+    @property
+    def width(self) -> int: ...
+    @property
+    def height(self) -> int: ...
+    @property
+    def k(self) -> npt.NDArray[np.float64]:
+        """The 3x3 intrinsic matrix."""
+    def project(self, points: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
+        """``(N, 3)`` mm to ``(N, 2)`` pixels; NaN behind the camera."""
+
+class Pose:
+    """The fitted model's 27 parameters."""
+
+    @property
+    def translation_mm(self) -> npt.NDArray[np.float64]:
+        """``(3,)``: the wrist, mm, in the first camera's frame."""
+    @property
+    def quaternion_xyzw(self) -> npt.NDArray[np.float64]:
+        """``(4,)``: the hand's rotation."""
+    @property
+    def angles_rad(self) -> npt.NDArray[np.float64]:
+        """``(20,)``: joint angles, radians, thumb to little finger, 4 each."""
+
+class Hand:
+    """One hand of a frame: the fields of a ``hands`` entry of ``monohand run``'s JSON Lines."""
+
+    @property
+    def id(self) -> Optional[int]:
+        """Identity over a session's frames (``None`` from ``lift``)."""
+    @property
+    def side(self) -> str:
+        """``"left"`` or ``"right"``, voted over the hand's frames."""
+    @property
+    def side_score(self) -> Optional[float]: ...
+    @property
+    def score(self) -> Optional[float]:
+        """Detection (presence) score."""
+    @property
+    def bbox(self) -> Optional[Tuple[float, float, float, float]]:
+        """``(x0, y0, x1, y1)`` pixels around the keypoints."""
+    @property
+    def keypoints_2d(self) -> npt.NDArray[np.float64]:
+        """``(21, 3)``: x, y (pixels of the first camera) and confidence."""
+    @property
+    def joints_3d_mm(self) -> Optional[npt.NDArray[np.float64]]:
+        """``(21, 3)``: absolute 3D, mm, first camera's frame (x right, y down, z forward)."""
+    @property
+    def pose(self) -> Optional[Pose]: ...
+    @property
+    def reprojection_error_px(self) -> Optional[float]: ...
+    @property
+    def converged(self) -> Optional[bool]: ...
+    @property
+    def iterations(self) -> Optional[int]: ...
+    @property
+    def world_mm(self) -> Optional[npt.NDArray[np.float64]]:
+        """``(21, 3)``: the landmark network's own wrist-relative 3D, mm."""
+    @property
+    def depth_px(self) -> Optional[npt.NDArray[np.float64]]:
+        """``(21,)``: the landmark network's relative depth, pixels of its crop."""
+    def to_dict(self) -> Dict[str, Any]:
+        """Exactly the JSON Lines entry ``monohand run`` writes for this hand."""
+
+class Models:
+    """The networks, loaded once and shared by sessions."""
+
+    def __init__(
+        self,
+        hands: int = 2,
+        tracking: bool = True,
+        model_dir: Optional[Union[str, PathLike[str]]] = None,
+        heads: bool = False,
+    ) -> None: ...
+    @property
+    def hands(self) -> int: ...
+    @property
+    def tracking(self) -> bool: ...
+
+Image = npt.NDArray[np.uint8]
+
+class Session:
+    """Frames in (``(H, W, 3)`` uint8 RGB, one per camera), tracked absolute 3D hands out."""
+
+    def __init__(
+        self,
+        cameras: Optional[Union[Camera, Sequence[Camera]]] = None,
+        hands: int = 2,
+        tracking: bool = True,
+        model_dir: Optional[Union[str, PathLike[str]]] = None,
+        smoothing: bool = False,
+        heads: bool = False,
+        detect_every: int = 10,
+        models: Optional[Models] = None,
+        hand_scale: float = 1.0,
+    ) -> None: ...
+    def process(self, image: Union[Image, List[Image]], time_s: Optional[float] = None) -> List[Hand]:
+        """One frame (default time: 30 fps); its hands."""
+    def process_dict(self, image: Union[Image, List[Image]], time_s: Optional[float] = None) -> Dict[str, Any]:
+        """One frame; the whole JSON Lines record (hands, heads) as a dict."""
+    def notes(self) -> List[str]: ...
+    @property
+    def cameras(self) -> List[Camera]: ...
+    def close(self) -> None: ...
+    def __enter__(self) -> Session: ...
+    def __exit__(self, *args: Any) -> bool: ...
+
+class Lifter:
+    """2D keypoints made elsewhere in, absolute 3D out, frame after frame."""
+
+    def __init__(
+        self, camera: Union[Camera, Sequence[Camera]], tracking: bool = True, hand_scale: float = 1.0
+    ) -> None: ...
+    def lift(self, keypoints_2d: npt.NDArray[np.float64], side: str = "right") -> Hand: ...
+
+class Frame:
+    """A decoded frame; ``image`` wraps the decoder's buffer without a copy."""
+
+    index: int
+    time_s: float
+    image: npt.NDArray[np.uint8]
+
+class VideoReader:
+    """The frames of a video file, decoded by ffmpeg."""
+
+    def __init__(self, path: str) -> None: ...
+    @property
+    def fps(self) -> float: ...
+    @property
+    def size(self) -> Tuple[int, int]:
+        """``(width, height)``."""
+    def __iter__(self) -> VideoReader: ...
+    def __next__(self) -> Frame: ...
+    def close(self) -> None: ...
+    def __enter__(self) -> VideoReader: ...
+    def __exit__(self, *args: Any) -> bool: ...
+
+def fetch_models(model_dir: Optional[Union[str, PathLike[str]]] = None) -> str:
+    """Makes sure the weights are cached (pip on first use); returns the cache folder."""

@@ -1,0 +1,848 @@
+//! The CPython extension `monohand._monohand`: the session, the lifter, cameras and video
+//! reading of the Rust crates, with NumPy arrays in and out. The Python package `monohand`
+//! (`python/monohand`) re-exports it and adds tables and the Daft integration.
+//!
+//! The GIL is released while the networks run, while the fit runs and while ffmpeg
+//! decodes, so Python threads (and Daft's workers) run side by side.
+#![deny(missing_docs)]
+
+use monohand::records::fitted_record;
+use monohand::vision::{HandPipeline, PipelineOptions};
+use monohand::{SessionError, SessionOptions};
+use monohand_core::filtering::OneEuroParams;
+use monohand_core::prelude::*;
+use monohand_io::jsonl::{FrameRecord, HandRecord, PoseRecord};
+use monohand_io::video::{VideoInput, VideoReader};
+use numpy::ndarray::{Array2, Array3};
+use numpy::{
+    PyArray1, PyArray2, PyArray3, PyArrayMethods, PyReadonlyArray2, PyUntypedArrayMethods,
+};
+use pyo3::create_exception;
+use pyo3::exceptions::{PyRuntimeError, PyStopIteration, PyValueError};
+use pyo3::prelude::*;
+use pyo3::types::PyList;
+use std::sync::Arc;
+
+create_exception!(
+    _monohand,
+    MonohandError,
+    PyRuntimeError,
+    "A model, file, video or fit failed (the message says which and why)."
+);
+
+fn session_err(e: SessionError) -> PyErr {
+    match e {
+        SessionError::Invalid(m) => PyValueError::new_err(m),
+        SessionError::Core(e) => PyValueError::new_err(e.to_string()),
+        other => MonohandError::new_err(other.to_string()),
+    }
+}
+
+fn io_err(e: monohand_io::IoError) -> PyErr {
+    MonohandError::new_err(e.to_string())
+}
+
+fn core_err(e: CoreError) -> PyErr {
+    PyValueError::new_err(e.to_string())
+}
+
+fn side_name(side: HandSide) -> &'static str {
+    match side {
+        HandSide::Left => "left",
+        HandSide::Right => "right",
+    }
+}
+
+fn parse_side(side: &str) -> PyResult<HandSide> {
+    match side.to_ascii_lowercase().as_str() {
+        "left" | "l" => Ok(HandSide::Left),
+        "right" | "r" => Ok(HandSide::Right),
+        _ => Err(PyValueError::new_err(format!(
+            "side must be 'left' or 'right', not {side:?}"
+        ))),
+    }
+}
+
+/// The default (population average) hands, left then right, scaled by `hand_scale`.
+fn skeletons(hand_scale: f64) -> PyResult<[HandSkeleton; 2]> {
+    if !(hand_scale.is_finite() && hand_scale > 0.3 && hand_scale < 3.0) {
+        return Err(PyValueError::new_err(format!(
+            "hand_scale {hand_scale} must be between 0.3 and 3 (1: the average adult hand)"
+        )));
+    }
+    Ok([
+        HandSkeleton::default_for(HandSide::Left)
+            .scaled(hand_scale)
+            .map_err(core_err)?,
+        HandSkeleton::default_for(HandSide::Right)
+            .scaled(hand_scale)
+            .map_err(core_err)?,
+    ])
+}
+
+/// A 21x3 array of rows of three numbers.
+fn joints_array<'py>(py: Python<'py>, rows: &[[f64; 3]; NUM_JOINTS]) -> Bound<'py, PyArray2<f64>> {
+    let flat: Vec<f64> = rows.iter().flatten().copied().collect();
+    // The shape matches the data by construction.
+    let arr = Array2::from_shape_vec((NUM_JOINTS, 3), flat)
+        .unwrap_or_else(|_| Array2::zeros((NUM_JOINTS, 3)));
+    PyArray2::from_owned_array(py, arr)
+}
+
+/// A pinhole camera (optionally with lens distortion) at a pose in the reference frame.
+///
+/// `Camera(fx, fy, cx, cy, width, height)`; `Camera.generic(width, height)` for footage of
+/// unknown origin; `Camera.load(path)` for a calibration file (the project's JSON, the
+/// WACV'18 JSON, OpenCV YAML or XML).
+#[pyclass(module = "monohand._monohand", name = "Camera", frozen, eq)]
+#[derive(Clone, Copy, PartialEq)]
+struct PyCamera {
+    inner: Camera,
+}
+
+#[pymethods]
+impl PyCamera {
+    #[new]
+    #[pyo3(signature = (fx, fy, cx, cy, width, height, distortion=None))]
+    fn new(
+        fx: f64,
+        fy: f64,
+        cx: f64,
+        cy: f64,
+        width: u32,
+        height: u32,
+        distortion: Option<Vec<f64>>,
+    ) -> PyResult<PyCamera> {
+        let mut inner = Camera::pinhole(fx, fy, cx, cy, width, height).map_err(core_err)?;
+        if let Some(d) = distortion {
+            inner.distortion = Distortion::from_slice(&d).map_err(core_err)?;
+            inner.validate().map_err(core_err)?;
+        }
+        Ok(PyCamera { inner })
+    }
+
+    /// A camera for footage of unknown origin: principal point at the centre, a 60 degree
+    /// horizontal field of view. Absolute depth is then only as good as that guess.
+    #[staticmethod]
+    fn generic(width: u32, height: u32) -> PyResult<PyCamera> {
+        Ok(PyCamera {
+            inner: Camera::generic(width, height).map_err(core_err)?,
+        })
+    }
+
+    /// The first camera of a calibration file.
+    #[staticmethod]
+    fn load(path: std::path::PathBuf) -> PyResult<PyCamera> {
+        Ok(PyCamera {
+            inner: monohand_io::calibration::read_camera(&path).map_err(io_err)?,
+        })
+    }
+
+    /// Focal length along x, pixels.
+    #[getter]
+    fn fx(&self) -> f64 {
+        self.inner.intrinsics.fx
+    }
+    /// Focal length along y, pixels.
+    #[getter]
+    fn fy(&self) -> f64 {
+        self.inner.intrinsics.fy
+    }
+    /// Principal point x, pixels (pixel centres at integers).
+    #[getter]
+    fn cx(&self) -> f64 {
+        self.inner.intrinsics.cx
+    }
+    /// Principal point y, pixels.
+    #[getter]
+    fn cy(&self) -> f64 {
+        self.inner.intrinsics.cy
+    }
+    /// Image width, pixels.
+    #[getter]
+    fn width(&self) -> u32 {
+        self.inner.intrinsics.width
+    }
+    /// Image height, pixels.
+    #[getter]
+    fn height(&self) -> u32 {
+        self.inner.intrinsics.height
+    }
+    /// The 3x3 intrinsic matrix.
+    #[getter]
+    fn k<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
+        let i = &self.inner.intrinsics;
+        let k = [[i.fx, 0.0, i.cx], [0.0, i.fy, i.cy], [0.0, 0.0, 1.0]];
+        let flat: Vec<f64> = k.iter().flatten().copied().collect();
+        let arr = Array2::from_shape_vec((3, 3), flat).unwrap_or_else(|_| Array2::eye(3));
+        PyArray2::from_owned_array(py, arr)
+    }
+    /// Projects points `(N, 3)` in millimetres in the reference frame to pixels `(N, 2)`
+    /// (NaN for points behind the camera).
+    fn project<'py>(
+        &self,
+        py: Python<'py>,
+        points: PyReadonlyArray2<'py, f64>,
+    ) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let p = points.as_array();
+        if p.ncols() != 3 {
+            return Err(PyValueError::new_err(format!(
+                "points must be (N, 3), not {:?}",
+                p.shape()
+            )));
+        }
+        let mut out = Array2::from_elem((p.nrows(), 2), f64::NAN);
+        for (i, row) in p.rows().into_iter().enumerate() {
+            let x = nalgebra::Vector3::new(row[0], row[1], row[2]);
+            if let Some(px) = self.inner.project(&x) {
+                out[[i, 0]] = px.x;
+                out[[i, 1]] = px.y;
+            }
+        }
+        Ok(PyArray2::from_owned_array(py, out))
+    }
+    fn __repr__(&self) -> String {
+        let i = &self.inner.intrinsics;
+        format!(
+            "Camera(fx={}, fy={}, cx={}, cy={}, width={}, height={})",
+            i.fx, i.fy, i.cx, i.cy, i.width, i.height
+        )
+    }
+}
+
+/// The fitted hand model's parameters: wrist translation (mm), rotation quaternion
+/// `(x, y, z, w)` and the 20 joint angles (radians), in the project's parameter layout.
+#[pyclass(module = "monohand._monohand", name = "Pose", frozen)]
+#[derive(Clone)]
+struct PyPose {
+    inner: PoseRecord,
+}
+
+#[pymethods]
+impl PyPose {
+    /// Wrist position, mm, in the first camera's frame.
+    #[getter]
+    fn translation_mm<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        PyArray1::from_slice(py, &self.inner.translation_mm)
+    }
+    /// Hand rotation as a unit quaternion `(x, y, z, w)`.
+    #[getter]
+    fn quaternion_xyzw<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        PyArray1::from_slice(py, &self.inner.quaternion_xyzw)
+    }
+    /// The 20 joint angles, radians (thumb to little finger, 4 each).
+    #[getter]
+    fn angles_rad<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        PyArray1::from_slice(py, &self.inner.angles_rad)
+    }
+    fn __repr__(&self) -> String {
+        let t = self.inner.translation_mm;
+        format!(
+            "Pose(translation_mm=[{:.1}, {:.1}, {:.1}], ...)",
+            t[0], t[1], t[2]
+        )
+    }
+}
+
+/// One hand of a frame: the networks' 2D and the fitted absolute 3D.
+///
+/// The fields are those of a `hands` entry of `monohand run`'s JSON Lines output, with
+/// arrays as NumPy arrays; `to_dict()` gives exactly that entry.
+#[pyclass(module = "monohand._monohand", name = "Hand", frozen)]
+#[derive(Clone)]
+struct PyHand {
+    inner: HandRecord,
+}
+
+#[pymethods]
+impl PyHand {
+    /// Identity over the frames of a session (`None` from `lift`).
+    #[getter]
+    fn id(&self) -> Option<u64> {
+        self.inner.id
+    }
+    /// `"left"` or `"right"`, voted over the hand's frames.
+    #[getter]
+    fn side(&self) -> &'static str {
+        side_name(self.inner.side)
+    }
+    /// Probability the network gives to the side (`None` without a network).
+    #[getter]
+    fn side_score(&self) -> Option<f64> {
+        self.inner.side_score
+    }
+    /// Detection (presence) score in `[0, 1]`.
+    #[getter]
+    fn score(&self) -> Option<f64> {
+        self.inner.score
+    }
+    /// Box around the keypoints, `(x0, y0, x1, y1)` pixels.
+    #[getter]
+    fn bbox(&self) -> Option<(f64, f64, f64, f64)> {
+        self.inner.bbox.map(|b| (b[0], b[1], b[2], b[3]))
+    }
+    /// `(21, 3)`: pixel x, y and confidence per joint (wrist, then 4 per finger, thumb to
+    /// little), in the first camera's image.
+    #[getter]
+    fn keypoints_2d<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
+        joints_array(py, &self.inner.keypoints_2d)
+    }
+    /// `(21, 3)`: absolute 3D joints, mm, in the first camera's frame (x right, y down,
+    /// z forward); `None` when the hand could not be fitted.
+    #[getter]
+    fn joints_3d_mm<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray2<f64>>> {
+        self.inner
+            .joints_3d_mm
+            .as_ref()
+            .map(|j| joints_array(py, j))
+    }
+    /// The fitted model parameters, or `None`.
+    #[getter]
+    fn pose(&self) -> Option<PyPose> {
+        self.inner.pose.map(|inner| PyPose { inner })
+    }
+    /// Mean distance between the keypoints and the fitted joints' projections, pixels.
+    #[getter]
+    fn reprojection_error_px(&self) -> Option<f64> {
+        self.inner.reprojection_error_px
+    }
+    /// Whether the fit met its tolerance.
+    #[getter]
+    fn converged(&self) -> Option<bool> {
+        self.inner.converged
+    }
+    /// Levenberg-Marquardt iterations of the fit.
+    #[getter]
+    fn iterations(&self) -> Option<usize> {
+        self.inner.iterations
+    }
+    /// `(21, 3)`: the landmark network's own wrist-relative 3D ("world" landmarks), mm.
+    #[getter]
+    fn world_mm<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray2<f64>>> {
+        self.inner.world_mm.as_ref().map(|j| joints_array(py, j))
+    }
+    /// `(21,)`: the landmark network's relative depth per joint, pixels of its crop.
+    #[getter]
+    fn depth_px<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray1<f64>>> {
+        self.inner
+            .depth_px
+            .as_ref()
+            .map(|d| PyArray1::from_slice(py, d))
+    }
+    /// The hand as `monohand run` writes it to JSON Lines (plain lists and numbers).
+    fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        let text = serde_json::to_string(&self.inner)
+            .map_err(|e| MonohandError::new_err(e.to_string()))?;
+        py.import("json")?.call_method1("loads", (text,))
+    }
+    fn __repr__(&self) -> String {
+        let z = self.inner.joints_3d_mm.map_or("no 3D".to_string(), |j| {
+            format!("wrist at z={:.0} mm", j[0][2])
+        });
+        format!(
+            "Hand(id={}, side={}, {z})",
+            self.inner.id.map_or("None".to_string(), |i| i.to_string()),
+            side_name(self.inner.side)
+        )
+    }
+}
+
+/// Copies an `(H, W, 3)` uint8 array into an image (the networks crop from it).
+fn to_image(array: &Bound<'_, PyAny>) -> PyResult<monohand::RgbImage> {
+    let array = array.cast::<PyArray3<u8>>().map_err(|_| {
+        PyValueError::new_err("an image must be a numpy uint8 array of shape (H, W, 3), RGB")
+    })?;
+    let ro = array.try_readonly()?;
+    let shape = ro.shape();
+    if shape[2] != 3 || shape[0] == 0 || shape[1] == 0 {
+        return Err(PyValueError::new_err(format!(
+            "an image must be (H, W, 3) RGB with H, W > 0, not {shape:?}"
+        )));
+    }
+    let (h, w) = (shape[0], shape[1]);
+    let data = match ro.as_slice() {
+        Ok(s) => s.to_vec(),
+        Err(_) => ro.as_array().iter().copied().collect(),
+    };
+    let too_big = || PyValueError::new_err(format!("image {w}x{h} is too large"));
+    monohand::RgbImage::from_raw(
+        u32::try_from(w).map_err(|_| too_big())?,
+        u32::try_from(h).map_err(|_| too_big())?,
+        data,
+    )
+    .ok_or_else(too_big)
+}
+
+/// `None`, a `Camera`, or a sequence of them.
+fn to_cameras(cameras: Option<&Bound<'_, PyAny>>) -> PyResult<Vec<Camera>> {
+    let Some(c) = cameras else {
+        return Ok(Vec::new());
+    };
+    if c.is_none() {
+        return Ok(Vec::new());
+    }
+    if let Ok(cam) = c.cast::<PyCamera>() {
+        return Ok(vec![cam.get().inner]);
+    }
+    let bad = || PyValueError::new_err("cameras must be a Camera or a list of Camera");
+    c.try_iter()
+        .map_err(|_| bad())?
+        .map(|item| {
+            let item = item?;
+            let cam = item.cast::<PyCamera>().map_err(|_| bad())?;
+            Ok(cam.get().inner)
+        })
+        .collect()
+}
+
+/// The networks, loaded once and shared by any number of sessions (for example one per
+/// video on a worker): `Models(hands=2, tracking=True, model_dir=None, heads=False)`.
+/// `tracking=False` is for independent images (one extra landmark pass per hand).
+#[pyclass(module = "monohand._monohand", name = "Models", frozen)]
+struct PyModels {
+    pipeline: Arc<HandPipeline>,
+    hands: usize,
+    tracking: bool,
+    heads: bool,
+}
+
+#[pymethods]
+impl PyModels {
+    #[new]
+    #[pyo3(signature = (hands=2, tracking=true, model_dir=None, heads=false))]
+    fn new(
+        py: Python<'_>,
+        hands: usize,
+        tracking: bool,
+        model_dir: Option<std::path::PathBuf>,
+        heads: bool,
+    ) -> PyResult<PyModels> {
+        if hands == 0 {
+            return Err(PyValueError::new_err("at least one hand per frame"));
+        }
+        let mut options = SessionOptions::default().hands(hands).heads(heads);
+        if let Some(dir) = model_dir {
+            options = options.model_dir(dir);
+        }
+        let pipeline = py
+            .detach(|| {
+                HandPipeline::new(
+                    &options.models,
+                    PipelineOptions {
+                        refine_passes: if tracking { 0 } else { 1 },
+                        ..options.pipeline
+                    },
+                )
+            })
+            .map_err(|e| MonohandError::new_err(e.to_string()))?;
+        Ok(PyModels {
+            pipeline: Arc::new(pipeline),
+            hands,
+            tracking,
+            heads,
+        })
+    }
+
+    /// The most hands per frame.
+    #[getter]
+    fn hands(&self) -> usize {
+        self.hands
+    }
+    /// Whether they are set up for video tracking.
+    #[getter]
+    fn tracking(&self) -> bool {
+        self.tracking
+    }
+    fn __repr__(&self) -> String {
+        format!(
+            "Models(hands={}, tracking={}, heads={})",
+            self.hands,
+            if self.tracking { "True" } else { "False" },
+            if self.heads { "True" } else { "False" }
+        )
+    }
+}
+
+/// Frames in, tracked absolute 3D hands out.
+///
+/// `Session(cameras=None, hands=2, tracking=True, ...)`: `cameras` is a `Camera`, a list
+/// of them (a calibrated rig, the first the reference), or `None` (a generic camera for the
+/// image size; the 3D is then only as absolute as that guess). `hand_scale` sizes the
+/// average adult hand (0.9 for a small hand; the absolute depth scales with it). Use it as
+/// a context manager,
+/// and call `process(image, time_s)` once per frame in order.
+#[pyclass(module = "monohand._monohand", name = "Session")]
+struct PySession {
+    inner: Option<monohand::Session>,
+    next_time: f64,
+}
+
+impl PySession {
+    fn session(&mut self) -> PyResult<&mut monohand::Session> {
+        self.inner
+            .as_mut()
+            .ok_or_else(|| PyValueError::new_err("the session is closed"))
+    }
+}
+
+#[pymethods]
+impl PySession {
+    #[new]
+    #[pyo3(signature = (cameras=None, hands=2, tracking=true, model_dir=None, smoothing=false, heads=false, detect_every=10, models=None, hand_scale=1.0))]
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        py: Python<'_>,
+        cameras: Option<&Bound<'_, PyAny>>,
+        hands: usize,
+        tracking: bool,
+        model_dir: Option<std::path::PathBuf>,
+        smoothing: bool,
+        heads: bool,
+        detect_every: usize,
+        models: Option<PyRef<'_, PyModels>>,
+        hand_scale: f64,
+    ) -> PyResult<PySession> {
+        let cameras = to_cameras(cameras)?;
+        if smoothing && !tracking {
+            return Err(PyValueError::new_err("smoothing needs tracking"));
+        }
+        let mut options = SessionOptions::default()
+            .hands(hands)
+            .tracking(tracking)
+            .heads(heads)
+            .skeletons(skeletons(hand_scale)?)
+            .smoothing(smoothing.then(|| OneEuroParams {
+                min_cutoff: 1.0,
+                beta: 0.01,
+                ..Default::default()
+            }));
+        options.detect_every = detect_every;
+        if let Some(dir) = model_dir {
+            options = options.model_dir(dir);
+        }
+        let inner = match models {
+            Some(m) => {
+                if (m.hands, m.tracking, m.heads) != (hands, tracking, heads) {
+                    return Err(PyValueError::new_err(format!(
+                        "the session asks for hands={hands}, tracking={tracking}, heads={heads} \
+                         but the models were loaded with {}",
+                        m.__repr__()
+                    )));
+                }
+                let pipeline = Arc::clone(&m.pipeline);
+                monohand::Session::with_pipeline(cameras, pipeline, options)
+            }
+            // Loading (and on first use fetching) the networks takes a while: let Python run.
+            None => py.detach(|| monohand::Session::new(cameras, options)),
+        }
+        .map_err(session_err)?;
+        Ok(PySession {
+            inner: Some(inner),
+            next_time: 0.0,
+        })
+    }
+
+    /// Processes one frame: `image` is an `(H, W, 3)` uint8 RGB array, or a list of them,
+    /// one per camera. `time_s` is the frame's time in seconds (default: 30 fps). Returns
+    /// the frame's hands.
+    #[pyo3(signature = (image, time_s=None))]
+    fn process(
+        &mut self,
+        py: Python<'_>,
+        image: &Bound<'_, PyAny>,
+        time_s: Option<f64>,
+    ) -> PyResult<Vec<PyHand>> {
+        Ok(self
+            .process_record(py, image, time_s)?
+            .hands
+            .into_iter()
+            .map(|inner| PyHand { inner })
+            .collect())
+    }
+
+    /// Like `process`, but returns the whole frame record (as `monohand run` writes it) as
+    /// a dict, with the heads and any per-frame error.
+    #[pyo3(signature = (image, time_s=None))]
+    fn process_dict<'py>(
+        &mut self,
+        py: Python<'py>,
+        image: &Bound<'py, PyAny>,
+        time_s: Option<f64>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let record = self.process_record(py, image, time_s)?;
+        let text =
+            serde_json::to_string(&record).map_err(|e| MonohandError::new_err(e.to_string()))?;
+        py.import("json")?.call_method1("loads", (text,))
+    }
+
+    /// Messages for the user since the last call (assumptions made, hand size found).
+    fn notes(&mut self) -> PyResult<Vec<String>> {
+        Ok(self.session()?.take_notes())
+    }
+
+    /// The cameras in use (a generic one once the first image told its size, if none
+    /// was given).
+    #[getter]
+    fn cameras(&mut self) -> PyResult<Vec<PyCamera>> {
+        Ok(self
+            .session()?
+            .cameras()
+            .iter()
+            .map(|&inner| PyCamera { inner })
+            .collect())
+    }
+
+    /// Frees the networks; later calls raise.
+    fn close(&mut self) {
+        self.inner = None;
+    }
+
+    fn __enter__(slf: Py<Self>) -> Py<Self> {
+        slf
+    }
+
+    #[pyo3(signature = (*_args))]
+    fn __exit__(&mut self, _args: &Bound<'_, pyo3::types::PyTuple>) -> bool {
+        self.close();
+        false
+    }
+}
+
+impl PySession {
+    fn process_record(
+        &mut self,
+        py: Python<'_>,
+        image: &Bound<'_, PyAny>,
+        time_s: Option<f64>,
+    ) -> PyResult<FrameRecord> {
+        let images: Vec<monohand::RgbImage> = if let Ok(list) = image.cast::<PyList>() {
+            list.iter().map(|i| to_image(&i)).collect::<PyResult<_>>()?
+        } else {
+            vec![to_image(image)?]
+        };
+        let t = time_s.unwrap_or(self.next_time);
+        self.next_time = t + 1.0 / 30.0;
+        let session = self.session()?;
+        let mut done = py
+            .detach(|| {
+                let refs: Vec<&monohand::RgbImage> = images.iter().collect();
+                session.process(&refs, t)
+            })
+            .map_err(session_err)?;
+        // Without the stereo hand-size measurement (not offered here) every frame comes
+        // back at once.
+        let Some(frame) = done.pop() else {
+            return Err(MonohandError::new_err("the session kept the frame back"));
+        };
+        let mut record = fitted_record(&frame, None);
+        record.time_s = Some(t);
+        if let Some(e) = record.error.take() {
+            return Err(MonohandError::new_err(e));
+        }
+        Ok(record)
+    }
+}
+
+/// Fits 2D keypoints made elsewhere (OpenPose, MediaPipe, your own network) to absolute
+/// 3D hands, frame after frame.
+///
+/// `Lifter(camera, tracking=True)`; `lift(keypoints_2d, side)` with `keypoints_2d` of
+/// shape `(21, 2)` (confidence 1) or `(21, 3)` (x, y, confidence; joints under 0.1 are
+/// ignored), in MediaPipe's joint order. With tracking each side's fit starts from its
+/// previous one.
+#[pyclass(module = "monohand._monohand", name = "Lifter")]
+struct PyLifter {
+    inner: monohand::Lifter,
+}
+
+fn to_keypoints(keypoints: PyReadonlyArray2<'_, f64>) -> PyResult<Keypoints2d> {
+    let a = keypoints.as_array();
+    if a.nrows() != NUM_JOINTS || !(a.ncols() == 2 || a.ncols() == 3) {
+        return Err(PyValueError::new_err(format!(
+            "keypoints_2d must be ({NUM_JOINTS}, 2) or ({NUM_JOINTS}, 3), not {:?}",
+            a.shape()
+        )));
+    }
+    let mut points = [[0.0; 3]; NUM_JOINTS];
+    for (i, p) in points.iter_mut().enumerate() {
+        *p = [
+            a[[i, 0]],
+            a[[i, 1]],
+            if a.ncols() == 3 { a[[i, 2]] } else { 1.0 },
+        ];
+    }
+    Keypoints2d::new(points).map_err(core_err)
+}
+
+#[pymethods]
+impl PyLifter {
+    #[new]
+    #[pyo3(signature = (camera, tracking=true, hand_scale=1.0))]
+    fn new(camera: &Bound<'_, PyAny>, tracking: bool, hand_scale: f64) -> PyResult<PyLifter> {
+        let cameras = to_cameras(Some(camera))?;
+        Ok(PyLifter {
+            inner: monohand::Lifter::new(
+                cameras,
+                skeletons(hand_scale)?,
+                FitOptions::default(),
+                tracking,
+            )
+            .map_err(session_err)?,
+        })
+    }
+
+    /// Lifts one hand of one view: returns a `Hand` with `joints_3d_mm`, or raises
+    /// `MonohandError` if it cannot be fitted (too few confident joints).
+    #[pyo3(signature = (keypoints_2d, side="right"))]
+    fn lift(
+        &mut self,
+        py: Python<'_>,
+        keypoints_2d: PyReadonlyArray2<'_, f64>,
+        side: &str,
+    ) -> PyResult<PyHand> {
+        let side = parse_side(side)?;
+        let keypoints = to_keypoints(keypoints_2d)?;
+        let obs = HandObservation {
+            side,
+            keypoints,
+            cues: None,
+        };
+        let lifter = &mut self.inner;
+        let lifted = py.detach(|| lifter.lift(&[std::slice::from_ref(&obs)]));
+        let Some(hand) = lifted.into_iter().next() else {
+            return Err(MonohandError::new_err("no hand to lift"));
+        };
+        match hand.outcome {
+            monohand::FitOutcome::Fitted(fit) => Ok(PyHand {
+                inner: HandRecord::from_fit(side, &keypoints, &fit),
+            }),
+            other => Err(MonohandError::new_err(format!("not fitted: {other:?}"))),
+        }
+    }
+}
+
+/// One decoded video frame: `index`, `time_s` and `image`, an `(H, W, 3)` uint8 RGB array
+/// (handed over from the decoder without a copy).
+#[pyclass(module = "monohand._monohand", name = "Frame", frozen, get_all)]
+struct PyFrame {
+    /// Frame index, from 0.
+    index: u64,
+    /// Nominal time, seconds (`index / fps`).
+    time_s: f64,
+    /// The pixels.
+    image: Py<PyArray3<u8>>,
+}
+
+/// The frames of a video file (anything ffmpeg reads), decoded by an ffmpeg child process.
+#[pyclass(module = "monohand._monohand", name = "VideoReader")]
+struct PyVideoReader {
+    inner: Option<VideoReader>,
+}
+
+#[pymethods]
+impl PyVideoReader {
+    #[new]
+    fn new(py: Python<'_>, path: String) -> PyResult<PyVideoReader> {
+        let input = VideoInput::parse(&path);
+        let reader = py.detach(|| VideoReader::open(&input)).map_err(io_err)?;
+        Ok(PyVideoReader {
+            inner: Some(reader),
+        })
+    }
+
+    /// Frames per second (30 if the file does not say).
+    #[getter]
+    fn fps(&self) -> PyResult<f64> {
+        self.inner
+            .as_ref()
+            .map(|r| r.info().fps_or_default())
+            .ok_or_else(|| PyValueError::new_err("the reader is closed"))
+    }
+
+    /// `(width, height)` of the frames.
+    #[getter]
+    fn size(&self) -> PyResult<(usize, usize)> {
+        self.inner
+            .as_ref()
+            .map(|r| (r.info().width, r.info().height))
+            .ok_or_else(|| PyValueError::new_err("the reader is closed"))
+    }
+
+    fn __iter__(slf: Py<Self>) -> Py<Self> {
+        slf
+    }
+
+    fn __next__(&mut self, py: Python<'_>) -> PyResult<PyFrame> {
+        let Some(reader) = self.inner.as_mut() else {
+            return Err(PyStopIteration::new_err(()));
+        };
+        let next = py.detach(|| reader.next_frame());
+        match next {
+            Ok(Some(f)) => {
+                let (w, h) = f.image.dimensions();
+                let arr = Array3::from_shape_vec((h as usize, w as usize, 3), f.image.into_raw())
+                    .map_err(|e| MonohandError::new_err(e.to_string()))?;
+                Ok(PyFrame {
+                    index: f.index,
+                    time_s: f.timestamp_s,
+                    image: PyArray3::from_owned_array(py, arr).unbind(),
+                })
+            }
+            Ok(None) => {
+                self.inner = None;
+                Err(PyStopIteration::new_err(()))
+            }
+            Err(e) => {
+                self.inner = None;
+                Err(io_err(e))
+            }
+        }
+    }
+
+    /// Stops ffmpeg.
+    fn close(&mut self) {
+        self.inner = None;
+    }
+
+    fn __enter__(slf: Py<Self>) -> Py<Self> {
+        slf
+    }
+
+    #[pyo3(signature = (*_args))]
+    fn __exit__(&mut self, _args: &Bound<'_, pyo3::types::PyTuple>) -> bool {
+        self.close();
+        false
+    }
+}
+
+/// Makes sure the networks' weights are in the cache (fetching MediaPipe's wheel with pip
+/// on first use, checksummed) and returns the cache folder: `model_dir`, else
+/// `$MONOHAND_MODEL_DIR`, else the user cache, as for the command-line tool.
+#[pyfunction]
+#[pyo3(signature = (model_dir=None))]
+fn fetch_models(py: Python<'_>, model_dir: Option<std::path::PathBuf>) -> PyResult<String> {
+    let vision = |e: monohand::vision::VisionError| MonohandError::new_err(e.to_string());
+    let store = monohand::vision::models::ModelStore::new(model_dir).map_err(vision)?;
+    py.detach(|| store.fetch()).map_err(vision)?;
+    Ok(store.dir().display().to_string())
+}
+
+/// The native part of the `monohand` package.
+#[pymodule]
+fn _monohand(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add_class::<PyCamera>()?;
+    m.add_class::<PyPose>()?;
+    m.add_class::<PyHand>()?;
+    m.add_class::<PyModels>()?;
+    m.add_class::<PySession>()?;
+    m.add_class::<PyLifter>()?;
+    m.add_class::<PyFrame>()?;
+    m.add_class::<PyVideoReader>()?;
+    m.add_function(wrap_pyfunction!(fetch_models, m)?)?;
+    m.add("MonohandError", m.py().get_type::<MonohandError>())?;
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    m.add("NUM_JOINTS", NUM_JOINTS)?;
+    let names: Vec<&str> = monohand_core::hand_model::JOINT_NAMES.to_vec();
+    m.add("JOINT_NAMES", names)?;
+    Ok(())
+}

@@ -1,0 +1,22 @@
+#!/usr/bin/env bash
+# Every test of the project: the Rust workspace, then the Python package (built as a wheel
+# with maturin into a fresh venv, and tested with pytest against the command-line tool).
+# Data tests read ../shared beside the repository; missing data or models fail, never skip.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+echo "== Rust tests"
+cargo test --workspace
+
+echo "== Python package"
+# Release builds, sharing target/ with each other and with the README's first command.
+cargo build --release -p monohand-cli
+venv="target/pyvenv"
+rm -rf "$venv" target/wheels-test
+python3 -m venv "$venv"
+"$venv/bin/pip" install -q --disable-pip-version-check -r crates/monohand-py/requirements-test.txt
+"$venv/bin/maturin" build --release -q -i "$venv/bin/python" \
+  -m crates/monohand-py/Cargo.toml -o target/wheels-test
+"$venv/bin/pip" install -q --disable-pip-version-check --no-deps target/wheels-test/monohand-*.whl
+(cd crates/monohand-py/tests && MONOHAND_BIN="$PWD/../../../target/release/monohand" \
+  "../../../$venv/bin/python" -m pytest -q -p no:cacheprovider)
