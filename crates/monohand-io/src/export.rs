@@ -439,7 +439,7 @@ impl GltfWriter {
             meshes.len() - 1
         };
         let side_mesh = [HandSide::Left, HandSide::Right].map(|s| {
-            let m = material(&format!("{s}_joint"), crate::overlay::side_color(s));
+            let m = material(&format!("{s}_joint"), crate::palette::side_color(s));
             mesh(&format!("{s}_joint"), joint_acc, m)
         });
         let side_index = |s: HandSide| match s {
@@ -451,7 +451,7 @@ impl GltfWriter {
             .map(|f| {
                 let m = material(
                     &format!("{}_bone", f.name()),
-                    crate::overlay::FINGER_COLORS[f.index()],
+                    crate::palette::FINGER_COLORS[f.index()],
                 );
                 mesh(&format!("{}_bone", f.name()), bone_acc, m)
             })

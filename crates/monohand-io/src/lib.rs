@@ -1,7 +1,8 @@
 //! # monohand-io
 //!
 //! File formats around [`monohand_core`]: camera calibrations, 2D keypoints
-//! from detectors, the project's JSON Lines output and its exports, and video.
+//! from detectors, the project's JSON Lines output and its exports. (Video and drawing on
+//! frames are `monohand-media`'s.)
 //! (Datasets' own files, such as STB's `.mat` labels, are read by `monohand-eval`.)
 //!
 //! - [`calibration`]: cameras from the project JSON, the WACV'18 JSON and
@@ -10,8 +11,7 @@
 //! - [`skeleton`]: bone-length files for sizing the hand model.
 //! - [`jsonl`]: the project's JSON Lines output (one frame per line), read and written.
 //! - [`export`]: CSV, OpenPose-style JSON with 3D, and an animated glTF (`.glb`) 3D view.
-//! - [`overlay`]: drawing hand skeletons, boxes and labels on video frames.
-//! - [`video`]: video files and webcams in and out through the `ffmpeg` command-line tools.
+//! - [`palette`]: the colours of the fingers and sides, shared with the overlays.
 //!
 //! Every fallible function returns [`IoError`], whose message names the file
 //! and the field or line at fault.
@@ -23,8 +23,7 @@ pub mod error;
 pub mod export;
 pub mod jsonl;
 pub mod openpose;
-pub mod overlay;
+pub mod palette;
 pub mod skeleton;
-pub mod video;
 
 pub use error::{IoError, IoResult};

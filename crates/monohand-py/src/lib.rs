@@ -12,7 +12,7 @@ use monohand::{SessionError, SessionOptions};
 use monohand_core::filtering::OneEuroParams;
 use monohand_core::prelude::*;
 use monohand_io::jsonl::{FrameRecord, HandRecord, PoseRecord};
-use monohand_io::video::{VideoInput, VideoReader};
+use monohand_media::video::{VideoInput, VideoReader};
 use numpy::ndarray::{Array2, Array3};
 use numpy::{
     PyArray1, PyArray2, PyArray3, PyArrayMethods, PyReadonlyArray2, PyUntypedArrayMethods,

@@ -1,7 +1,7 @@
 //! A video file to absolute 3D hand joints, one line per hand per frame:
 //! `cargo run --release -p monohand --example video_to_3d -- clip.mp4 [camera.json]`
 use monohand::prelude::*;
-use monohand_io::video::{VideoInput, VideoReader};
+use monohand_media::video::{VideoInput, VideoReader};
 
 fn main() -> anyhow::Result<()> {
     let mut args = std::env::args().skip(1);

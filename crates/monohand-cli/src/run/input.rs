@@ -2,7 +2,7 @@
 //! frame after frame.
 
 use anyhow::{bail, Result};
-use monohand_io::video::{VideoInput, VideoReader};
+use monohand_media::video::{VideoInput, VideoReader};
 use monohand_vision::image_io::{images_in_folder, load_rgb, IMAGE_EXTENSIONS};
 use monohand_vision::RgbImage;
 use std::path::{Path, PathBuf};

@@ -7,8 +7,8 @@ use clap::ValueEnum;
 use monohand_core::prelude::*;
 use monohand_io::export::{write_openpose_frame, CsvWriter, GltfWriter};
 use monohand_io::jsonl::{FrameRecord, JsonlWriter};
-use monohand_io::overlay::{draw_hand, project_joints, HandStyle};
-use monohand_io::video::VideoWriter;
+use monohand_media::overlay::{draw_hand, project_joints, HandStyle};
+use monohand_media::video::VideoWriter;
 use monohand_vision::RgbImage;
 use std::path::{Path, PathBuf};
 

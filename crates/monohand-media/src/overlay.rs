@@ -8,8 +8,8 @@
 //! skipped). Pixel centres are at integer coordinates, as in the keypoint files.
 //!
 //! ```
-//! use monohand_io::overlay::{draw_line, draw_text, Pen};
-//! use monohand_io::video::RgbImage;
+//! use monohand_media::overlay::{draw_line, draw_text, Pen};
+//! use monohand_media::video::RgbImage;
 //! let mut img = RgbImage::new(64, 32);
 //! draw_line(&mut img, [2.0, 5.0], [40.0, 5.0], &Pen::new([255, 0, 0], 1.0));
 //! assert_eq!(img.get_pixel(20, 5).0, [255, 0, 0]);
@@ -19,10 +19,8 @@
 use crate::video::RgbImage;
 use monohand_core::camera::Camera;
 use monohand_core::hand_model::{HandSide, BONES, NUM_JOINTS, WRIST};
+pub use monohand_io::palette::{side_color, Rgb, FINGER_COLORS};
 use nalgebra::Vector3;
-
-/// An 8-bit RGB colour.
-pub type Rgb = [u8; 3];
 
 /// How to draw a line or outline.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -355,23 +353,6 @@ pub fn draw_label(
     fill_rect(frame, bbox, bg, 1.0);
     draw_text(frame, text, [origin[0] + pad, origin[1] + pad], scale, fg);
     bbox
-}
-
-/// Colours of the five fingers (thumb, index, middle, ring, little).
-pub const FINGER_COLORS: [Rgb; 5] = [
-    [255, 70, 70],
-    [255, 210, 0],
-    [60, 220, 60],
-    [0, 170, 255],
-    [210, 90, 255],
-];
-
-/// The colour that marks a hand's side: cyan for left, orange for right.
-pub fn side_color(side: HandSide) -> Rgb {
-    match side {
-        HandSide::Left => [0, 230, 255],
-        HandSide::Right => [255, 140, 0],
-    }
 }
 
 /// How [`draw_hand`] draws.

@@ -22,7 +22,7 @@
 //! [`VideoReader::open`].
 //!
 //! ```no_run
-//! use monohand_io::video::{VideoInput, VideoReader, VideoWriter};
+//! use monohand_media::video::{VideoInput, VideoReader, VideoWriter};
 //! let mut reader = VideoReader::open(&VideoInput::parse("clip.mp4")).unwrap();
 //! let info = reader.info().clone();
 //! let mut writer = VideoWriter::create("out.mp4", info.width, info.height, info.fps_or_default()).unwrap();
@@ -34,7 +34,7 @@
 //! writer.finish().unwrap();
 //! ```
 
-use crate::error::{IoError, IoResult};
+use monohand_io::{IoError, IoResult};
 use serde_json::Value;
 use std::collections::HashMap;
 use std::io::{Read, Write};

@@ -1,11 +1,11 @@
 //! Round trips through the real `ffmpeg` tools with a picture from the shared data.
-//! Every test is skipped (with a printed reason) where ffmpeg is not installed.
+//! Every test fails, saying why, where ffmpeg or the shared data is missing.
 #![allow(clippy::unwrap_used, clippy::expect_used)] // a failed test or bench is a panic
 
-use monohand_io::video::{
+use monohand_io::IoError;
+use monohand_media::video::{
     probe, Encoder, FfmpegTools, RgbImage, VideoInput, VideoReader, VideoWriter,
 };
-use monohand_io::IoError;
 use std::path::{Path, PathBuf};
 
 const FRAMES: usize = 20;
@@ -16,7 +16,7 @@ fn hand_png() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/images/pinto/hand.png")
 }
 
-/// The tools, or `None` (and a message) if ffmpeg is not installed.
+/// The tools; fails the test if ffmpeg is not installed.
 fn tools() -> Option<FfmpegTools> {
     let t = FfmpegTools::default();
     assert!(
