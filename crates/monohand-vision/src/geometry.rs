@@ -145,8 +145,18 @@ pub fn normalize_angle(a: f64) -> f64 {
 }
 
 /// Continuous coordinates → OpenCV/OpenPose pixel coordinates (first pixel centre at 0).
+///
+/// The networks' pre- and post-processing work in continuous coordinates (the first
+/// pixel spans `[0, 1)`); everything the pipeline returns is in pixel-centre coordinates,
+/// as the keypoint files and the cameras are. This pair is the only place the half pixel
+/// is added or taken away.
 pub fn to_pixel_centres(p: [f64; 2]) -> [f64; 2] {
     [p[0] - 0.5, p[1] - 0.5]
+}
+
+/// Pixel-centre coordinates → continuous coordinates (the inverse of [`to_pixel_centres`]).
+pub fn from_pixel_centres(p: [f64; 2]) -> [f64; 2] {
+    [p[0] + 0.5, p[1] + 0.5]
 }
 
 #[cfg(test)]

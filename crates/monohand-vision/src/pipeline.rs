@@ -20,7 +20,7 @@ use monohand_core::observation::{HandObservation, Keypoints2d, NetworkCues};
 
 use crate::error::Result;
 use crate::face::{FaceDetector, HeadDetection};
-use crate::geometry::{normalize_angle, to_pixel_centres, RotatedRect};
+use crate::geometry::{from_pixel_centres, normalize_angle, to_pixel_centres, RotatedRect};
 use crate::landmarks::{HandLandmarks, LandmarkModel, LandmarkOptions, NUM_LANDMARKS};
 use crate::models::{ModelFile, ModelStore};
 use crate::network::TfliteNet;
@@ -471,8 +471,8 @@ impl HandPipeline {
             }
             let mut lm = [[0.0; 3]; NUM_LANDMARKS];
             for (dst, p) in lm.iter_mut().zip(&prev.keypoints.points) {
-                // Back from pixel-centre to continuous coordinates.
-                *dst = [p[0] + 0.5, p[1] + 0.5, p[2]];
+                let [u, v] = from_pixel_centres([p[0], p[1]]);
+                *dst = [u, v, p[2]];
             }
             if lm.iter().any(|p| !(p[0].is_finite() && p[1].is_finite())) {
                 continue;
@@ -573,7 +573,11 @@ impl HandPipeline {
 }
 
 fn shift_box(b: [f64; 4]) -> [f64; 4] {
-    [b[0] - 0.5, b[1] - 0.5, b[2] - 0.5, b[3] - 0.5]
+    let ([x0, y0], [x1, y1]) = (
+        to_pixel_centres([b[0], b[1]]),
+        to_pixel_centres([b[2], b[3]]),
+    );
+    [x0, y0, x1, y1]
 }
 
 fn to_head(h: HeadDetection) -> DetectedHead {
