@@ -513,3 +513,38 @@ fn ctrl_c_finishes_the_frame_and_closes_the_files() {
         .unwrap();
     assert_eq!(n, frames.len(), "one overlay frame per output frame");
 }
+
+/// A network thread that dies mid-video (injected with `MONOHAND_FAULT`): the run fails
+/// with a non-zero exit and says so, and every frame before the fault is written and valid.
+#[test]
+fn a_panicking_network_thread_fails_the_run_and_keeps_the_frames_before() {
+    let Some(photo_path) = shared_image("pinto/hand.png") else {
+        return;
+    };
+    if !ffmpeg_ready() || !networks_ready() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let video = dir.path().join("moving.mkv");
+    make_video(&image_of(&photo_path), 12, &video);
+    let out = dir.path().join("hands.jsonl");
+    let run = Command::new(env!("CARGO_BIN_EXE_monohand"))
+        .args(["run", p(&video), "-o", p(&out)])
+        .env("MONOHAND_FAULT", "network-panic:5")
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert_eq!(run.status.code(), Some(1), "a failed run exits 1: {stderr}");
+    assert!(
+        stderr.contains("the network thread failed after 5 frames"),
+        "{stderr}"
+    );
+    let frames = read_jsonl(&out).unwrap();
+    assert_eq!(
+        frames.iter().map(|f| f.frame).collect::<Vec<_>>(),
+        vec![0, 1, 2, 3, 4]
+    );
+    assert!(frames
+        .iter()
+        .all(|f| f.hands.len() == 1 && f.hands[0].joints_3d_mm.is_some()));
+}

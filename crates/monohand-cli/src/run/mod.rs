@@ -246,9 +246,16 @@ pub(crate) fn run(args: &RunArgs) -> Result<()> {
         let n_views = kinds.len();
         let detect_every = args.detect_every;
         let pipe = Arc::clone(&pipeline);
+        let panic_at = injected_network_panic();
         let vision = std::thread::spawn(move || {
             let mut stage = CropTracker::new(pipe, n_views, tracking, detect_every);
             for raw in raw_rx {
+                if panic_at == Some(raw.index) {
+                    panic!(
+                        "injected fault: network thread panics at frame {}",
+                        raw.index
+                    );
+                }
                 let images: Vec<Result<&RgbImage, String>> = raw
                     .images
                     .iter()
@@ -388,6 +395,13 @@ pub(crate) fn run(args: &RunArgs) -> Result<()> {
 }
 
 /// The next frame of every view; `Ok(None)` when the first view ended.
+/// Fault injection for the tests of a failing run: `MONOHAND_FAULT=network-panic:N` makes
+/// the network thread panic on frame `N` (docs/pipeline.md).
+fn injected_network_panic() -> Option<u64> {
+    let spec = std::env::var("MONOHAND_FAULT").ok()?;
+    spec.strip_prefix("network-panic:")?.parse().ok()
+}
+
 fn next_raw(sources: &mut [FrameSource]) -> Result<Option<RawFrame>, String> {
     let Some((first, others)) = sources.split_first_mut() else {
         return Ok(None);
