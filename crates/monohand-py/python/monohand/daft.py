@@ -22,6 +22,7 @@ they do not: ``kp3d_camera_mm`` (absolute, in the camera's frame, mm), ``hand_id
 
 from __future__ import annotations
 
+import os
 from typing import Any, Dict, List, Optional
 
 import daft
@@ -129,10 +130,9 @@ def _camera(intrinsics: Optional[Dict[str, Any]]) -> Optional[monohand.Camera]:
     )
 
 
-@daft.cls(max_concurrency=None)
-class VideoTracker:
-    """Tracks whole videos. The networks are loaded once per worker (`monohand.Models`) and
-    shared by the session of each video it tracks."""
+class _VideoTracker:
+    """Tracks whole videos. The networks are loaded once per instance (`monohand.Models`)
+    and shared by the session of each video it tracks."""
 
     def __init__(self, hands: int = 2, model_dir: Optional[str] = None, smoothing: bool = False):
         self.models = monohand.Models(hands=hands, tracking=True, model_dir=model_dir)
@@ -166,6 +166,11 @@ class VideoTracker:
         return frames
 
 
+#: The per-video UDF class with Daft's default options (compose it yourself with
+#: ``VideoTracker(hands=2).track(df["path"])``); `track_videos` sets the concurrency.
+VideoTracker = daft.cls(_VideoTracker)
+
+
 def track_videos(
     df: daft.DataFrame,
     path_column: str = "path",
@@ -174,14 +179,23 @@ def track_videos(
     hands: int = 2,
     model_dir: Optional[str] = None,
     smoothing: bool = False,
+    workers: Optional[int] = None,
 ) -> daft.DataFrame:
     """One row per frame of every video in ``df[path_column]``, in order within a video.
 
     ``intrinsics_column``, if given, holds a struct like `INTRINSICS_DTYPE` (or null for a
     generic camera) per video. The result keeps ``df``'s columns and adds ``frame``,
     ``time_s``, ``hands`` and ``error``.
+
+    Each video is a batch of its own, so that ``workers`` trackers take videos side by side
+    (threads: the GIL is released while they run). Default: one per core on Daft's native
+    runner, Daft's own choice on Ray (where the cluster's size decides).
     """
-    tracker = VideoTracker(hands=hands, model_dir=model_dir, smoothing=smoothing)
+    if workers is None and daft.get_or_infer_runner_type() == "native":
+        workers = os.cpu_count() or 1
+    tracker_cls = daft.cls(max_concurrency=workers, use_process=False)(_VideoTracker)
+    tracker = tracker_cls(hands=hands, model_dir=model_dir, smoothing=smoothing)
+    df = df.into_batches(1)
     path = df[path_column]
     if intrinsics_column is None:
         frames = tracker.track(path)
