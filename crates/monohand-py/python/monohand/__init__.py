@@ -157,25 +157,20 @@ def track_video(
     joints_3d_mm (21x3), pose_translation_mm, pose_quaternion_xyzw, pose_angles_rad,
     reprojection_error_px``.
     """
-    rows = list(
-        video_rows(
-            path,
-            camera,
-            hands=hands,
-            model_dir=model_dir,
-            smoothing=smoothing,
-            max_frames=max_frames,
-        )
-    )
-    if output == "pandas":
-        import pandas as pd
-
-        return pd.DataFrame(rows, columns=list(_row(0, 0.0, None, None).keys()))
-    if output == "arrow":
+    if output not in ("pandas", "arrow"):
+        raise ValueError(f"output must be 'pandas' or 'arrow', not {output!r}")
+    try:  # before the video is tracked, not after
         import pyarrow as pa
 
-        return pa.Table.from_pylist(rows, schema=row_schema())
-    raise ValueError(f"output must be 'pandas' or 'arrow', not {output!r}")
+        if output == "pandas":
+            import pandas  # noqa: F401
+    except ImportError as e:
+        raise ImportError(f"track_video needs {e.name}: pip install 'monohand[table]'") from e
+    rows = video_rows(
+        path, camera, hands=hands, model_dir=model_dir, smoothing=smoothing, max_frames=max_frames
+    )
+    table = pa.Table.from_pylist(list(rows), schema=row_schema())
+    return table.to_pandas() if output == "pandas" else table
 
 
 def row_schema() -> Any:
