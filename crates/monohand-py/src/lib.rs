@@ -91,7 +91,9 @@ fn joints_array<'py>(py: Python<'py>, rows: &[[f64; 3]; NUM_JOINTS]) -> Bound<'p
 
 /// A pinhole camera (optionally with lens distortion) at a pose in the reference frame.
 ///
-/// `Camera(fx, fy, cx, cy, width, height)`; `Camera.generic(width, height)` for footage of
+/// `Camera(fx, fy, cx, cy, width, height, distortion=None, rotation=None,
+/// translation_mm=None)`, with `x_cam = rotation @ x_ref + translation_mm` for the later
+/// cameras of a rig (the first is the reference); `Camera.generic(width, height)` for footage of
 /// unknown origin; `Camera.load(path)` for a calibration file (the project's JSON, the
 /// WACV'18 JSON, OpenCV YAML or XML).
 #[pyclass(module = "monohand._monohand", name = "Camera", frozen, eq)]
@@ -103,7 +105,8 @@ struct PyCamera {
 #[pymethods]
 impl PyCamera {
     #[new]
-    #[pyo3(signature = (fx, fy, cx, cy, width, height, distortion=None))]
+    #[pyo3(signature = (fx, fy, cx, cy, width, height, distortion=None, rotation=None, translation_mm=None))]
+    #[allow(clippy::too_many_arguments)]
     fn new(
         fx: f64,
         fy: f64,
@@ -112,12 +115,22 @@ impl PyCamera {
         width: u32,
         height: u32,
         distortion: Option<Vec<f64>>,
+        rotation: Option<[[f64; 3]; 3]>,
+        translation_mm: Option<[f64; 3]>,
     ) -> PyResult<PyCamera> {
         let mut inner = Camera::pinhole(fx, fy, cx, cy, width, height).map_err(core_err)?;
         if let Some(d) = distortion {
             inner.distortion = Distortion::from_slice(&d).map_err(core_err)?;
-            inner.validate().map_err(core_err)?;
         }
+        if let Some(r) = rotation {
+            let m = nalgebra::Matrix3::from_fn(|i, j| r[i][j]);
+            inner.extrinsics.rotation = nalgebra::Rotation3::from_matrix_unchecked(m);
+        }
+        if let Some(t) = translation_mm {
+            inner.extrinsics.translation = nalgebra::Vector3::from(t);
+        }
+        // Checks the distortion and that the rotation is a proper rotation.
+        inner.validate().map_err(core_err)?;
         Ok(PyCamera { inner })
     }
 
@@ -167,6 +180,20 @@ impl PyCamera {
     #[getter]
     fn height(&self) -> u32 {
         self.inner.intrinsics.height
+    }
+    /// The 3x3 rotation from the reference (first) camera's frame to this camera's:
+    /// `x_cam = R x_ref + t`.
+    #[getter]
+    fn rotation<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
+        let m = self.inner.extrinsics.rotation.matrix();
+        let arr = Array2::from_shape_fn((3, 3), |(i, j)| m[(i, j)]);
+        PyArray2::from_owned_array(py, arr)
+    }
+    /// The translation `t` of `x_cam = R x_ref + t`, mm.
+    #[getter]
+    fn translation_mm<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        let t = self.inner.extrinsics.translation;
+        PyArray1::from_slice(py, &[t.x, t.y, t.z])
     }
     /// The 3x3 intrinsic matrix.
     #[getter]

@@ -126,3 +126,43 @@ def test_track_video_gives_one_row_per_frame_per_hand(moving_video, models):
     assert table.schema == monohand.row_schema() and table.num_rows == 3
     wrist_z = np.array([j[0][2] for j in df["joints_3d_mm"]])
     assert (wrist_z > 100.0).all() and (wrist_z < 2000.0).all()
+
+
+def test_a_calibrated_stereo_rig_equals_the_cli(tmp_path):
+    """STB's real stereo pair (frame 0 of B1Counting) with its real cameras: the session
+    over both views gives the CLI's numbers, and a hand between 20 and 80 cm away."""
+    import json
+
+    from conftest import shared
+
+    d = shared("stb_b1counting")
+    k = json.loads((d / "camera_params.json").read_text())["BB2Stereo"]
+    intr = dict(fx=k["fx"], fy=k["fy"], cx=k["tx"], cy=k["ty"], width=640, height=480)
+    left = monohand.Camera(**intr)
+    right = monohand.Camera(**intr, translation_mm=[-k["baseline"], 0.0, 0.0])
+    assert np.array_equal(right.rotation, np.eye(3)) and right.translation_mm[0] == -k["baseline"]
+    with pytest.raises(ValueError, match="rotation"):
+        monohand.Camera(**intr, rotation=[[1, 0, 0], [0, 1, 0], [0, 0, 2]])
+
+    images = []
+    for side in ("left", "right"):
+        with monohand.read_video(str(d / "images" / "B1Counting" / f"BB_{side}_0.png")) as v:
+            images.append(next(iter(v)).image)
+    with monohand.Session([left, right], tracking=False) as s:
+        hands = s.process(images)
+    assert len(hands) >= 1 and hands[0].joints_3d_mm is not None
+    assert 200.0 < hands[0].joints_3d_mm[0, 2] < 800.0
+
+    cams = []
+    for name, cam in (("left", left), ("right", right)):
+        p = tmp_path / f"{name}.json"
+        p.write_text(json.dumps({**intr, "t": cam.translation_mm.tolist()}))
+        cams.append(p)
+    out = tmp_path / "stereo.jsonl"
+    run_cli(
+        "run", "--view", str(d / "images/B1Counting/BB_left_0.png"), "--camera", str(cams[0]),
+        "--view", str(d / "images/B1Counting/BB_right_0.png"), "--camera", str(cams[1]),
+        "--hands", "2", "-o", str(out),
+    )
+    rec = read_jsonl(out)[0]["hands"]
+    assert [h.to_dict().get("joints_3d_mm") for h in hands] == [r.get("joints_3d_mm") for r in rec]

@@ -29,7 +29,10 @@ class Camera:
         width: int,
         height: int,
         distortion: Optional[Sequence[float]] = None,
-    ) -> None: ...
+        rotation: Optional[Sequence[Sequence[float]]] = None,
+        translation_mm: Optional[Sequence[float]] = None,
+    ) -> None:
+        """``x_cam = rotation @ x_ref + translation_mm`` for the later cameras of a rig."""
     @staticmethod
     def generic(width: int, height: int) -> Camera:
         """Principal point at the centre and a 60 degree horizontal field of view."""
@@ -48,6 +51,10 @@ class Camera:
     def width(self) -> int: ...
     @property
     def height(self) -> int: ...
+    @property
+    def rotation(self) -> npt.NDArray[np.float64]: ...
+    @property
+    def translation_mm(self) -> npt.NDArray[np.float64]: ...
     @property
     def k(self) -> npt.NDArray[np.float64]:
         """The 3x3 intrinsic matrix."""
