@@ -162,13 +162,13 @@ pub struct Summary {
     pub largest_alloc: usize,
 }
 
-/// Outcome of one parser call: whether it accepted the input.
+/// Outcome of one parser call: its error, if it refused the input.
 pub trait Outcome {
-    fn accepted(&self) -> bool;
+    fn error(&self) -> Option<String>;
 }
-impl<T, E> Outcome for Result<T, E> {
-    fn accepted(&self) -> bool {
-        self.is_ok()
+impl<T, E: std::fmt::Debug> Outcome for Result<T, E> {
+    fn error(&self) -> Option<String> {
+        self.as_ref().err().map(|e| format!("{e:?}"))
     }
 }
 
@@ -203,7 +203,7 @@ fn save_failure(name: &str, case: usize, input: &[u8]) -> PathBuf {
     path
 }
 
-/// Runs every seed unmutated, then `cases` mutated inputs through `target`; panics with the
+/// Runs every seed unmutated (each must be accepted), then `cases` mutated inputs through `target`; panics with the
 /// list of failing cases (and where their inputs were saved) if any failed.
 pub fn run<R: Outcome>(
     name: &str,
@@ -252,9 +252,19 @@ pub fn run<R: Outcome>(
             Ok(_) if dt > SLOW_CASE => Some(format!("took {dt:?}")),
             Ok(_) => None,
         };
-        match result {
-            Ok(r) if r.accepted() => summary.accepted += 1,
-            _ => summary.rejected += 1,
+        let error = match &result {
+            Ok(r) => r.error(),
+            Err(_) => Some("panic".to_string()),
+        };
+        // The seeds are valid files: a refused seed means a broken harness, not a finding.
+        if case < seeds.len() {
+            if let Some(e) = &error {
+                panic!("fuzz {name}: seed {case} is refused: {e}");
+            }
+        }
+        match error {
+            None => summary.accepted += 1,
+            Some(_) => summary.rejected += 1,
         }
         summary.cases += 1;
         if let Some(problem) = problem {
