@@ -31,9 +31,11 @@ use monohand_io::{IoError, IoResult};
 use std::io::Read;
 use std::path::Path;
 
-/// Largest decompressed size accepted for one `miCOMPRESSED` element (a guard
-/// against corrupt or malicious input).
-pub const MAX_DECOMPRESSED_BYTES: u64 = 1 << 31;
+/// Largest decompressed size accepted for a file's `miCOMPRESSED` elements, all
+/// together, nested ones included (a guard against corrupt or malicious input: a
+/// few kilobytes of zlib can inflate to gigabytes). 256 MiB; STB's label files
+/// inflate to under 1 MiB.
+pub const MAX_DECOMPRESSED_BYTES: u64 = 1 << 28;
 
 const HEADER_LEN: usize = 128;
 const MAX_DEPTH: usize = 8;
@@ -200,6 +202,12 @@ impl MatFile {
 
     /// Parses the bytes of a `.mat` file; `file` is the name used in errors.
     pub fn from_bytes(bytes: &[u8], file: &str) -> IoResult<MatFile> {
+        MatFile::parse(bytes, file, MAX_DECOMPRESSED_BYTES)
+    }
+
+    /// [`MatFile::from_bytes`] with compressed elements allowed to inflate to
+    /// `inflate_budget` bytes in all.
+    fn parse(bytes: &[u8], file: &str, inflate_budget: u64) -> IoResult<MatFile> {
         if bytes.len() < HEADER_LEN {
             return Err(IoError::format(
                 file,
@@ -242,7 +250,12 @@ impl MatFile {
             arrays: Vec::new(),
             unsupported: Vec::new(),
         };
-        let p = Parser { file, big };
+        let p = Parser {
+            file,
+            big,
+            inflate_budget: std::cell::Cell::new(inflate_budget),
+            inflate_limit: inflate_budget,
+        };
         p.parse_top(&bytes[HEADER_LEN..], HEADER_LEN, &mut out, 0)?;
         Ok(out)
     }
@@ -286,6 +299,10 @@ struct Element<'a> {
 struct Parser<'f> {
     file: &'f str,
     big: bool,
+    /// Bytes that compressed elements may still inflate to.
+    inflate_budget: std::cell::Cell<u64>,
+    /// The budget at the start, for messages.
+    inflate_limit: u64,
 }
 
 impl Parser<'_> {
@@ -370,12 +387,26 @@ impl Parser<'_> {
             match el.ty {
                 MI_COMPRESSED => {
                     let mut inflated = Vec::new();
+                    let budget = self.inflate_budget.get();
+                    // One byte more than the budget tells an over-large element apart.
                     flate2::read::ZlibDecoder::new(el.data)
-                        .take(MAX_DECOMPRESSED_BYTES)
+                        .take(budget + 1)
                         .read_to_end(&mut inflated)
                         .map_err(|e| {
                             self.err(base + pos, format!("cannot decompress element: {e}"))
                         })?;
+                    let used = inflated.len() as u64;
+                    if used > budget {
+                        return Err(self.err(
+                            base + pos,
+                            format!(
+                                "compressed data inflates to more than the limit of \
+                                 {} bytes (MAX_DECOMPRESSED_BYTES)",
+                                self.inflate_limit
+                            ),
+                        ));
+                    }
+                    self.inflate_budget.set(budget - used);
                     self.parse_top(&inflated, base + pos, out, depth + 1)?;
                 }
                 MI_MATRIX => self.matrix(el.data, base + pos + 8, out)?,
@@ -453,7 +484,8 @@ impl Parser<'_> {
                 ))
             }
         };
-        if el.data.len() != count * size {
+        // `count` fits in usize but `count * size` may not (dimensions forged to ~2^31 each).
+        if count.checked_mul(size) != Some(el.data.len()) {
             return Err(self.err(
                 off,
                 format!(
@@ -601,6 +633,46 @@ mod tests {
         v.extend_from_slice(&(c.len() as u32).to_le_bytes());
         v.extend(c);
         v
+    }
+
+    /// Found while writing the fuzz harness: dimensions forged to 2^31 - 1 each make
+    /// `elements x element size` overflow (a panic with overflow checks).
+    #[test]
+    fn forged_dimensions_are_an_error() {
+        let mut f = header(b"IM");
+        f.extend(matrix(
+            6,
+            &[i32::MAX, i32::MAX],
+            "x",
+            tag(MI_DOUBLE, &[0; 8]),
+        ));
+        let e = MatFile::from_bytes(&f, "t").unwrap_err().to_string();
+        assert!(e.contains("bytes of data for"), "{e}");
+    }
+
+    /// Compressed elements share one inflation budget: before, each (nested ones
+    /// included, 8 levels) could inflate to 2 GiB, silently truncated.
+    #[test]
+    fn inflation_is_bounded_for_the_whole_file() {
+        let x = matrix(6, &[1, 250], "x", tag(MI_DOUBLE, &[0; 2000]));
+        let mut one = header(b"IM");
+        one.extend(compressed(&x));
+        assert!(MatFile::parse(&one, "t", 4096).is_ok());
+        let e = MatFile::parse(&one, "t", 1000).unwrap_err().to_string();
+        assert!(e.contains("more than the limit of 1000 bytes"), "{e}");
+        // Two elements of ~2 kB each: under the budget one at a time, not together.
+        let mut two = header(b"IM");
+        two.extend(compressed(&x));
+        two.extend(compressed(&x));
+        assert!(MatFile::parse(&two, "t", 8192).is_ok());
+        assert!(MatFile::parse(&two, "t", 4096).is_err());
+        // Nested: the outer inflation counts as well as the inner one.
+        let mut nested = header(b"IM");
+        nested.extend(compressed(&compressed(&x)));
+        let inner = compressed(&x).len() as u64;
+        assert!(MatFile::parse(&nested, "t", x.len() as u64 + inner).is_ok());
+        assert!(MatFile::parse(&nested, "t", x.len() as u64 + inner - 1).is_err());
+        assert_eq!(MAX_DECOMPRESSED_BYTES, 256 << 20);
     }
 
     #[test]

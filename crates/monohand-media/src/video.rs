@@ -46,6 +46,11 @@ use std::thread::JoinHandle;
 /// The frame rate assumed when a video does not state one (frames per second).
 pub const DEFAULT_FPS: f64 = 30.0;
 
+/// Largest frame accepted from a video, in pixels (2^26, 67 megapixels: an RGB frame of
+/// 201 MB; 8K UHD is 33 megapixels). The reader allocates one frame of this size, so a
+/// forged stream header cannot make it allocate more.
+pub const MAX_FRAME_PIXELS: usize = 1 << 26;
+
 /// How many bytes of ffmpeg's standard error are kept for error messages (the tail).
 const STDERR_KEEP: usize = 4096;
 
@@ -236,6 +241,15 @@ pub fn parse_probe_json(text: &str, name: &str) -> IoResult<VideoInfo> {
             .ok_or_else(|| IoError::field(name, format!("streams[0].{k}"), "missing or invalid"))
     };
     let (w, h) = (dim("width")?, dim("height")?);
+    if w * h > MAX_FRAME_PIXELS {
+        return Err(IoError::field(
+            name,
+            "streams[0]",
+            format!(
+                "{w}x{h} frames exceed the limit of {MAX_FRAME_PIXELS} pixels (MAX_FRAME_PIXELS)"
+            ),
+        ));
+    }
     let str_field = |k: &str| s.get(k).and_then(Value::as_str);
     let fps = str_field("r_frame_rate").and_then(parse_rate);
     let frame_count = str_field("nb_frames")
@@ -836,6 +850,18 @@ mod tests {
         assert!(a.contains(&"-vf".to_string()));
         assert!(a.windows(2).any(|w| w == ["-r", "29.97"]));
         assert!(a.windows(2).any(|w| w == ["-c:v", "mpeg4"]));
+    }
+
+    /// Found while writing the fuzz harness: each dimension was capped at 65 535 but not
+    /// their product, so a stream header claiming 65535x65535 made the reader allocate a
+    /// 12.9 GB frame.
+    #[test]
+    fn forged_frame_size_is_an_error() {
+        let j = r#"{"streams": [{"width": 65535, "height": 65535}]}"#;
+        let e = parse_probe_json(j, "big.mp4").unwrap_err().to_string();
+        assert!(e.contains("exceed the limit of 67108864 pixels"), "{e}");
+        let j = r#"{"streams": [{"width": 8192, "height": 8192}]}"#;
+        assert!(parse_probe_json(j, "8k.mp4").is_ok());
     }
 
     #[test]

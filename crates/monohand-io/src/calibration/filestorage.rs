@@ -50,6 +50,10 @@ pub(crate) fn parse_number(s: &str) -> Option<f64> {
     t.parse::<f64>().ok()
 }
 
+/// Deepest nesting of maps and sequences accepted (per syntax: YAML blocks, YAML flow
+/// collections, XML elements); deeper input is an error rather than a stack overflow.
+pub(crate) const MAX_NESTING: usize = 64;
+
 /// A syntax error: 1-based line and message.
 #[derive(Debug, Clone, PartialEq)]
 pub(crate) struct SyntaxError {
@@ -153,7 +157,7 @@ pub(crate) fn parse_yaml(text: &str) -> Result<Node, SyntaxError> {
         });
     }
     let indent = lines[0].indent;
-    let node = parse_block(&lines, &mut pos, indent)?;
+    let node = parse_block(&lines, &mut pos, indent, 0)?;
     if let Some(l) = lines.get(pos) {
         return Err(syntax(
             l.no,
@@ -164,8 +168,19 @@ pub(crate) fn parse_yaml(text: &str) -> Result<Node, SyntaxError> {
 }
 
 /// Parses the block (map or sequence) whose lines start at `indent`.
-fn parse_block(lines: &[Line], pos: &mut usize, indent: usize) -> Result<Node, SyntaxError> {
+fn parse_block(
+    lines: &[Line],
+    pos: &mut usize,
+    indent: usize,
+    depth: usize,
+) -> Result<Node, SyntaxError> {
     let first = &lines[*pos];
+    if depth > MAX_NESTING {
+        return Err(syntax(
+            first.no,
+            format!("blocks nested more than {MAX_NESTING} deep"),
+        ));
+    }
     if first.text == "-" || first.text.starts_with("- ") {
         let mut items = Vec::new();
         while let Some(l) = lines.get(*pos) {
@@ -179,7 +194,7 @@ fn parse_block(lines: &[Line], pos: &mut usize, indent: usize) -> Result<Node, S
             let no = l.no;
             *pos += 1;
             if rest.is_empty() {
-                items.push(parse_nested(lines, pos, indent, no, None)?);
+                items.push(parse_nested(lines, pos, indent, no, None, depth)?);
             } else if split_key(rest).is_some() && !rest.starts_with(['[', '{']) {
                 // `- key: value` starts a map whose keys sit at indent + 2.
                 let inner = indent + (l.text.len() - rest.len());
@@ -202,7 +217,7 @@ fn parse_block(lines: &[Line], pos: &mut usize, indent: usize) -> Result<Node, S
                     k += 1;
                 }
                 let mut p = 0;
-                items.push(parse_block(&sub, &mut p, inner)?);
+                items.push(parse_block(&sub, &mut p, inner, depth + 1)?);
                 *pos += p - 1;
             } else {
                 items.push(parse_inline(lines, pos, rest, no)?);
@@ -227,7 +242,7 @@ fn parse_block(lines: &[Line], pos: &mut usize, indent: usize) -> Result<Node, S
         *pos += 1;
         let (tag, rest) = split_tag(rest);
         let value = if rest.is_empty() {
-            parse_nested(lines, pos, indent, no, tag)?
+            parse_nested(lines, pos, indent, no, tag, depth)?
         } else {
             let v = parse_inline(lines, pos, rest, no)?;
             match (tag, v) {
@@ -261,11 +276,12 @@ fn parse_nested(
     indent: usize,
     no: usize,
     tag: Option<String>,
+    depth: usize,
 ) -> Result<Node, SyntaxError> {
     match lines.get(*pos) {
         Some(next) if next.indent > indent => {
             let inner = next.indent;
-            let node = parse_block(lines, pos, inner)?;
+            let node = parse_block(lines, pos, inner, depth + 1)?;
             Ok(match node {
                 Node::Map { entries, .. } => Node::Map { tag, entries },
                 other => other,
@@ -275,7 +291,7 @@ fn parse_nested(
         Some(next)
             if next.indent == indent && (next.text == "-" || next.text.starts_with("- ")) =>
         {
-            parse_block(lines, pos, indent)
+            parse_block(lines, pos, indent, depth + 1)
         }
         _ if tag.is_some() => Err(syntax(no, "tagged value has no content")),
         _ => Ok(Node::Scalar(String::new())),
@@ -293,18 +309,23 @@ fn parse_inline(
         return Ok(Node::Scalar(unquote(rest)));
     }
     let mut text = rest.to_string();
-    while !balanced(&text) {
+    // Incremental: re-scanning the whole text for every added line was quadratic.
+    let mut balance = Balance::default();
+    balance.feed(rest);
+    while !balance.closed() {
         let l = lines
             .get(*pos)
             .ok_or_else(|| syntax(no, "unterminated [ or { (file truncated?)"))?;
         text.push(' ');
         text.push_str(&l.text);
+        balance.feed(&l.text);
         *pos += 1;
     }
     let mut p = FlowParser {
         s: text.as_bytes(),
         i: 0,
         no,
+        depth: 0,
     };
     let node = p.value()?;
     p.ws();
@@ -314,28 +335,40 @@ fn parse_inline(
     Ok(node)
 }
 
-fn balanced(s: &str) -> bool {
-    let mut depth = 0i32;
-    let mut quote = None;
-    for c in s.chars() {
-        match quote {
-            Some(q) if c == q => quote = None,
-            Some(_) => {}
-            None => match c {
-                '"' | '\'' => quote = Some(c),
-                '[' | '{' => depth += 1,
-                ']' | '}' => depth -= 1,
-                _ => {}
-            },
+/// Open brackets of flow text fed so far (quotes respected): is the collection closed?
+#[derive(Default)]
+struct Balance {
+    depth: i64,
+    quote: Option<char>,
+}
+
+impl Balance {
+    fn feed(&mut self, s: &str) {
+        for c in s.chars() {
+            match self.quote {
+                Some(q) if c == q => self.quote = None,
+                Some(_) => {}
+                None => match c {
+                    '"' | '\'' => self.quote = Some(c),
+                    '[' | '{' => self.depth += 1,
+                    ']' | '}' => self.depth -= 1,
+                    _ => {}
+                },
+            }
         }
     }
-    depth <= 0
+
+    fn closed(&self) -> bool {
+        self.depth <= 0
+    }
 }
 
 struct FlowParser<'a> {
     s: &'a [u8],
     i: usize,
     no: usize,
+    /// Open `[` and `{` around the current position.
+    depth: usize,
 }
 
 impl FlowParser<'_> {
@@ -347,6 +380,23 @@ impl FlowParser<'_> {
 
     fn value(&mut self) -> Result<Node, SyntaxError> {
         self.ws();
+        if matches!(self.s.get(self.i), Some(b'[' | b'{')) {
+            if self.depth >= MAX_NESTING {
+                return Err(syntax(
+                    self.no,
+                    format!("[ and {{ nested more than {MAX_NESTING} deep"),
+                ));
+            }
+            self.depth += 1;
+            let node = self.collection();
+            self.depth -= 1;
+            return node;
+        }
+        self.collection()
+    }
+
+    /// A `[...]` or `{...}` collection, or a scalar.
+    fn collection(&mut self) -> Result<Node, SyntaxError> {
         match self.s.get(self.i) {
             Some(b'[') => {
                 self.i += 1;
@@ -473,6 +523,15 @@ struct XmlParser<'a> {
     i: usize,
 }
 
+/// 1-based line of byte `i` of `s`.
+fn line_at(s: &str, i: usize) -> usize {
+    s.as_bytes()[..i.min(s.len())]
+        .iter()
+        .filter(|&&b| b == b'\n')
+        .count()
+        + 1
+}
+
 fn decode_entities(s: &str) -> String {
     s.replace("&lt;", "<")
         .replace("&gt;", ">")
@@ -483,7 +542,7 @@ fn decode_entities(s: &str) -> String {
 
 impl<'a> XmlParser<'a> {
     fn line(&self) -> usize {
-        self.s[..self.i.min(self.s.len())].matches('\n').count() + 1
+        line_at(self.s, self.i)
     }
 
     fn rest(&self) -> &'a str {
@@ -513,14 +572,17 @@ impl<'a> XmlParser<'a> {
 
     /// Reads `<name attrs>` or `<name attrs/>`: (name, attributes, self-closing).
     fn start_tag(&mut self) -> Result<StartTag, SyntaxError> {
-        let line = self.line();
+        // The line is only counted for an error: counting it for every tag was quadratic.
+        let start = self.i;
+        let text = self.s;
+        let line = || line_at(text, start);
         let r = self.rest();
         if !r.starts_with('<') {
-            return Err(syntax(line, "expected an element"));
+            return Err(syntax(line(), "expected an element"));
         }
         let end = r
             .find('>')
-            .ok_or_else(|| syntax(line, "unterminated tag (file truncated?)"))?;
+            .ok_or_else(|| syntax(line(), "unterminated tag (file truncated?)"))?;
         let inner = &r[1..end];
         self.i += end + 1;
         let (inner, empty) = match inner.strip_suffix('/') {
@@ -530,24 +592,24 @@ impl<'a> XmlParser<'a> {
         let name_end = inner.find(char::is_whitespace).unwrap_or(inner.len());
         let name = inner[..name_end].to_string();
         if name.is_empty() || name.starts_with('/') {
-            return Err(syntax(line, format!("malformed tag <{inner}>")));
+            return Err(syntax(line(), format!("malformed tag <{inner}>")));
         }
         let mut attrs = Vec::new();
         let mut a = inner[name_end..].trim();
         while !a.is_empty() {
             let eq = a
                 .find('=')
-                .ok_or_else(|| syntax(line, format!("malformed attribute in <{inner}>")))?;
+                .ok_or_else(|| syntax(line(), format!("malformed attribute in <{inner}>")))?;
             let key = a[..eq].trim().to_string();
             let v = a[eq + 1..].trim_start();
             let q = v
                 .chars()
                 .next()
                 .filter(|c| *c == '"' || *c == '\'')
-                .ok_or_else(|| syntax(line, format!("unquoted attribute in <{inner}>")))?;
+                .ok_or_else(|| syntax(line(), format!("unquoted attribute in <{inner}>")))?;
             let close = v[1..]
                 .find(q)
-                .ok_or_else(|| syntax(line, format!("unterminated attribute in <{inner}>")))?;
+                .ok_or_else(|| syntax(line(), format!("unterminated attribute in <{inner}>")))?;
             attrs.push((key, decode_entities(&v[1..1 + close])));
             a = v[close + 2..].trim_start();
         }
@@ -561,8 +623,11 @@ impl<'a> XmlParser<'a> {
         tag: Option<String>,
         depth: usize,
     ) -> Result<Node, SyntaxError> {
-        if depth > 64 {
-            return Err(syntax(self.line(), "elements nested too deeply"));
+        if depth > MAX_NESTING {
+            return Err(syntax(
+                self.line(),
+                format!("elements nested more than {MAX_NESTING} deep"),
+            ));
         }
         let mut text = String::new();
         let mut children: Vec<(String, Node)> = Vec::new();
@@ -671,6 +736,79 @@ mod tests {
         let e = parse_yaml("a: [ 1, 2\n").unwrap_err();
         assert_eq!(e.line, 1);
         assert!(parse_yaml("just text\n").is_err());
+    }
+
+    /// Fuzzing found that deep nesting overflowed the stack (an abort, not an error).
+    #[test]
+    fn deep_yaml_nesting_is_an_error_not_a_stack_overflow() {
+        let flow = format!(
+            "%YAML:1.0\na: {}{}\n",
+            "[".repeat(100_000),
+            "]".repeat(100_000)
+        );
+        let e = parse_yaml(&flow).unwrap_err();
+        assert!(e.message.contains("nested more than 64"), "{e:?}");
+        let flow_maps = format!(
+            "%YAML:1.0\na: {}1{}\n",
+            "{b: ".repeat(100_000),
+            "}".repeat(100_000)
+        );
+        let e = parse_yaml(&flow_maps).unwrap_err();
+        assert!(e.message.contains("nested more than 64"), "{e:?}");
+        // 2000 `- a:` levels overflowed the stack before the limit (3000 `k:` levels did not,
+        // but are refused too).
+        let mut seqs = String::from("%YAML:1.0\n");
+        for k in 0..2000 {
+            seqs.push_str(&" ".repeat(2 * k));
+            seqs.push_str("- a:\n");
+        }
+        let e = parse_yaml(&seqs).unwrap_err();
+        assert!(e.message.contains("nested more than 64"), "{e:?}");
+        let mut maps = String::from("%YAML:1.0\n");
+        for k in 0..3000 {
+            maps.push_str(&" ".repeat(k));
+            maps.push_str("k:\n");
+        }
+        let e = parse_yaml(&maps).unwrap_err();
+        assert!(e.message.contains("nested more than 64"), "{e:?}");
+        assert_eq!(e.line, 67, "{e:?}");
+        // The limit itself is accepted.
+        let ok = format!("a: {}1{}\n", "[".repeat(64), "]".repeat(64));
+        assert!(parse_yaml(&ok).is_ok());
+        let too_deep = format!("a: {}1{}\n", "[".repeat(65), "]".repeat(65));
+        assert!(parse_yaml(&too_deep).is_err());
+    }
+
+    /// Fuzzing found parse times growing as the square of the input: the XML reader counted
+    /// the line of every tag from the start of the file, the YAML reader re-scanned a
+    /// multi-line flow sequence for every line added. 200 000 items took minutes; now
+    /// milliseconds (the bound is loose for slow machines).
+    #[test]
+    fn many_items_parse_in_linear_time() {
+        let n = 200_000;
+        let xml = format!(
+            "<opencv_storage><v>{}</v></opencv_storage>",
+            "<_>1</_>\n".repeat(n)
+        );
+        let t = std::time::Instant::now();
+        let Node::Map { entries, .. } = parse_xml(&xml).unwrap() else {
+            panic!("not a map")
+        };
+        assert!(matches!(&entries[0].1, Node::Seq(v) if v.len() == n));
+        let yaml = format!("%YAML:1.0\nv: [\n{}1 ]\n", "1,\n".repeat(n));
+        let Node::Map { entries, .. } = parse_yaml(&yaml).unwrap() else {
+            panic!("not a map")
+        };
+        assert!(matches!(&entries[0].1, Node::Seq(v) if v.len() == n + 1));
+        let took = t.elapsed();
+        assert!(took.as_secs() < 10, "took {took:?}");
+    }
+
+    #[test]
+    fn deep_xml_nesting_is_an_error() {
+        let x = format!("<opencv_storage>{}", "<a>".repeat(100_000));
+        let e = parse_xml(&x).unwrap_err();
+        assert!(e.message.contains("nested more than 64"), "{e:?}");
     }
 
     #[test]
