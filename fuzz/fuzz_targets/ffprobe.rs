@@ -4,6 +4,6 @@ use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {
     if let Ok(text) = std::str::from_utf8(data) {
-        let _ = monohand_io::video::parse_probe_json(text, "fuzz.mp4");
+        let _ = monohand_media::video::parse_probe_json(text, "fuzz.mp4");
     }
 });

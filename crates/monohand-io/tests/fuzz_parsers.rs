@@ -1,6 +1,6 @@
 //! Fuzzing of monohand-io's parsers of outside input (see docs/fuzzing.md): calibration files
 //! (project JSON, WACV'18 JSON, OpenCV YAML and XML FileStorage), OpenPose JSON, the JSON
-//! Lines input of `lift`, bone-length JSON and ffprobe's JSON. Every mutated input must give
+//! Lines input of `lift` and bone-length JSON (ffprobe's JSON: monohand-media's tests). Every mutated input must give
 //! `Ok` or `Err`: no panic, no allocation over the harness limit, no hang.
 //!
 //! `MONOHAND_FUZZ_CASES` sets the number of mutated inputs per parser (default below, sized
@@ -15,7 +15,6 @@ use monohand_io::calibration::{camera_to_json, parse_calibration};
 use monohand_io::jsonl::parse_jsonl;
 use monohand_io::openpose::parse_openpose;
 use monohand_io::skeleton::parse_bone_lengths;
-use monohand_io::video::parse_probe_json;
 use serde_json::json;
 
 #[global_allocator]
@@ -263,25 +262,4 @@ fn fuzz_bone_lengths() {
         mutate_text,
         |input| parse_bone_lengths(&text(input), "bones.json"),
     );
-}
-
-#[test]
-fn fuzz_ffprobe() {
-    let seeds = vec![
-        br#"{"programs": [], "streams": [{"codec_name": "h264", "width": 1920,
-            "height": 1080, "r_frame_rate": "30000/1001", "avg_frame_rate": "30000/1001",
-            "nb_frames": "300", "duration": "10.010000",
-            "side_data_list": [{"side_data_type": "Display Matrix", "rotation": -90}]}],
-            "format": {"duration": "10.010000", "nb_streams": 1}}"#
-            .to_vec(),
-        br#"{"streams": [{"width": 640, "height": 480, "r_frame_rate": "0/0",
-            "tags": {"rotate": "180"}}]}"#
-            .to_vec(),
-        br#"{"streams": []}"#.to_vec(),
-    ];
-    run("ffprobe", &seeds, cases(CI_CASES), mutate_text, |input| {
-        let info = parse_probe_json(&text(input), "fuzz.mp4")?;
-        let _ = info.fps_or_default();
-        Ok::<_, monohand_io::IoError>(())
-    });
 }
