@@ -538,11 +538,7 @@ impl PySession {
             .tracking(tracking)
             .heads(heads)
             .skeletons(skeletons(hand_scale)?)
-            .smoothing(smoothing.then(|| OneEuroParams {
-                min_cutoff: 1.0,
-                beta: 0.01,
-                ..Default::default()
-            }));
+            .smoothing(smoothing.then(OneEuroParams::default));
         options.detect_every = detect_every;
         if let Some(dir) = model_dir {
             options = options.model_dir(dir);

@@ -16,6 +16,7 @@ use clap::Args;
 use hands::{Done, FrameExtra};
 use input::{FrameSource, InputKind};
 use monohand::{CropTracker, FitSettings, HandsFitter, VisionFrame};
+use monohand_core::filtering::OneEuroParams;
 use monohand_core::prelude::*;
 use monohand_vision::RgbImage;
 use output::{OutputFormat, Outputs};
@@ -75,10 +76,10 @@ pub(crate) struct RunArgs {
     #[arg(long)]
     pub smooth: bool,
     /// One Euro filter: minimum cutoff frequency, Hz (lower: smoother when still).
-    #[arg(long, value_name = "HZ", default_value_t = 1.0)]
+    #[arg(long, value_name = "HZ", default_value_t = OneEuroParams::default().min_cutoff)]
     pub smooth_min_cutoff: f64,
     /// One Euro filter: speed coefficient (higher: less lag when moving fast).
-    #[arg(long, value_name = "BETA", default_value_t = 0.01)]
+    #[arg(long, value_name = "BETA", default_value_t = OneEuroParams::default().beta)]
     pub smooth_beta: f64,
     /// Stop after this many frames.
     #[arg(long, value_name = "N")]
@@ -213,13 +214,11 @@ pub(crate) fn run(args: &RunArgs) -> Result<()> {
         options,
         tracking,
         auto_scale_frames: auto_frames,
-        smoothing: args
-            .smooth
-            .then(|| monohand_core::filtering::OneEuroParams {
-                min_cutoff: args.smooth_min_cutoff,
-                beta: args.smooth_beta,
-                ..Default::default()
-            }),
+        smoothing: args.smooth.then(|| OneEuroParams {
+            min_cutoff: args.smooth_min_cutoff,
+            beta: args.smooth_beta,
+            ..Default::default()
+        }),
     };
     let mut fit = Fit(HandsFitter::new(cameras.clone(), settings)?);
     let progress = crate::progress::Progress::new(total);

@@ -215,20 +215,20 @@ def track_videos(
 
 @daft.cls(max_concurrency=None)
 class HandImages:
-    """Hands in independent images (no tracking): one extra landmark pass per hand, a
-    generic camera per image size unless intrinsics are given."""
+    """Hands in independent images (no tracking): one extra landmark pass per hand, and a
+    generic camera per image size."""
 
     def __init__(self, hands: int = 2, model_dir: Optional[str] = None):
         self.models = monohand.Models(hands=hands, tracking=False, model_dir=model_dir)
         self.hands = hands
         self.sessions: Dict[Any, monohand.Session] = {}
 
-    def _session(self, camera: Optional[monohand.Camera], size: Any) -> monohand.Session:
-        key = (size, None if camera is None else repr(camera))
-        s = self.sessions.get(key)
+    def _session(self, size: Any) -> monohand.Session:
+        """The session for one image size (a generic camera of that size)."""
+        s = self.sessions.get(size)
         if s is None:
-            s = monohand.Session(camera, hands=self.hands, tracking=False, models=self.models)
-            self.sessions[key] = s
+            s = monohand.Session(None, hands=self.hands, tracking=False, models=self.models)
+            self.sessions[size] = s
         return s
 
     @daft.method.batch(return_dtype=HANDS_DTYPE, batch_size=16)
@@ -245,7 +245,7 @@ class HandImages:
             if rgb.ndim != 3 or rgb.shape[2] != 3:
                 out.append([])
                 continue
-            session = self._session(None, rgb.shape[:2])
+            session = self._session(rgb.shape[:2])
             out.append([hand_struct(h) for h in session.process(rgb)])
         return out
 
