@@ -80,6 +80,13 @@ fn skeletons(hand_scale: f64) -> PyResult<[HandSkeleton; 2]> {
     ])
 }
 
+/// A record as plain Python lists, dicts and numbers: exactly what `monohand run` writes
+/// to JSON Lines, read back by Python's own `json`.
+fn as_python<'py>(py: Python<'py>, record: &impl serde::Serialize) -> PyResult<Bound<'py, PyAny>> {
+    let text = serde_json::to_string(record).map_err(|e| MonohandError::new_err(e.to_string()))?;
+    py.import("json")?.call_method1("loads", (text,))
+}
+
 /// A 21x3 array of rows of three numbers.
 fn joints_array<'py>(py: Python<'py>, rows: &[[f64; 3]; NUM_JOINTS]) -> Bound<'py, PyArray2<f64>> {
     let flat: Vec<f64> = rows.iter().flatten().copied().collect();
@@ -358,9 +365,7 @@ impl PyHand {
     }
     /// The hand as `monohand run` writes it to JSON Lines (plain lists and numbers).
     fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        let text = serde_json::to_string(&self.inner)
-            .map_err(|e| MonohandError::new_err(e.to_string()))?;
-        py.import("json")?.call_method1("loads", (text,))
+        as_python(py, &self.inner)
     }
     fn __repr__(&self) -> String {
         let z = self.inner.joints_3d_mm.map_or("no 3D".to_string(), |j| {
@@ -593,9 +598,7 @@ impl PySession {
         time_s: Option<f64>,
     ) -> PyResult<Bound<'py, PyAny>> {
         let record = self.process_record(py, image, time_s)?;
-        let text =
-            serde_json::to_string(&record).map_err(|e| MonohandError::new_err(e.to_string()))?;
-        py.import("json")?.call_method1("loads", (text,))
+        as_python(py, &record)
     }
 
     /// Messages for the user since the last call (assumptions made, hand size found).
