@@ -137,6 +137,22 @@ pub struct Camera {
 }
 
 impl Camera {
+    /// A camera from its parts, checked ([`Camera::validate`]): the one constructor that
+    /// file readers and bindings use, so no camera skips the checks.
+    pub fn new(
+        intrinsics: Intrinsics,
+        distortion: Distortion,
+        extrinsics: Extrinsics,
+    ) -> CoreResult<Camera> {
+        let cam = Camera {
+            intrinsics,
+            distortion,
+            extrinsics,
+        };
+        cam.validate()?;
+        Ok(cam)
+    }
+
     /// A distortion-free camera at the reference pose; checks the numbers.
     ///
     /// ```
@@ -153,8 +169,8 @@ impl Camera {
         width: u32,
         height: u32,
     ) -> CoreResult<Camera> {
-        let cam = Camera {
-            intrinsics: Intrinsics {
+        Camera::new(
+            Intrinsics {
                 fx,
                 fy,
                 cx,
@@ -162,11 +178,9 @@ impl Camera {
                 width,
                 height,
             },
-            distortion: Distortion::default(),
-            extrinsics: Extrinsics::default(),
-        };
-        cam.validate()?;
-        Ok(cam)
+            Distortion::default(),
+            Extrinsics::default(),
+        )
     }
 
     /// A camera for footage of unknown origin: principal point at the image centre,

@@ -282,11 +282,6 @@ fn translation(t: &[f64], file: &str, field: &str) -> IoResult<Vector3<f64>> {
     Ok(Vector3::new(t[0], t[1], t[2]))
 }
 
-fn finish(camera: Camera, file: &str) -> IoResult<Camera> {
-    camera.validate().map_err(|e| IoError::core(file, e))?;
-    Ok(camera)
-}
-
 // ------------------------------------------------------------ JSON helpers
 
 fn json_f64(v: &Value, file: &str, field: &str) -> IoResult<f64> {
@@ -355,8 +350,8 @@ fn monohand_json(o: &Map<String, Value>, file: &str) -> IoResult<Calibration> {
         Some(v) => translation(&json_numbers(v, file, "t")?, file, "t")?,
         None => Vector3::zeros(),
     };
-    let camera = Camera {
-        intrinsics: Intrinsics {
+    let camera = Camera::new(
+        Intrinsics {
             fx,
             fy,
             cx,
@@ -364,14 +359,15 @@ fn monohand_json(o: &Map<String, Value>, file: &str) -> IoResult<Calibration> {
             width,
             height,
         },
-        distortion: dist,
-        extrinsics: Extrinsics {
+        dist,
+        Extrinsics {
             rotation: rot,
             translation: t,
         },
-    };
+    )
+    .map_err(|e| IoError::core(file, e))?;
     Ok(Calibration {
-        camera: finish(camera, file)?,
+        camera,
         format: CalibrationFormat::MonohandJson,
         target_pose: None,
         reprojection_error_px: None,
@@ -406,8 +402,8 @@ fn wacv18(o: &Map<String, Value>, file: &str) -> IoResult<Calibration> {
         Some(v) => Some(json_f64(v, file, "CalibReprError")?),
         None => None,
     };
-    let camera = Camera {
-        intrinsics: Intrinsics {
+    let camera = Camera::new(
+        Intrinsics {
             fx,
             fy,
             cx,
@@ -415,11 +411,12 @@ fn wacv18(o: &Map<String, Value>, file: &str) -> IoResult<Calibration> {
             width,
             height,
         },
-        distortion: dist,
-        extrinsics: Extrinsics::default(),
-    };
+        dist,
+        Extrinsics::default(),
+    )
+    .map_err(|e| IoError::core(file, e))?;
     Ok(Calibration {
-        camera: finish(camera, file)?,
+        camera,
         format: CalibrationFormat::Wacv18Json,
         target_pose,
         reprojection_error_px,
@@ -605,8 +602,8 @@ fn from_filestorage(root: &Node, file: &str, format: CalibrationFormat) -> IoRes
         Some(n) => fs_scalar_number(n, file, "avg_reprojection_error").ok(),
         None => None,
     };
-    let camera = Camera {
-        intrinsics: Intrinsics {
+    let camera = Camera::new(
+        Intrinsics {
             fx,
             fy,
             cx,
@@ -614,11 +611,12 @@ fn from_filestorage(root: &Node, file: &str, format: CalibrationFormat) -> IoRes
             width,
             height,
         },
-        distortion: dist,
+        dist,
         extrinsics,
-    };
+    )
+    .map_err(|e| IoError::core(file, e))?;
     Ok(Calibration {
-        camera: finish(camera, file)?,
+        camera,
         format,
         target_pose: None,
         reprojection_error_px,
