@@ -125,19 +125,28 @@ impl PyCamera {
         rotation: Option<[[f64; 3]; 3]>,
         translation_mm: Option<[f64; 3]>,
     ) -> PyResult<PyCamera> {
-        let mut inner = Camera::pinhole(fx, fy, cx, cy, width, height).map_err(core_err)?;
-        if let Some(d) = distortion {
-            inner.distortion = Distortion::from_slice(&d).map_err(core_err)?;
-        }
+        let distortion = match distortion {
+            Some(d) => Distortion::from_slice(&d).map_err(core_err)?,
+            None => Distortion::default(),
+        };
+        let mut extrinsics = Extrinsics::default();
         if let Some(r) = rotation {
             let m = nalgebra::Matrix3::from_fn(|i, j| r[i][j]);
-            inner.extrinsics.rotation = nalgebra::Rotation3::from_matrix_unchecked(m);
+            extrinsics.rotation = nalgebra::Rotation3::from_matrix_unchecked(m);
         }
         if let Some(t) = translation_mm {
-            inner.extrinsics.translation = nalgebra::Vector3::from(t);
+            extrinsics.translation = nalgebra::Vector3::from(t);
         }
-        // Checks the distortion and that the rotation is a proper rotation.
-        inner.validate().map_err(core_err)?;
+        let intrinsics = Intrinsics {
+            fx,
+            fy,
+            cx,
+            cy,
+            width,
+            height,
+        };
+        // Checks the numbers, and that the rotation is a proper rotation.
+        let inner = Camera::new(intrinsics, distortion, extrinsics).map_err(core_err)?;
         Ok(PyCamera { inner })
     }
 
