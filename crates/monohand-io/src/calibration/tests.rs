@@ -58,30 +58,7 @@ const XML: &str = r#"<?xml version="1.0"?>
 "#;
 
 /// A stereo right camera (cv::stereoCalibrate R, T) in OpenCV 3 style YAML (no `---`).
-const STEREO_YAML: &str = r#"%YAML:1.0
-K: !!opencv-matrix
-   rows: 3
-   cols: 3
-   dt: d
-   data: [ 8.2279041000000001e+02, 0., 3.1847345000000001e+02, 0.,
-       8.2279041000000001e+02, 2.5031296000000001e+02, 0., 0., 1. ]
-D: !!opencv-matrix
-   rows: 1
-   cols: 5
-   dt: d
-   data: [ 0., 0., 0., 0., 0. ]
-image_size: [ 640, 480 ]
-R: !!opencv-matrix
-   rows: 3
-   cols: 3
-   dt: d
-   data: [ 9.9999999999999989e-01, 0., 0., 0., 1., 0., 0., 0., 1. ]
-T: !!opencv-matrix
-   rows: 3
-   cols: 1
-   dt: d
-   data: [ -1.2005400000000000e+02, 0., 0. ]
-"#;
+const STEREO_YAML: &str = include_str!("../../tests/data/stereo_right.yml");
 
 fn wacv18_path() -> Option<PathBuf> {
     let p = Path::new(env!("CARGO_MANIFEST_DIR"))
