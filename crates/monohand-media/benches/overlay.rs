@@ -1,6 +1,7 @@
 //! Cost of drawing the depth overlay (`scene::SceneRenderer`) on a 640x480 frame with two
 //! fitted hands: the default layers (shaded bones, top view, labels) and all layers.
 //! Target: under 3 ms per frame. `cargo bench -p monohand-media --bench overlay`.
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a failed bench is a panic
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use monohand_core::camera::Camera;

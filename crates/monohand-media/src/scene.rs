@@ -742,7 +742,7 @@ mod tests {
         assert!(l.bones && l.top && l.labels && !l.keypoints && !l.model);
         l.toggle(Layer::Bones);
         assert!(!l.has(Layer::Bones));
-        assert_eq!(Layers::only(&Layer::ALL).has(Layer::Keypoints), true);
+        assert!(Layers::only(&Layer::ALL).has(Layer::Keypoints));
     }
 
     #[test]
