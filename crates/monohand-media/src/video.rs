@@ -493,12 +493,14 @@ fn pump_frames(
 /// reader. Dropping the reader stops ffmpeg.
 pub struct VideoReader {
     child: Child,
-    frames: Receiver<Pumped>,
+    // The receivers sit in mutexes only to keep the reader `Sync` (the Python binding
+    // shares it); `&mut self` reaches them with `get_mut`, without locking.
+    frames: Mutex<Receiver<Pumped>>,
     spare: SyncSender<Vec<u8>>,
     stall_timeout: Duration,
     stderr: Option<JoinHandle<String>>,
     /// Each frame's presentation time, from the decoder's `showinfo` lines.
-    times: Receiver<f64>,
+    times: Mutex<Receiver<f64>>,
     /// The first frame's presentation time (the clock starts there).
     first_pts: Option<f64>,
     info: VideoInfo,
@@ -547,11 +549,11 @@ impl VideoReader {
         let (times_tx, times) = std::sync::mpsc::channel();
         Ok(VideoReader {
             child,
-            frames,
+            frames: Mutex::new(frames),
             spare,
             stall_timeout: DEFAULT_STALL_TIMEOUT,
             stderr: Some(drain_stderr_with(stderr, Some(times_tx))),
-            times,
+            times: Mutex::new(times),
             first_pts: None,
             info,
             name: input.name(),
@@ -594,7 +596,11 @@ impl VideoReader {
             return Err(self.end_error(why));
         };
         let len = self.info.width * self.info.height * 3;
-        let filled = match self.frames.recv_timeout(self.stall_timeout) {
+        let received = match self.frames.get_mut() {
+            Ok(rx) => rx.recv_timeout(self.stall_timeout),
+            Err(poisoned) => poisoned.into_inner().recv_timeout(self.stall_timeout),
+        };
+        let filled = match received {
             Ok(Pumped::Frame(buf)) => match RgbImage::from_raw(w, h, buf) {
                 Some(image) => {
                     let old = std::mem::replace(frame, image).into_raw();
@@ -602,11 +608,13 @@ impl VideoReader {
                     let index = self.next_index;
                     self.next_index += 1;
                     // showinfo logs a frame before ffmpeg writes it, so its time is there.
-                    let pts = self
-                        .times
-                        .recv_timeout(self.stall_timeout)
-                        .ok()
-                        .filter(|t| t.is_finite());
+                    let stall = self.stall_timeout;
+                    let pts = match self.times.get_mut() {
+                        Ok(rx) => rx.recv_timeout(stall),
+                        Err(poisoned) => poisoned.into_inner().recv_timeout(stall),
+                    }
+                    .ok()
+                    .filter(|t| t.is_finite());
                     let t = match pts {
                         Some(pts) => pts - *self.first_pts.get_or_insert(pts),
                         None => index as f64 / self.info.fps_or_default(),

@@ -78,7 +78,7 @@ pub(crate) enum FrameSource {
     /// Image files.
     Images { files: Vec<PathBuf>, next: usize },
     /// A running ffmpeg decoder; `None` once finished.
-    Video { reader: Option<VideoReader> },
+    Video { reader: Option<Box<VideoReader>> },
 }
 
 impl FrameSource {
@@ -94,7 +94,7 @@ impl FrameSource {
                 let mut reader = VideoReader::open(v)?;
                 reader.set_stall_timeout(stall);
                 FrameSource::Video {
-                    reader: Some(reader),
+                    reader: Some(Box::new(reader)),
                 }
             }
         })
