@@ -52,6 +52,8 @@ pub(crate) struct Outputs {
     overlay: Option<Overlay>,
     gltf: Option<GltfWriter>,
     camera: Option<Camera>,
+    /// Frames written to every output.
+    frames: u64,
 }
 
 /// Overlay paths with one of these extensions are videos; others are folders.
@@ -144,7 +146,13 @@ impl Outputs {
             overlay,
             gltf,
             camera,
+            frames: 0,
         })
+    }
+
+    /// Frames written to every output so far.
+    pub fn frames_written(&self) -> u64 {
+        self.frames
     }
 
     /// Whether the frames' pixels are needed (overlays).
@@ -198,6 +206,7 @@ impl Outputs {
                 Overlay::Image(path) => save_image(frame, path)?,
             }
         }
+        self.frames += 1;
         Ok(())
     }
 
@@ -227,11 +236,21 @@ fn has_extension(p: &Path, extensions: &[&str]) -> bool {
         .is_some_and(|e| extensions.contains(&e.to_ascii_lowercase().as_str()))
 }
 
-/// Writes an overlay frame as an image file (PNG or JPEG, by the name's extension).
+/// Writes an overlay frame as an image file (PNG or JPEG, by the name's extension), through
+/// `.tmp-NAME` beside it and a rename, so a failed write leaves no damaged image.
 fn save_image(frame: RgbImage, path: &Path) -> Result<()> {
-    frame
-        .save(path)
-        .with_context(|| format!("cannot write {}", path.display()))
+    let name = path.file_name().unwrap_or(path.as_os_str());
+    let mut tmp_name = std::ffi::OsString::from(".tmp-");
+    tmp_name.push(name);
+    let tmp = path.with_file_name(tmp_name);
+    let written = frame
+        .save(&tmp)
+        .map_err(anyhow::Error::from)
+        .and_then(|()| std::fs::rename(&tmp, path).map_err(anyhow::Error::from));
+    if written.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    written.with_context(|| format!("cannot write {}", path.display()))
 }
 
 /// Draws every hand of a record: its 2D keypoints and, when fitted, the 3D model projected
