@@ -157,6 +157,27 @@ fn camera_command(args: &CameraArgs) -> Result<()> {
     Ok(())
 }
 
+/// Exit statuses of `monohand` (docs/pipeline.md#exit-status). (2 is clap's, for a command
+/// line it cannot parse.)
+pub(crate) mod exit {
+    /// Everything was read and written.
+    pub const OK: u8 = 0;
+    /// An error: bad arguments or input found before anything was written, or a failure
+    /// inside (a stage that panicked); the message says which.
+    pub const FAILED: u8 = 1;
+    /// `run`: the input ended with an error after some good frames (a damaged video,
+    /// ffmpeg killed, a source that stopped delivering); the outputs are complete and
+    /// valid up to there.
+    pub const INPUT_ENDED_EARLY: u8 = 3;
+    /// `run`: an output could not be written (a full disk, a folder that cannot be
+    /// written); the run stopped, the other outputs were closed, every file holds whole
+    /// frames only.
+    pub const OUTPUT_FAILED: u8 = 4;
+    /// Stopped by SIGINT (Ctrl-C), SIGTERM or SIGHUP after closing every file (128 + 2,
+    /// the shell's convention for Ctrl-C); a second signal kills at once, also 130.
+    pub const INTERRUPTED: u8 = 130;
+}
+
 /// Set by Ctrl-C: long runs finish the current frame, close their files and stop.
 static INTERRUPTED: AtomicBool = AtomicBool::new(false);
 /// Whether `--quiet` was given.
@@ -199,10 +220,11 @@ pub(crate) fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
 fn main() -> ExitCode {
     let cli = Cli::parse();
     QUIET.store(cli.quiet, Ordering::Relaxed);
-    // The first Ctrl-C asks long runs to stop cleanly; a second one kills the process.
+    // The first Ctrl-C (or SIGTERM, SIGHUP) asks long runs to stop cleanly; a second one
+    // kills the process.
     let _ = ctrlc::set_handler(|| {
         if INTERRUPTED.swap(true, Ordering::Relaxed) {
-            std::process::exit(130);
+            std::process::exit(exit::INTERRUPTED.into());
         }
         eprintln!("\ninterrupted: finishing the current frame (Ctrl-C again to kill)");
     });
@@ -223,18 +245,26 @@ fn main() -> ExitCode {
         .with_max_level(level)
         .init();
     let result = match &cli.command {
-        Command::Detect(args) => detect::run(args),
-        Command::Models(args) => models::run(args),
-        Command::Run(args) => run::run(args),
-        Command::Lift(args) => lift::run(args),
-        Command::Camera(args) => camera_command(args),
-        Command::Eval(args) => eval::run(args),
+        Command::Detect(args) => detect::run(args).map(|()| exit::OK),
+        Command::Models(args) => models::run(args).map(|()| exit::OK),
+        Command::Run(args) => run::run(args).map(|outcome| match outcome {
+            run::Outcome::Complete => exit::OK,
+            run::Outcome::InputEndedEarly => exit::INPUT_ENDED_EARLY,
+            run::Outcome::Interrupted => exit::INTERRUPTED,
+        }),
+        Command::Lift(args) => lift::run(args).map(|()| exit::OK),
+        Command::Camera(args) => camera_command(args).map(|()| exit::OK),
+        Command::Eval(args) => eval::run(args).map(|()| exit::OK),
     };
     match result {
-        Ok(()) => ExitCode::SUCCESS,
+        Ok(code) => ExitCode::from(code),
         Err(e) => {
             eprintln!("error: {e:#}");
-            ExitCode::FAILURE
+            if e.downcast_ref::<run::OutputFailed>().is_some() {
+                ExitCode::from(exit::OUTPUT_FAILED)
+            } else {
+                ExitCode::from(exit::FAILED)
+            }
         }
     }
 }

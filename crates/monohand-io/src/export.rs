@@ -1,6 +1,6 @@
 //! Exports of the per-frame results for other tools (see `docs/output-format.md`):
 //!
-//! - [`CsvWriter`]: one CSV row per hand per frame, flushed per row, for
+//! - [`CsvWriter`]: one CSV row per hand per frame, flushed per frame, for
 //!   spreadsheets and pandas.
 //! - [`openpose_people`] / [`write_openpose_frame`]: one OpenPose-style JSON
 //!   file per frame with `hand_{left,right}_keypoints_2d` and
@@ -14,11 +14,12 @@ use crate::error::{name_of, IoError, IoResult};
 use crate::hand_mesh::{HandMesh, MESH_CREDIT, MESH_JOINTS};
 use crate::jsonl::{FrameRecord, HandRecord};
 use crate::openpose::{write_openpose_file, OpenPoseHandOut, OpenPosePerson};
+use crate::sink::{write_file_atomically, RecordSink};
 use monohand_core::hand_model::{HandSide, BONES, JOINT_NAMES, NUM_JOINTS};
 use monohand_core::observation::Keypoints2d;
 use nalgebra::Vector3;
 use serde_json::{json, Value};
-use std::io::{BufWriter, Write};
+use std::io::Write;
 use std::path::{Path, PathBuf};
 
 // ---------------------------------------------------------------- CSV
@@ -93,16 +94,17 @@ pub fn csv_rows(frame: &FrameRecord) -> Vec<String> {
 
 /// Writes frames as CSV ([`csv_header`], then [`csv_rows`]), flushing after
 /// every frame so an interrupted run leaves complete rows.
+///
+/// A file is cut back to its last whole frame when a write fails (a full disk).
 pub struct CsvWriter {
-    out: BufWriter<Box<dyn Write>>,
-    name: String,
+    out: RecordSink,
     rows: usize,
 }
 
 impl std::fmt::Debug for CsvWriter {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("CsvWriter")
-            .field("name", &self.name)
+            .field("name", &self.out.name())
             .field("rows", &self.rows)
             .finish()
     }
@@ -111,47 +113,31 @@ impl std::fmt::Debug for CsvWriter {
 impl CsvWriter {
     /// Creates (or truncates) a file and writes the header.
     pub fn create(path: impl AsRef<Path>) -> IoResult<CsvWriter> {
-        let path = path.as_ref();
-        let f = std::fs::File::create(path).map_err(|error| IoError::Write {
-            path: path.to_path_buf(),
-            error,
-        })?;
-        CsvWriter::new(Box::new(f), &name_of(path))
+        CsvWriter::start(RecordSink::create(path.as_ref())?)
     }
 
     /// Writes to any sink (header first); `name` is used in errors.
     pub fn new(sink: Box<dyn Write>, name: &str) -> IoResult<CsvWriter> {
-        let mut w = CsvWriter {
-            out: BufWriter::new(sink),
-            name: name.to_string(),
-            rows: 0,
-        };
-        let header = csv_header();
-        w.put(&header)?;
+        CsvWriter::start(RecordSink::new(sink, name))
+    }
+
+    fn start(out: RecordSink) -> IoResult<CsvWriter> {
+        let mut w = CsvWriter { out, rows: 0 };
+        w.out.append(format!("{}\n", csv_header()).as_bytes())?;
         Ok(w)
     }
 
-    fn put(&mut self, line: &str) -> IoResult<()> {
-        let path = PathBuf::from(&self.name);
-        let werr = |error| IoError::Write {
-            path: path.clone(),
-            error,
-        };
-        self.out.write_all(line.as_bytes()).map_err(werr)?;
-        self.out.write_all(b"\n").map_err(werr)?;
-        Ok(())
-    }
-
-    /// Writes the rows of one frame and flushes.
+    /// Writes the rows of one frame (all or none of them) and flushes.
     pub fn write_frame(&mut self, frame: &FrameRecord) -> IoResult<()> {
-        for row in csv_rows(frame) {
-            self.put(&row)?;
-            self.rows += 1;
+        let rows = csv_rows(frame);
+        let mut text = String::new();
+        for row in &rows {
+            text.push_str(row);
+            text.push('\n');
         }
-        self.out.flush().map_err(|error| IoError::Write {
-            path: PathBuf::from(&self.name),
-            error,
-        })
+        self.out.append(text.as_bytes())?;
+        self.rows += rows.len();
+        Ok(())
     }
 
     /// Data rows written (not counting the header).
@@ -664,21 +650,9 @@ impl GltfWriter {
         b.finish(doc)
     }
 
-    /// Writes the file (to `PATH.tmp`, then renamed to `PATH`).
+    /// Writes the file (to `PATH.tmp`, then renamed to `PATH`; complete or absent).
     pub fn finish(self) -> IoResult<()> {
-        let bytes = self.to_glb();
-        let mut tmp = self.path.clone().into_os_string();
-        tmp.push(".tmp");
-        let tmp = PathBuf::from(tmp);
-        let werr = |path: &Path| {
-            let path = path.to_path_buf();
-            move |error| IoError::Write { path, error }
-        };
-        std::fs::write(&tmp, &bytes).map_err(werr(&tmp))?;
-        std::fs::rename(&tmp, &self.path).map_err(|e| {
-            let _ = std::fs::remove_file(&tmp);
-            werr(&self.path)(e)
-        })
+        write_file_atomically(&self.path, &self.to_glb())
     }
 }
 

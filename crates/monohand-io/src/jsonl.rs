@@ -29,12 +29,13 @@
 //! ```
 
 use crate::error::{name_of, IoError, IoResult};
+use crate::sink::RecordSink;
 use monohand_core::observation::NetworkCues;
 use monohand_core::prelude::*;
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
-use std::io::{BufRead, BufReader, BufWriter, Write};
+use std::io::{BufRead, BufReader, Write};
 use std::path::Path;
 
 /// The fitted pose parameters of a hand.
@@ -295,16 +296,18 @@ pub struct FrameRecord {
 }
 
 /// Writes [`FrameRecord`]s as JSON Lines, flushing after every line.
+///
+/// A file is cut back to its last whole line when a write fails (a full disk), so
+/// it always parses.
 pub struct JsonlWriter {
-    out: BufWriter<Box<dyn Write>>,
-    name: String,
+    out: RecordSink,
     lines: usize,
 }
 
 impl std::fmt::Debug for JsonlWriter {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("JsonlWriter")
-            .field("name", &self.name)
+            .field("name", &self.out.name())
             .field("lines", &self.lines)
             .finish()
     }
@@ -313,12 +316,10 @@ impl std::fmt::Debug for JsonlWriter {
 impl JsonlWriter {
     /// Creates (or truncates) a file.
     pub fn create(path: impl AsRef<Path>) -> IoResult<JsonlWriter> {
-        let path = path.as_ref();
-        let f = std::fs::File::create(path).map_err(|source| IoError::Write {
-            path: path.to_path_buf(),
-            error: source,
-        })?;
-        Ok(JsonlWriter::new(Box::new(f), &name_of(path)))
+        Ok(JsonlWriter {
+            out: RecordSink::create(path.as_ref())?,
+            lines: 0,
+        })
     }
 
     /// Writes to standard output.
@@ -329,8 +330,7 @@ impl JsonlWriter {
     /// Writes to any sink; `name` is used in errors.
     pub fn new(sink: Box<dyn Write>, name: &str) -> JsonlWriter {
         JsonlWriter {
-            out: BufWriter::new(sink),
-            name: name.to_string(),
+            out: RecordSink::new(sink, name),
             lines: 0,
         }
     }
@@ -346,21 +346,16 @@ impl JsonlWriter {
         for (i, h) in frame.hands.iter().enumerate() {
             if let Some(field) = h.non_finite_field() {
                 return Err(IoError::field(
-                    self.name.clone(),
+                    self.out.name(),
                     format!("frame {} hands[{i}].{field}", frame.frame),
                     "contains a non-finite number",
                 ));
             }
         }
-        let line = serde_json::to_string(frame).map_err(|e| IoError::json(&self.name, &e))?;
-        let path = std::path::PathBuf::from(&self.name);
-        let werr = |source| IoError::Write {
-            path: path.clone(),
-            error: source,
-        };
-        self.out.write_all(line.as_bytes()).map_err(werr)?;
-        self.out.write_all(b"\n").map_err(werr)?;
-        self.out.flush().map_err(werr)?;
+        let mut line =
+            serde_json::to_string(frame).map_err(|e| IoError::json(self.out.name(), &e))?;
+        line.push('\n');
+        self.out.append(line.as_bytes())?;
         self.lines += 1;
         Ok(())
     }

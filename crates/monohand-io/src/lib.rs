@@ -11,6 +11,7 @@
 //! - [`skeleton`]: bone-length files for sizing the hand model.
 //! - [`jsonl`]: the project's JSON Lines output (one frame per line), read and written.
 //! - [`export`]: CSV, OpenPose-style JSON with 3D, and an animated glTF (`.glb`) 3D view.
+//! - [`sink`]: writing so that a failure (a full disk) leaves no damaged file.
 //! - [`palette`]: the colours of the fingers and sides, shared with the overlays.
 //!
 //! Every fallible function returns [`IoError`], whose message names the file
@@ -25,6 +26,7 @@ pub mod hand_mesh;
 pub mod jsonl;
 pub mod openpose;
 pub mod palette;
+pub mod sink;
 pub mod skeleton;
 
 pub use error::{IoError, IoResult};

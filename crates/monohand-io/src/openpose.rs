@@ -309,11 +309,10 @@ pub fn to_openpose_json(people: &[OpenPosePerson]) -> Value {
 
 /// Writes one OpenPose frame file (see [`to_openpose_json`]).
 pub fn write_openpose_file(path: impl AsRef<Path>, people: &[OpenPosePerson]) -> IoResult<()> {
-    let path = path.as_ref();
-    std::fs::write(path, to_openpose_json(people).to_string()).map_err(|source| IoError::Write {
-        path: path.to_path_buf(),
-        error: source,
-    })
+    crate::sink::write_file_atomically(
+        path.as_ref(),
+        to_openpose_json(people).to_string().as_bytes(),
+    )
 }
 
 #[cfg(test)]

@@ -40,8 +40,10 @@ use std::collections::HashMap;
 use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
 use std::process::{Child, ChildStdin, ChildStdout, Command, Stdio};
+use std::sync::mpsc::{sync_channel, Receiver, RecvTimeoutError, SyncSender};
 use std::sync::{Mutex, OnceLock};
 use std::thread::JoinHandle;
+use std::time::Duration;
 
 /// The frame rate assumed when a video does not state one (frames per second).
 pub const DEFAULT_FPS: f64 = 30.0;
@@ -337,17 +339,46 @@ pub fn probe_with(tools: &FfmpegTools, input: &VideoInput) -> IoResult<VideoInfo
 }
 
 /// Reads a child's standard error on a thread, keeping the last [`STDERR_KEEP`] bytes.
-fn drain_stderr(mut pipe: impl Read + Send + 'static) -> JoinHandle<String> {
+fn drain_stderr(pipe: impl Read + Send + 'static) -> JoinHandle<String> {
+    drain_stderr_with(pipe, None)
+}
+
+/// [`drain_stderr`] for a decoder run with `-v level+info` and the `showinfo` filter
+/// ([`reader_args`]): each frame's `pts_time` goes to `times` (NaN when the frame has
+/// none), and only the lines of level error and worse are kept for messages.
+fn drain_stderr_with(
+    pipe: impl Read + Send + 'static,
+    times: Option<std::sync::mpsc::Sender<f64>>,
+) -> JoinHandle<String> {
     std::thread::spawn(move || {
         let mut kept: Vec<u8> = Vec::new();
-        let mut buf = [0u8; 4096];
+        let mut keep = |line: &[u8]| {
+            kept.extend_from_slice(line);
+            kept.push(b'\n');
+            if kept.len() > 2 * STDERR_KEEP {
+                kept.drain(..kept.len() - STDERR_KEEP);
+            }
+        };
+        let mut reader = std::io::BufReader::new(pipe);
+        let mut line = Vec::new();
         loop {
-            match pipe.read(&mut buf) {
+            line.clear();
+            match std::io::BufRead::read_until(&mut reader, b'\n', &mut line) {
                 Ok(0) | Err(_) => break,
-                Ok(n) => {
-                    kept.extend_from_slice(&buf[..n]);
-                    if kept.len() > 2 * STDERR_KEEP {
-                        kept.drain(..kept.len() - STDERR_KEEP);
+                Ok(_) => {}
+            }
+            let text = String::from_utf8_lossy(&line);
+            let text = text.trim_end();
+            match &times {
+                None => keep(text.as_bytes()),
+                Some(tx) => {
+                    if let Some(t) = showinfo_pts_time(text) {
+                        let _ = tx.send(t);
+                    } else if let Some(msg) = ["[error] ", "[fatal] ", "[panic] "]
+                        .iter()
+                        .find_map(|tag| text.split_once(tag).map(|(_, m)| m))
+                    {
+                        keep(msg.as_bytes());
                     }
                 }
             }
@@ -357,6 +388,21 @@ fn drain_stderr(mut pipe: impl Read + Send + 'static) -> JoinHandle<String> {
         }
         String::from_utf8_lossy(&kept).trim().to_string()
     })
+}
+
+/// The `pts_time` of a `showinfo` frame line (`[Parsed_showinfo_0 @ 0x..] [info] n:   3
+/// pts:   100 pts_time:0.1 ...`); NaN for `NOPTS`; `None` for any other line.
+fn showinfo_pts_time(line: &str) -> Option<f64> {
+    if !line.contains("Parsed_showinfo") || !line.contains("] n:") {
+        return None;
+    }
+    let v = line.split_once("pts_time:")?.1.split_whitespace().next()?;
+    Some(
+        v.parse::<f64>()
+            .ok()
+            .filter(|t| t.is_finite())
+            .unwrap_or(f64::NAN),
+    )
 }
 
 /// Starts a command in its own process group, so that a Ctrl-C in the
@@ -375,10 +421,64 @@ fn own_process_group(cmd: &mut Command) -> &mut Command {
 pub struct VideoFrame {
     /// Frame index, from 0.
     pub index: u64,
-    /// Nominal time of the frame, seconds: `index / fps` (see [`VideoInfo::fps_or_default`]).
+    /// Time of the frame, seconds: its presentation time in the stream, from 0 at the first
+    /// frame (so variable-frame-rate video keeps its real clock), or `index / fps` (see
+    /// [`VideoInfo::fps_or_default`]) for a frame without one.
     pub timestamp_s: f64,
     /// The pixels.
     pub image: RgbImage,
+}
+
+/// How long [`VideoReader`] waits for the next frame before it gives up on a source
+/// that stopped delivering (a frozen webcam, a pipe whose writer stalls): 30 seconds.
+pub const DEFAULT_STALL_TIMEOUT: Duration = Duration::from_secs(30);
+
+/// What the thread that reads ffmpeg's output hands over.
+enum Pumped {
+    /// One whole frame of packed RGB.
+    Frame(Vec<u8>),
+    /// ffmpeg's output ended, after this many bytes of an incomplete frame.
+    End(usize),
+    /// Reading ffmpeg's output failed.
+    Failed(std::io::Error),
+}
+
+/// Reads whole frames from ffmpeg's standard output on a thread, so that the reader can
+/// wait for them with a timeout. At most two frames are held (one in the channel, one
+/// being read); frame buffers are handed back for reuse.
+fn pump_frames(
+    mut stdout: ChildStdout,
+    frame_len: usize,
+) -> (Receiver<Pumped>, SyncSender<Vec<u8>>) {
+    let (tx, rx) = sync_channel::<Pumped>(1);
+    let (back_tx, back_rx) = sync_channel::<Vec<u8>>(2);
+    std::thread::spawn(move || loop {
+        let mut buf = back_rx
+            .try_recv()
+            .ok()
+            .filter(|b| b.len() == frame_len)
+            .unwrap_or_else(|| vec![0u8; frame_len]);
+        let mut filled = 0;
+        while filled < frame_len {
+            match stdout.read(&mut buf[filled..]) {
+                Ok(0) => break,
+                Ok(n) => filled += n,
+                Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+                Err(e) => {
+                    let _ = tx.send(Pumped::Failed(e));
+                    return;
+                }
+            }
+        }
+        if filled < frame_len {
+            let _ = tx.send(Pumped::End(filled));
+            return;
+        }
+        if tx.send(Pumped::Frame(buf)).is_err() {
+            return;
+        }
+    });
+    (rx, back_tx)
 }
 
 /// Decodes a video to RGB frames with an `ffmpeg` child process.
@@ -386,12 +486,23 @@ pub struct VideoFrame {
 /// Frames come in decoding-output order with consecutive indices. After the
 /// last frame, [`VideoReader::read_into`] returns `Ok(None)` if ffmpeg ended
 /// cleanly, or an [`IoError::Video`] carrying ffmpeg's message if it failed
-/// (corrupt or truncated input); later calls return `Ok(None)`.
-/// Dropping the reader stops ffmpeg.
+/// (corrupt or truncated input, ffmpeg killed); later calls return `Ok(None)`.
+/// A source that delivers no frame for the stall timeout
+/// ([`DEFAULT_STALL_TIMEOUT`], see [`VideoReader::set_stall_timeout`]) ends the same
+/// way, with an error saying so: a frozen webcam or a stalled pipe never hangs the
+/// reader. Dropping the reader stops ffmpeg.
 pub struct VideoReader {
     child: Child,
-    stdout: ChildStdout,
+    // The receivers sit in mutexes only to keep the reader `Sync` (the Python binding
+    // shares it); `&mut self` reaches them with `get_mut`, without locking.
+    frames: Mutex<Receiver<Pumped>>,
+    spare: SyncSender<Vec<u8>>,
+    stall_timeout: Duration,
     stderr: Option<JoinHandle<String>>,
+    /// Each frame's presentation time, from the decoder's `showinfo` lines.
+    times: Mutex<Receiver<f64>>,
+    /// The first frame's presentation time (the clock starts there).
+    first_pts: Option<f64>,
     info: VideoInfo,
     name: String,
     next_index: u64,
@@ -404,6 +515,7 @@ impl std::fmt::Debug for VideoReader {
             .field("input", &self.name)
             .field("info", &self.info)
             .field("next_index", &self.next_index)
+            .field("stall_timeout", &self.stall_timeout)
             .finish()
     }
 }
@@ -432,15 +544,28 @@ impl VideoReader {
                 message: "cannot connect to ffmpeg's output".into(),
             });
         };
+        // parse_probe_json caps the size at MAX_FRAME_PIXELS.
+        let (frames, spare) = pump_frames(stdout, info.width * info.height * 3);
+        let (times_tx, times) = std::sync::mpsc::channel();
         Ok(VideoReader {
             child,
-            stdout,
-            stderr: Some(drain_stderr(stderr)),
+            frames: Mutex::new(frames),
+            spare,
+            stall_timeout: DEFAULT_STALL_TIMEOUT,
+            stderr: Some(drain_stderr_with(stderr, Some(times_tx))),
+            times: Mutex::new(times),
+            first_pts: None,
             info,
             name: input.name(),
             next_index: 0,
             done: false,
         })
+    }
+
+    /// How long to wait for a frame before the source counts as stalled
+    /// (default [`DEFAULT_STALL_TIMEOUT`]).
+    pub fn set_stall_timeout(&mut self, timeout: Duration) {
+        self.stall_timeout = timeout;
     }
 
     /// The probed stream description; frames have `info().width x info().height` pixels.
@@ -453,9 +578,10 @@ impl VideoReader {
         self.next_index
     }
 
-    /// Reads the next frame into `frame` (resized if needed, so one buffer can
-    /// be reused for the whole video) and returns `(index, timestamp_s)`, or
-    /// `None` at the end.
+    /// Reads the next frame into `frame` (the decoded buffer is swapped in and the old
+    /// one reused for a later frame, so a loop over one buffer allocates nothing) and
+    /// returns `(index, timestamp_s)`, or `None` at the end. Waits at most the stall
+    /// timeout for the frame.
     pub fn read_into(&mut self, frame: &mut RgbImage) -> IoResult<Option<(u64, f64)>> {
         if self.done {
             return Ok(None);
@@ -469,29 +595,52 @@ impl VideoReader {
             let why = format!("{}x{} is too large", self.info.width, self.info.height);
             return Err(self.end_error(why));
         };
-        if frame.dimensions() != (w, h) {
-            *frame = RgbImage::new(w, h);
-        }
-        let data: &mut [u8] = frame;
-        let mut filled = 0;
-        while filled < data.len() {
-            match self.stdout.read(&mut data[filled..]) {
-                Ok(0) => break,
-                Ok(n) => filled += n,
-                Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
-                Err(e) => {
-                    self.done = true;
-                    let why = format!("cannot read from ffmpeg: {e}");
-                    return Err(self.end_error(why));
+        let len = self.info.width * self.info.height * 3;
+        let received = match self.frames.get_mut() {
+            Ok(rx) => rx.recv_timeout(self.stall_timeout),
+            Err(poisoned) => poisoned.into_inner().recv_timeout(self.stall_timeout),
+        };
+        let filled = match received {
+            Ok(Pumped::Frame(buf)) => match RgbImage::from_raw(w, h, buf) {
+                Some(image) => {
+                    let old = std::mem::replace(frame, image).into_raw();
+                    let _ = self.spare.try_send(old);
+                    let index = self.next_index;
+                    self.next_index += 1;
+                    // showinfo logs a frame before ffmpeg writes it, so its time is there.
+                    let stall = self.stall_timeout;
+                    let pts = match self.times.get_mut() {
+                        Ok(rx) => rx.recv_timeout(stall),
+                        Err(poisoned) => poisoned.into_inner().recv_timeout(stall),
+                    }
+                    .ok()
+                    .filter(|t| t.is_finite());
+                    let t = match pts {
+                        Some(pts) => pts - *self.first_pts.get_or_insert(pts),
+                        None => index as f64 / self.info.fps_or_default(),
+                    };
+                    return Ok(Some((index, t)));
                 }
+                None => {
+                    self.done = true;
+                    return Err(self.end_error("a frame of the wrong size".into()));
+                }
+            },
+            Ok(Pumped::End(filled)) => filled,
+            Err(RecvTimeoutError::Disconnected) => 0,
+            Ok(Pumped::Failed(e)) => {
+                self.done = true;
+                return Err(self.end_error(format!("cannot read from ffmpeg: {e}")));
             }
-        }
-        let len = data.len();
-        if filled == len {
-            let index = self.next_index;
-            self.next_index += 1;
-            return Ok(Some((index, index as f64 / self.info.fps_or_default())));
-        }
+            Err(RecvTimeoutError::Timeout) => {
+                self.done = true;
+                let why = format!(
+                    "no frame for {:.1} s: the source stopped delivering, so it was closed",
+                    self.stall_timeout.as_secs_f64()
+                );
+                return Err(self.end_error(why));
+            }
+        };
         // End of output: clean end, or a failure after the good frames.
         self.done = true;
         let status = self.child.wait();
@@ -575,15 +724,31 @@ impl Drop for VideoReader {
     }
 }
 
-/// The ffmpeg arguments that decode `input` to packed RGB on standard output.
+/// The ffmpeg arguments that decode `input` to packed RGB on standard output: every
+/// decoded frame once (`-vsync passthrough`: no frame duplicated or dropped to make a
+/// variable frame rate constant), each frame's presentation time logged by the
+/// `showinfo` filter (`-v level+info`; [`VideoReader`] reads it and keeps only the
+/// error lines for messages).
 pub fn reader_args(input: &VideoInput) -> Vec<String> {
-    let mut args: Vec<String> = ["-hide_banner", "-nostdin", "-v", "error"]
+    let mut args: Vec<String> = ["-hide_banner", "-nostdin", "-nostats", "-v", "level+info"]
         .map(String::from)
         .to_vec();
     args.extend(input.input_args());
     args.extend(
         [
-            "-map", "0:v:0", "-an", "-sn", "-f", "rawvideo", "-pix_fmt", "rgb24", "-",
+            "-map",
+            "0:v:0",
+            "-an",
+            "-sn",
+            "-vf",
+            "showinfo",
+            "-vsync",
+            "passthrough",
+            "-f",
+            "rawvideo",
+            "-pix_fmt",
+            "rgb24",
+            "-",
         ]
         .map(String::from),
     );
@@ -837,6 +1002,17 @@ mod tests {
         assert_eq!(args[i + 1], "a b.mp4");
         assert!(args.ends_with(&["rgb24".to_string(), "-".to_string()]));
         assert!(args.contains(&"-nostdin".to_string()));
+    }
+
+    #[test]
+    fn showinfo_lines_give_the_frame_times() {
+        let l = "[Parsed_showinfo_0 @ 0x561d13559700] [info] n:   5 pts:    500 pts_time:0.5     pos: 1 fmt:yuv420p";
+        assert_eq!(showinfo_pts_time(l), Some(0.5));
+        let l = "[Parsed_showinfo_0 @ 0x5] [info] n:   0 pts:NOPTS pts_time:NOPTS pos: -1";
+        assert!(showinfo_pts_time(l).is_some_and(f64::is_nan));
+        let l = "[Parsed_showinfo_0 @ 0x5] [info] config in time_base: 1/1000, frame_rate: 30/1";
+        assert_eq!(showinfo_pts_time(l), None);
+        assert_eq!(showinfo_pts_time("[info] Stream mapping:"), None);
     }
 
     #[test]

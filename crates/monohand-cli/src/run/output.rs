@@ -70,6 +70,8 @@ pub(crate) struct Outputs {
     single_image: bool,
     /// The last frame shown, for that.
     last_shown: Option<(RgbImage, FrameRecord)>,
+    /// Frames written to every output.
+    frames: u64,
 }
 
 /// Overlay paths with one of these extensions are videos; others are folders.
@@ -178,7 +180,13 @@ impl Outputs {
             show,
             single_image,
             last_shown: None,
+            frames: 0,
         })
+    }
+
+    /// Frames written to every output so far.
+    pub fn frames_written(&self) -> u64 {
+        self.frames
     }
 
     /// Whether the frames' pixels are needed (overlays).
@@ -237,6 +245,7 @@ impl Outputs {
                 Overlay::Image(path) => save_image(frame, path)?,
             }
         }
+        self.frames += 1;
         Ok(())
     }
 
@@ -271,9 +280,19 @@ fn has_extension(p: &Path, extensions: &[&str]) -> bool {
         .is_some_and(|e| extensions.contains(&e.to_ascii_lowercase().as_str()))
 }
 
-/// Writes an overlay frame as an image file (PNG or JPEG, by the name's extension).
+/// Writes an overlay frame as an image file (PNG or JPEG, by the name's extension), through
+/// `.tmp-NAME` beside it and a rename, so a failed write leaves no damaged image.
 fn save_image(frame: RgbImage, path: &Path) -> Result<()> {
-    frame
-        .save(path)
-        .with_context(|| format!("cannot write {}", path.display()))
+    let name = path.file_name().unwrap_or(path.as_os_str());
+    let mut tmp_name = std::ffi::OsString::from(".tmp-");
+    tmp_name.push(name);
+    let tmp = path.with_file_name(tmp_name);
+    let written = frame
+        .save(&tmp)
+        .map_err(anyhow::Error::from)
+        .and_then(|()| std::fs::rename(&tmp, path).map_err(anyhow::Error::from));
+    if written.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    written.with_context(|| format!("cannot write {}", path.display()))
 }

@@ -1,0 +1,177 @@
+//! The footage people really have, through `monohand run`, on files each test makes with
+//! ffmpeg from the shared photo: a portrait phone video with rotation metadata, variable
+//! frame rate, a long stretch without hands, tiny and 8K images. Needs ffmpeg, the
+//! networks and `../shared`.
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a failed test is a panic
+
+mod common;
+
+use common::{monohand, networks_ready, ok, p};
+use monohand_core::prelude::*;
+use monohand_io::calibration::write_camera_json;
+use monohand_io::jsonl::read_jsonl;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn hand_png() -> PathBuf {
+    let path =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/images/pinto/hand.png");
+    assert!(
+        path.is_file(),
+        "{} not found (../shared beside the repository)",
+        path.display()
+    );
+    path
+}
+
+/// Runs ffmpeg (quiet, overwriting); fails the test if it fails or is missing.
+fn ffmpeg(args: &[&str]) {
+    let out = Command::new("ffmpeg")
+        .args(["-v", "error", "-y"])
+        .args(args)
+        .output()
+        .expect("ffmpeg is not installed (apt-get install ffmpeg)");
+    assert!(
+        out.status.success(),
+        "ffmpeg {args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+/// A portrait phone video (stored 640x480 with rotation metadata): decoded upright; a
+/// calibration of the stored frames is refused, saying why, before anything is written;
+/// one of the upright frames is accepted.
+#[test]
+fn a_rotated_phone_video_is_upright_and_a_landscape_calibration_is_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    let land = dir.path().join("land.mp4");
+    let phone = dir.path().join("phone.mp4");
+    ffmpeg(&[
+        "-loop",
+        "1",
+        "-framerate",
+        "30",
+        "-i",
+        p(&hand_png()),
+        "-frames:v",
+        "3",
+        "-c:v",
+        "mpeg4",
+        "-q:v",
+        "2",
+        p(&land),
+    ]);
+    ffmpeg(&[
+        "-i",
+        p(&land),
+        "-c",
+        "copy",
+        "-metadata:s:v:0",
+        "rotate=90",
+        p(&phone),
+    ]);
+    let stored = dir.path().join("stored.json");
+    write_camera_json(&stored, &Camera::generic(640, 480).unwrap()).unwrap();
+    let out = dir.path().join("never.jsonl");
+    let r = monohand(&["run", p(&phone), "--camera", p(&stored), "-o", p(&out)]);
+    let err = String::from_utf8_lossy(&r.stderr);
+    assert_eq!(r.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("the video is stored 640x480 and carries rotation metadata of 90 degrees")
+            && err.contains("decoded upright at 480x640"),
+        "{err}"
+    );
+    assert!(!out.exists());
+
+    assert!(networks_ready());
+    let upright = dir.path().join("upright.json");
+    write_camera_json(&upright, &Camera::generic(480, 640).unwrap()).unwrap();
+    let overlay = dir.path().join("overlay");
+    ok(&monohand(&[
+        "run",
+        p(&phone),
+        "--camera",
+        p(&upright),
+        "-o",
+        p(&out),
+        "--overlay",
+        p(&overlay),
+    ]));
+    let frames = read_jsonl(&out).unwrap();
+    assert_eq!(frames.len(), 3);
+    assert!(
+        frames.iter().all(|f| f.hands.len() == 1),
+        "the hand is found upright"
+    );
+    let drawn = monohand_vision::image_io::load_rgb(&overlay.join("frame_000000.png")).unwrap();
+    assert_eq!(drawn.dimensions(), (480, 640));
+}
+
+/// Variable frame rate, and a long stretch without hands: 45 frames of an empty grey wall
+/// at 30 fps, a 2-second gap in the stream's clock, then 10 frames of the hand. The output
+/// has one record per frame with the stream's times, no hand in the first 45 and the hand
+/// from the first frame it is in.
+#[test]
+fn variable_frame_rate_and_a_long_stretch_without_hands() {
+    assert!(networks_ready());
+    let dir = tempfile::tempdir().unwrap();
+    let video = dir.path().join("vfr.mkv");
+    ffmpeg(&[
+        "-f",
+        "lavfi",
+        "-i",
+        "color=c=gray:s=640x480:r=30:d=1.5",
+        "-loop",
+        "1",
+        "-framerate",
+        "30",
+        "-t",
+        "0.3334",
+        "-i",
+        p(&hand_png()),
+        "-filter_complex",
+        "[0:v]format=yuv420p[a];[1:v]format=yuv420p,setsar=1[b];[a][b]concat=n=2:v=1,\
+         setpts='if(lt(N,45),N/30,N/30+2)/TB'",
+        "-c:v",
+        "mpeg4",
+        "-q:v",
+        "2",
+        "-vsync",
+        "vfr",
+        p(&video),
+    ]);
+    let out = dir.path().join("hands.jsonl");
+    ok(&monohand(&["run", p(&video), "-o", p(&out)]));
+    let frames = read_jsonl(&out).unwrap();
+    assert_eq!(frames.len(), 55, "one record per frame of the stream");
+    for (i, f) in frames.iter().enumerate() {
+        let want = i as f64 / 30.0 + if i < 45 { 0.0 } else { 2.0 };
+        let t = f.time_s.expect("time_s");
+        assert!((t - want).abs() < 1.5e-3, "frame {i}: {t} s, want {want}");
+        if i < 45 {
+            assert!(f.hands.is_empty(), "frame {i}: a hand on the wall");
+        } else {
+            assert_eq!(f.hands.len(), 1, "frame {i}: the hand is found");
+        }
+    }
+}
+
+/// The photo at 32x24 pixels and at 8K (7680x5760): the hand is found in both (the
+/// networks see a resized copy), no error, no panic.
+#[test]
+fn tiny_and_huge_images() {
+    assert!(networks_ready());
+    let dir = tempfile::tempdir().unwrap();
+    let tiny = dir.path().join("tiny.png");
+    let huge = dir.path().join("huge.png");
+    ffmpeg(&["-i", p(&hand_png()), "-vf", "scale=32:24", p(&tiny)]);
+    ffmpeg(&["-i", p(&hand_png()), "-vf", "scale=7680:5760", p(&huge)]);
+    for (img, hands) in [(&tiny, 1), (&huge, 1)] {
+        let out = dir.path().join("o.jsonl");
+        ok(&monohand(&["run", p(img), "-o", p(&out)]));
+        let frames = read_jsonl(&out).unwrap();
+        assert_eq!(frames.len(), 1);
+        assert!(frames[0].error.is_none(), "{:?}", frames[0].error);
+        assert_eq!(frames[0].hands.len(), hands, "{}", img.display());
+    }
+}
