@@ -46,10 +46,15 @@ fn bench(c: &mut Criterion) {
     });
     let mut renderer = SceneRenderer::default();
     let mut frame = background.clone();
-    for (name, layers) in [
-        ("default layers", Layers::default()),
-        ("all layers", Layers::only(&Layer::ALL)),
-    ] {
+    let mut cases = vec![
+        ("default layers".to_string(), Layers::default()),
+        ("all layers".to_string(), Layers::only(&Layer::ALL)),
+    ];
+    // Each layer alone, to say where the time goes.
+    for layer in Layer::ALL {
+        cases.push((format!("{} alone", layer.name()), Layers::only(&[layer])));
+    }
+    for (name, layers) in cases {
         c.bench_function(&format!("overlay 640x480, 2 hands, {name}"), |b| {
             b.iter(|| {
                 frame.copy_from_slice(&background);
