@@ -161,7 +161,20 @@ fn the_show_window_draws_the_hands_where_the_json_says_and_q_quits() {
 
     // Q quits: the run ends by itself, successfully.
     let key = Command::new("xdotool")
-        .args(["search", "--name", "^monohand$", "windowfocus", "key", "q"])
+        // Held for 300 ms as a person would: the window polls its keys between frames,
+        // and a press and release that both fall between two polls are not seen.
+        .args([
+            "search",
+            "--name",
+            "^monohand$",
+            "windowfocus",
+            "keydown",
+            "q",
+            "sleep",
+            "0.3",
+            "keyup",
+            "q",
+        ])
         .env("DISPLAY", &display)
         .output()
         .expect("xdotool is needed for the --show test (apt-get install xdotool)");
