@@ -159,30 +159,25 @@ fn the_show_window_draws_the_hands_where_the_json_says_and_q_quits() {
         .count();
     assert!(on >= 19, "{on} of 21 joints drawn in the window");
 
-    // Q quits: the run ends by itself, successfully.
-    let key = Command::new("xdotool")
-        // Held for 300 ms as a person would: the window polls its keys between frames,
-        // and a press and release that both fall between two polls are not seen.
-        .args([
-            "search",
-            "--name",
-            "^monohand$",
-            "windowfocus",
-            "keydown",
-            "q",
-            "sleep",
-            "0.3",
-            "keyup",
-            "q",
-        ])
-        .env("DISPLAY", &display)
-        .output()
-        .expect("xdotool is needed for the --show test (apt-get install xdotool)");
-    assert!(
-        key.status.success(),
-        "{}",
-        String::from_utf8_lossy(&key.stderr)
-    );
+    // Q quits: the run ends by itself, successfully. The window is focused first; the key
+    // then goes through XTEST like a real keyboard (sent to the window itself, the release
+    // would fail once the window has closed on the press).
+    let xdotool = |args: &[&str]| {
+        let out = Command::new("xdotool")
+            .args(args)
+            .env("DISPLAY", &display)
+            .output()
+            .expect("xdotool is needed for the --show test (apt-get install xdotool)");
+        assert!(
+            out.status.success(),
+            "xdotool {args:?}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    };
+    xdotool(&["search", "--name", "^monohand$", "windowfocus"]);
+    // Held for 300 ms as a person would: the window polls its keys between frames, and a
+    // press and release that both fall between two polls are not seen.
+    xdotool(&["keydown", "q", "sleep", "0.3", "keyup", "q"]);
     let start = Instant::now();
     let status = loop {
         if let Some(s) = run.0.try_wait().unwrap() {
