@@ -193,6 +193,11 @@ pub(crate) fn interrupted() -> bool {
     INTERRUPTED.load(Ordering::Relaxed)
 }
 
+/// Stops the run as Ctrl-C does (the `--show` window was closed).
+pub(crate) fn interrupt() {
+    INTERRUPTED.store(true, Ordering::Relaxed);
+}
+
 /// Prints a message for the user on stderr unless `--quiet`.
 pub(crate) fn say(msg: &str) {
     if !QUIET.load(Ordering::Relaxed) {

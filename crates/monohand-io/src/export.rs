@@ -11,6 +11,7 @@
 //!   loads the file locally).
 
 use crate::error::{name_of, IoError, IoResult};
+use crate::hand_mesh::{HandMesh, MESH_CREDIT, MESH_JOINTS};
 use crate::jsonl::{FrameRecord, HandRecord};
 use crate::openpose::{write_openpose_file, OpenPoseHandOut, OpenPosePerson};
 use crate::sink::{write_file_atomically, RecordSink};
@@ -293,6 +294,19 @@ pub struct GltfWriter {
     tracks: Vec<Track>,
     yfov_rad: f64,
     aspect: Option<f64>,
+    /// The skinned meshes (left, right), when hands are drawn as [`GltfHand::Skinned`].
+    meshes: Option<Box<[HandMesh; 2]>>,
+}
+
+/// How [`GltfWriter`] draws each hand.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum GltfHand {
+    /// 21 joint octahedra and 20 bone pyramids (the default of the library).
+    #[default]
+    Joints,
+    /// A real hand mesh (the WebXR generic hand, [`crate::hand_mesh`]) skinned to the
+    /// fitted joints.
+    Skinned,
 }
 
 /// Key of a track in a frame.
@@ -309,7 +323,21 @@ impl GltfWriter {
             tracks: Vec::new(),
             yfov_rad: 0.8,
             aspect: None,
+            meshes: None,
         }
+    }
+
+    /// Chooses how hands are drawn (default [`GltfHand::Joints`]); loads the skinned
+    /// meshes, which are built into the library.
+    pub fn set_hand(&mut self, hand: GltfHand) -> IoResult<()> {
+        self.meshes = match hand {
+            GltfHand::Joints => None,
+            GltfHand::Skinned => Some(Box::new([
+                HandMesh::webxr(HandSide::Left)?,
+                HandMesh::webxr(HandSide::Right)?,
+            ])),
+        };
+        Ok(())
     }
 
     /// Sets the field of view of the scene's camera to the real camera's:
@@ -443,6 +471,9 @@ impl GltfWriter {
             })
             .collect();
 
+        let mut meshes_json: Vec<Value> = Vec::new();
+        let mut skinned_mesh: [Option<usize>; 2] = [None, None];
+        let mut skins: Vec<Value> = Vec::new();
         let mut nodes: Vec<Value> = Vec::new();
         let mut scene_roots = Vec::new();
         let mut channels = Vec::new();
@@ -464,6 +495,14 @@ impl GltfWriter {
             let filled = fill_gaps(&track.samples);
             let visible: Vec<bool> = track.samples.iter().map(Option::is_some).collect();
             let id = track.id.map_or("na".to_string(), |i| i.to_string());
+            let skin_parts = self.meshes.as_ref().map(|meshes| {
+                let si = side_index(track.side);
+                let mesh = &meshes[si];
+                let mi = *skinned_mesh[si].get_or_insert_with(|| {
+                    skinned_mesh_json(&mut b, mesh, &mut materials, &mut meshes_json)
+                });
+                (mesh, mi, b.raw_accessor(&mesh.inverse_bind))
+            });
             let mut children = Vec::new();
             let mut anim = |node: usize, path: &str, data: Vec<f32>, comps: usize, step: bool| {
                 let Some(input) = time_acc else { return };
@@ -473,6 +512,66 @@ impl GltfWriter {
                 channels.push(json!({"sampler": samplers.len() - 1,
                     "target": {"node": node, "path": path}}));
             };
+            if let Some((mesh, mi, ibm)) = skin_parts {
+                // One pose per frame; frames with a degenerate fit keep the last pose.
+                let mut poses = Vec::with_capacity(filled.len());
+                let mut last = None;
+                for f in &filled {
+                    if let Some(p) = mesh.pose(f) {
+                        last = Some(p);
+                    }
+                    poses.push(last);
+                }
+                let first = poses.iter().flatten().next().copied();
+                let poses: Vec<_> = poses.into_iter().map(|p| p.or(first)).collect();
+                let mut joint_nodes = Vec::new();
+                for (k, (name, _)) in MESH_JOINTS.iter().enumerate() {
+                    let node = nodes.len();
+                    joint_nodes.push(node);
+                    children.push(node);
+                    let (mut tr, mut rot, mut sc) = (Vec::new(), Vec::new(), Vec::new());
+                    let mut prev_q: Option<[f32; 4]> = None;
+                    for (p, &v) in poses.iter().zip(&visible) {
+                        let jp = p.map(|p| p[k]);
+                        let t = jp.map_or([0.0; 3], |j| j.translation);
+                        let mut q = jp.map_or([0.0, 0.0, 0.0, 1.0], |j| j.rotation);
+                        if let Some(pq) = prev_q {
+                            if pq.iter().zip(&q).map(|(x, y)| x * y).sum::<f32>() < 0.0 {
+                                q = q.map(|x| -x);
+                            }
+                        }
+                        prev_q = Some(q);
+                        let s = if v { jp.map_or(0.0, |j| j.scale) } else { 0.0 };
+                        tr.extend(t);
+                        rot.extend(q);
+                        sc.extend([s; 3]);
+                    }
+                    let mut n = json!({"name": format!("{name}_{id}_{}", track.side)});
+                    if let (Some(t0), Some(r0), Some(s0)) =
+                        (tr.get(0..3), rot.get(0..4), sc.get(0..3))
+                    {
+                        n["translation"] = json!(t0);
+                        n["rotation"] = json!(r0);
+                        n["scale"] = json!(s0);
+                    }
+                    nodes.push(n);
+                    anim(node, "translation", tr, 3, false);
+                    anim(node, "rotation", rot, 4, false);
+                    anim(node, "scale", sc, 3, true);
+                }
+                skins.push(json!({"name": format!("skin_{id}_{}", track.side),
+                    "inverseBindMatrices": ibm, "joints": joint_nodes}));
+                let node = nodes.len();
+                nodes.push(json!({"name": format!("mesh_{id}_{}", track.side),
+                    "mesh": mi, "skin": skins.len() - 1}));
+                children.push(node);
+                let hand = nodes.len();
+                nodes.push(
+                    json!({"name": format!("hand_{id}_{}", track.side), "children": children}),
+                );
+                scene_roots.push(hand);
+                continue;
+            }
             for (j, name) in JOINT_NAMES.iter().enumerate() {
                 let node = nodes.len();
                 let first = filled.first().map_or([0.0; 3], |f| f[j]);
@@ -537,6 +636,13 @@ impl GltfWriter {
             "materials": materials,
             "meshes": meshes,
         });
+        if let Some(m) = doc["meshes"].as_array_mut() {
+            m.extend(meshes_json);
+        }
+        if !skins.is_empty() {
+            doc["skins"] = json!(skins);
+            doc["asset"]["copyright"] = json!(MESH_CREDIT);
+        }
         if !channels.is_empty() {
             doc["animations"] =
                 json!([{"name": "tracking", "channels": channels, "samplers": samplers}]);
@@ -548,6 +654,37 @@ impl GltfWriter {
     pub fn finish(self) -> IoResult<()> {
         write_file_atomically(&self.path, &self.to_glb())
     }
+}
+
+/// Adds a side's skinned mesh (its vertex data, and a material in the side's colour) to
+/// the file; returns its index among the meshes that follow the joints' meshes.
+fn skinned_mesh_json(
+    b: &mut GlbBuilder,
+    mesh: &HandMesh,
+    materials: &mut Vec<Value>,
+    meshes_json: &mut Vec<Value>,
+) -> usize {
+    let mut attributes = serde_json::Map::new();
+    for (name, raw) in &mesh.attributes {
+        attributes.insert(name.to_string(), json!(b.raw_accessor(raw)));
+    }
+    let indices = b.raw_accessor(&mesh.indices);
+    let c: Vec<f64> = crate::palette::side_color(mesh.side)
+        .iter()
+        .map(|&v| srgb_to_linear(v))
+        .collect();
+    materials.push(
+        json!({"name": format!("{}_skin", mesh.side), "pbrMetallicRoughness": {
+        "baseColorFactor": [c[0], c[1], c[2], 1.0], "metallicFactor": 0.0,
+        "roughnessFactor": 0.55}}),
+    );
+    meshes_json.push(
+        json!({"name": format!("{}_hand", mesh.side), "primitives": [{
+        "attributes": attributes, "indices": indices, "material": materials.len() - 1,
+        "mode": 4}]}),
+    );
+    // Index among all meshes: the joint meshes (2 sides + 5 fingers) come first.
+    2 + monohand_core::hand_model::Finger::ALL.len() + meshes_json.len() - 1
 }
 
 /// Replaces the gaps of a track by the nearest earlier sample (or, before the
@@ -642,6 +779,15 @@ impl GlbBuilder {
 
     fn scalar_accessor(&mut self, data: &[f32]) -> usize {
         self.float_accessor(data, 1)
+    }
+
+    /// An accessor copied from another file (see [`crate::hand_mesh::RawAccessor`]).
+    fn raw_accessor(&mut self, raw: &crate::hand_mesh::RawAccessor) -> usize {
+        let view = self.view(&raw.bytes, raw.target);
+        let mut a = raw.accessor.clone();
+        a["bufferView"] = json!(view);
+        self.accessors.push(a);
+        self.accessors.len() - 1
     }
 
     fn index_accessor(&mut self, idx: &[u16]) -> usize {

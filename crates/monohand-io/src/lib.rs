@@ -22,6 +22,7 @@
 pub mod calibration;
 pub mod error;
 pub mod export;
+pub mod hand_mesh;
 pub mod jsonl;
 pub mod openpose;
 pub mod palette;

@@ -8,6 +8,7 @@
 #![deny(missing_docs)]
 
 pub mod overlay;
+pub mod scene;
 pub mod video;
 
 pub use video::RgbImage;

@@ -211,14 +211,36 @@ pub fn draw_rect(frame: &mut RgbImage, bbox: [f64; 4], pen: &Pen) {
 
 /// Fills the pixels whose centres lie in `[x_min, y_min, x_max, y_max]`.
 pub fn fill_rect(frame: &mut RgbImage, bbox: [f64; 4], color: Rgb, opacity: f64) {
-    let [x0, y0, x1, y1] = bbox;
-    paint(frame, bbox, color, |x, y| {
-        if x >= x0 && x <= x1 && y >= y0 && y <= y1 {
-            opacity
-        } else {
-            0.0
-        }
+    if bbox.iter().any(|v| !v.is_finite()) || opacity.is_nan() || opacity <= 0.0 {
+        return;
+    }
+    let a = opacity.min(1.0);
+    // The pixels whose centres lie in the box; each channel's blend is one table
+    // lookup (the same rounding as `blend_pixel`).
+    let (xs, ys) = (
+        cols(frame, bbox[0].ceil(), bbox[2].floor()),
+        rows(frame, bbox[1].ceil(), bbox[3].floor()),
+    );
+    if xs.is_empty() || ys.is_empty() {
+        return;
+    }
+    let table: [[u8; 256]; 3] = std::array::from_fn(|k| {
+        std::array::from_fn(|p| (p as f64 * (1.0 - a) + color[k] as f64 * a).round() as u8)
     });
+    let w = frame.width() as usize;
+    let (x0, x1) = (*xs.start() as usize, *xs.end() as usize);
+    let data: &mut [u8] = frame;
+    for y in ys {
+        let row = y as usize * w;
+        let Some(px) = data.get_mut(3 * (row + x0)..3 * (row + x1 + 1)) else {
+            return;
+        };
+        for p in px.chunks_exact_mut(3) {
+            for (k, v) in p.iter_mut().enumerate() {
+                *v = table[k][*v as usize];
+            }
+        }
+    }
 }
 
 /// Width and height of one glyph cell of the font, before scaling.

@@ -8,6 +8,11 @@
 mod hands;
 mod input;
 mod output;
+#[cfg(feature = "show")]
+mod show;
+#[cfg(not(feature = "show"))]
+#[path = "show_off.rs"]
+mod show;
 
 use crate::hand_args::{HandModelArgs, HandScale};
 use crate::vision::ModelArgs;
@@ -56,10 +61,31 @@ pub(crate) struct RunArgs {
     /// input of one image, an image file (.png/.jpg).
     #[arg(long, value_name = "OUT.mp4|DIR|OUT.png")]
     pub overlay: Option<PathBuf>,
+    /// What the overlay (and --show) draws, comma-separated: `bones` (the fitted model as
+    /// shaded 3D capsules, nearer over farther), `top` (an inset seen from above with a mm
+    /// scale), `labels` (side, id, score, distance), `keypoints` (the network's 2D
+    /// skeleton), `model` (the fitted model as thin projected lines).
+    #[arg(
+        long,
+        value_name = "LAYER,..",
+        value_delimiter = ',',
+        default_value = "bones,top,labels"
+    )]
+    pub layers: Vec<monohand_media::scene::Layer>,
+    /// Show the frames live in a window with the overlay (--layers), the frame rate and
+    /// each hand's id, side and distance. Keys: Space pause, . step, 1-5 toggle layers
+    /// (keypoints, model, bones, top, labels), Q quit; closing the window stops the run
+    /// like Ctrl-C. Needs the `show` feature (on by default) and a display.
+    #[arg(long)]
+    pub show: bool,
     /// Write the 3D hands as an animated glTF binary (.glb) that Blender or any glTF
     /// viewer plays.
     #[arg(long, value_name = "OUT.glb")]
     pub gltf: Option<PathBuf>,
+    /// How --gltf draws each hand: a real hand mesh posed by the fit (the WebXR generic
+    /// hand, MIT), or the 21 joints and 20 bones as sticks.
+    #[arg(long, value_enum, value_name = "STYLE", default_value = "skinned")]
+    pub gltf_hand: output::GltfStyle,
     /// Track on video (default for videos and webcams): the next crop comes from the last
     /// keypoints, the detector runs only when a hand is lost or every --detect-every
     /// frames, the 3D fit starts from the last pose, and hands keep their id.
@@ -261,7 +287,7 @@ pub(crate) fn run(args: &RunArgs) -> Result<Outcome> {
         .map(|n| args.max_frames.map_or(n, |m| n.min(m)));
     let pipeline = Arc::new(args.models.pipeline(if tracking { 0 } else { 1 })?);
     let single_image = matches!(kinds.as_slice(), [InputKind::Images(files)] if files.len() == 1);
-    let mut outputs = Outputs::create(args, fps, cameras.first().copied(), single_image)?;
+    let mut outputs = Outputs::create(args, fps, &cameras, single_image)?;
     let auto_frames = (args.hand.hand_scale == HandScale::Auto).then_some(args.hand.scale_frames);
     let settings = FitSettings {
         skeletons,

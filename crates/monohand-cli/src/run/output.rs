@@ -5,9 +5,9 @@ use super::RunArgs;
 use anyhow::{bail, Context, Result};
 use clap::ValueEnum;
 use monohand_core::prelude::*;
-use monohand_io::export::{write_openpose_frame, CsvWriter, GltfWriter};
+use monohand_io::export::{write_openpose_frame, CsvWriter, GltfHand, GltfWriter};
 use monohand_io::jsonl::{FrameRecord, JsonlWriter};
-use monohand_media::overlay::{draw_hand, project_joints, HandStyle};
+use monohand_media::scene::{Layers, SceneRenderer};
 use monohand_media::video::VideoWriter;
 use monohand_vision::RgbImage;
 use std::path::{Path, PathBuf};
@@ -22,6 +22,15 @@ pub(crate) enum OutputFormat {
     /// OpenPose JSON, one `{stem}_{frame:012}_keypoints.json` per frame in the --output
     /// folder, with `hand_*_keypoints_2d` and `hand_*_keypoints_3d`.
     Openpose,
+}
+
+/// How the glTF draws each hand.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub(crate) enum GltfStyle {
+    /// A real hand mesh (the WebXR generic hand) skinned to the fitted joints.
+    Skinned,
+    /// The 21 joints and 20 bones as small solids.
+    Joints,
 }
 
 /// The poses file(s).
@@ -51,7 +60,16 @@ pub(crate) struct Outputs {
     poses: Poses,
     overlay: Option<Overlay>,
     gltf: Option<GltfWriter>,
-    camera: Option<Camera>,
+    /// The cameras of every view (none: a generic camera per frame size).
+    cameras: Vec<Camera>,
+    layers: Layers,
+    renderer: SceneRenderer,
+    /// The live window (`--show`).
+    show: Option<super::show::Show>,
+    /// The input is one image: the window keeps it on screen at the end.
+    single_image: bool,
+    /// The last frame shown, for that.
+    last_shown: Option<(RgbImage, FrameRecord)>,
     /// Frames written to every output.
     frames: u64,
 }
@@ -68,9 +86,13 @@ impl Outputs {
     pub fn create(
         args: &RunArgs,
         fps: Option<f64>,
-        camera: Option<Camera>,
+        cameras: &[Camera],
         single_image: bool,
     ) -> Result<Outputs> {
+        let show = match args.show {
+            true => Some(super::show::Show::new(Layers::only(&args.layers))?),
+            false => None,
+        };
         let overlay = match &args.overlay {
             None => None,
             Some(p) if has_extension(p, IMAGE_EXTENSIONS) => {
@@ -134,18 +156,30 @@ impl Outputs {
                 }
             }
         };
-        let gltf = args.gltf.as_ref().map(|p| {
-            let mut g = GltfWriter::new(p);
-            if let Some(c) = &camera {
-                g.set_camera_from(c);
+        let gltf = match &args.gltf {
+            None => None,
+            Some(p) => {
+                let mut g = GltfWriter::new(p);
+                if let Some(c) = cameras.first() {
+                    g.set_camera_from(c);
+                }
+                g.set_hand(match args.gltf_hand {
+                    GltfStyle::Skinned => GltfHand::Skinned,
+                    GltfStyle::Joints => GltfHand::Joints,
+                })?;
+                Some(g)
             }
-            g
-        });
+        };
         Ok(Outputs {
             poses,
             overlay,
             gltf,
-            camera,
+            cameras: cameras.to_vec(),
+            layers: Layers::only(&args.layers),
+            renderer: SceneRenderer::default(),
+            show,
+            single_image,
+            last_shown: None,
             frames: 0,
         })
     }
@@ -157,7 +191,7 @@ impl Outputs {
 
     /// Whether the frames' pixels are needed (overlays).
     pub fn wants_images(&self) -> bool {
-        self.overlay.is_some()
+        self.overlay.is_some() || self.show.is_some()
     }
 
     /// Writes one frame's results (and its overlay, from `image`).
@@ -175,13 +209,18 @@ impl Outputs {
                 tracing::warn!("frame {}: not added to the glTF: {e}", record.frame);
             }
         }
+        if let (Some(show), Some(frame)) = (&mut self.show, &image) {
+            if !show.frame(frame, record, &self.cameras)? {
+                crate::interrupt();
+            }
+            if self.single_image {
+                self.last_shown = Some((frame.clone(), record.clone()));
+            }
+        }
         if let (Some(overlay), Some(mut frame)) = (&mut self.overlay, image) {
             let (w, h) = frame.dimensions();
-            let camera = match self.camera {
-                Some(c) => Some(c),
-                None => Camera::generic(w, h).ok(),
-            };
-            draw_record(&mut frame, record, camera.as_ref());
+            self.renderer
+                .draw(&mut frame, &record.hands, &self.cameras, &self.layers);
             match overlay {
                 Overlay::Video { path, fps, writer } => {
                     if writer.is_none() {
@@ -211,7 +250,12 @@ impl Outputs {
     }
 
     /// Closes every output (the overlay video is finalised so it plays).
-    pub fn finish(self) -> Result<()> {
+    pub fn finish(mut self) -> Result<()> {
+        if let (Some(show), Some((image, record))) = (&mut self.show, &self.last_shown) {
+            if !crate::interrupted() {
+                show.hold(image, record, &self.cameras)?;
+            }
+        }
         if let Some(g) = self.gltf {
             g.finish()?;
         }
@@ -251,25 +295,4 @@ fn save_image(frame: RgbImage, path: &Path) -> Result<()> {
         let _ = std::fs::remove_file(&tmp);
     }
     written.with_context(|| format!("cannot write {}", path.display()))
-}
-
-/// Draws every hand of a record: its 2D keypoints and, when fitted, the 3D model projected
-/// with `camera` (the first view's).
-pub(crate) fn draw_record(frame: &mut RgbImage, record: &FrameRecord, camera: Option<&Camera>) {
-    let style = HandStyle::for_image(frame.width() as usize, frame.height() as usize);
-    for hand in &record.hands {
-        let projected = match (&hand.joints_3d_mm, camera) {
-            (Some(joints), Some(cam)) => Some(project_joints(cam, joints)),
-            _ => None,
-        };
-        draw_hand(
-            frame,
-            &hand.keypoints_2d,
-            projected.as_ref(),
-            hand.side,
-            hand.id,
-            hand.score,
-            &style,
-        );
-    }
 }
