@@ -61,8 +61,8 @@ fn detect_a_folder_in_name_order_and_survive_a_bad_file() {
         .hands
         .iter()
         .find(|h| {
-            let b = h.bbox.unwrap();
-            (b[0] + b[2]) / 2.0 < 380.0 && (b[1] + b[3]) / 2.0 < 300.0
+            let [cx, cy] = h.bbox.unwrap().centre();
+            cx < 380.0 && cy < 300.0
         })
         .expect("the OK-sign hand near (320, 250)");
     assert_eq!(ok_sign.side, HandSide::Right);
@@ -85,7 +85,7 @@ fn detect_a_folder_in_name_order_and_survive_a_bad_file() {
     assert_eq!(hand.hands.len(), 1);
     let b = hand.hands[0].bbox.unwrap();
     // Pinned by eye once: the open palm spans about (57, 123) - (319, 316).
-    for (got, want) in b.iter().zip([57.0, 123.0, 319.0, 316.0]) {
+    for (got, want) in b.to_array().iter().zip([57.0, 123.0, 319.0, 316.0]) {
         assert!((got - want).abs() < 25.0, "box {b:?}");
     }
 }

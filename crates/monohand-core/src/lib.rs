@@ -30,6 +30,7 @@
 
 #![deny(missing_docs)]
 
+pub mod bbox;
 pub mod camera;
 pub mod error;
 pub mod filtering;
@@ -42,6 +43,7 @@ pub use error::{CoreError, CoreResult};
 
 /// The types most users need.
 pub mod prelude {
+    pub use crate::bbox::BBox;
     pub use crate::camera::{Camera, Distortion, Extrinsics, Intrinsics};
     pub use crate::error::{CoreError, CoreResult};
     pub use crate::fitting::{FitOptions, FitResult, HandFitter, HandTracker, View};

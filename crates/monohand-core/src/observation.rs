@@ -1,5 +1,6 @@
 //! 2D keypoint observations: what a keypoint detector gives the fitter.
 
+use crate::bbox::BBox;
 use crate::error::{CoreError, CoreResult};
 use crate::hand_model::{HandSide, NUM_JOINTS};
 use serde::{Deserialize, Serialize};
@@ -58,6 +59,12 @@ impl Keypoints2d {
     /// True if no joint has a positive confidence.
     pub fn is_empty(&self) -> bool {
         self.points.iter().all(|p| p[2] <= 0.0)
+    }
+
+    /// The box around all 21 points, whatever their confidence (the network places every
+    /// joint, seen or not).
+    pub fn bounds(&self) -> BBox {
+        BBox::around(self.points.iter().map(|p| [p[0], p[1]]))
     }
 }
 

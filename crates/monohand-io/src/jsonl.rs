@@ -106,9 +106,9 @@ pub struct HandRecord {
     /// Solver iterations.
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub iterations: Option<usize>,
-    /// Detection box in the first view, `[x_min, y_min, x_max, y_max]` pixels.
+    /// Detection box in the first view (in JSON `[x_min, y_min, x_max, y_max]`, pixels).
     #[serde(rename = "box", skip_serializing_if = "Option::is_none", default)]
-    pub bbox: Option<[f64; 4]>,
+    pub bbox: Option<BBox>,
     /// Detection score in `[0, 1]`.
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub score: Option<f64>,
@@ -147,9 +147,9 @@ pub struct OrientedBox {
 /// A detected head (used as context for the hands' sides, as in the paper).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct HeadRecord {
-    /// Head box `[x_min, y_min, x_max, y_max]`, pixels.
+    /// Head box (in JSON `[x_min, y_min, x_max, y_max]`, pixels).
     #[serde(rename = "box")]
-    pub bbox: [f64; 4],
+    pub bbox: BBox,
     /// Detection score in `[0, 1]`.
     pub score: f64,
 }
@@ -238,7 +238,7 @@ impl HandRecord {
         if self.reprojection_error_px.is_some_and(|e| !e.is_finite()) {
             return Some("reprojection_error_px");
         }
-        if self.bbox.is_some_and(|b| bad(b.iter())) {
+        if self.bbox.is_some_and(|b| !b.is_finite()) {
             return Some("box");
         }
         if self.score.is_some_and(|s| !s.is_finite()) {
@@ -429,7 +429,7 @@ mod tests {
             hands: vec![rec.clone()],
             image_size: Some([640, 480]),
             heads: vec![HeadRecord {
-                bbox: [1.0, 2.0, 30.0, 40.0],
+                bbox: BBox::new(1.0, 2.0, 30.0, 40.0),
                 score: 0.9,
             }],
             ..Default::default()
@@ -477,7 +477,7 @@ mod tests {
             frames[0].hands[0].keypoints().unwrap().points[5],
             [5.0, 1.0, 0.5]
         );
-        assert_eq!(frames[1].hands[0].bbox, Some([1.0, 2.0, 3.0, 4.0]));
+        assert_eq!(frames[1].hands[0].bbox, Some(BBox::new(1.0, 2.0, 3.0, 4.0)));
         assert_eq!(frames[1].timings_ms.as_ref().unwrap()["detect"], 4.5);
     }
 

@@ -17,6 +17,7 @@
 //! ```
 
 use crate::video::RgbImage;
+use monohand_core::bbox::BBox;
 use monohand_core::camera::Camera;
 use monohand_core::hand_model::{HandSide, BONES, NUM_JOINTS, WRIST};
 pub use monohand_io::palette::{side_color, Rgb, FINGER_COLORS};
@@ -149,13 +150,13 @@ pub fn draw_line(frame: &mut RgbImage, a: [f64; 2], b: [f64; 2], pen: &Pen) {
     }
 }
 
-/// Paints every pixel of the box `[x0, y0, x1, y1]` (clipped) with `alpha(x, y)`.
-fn paint(frame: &mut RgbImage, bbox: [f64; 4], color: Rgb, alpha: impl Fn(f64, f64) -> f64) {
-    if bbox.iter().any(|v| !v.is_finite()) {
+/// Paints every pixel of the box (clipped) with `alpha(x, y)`.
+fn paint(frame: &mut RgbImage, bbox: BBox, color: Rgb, alpha: impl Fn(f64, f64) -> f64) {
+    if !bbox.is_finite() {
         return;
     }
-    for y in rows(frame, bbox[1], bbox[3]) {
-        for x in cols(frame, bbox[0], bbox[2]) {
+    for y in rows(frame, bbox.y_min, bbox.y_max) {
+        for x in cols(frame, bbox.x_min, bbox.x_max) {
             blend_pixel(frame, x, y, color, alpha(x as f64, y as f64));
         }
     }
@@ -170,7 +171,7 @@ pub fn fill_circle(frame: &mut RgbImage, center: [f64; 2], radius: f64, pen: &Pe
     let m = radius + 1.0;
     paint(
         frame,
-        [cx - m, cy - m, cx + m, cy + m],
+        BBox::from_centre_size(center, 2.0 * m, 2.0 * m),
         pen.color,
         |x, y| pen.alpha(radius - ((x - cx).powi(2) + (y - cy).powi(2)).sqrt()),
     );
@@ -186,7 +187,7 @@ pub fn draw_circle(frame: &mut RgbImage, center: [f64; 2], radius: f64, pen: &Pe
     let m = radius + h + 1.0;
     paint(
         frame,
-        [cx - m, cy - m, cx + m, cy + m],
+        BBox::from_centre_size(center, 2.0 * m, 2.0 * m),
         pen.color,
         |x, y| {
             let d = ((x - cx).powi(2) + (y - cy).powi(2)).sqrt();
@@ -203,23 +204,23 @@ pub fn draw_polygon(frame: &mut RgbImage, corners: &[[f64; 2]], pen: &Pen) {
     }
 }
 
-/// Draws the outline of the axis-aligned box `[x_min, y_min, x_max, y_max]`.
-pub fn draw_rect(frame: &mut RgbImage, bbox: [f64; 4], pen: &Pen) {
-    let [x0, y0, x1, y1] = bbox;
+/// Draws the outline of the axis-aligned box.
+pub fn draw_rect(frame: &mut RgbImage, bbox: BBox, pen: &Pen) {
+    let [x0, y0, x1, y1] = bbox.to_array();
     draw_polygon(frame, &[[x0, y0], [x1, y0], [x1, y1], [x0, y1]], pen);
 }
 
-/// Fills the pixels whose centres lie in `[x_min, y_min, x_max, y_max]`.
-pub fn fill_rect(frame: &mut RgbImage, bbox: [f64; 4], color: Rgb, opacity: f64) {
-    if bbox.iter().any(|v| !v.is_finite()) || opacity.is_nan() || opacity <= 0.0 {
+/// Fills the pixels whose centres lie in the box.
+pub fn fill_rect(frame: &mut RgbImage, bbox: BBox, color: Rgb, opacity: f64) {
+    if !bbox.is_finite() || opacity.is_nan() || opacity <= 0.0 {
         return;
     }
     let a = opacity.min(1.0);
     // The pixels whose centres lie in the box; each channel's blend is one table
     // lookup (the same rounding as `blend_pixel`).
     let (xs, ys) = (
-        cols(frame, bbox[0].ceil(), bbox[2].floor()),
-        rows(frame, bbox[1].ceil(), bbox[3].floor()),
+        cols(frame, bbox.x_min.ceil(), bbox.x_max.floor()),
+        rows(frame, bbox.y_min.ceil(), bbox.y_max.floor()),
     );
     if xs.is_empty() || ys.is_empty() {
         return;
@@ -314,22 +315,22 @@ pub fn text_size(text: &str, scale: usize) -> (usize, usize) {
 }
 
 /// Draws one line of text with its top-left corner at `origin`, each font
-/// pixel a `scale x scale` square. Returns the box drawn `[x0, y0, x1, y1]`.
+/// pixel a `scale x scale` square. Returns the box drawn.
 pub fn draw_text(
     frame: &mut RgbImage,
     text: &str,
     origin: [f64; 2],
     scale: usize,
     color: Rgb,
-) -> [f64; 4] {
+) -> BBox {
     let s = scale.max(1);
     let (w, h) = text_size(text, s);
-    let bbox = [
+    let bbox = BBox::new(
         origin[0],
         origin[1],
         origin[0] + w as f64,
         origin[1] + h as f64,
-    ];
+    );
     if !finite(origin) || origin[0].abs() > 1e9 || origin[1].abs() > 1e9 {
         return bbox;
     }
@@ -363,15 +364,15 @@ pub fn draw_label(
     scale: usize,
     fg: Rgb,
     bg: Rgb,
-) -> [f64; 4] {
+) -> BBox {
     let pad = scale.max(1) as f64;
     let (w, h) = text_size(text, scale);
-    let bbox = [
+    let bbox = BBox::new(
         origin[0],
         origin[1],
         origin[0] + w as f64 + 2.0 * pad - 1.0,
         origin[1] + h as f64 + 2.0 * pad - 1.0,
-    ];
+    );
     fill_rect(frame, bbox, bg, 1.0);
     draw_text(frame, text, [origin[0] + pad, origin[1] + pad], scale, fg);
     bbox
@@ -657,7 +658,7 @@ mod tests {
         draw_circle(&mut f, [100.0, 5.0], 3.0, &pen);
         draw_text(&mut f, "R#3", [f64::NAN, 0.0], 2, [255; 3]);
         draw_text(&mut f, "R#3", [-1e300, 1e300], 2, [255; 3]);
-        draw_rect(&mut f, [-10.0, -10.0, -5.0, -5.0], &pen);
+        draw_rect(&mut f, BBox::new(-10.0, -10.0, -5.0, -5.0), &pen);
         assert!(painted(&f).is_empty());
         // Partly inside: only the inside part is drawn.
         draw_line(
@@ -699,11 +700,11 @@ mod tests {
         assert_eq!(g.pixel(15, 15), Some([0, 0, 0]), "hollow");
         assert_eq!(g.pixel(21, 15), Some([10, 20, 30]));
         let mut h = RgbImage::new(30, 30);
-        draw_rect(&mut h, [3.0, 4.0, 20.0, 10.0], &pen);
+        draw_rect(&mut h, BBox::new(3.0, 4.0, 20.0, 10.0), &pen);
         assert_eq!(h.pixel(3, 7), Some([10, 20, 30]));
         assert_eq!(h.pixel(12, 10), Some([10, 20, 30]));
         assert_eq!(h.pixel(12, 7), Some([0, 0, 0]));
-        fill_rect(&mut h, [0.0, 0.0, 1.0, 1.0], [1, 1, 1], 1.0);
+        fill_rect(&mut h, BBox::new(0.0, 0.0, 1.0, 1.0), [1, 1, 1], 1.0);
         assert_eq!(
             painted(&h).iter().filter(|p| p.0 <= 1 && p.1 <= 1).count(),
             4
@@ -714,7 +715,7 @@ mod tests {
     fn font_draws_glyph_bitmaps() {
         let mut f = RgbImage::new(20, 10);
         let bbox = draw_text(&mut f, "1", [1.0, 1.0], 1, [255, 255, 255]);
-        assert_eq!(bbox, [1.0, 1.0, 6.0, 8.0]);
+        assert_eq!(bbox, BBox::new(1.0, 1.0, 6.0, 8.0));
         // "1": the stem is column 2 of the glyph for all 7 rows; the base is 3 wide.
         for row in 0..7 {
             assert_eq!(f.pixel(3, 1 + row), Some([255; 3]), "row {row}");

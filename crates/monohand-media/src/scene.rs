@@ -28,6 +28,7 @@ use crate::overlay::{
     project_joints, text_size, HandStyle, Pen,
 };
 use crate::video::RgbImage;
+use monohand_core::bbox::BBox;
 use monohand_core::camera::Camera;
 use monohand_core::hand_model::{BONES, NUM_JOINTS, WRIST};
 use monohand_io::jsonl::HandRecord;
@@ -526,8 +527,9 @@ fn nice_ceil(v: f64) -> f64 {
         .unwrap_or(10.0 * p)
 }
 
-/// The part of segment `a`-`b` inside the box `[x0, y0, x1, y1]` (Liang-Barsky), if any.
-fn clip_segment(a: [f64; 2], b: [f64; 2], r: [f64; 4]) -> Option<([f64; 2], [f64; 2])> {
+/// The part of segment `a`-`b` inside the box (Liang-Barsky), if any.
+fn clip_segment(a: [f64; 2], b: [f64; 2], r: BBox) -> Option<([f64; 2], [f64; 2])> {
+    let r = r.to_array();
     let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
     let (mut t0, mut t1) = (0.0f64, 1.0f64);
     for (p, q) in [
@@ -560,8 +562,8 @@ fn clip_segment(a: [f64; 2], b: [f64; 2], r: [f64; 4]) -> Option<([f64; 2], [f64
 /// Where the top view sits in a frame and how it maps millimetres to its pixels.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct TopView {
-    /// The inset's box in the frame `[x0, y0, x1, y1]`, pixels.
-    pub rect: [f64; 4],
+    /// The inset's box in the frame, pixels.
+    pub rect: BBox,
     /// Depth (z, mm) at the top edge of the plot; the bottom edge is at z = `z_min`.
     pub z_max: f64,
     /// Depth at the bottom edge of the plot, mm (0, or behind the rear camera of a rig).
@@ -584,12 +586,12 @@ impl TopView {
     pub fn layout(w: usize, h: usize, hands: &[HandRecord], cameras: &[Camera]) -> TopView {
         let side = (0.3 * w.min(h) as f64).round().max(60.0);
         let margin = (w.min(h) as f64 * 0.02).round().max(4.0);
-        let rect = [
+        let rect = BBox::new(
             w as f64 - margin - side,
             h as f64 - margin - side,
             w as f64 - margin - 1.0,
             h as f64 - margin - 1.0,
-        ];
+        );
         let mut far: f64 = 500.0;
         let mut z_min: f64 = 0.0;
         let mut xs = Vec::new();
@@ -627,7 +629,7 @@ impl TopView {
 
     /// The inset pixel of a point (mm, reference frame): x to the right, z upwards.
     pub fn to_pixel(&self, x_mm: f64, z_mm: f64) -> [f64; 2] {
-        let [x0, _, x1, y1] = self.rect;
+        let [x0, _, x1, y1] = self.rect.to_array();
         let bottom = y1 - INSET_PAD;
         [
             0.5 * (x0 + x1) + (x_mm - self.x_centre) * self.scale,
@@ -644,12 +646,12 @@ const GLYPH_ROWS: f64 = crate::overlay::GLYPH_H as f64;
 pub fn draw_top_view(frame: &mut RgbImage, hands: &[HandRecord], cameras: &[Camera]) {
     let (w, h) = (frame.width() as usize, frame.height() as usize);
     let tv = TopView::layout(w, h, hands, cameras);
-    let r = tv.rect;
+    let r = tv.rect.to_array();
     let k = (w.max(h) as f64 / 640.0).clamp(0.5, 4.0);
     let ts = (k.round() as usize).max(1);
-    fill_rect(frame, r, [16, 16, 20], 0.72);
-    draw_rect(frame, r, &Pen::new([150, 150, 150], 1.0));
-    let inner = [r[0] + 1.0, r[1] + 1.0, r[2] - 1.0, r[3] - 1.0];
+    fill_rect(frame, tv.rect, [16, 16, 20], 0.72);
+    draw_rect(frame, tv.rect, &Pen::new([150, 150, 150], 1.0));
+    let inner = BBox::new(r[0] + 1.0, r[1] + 1.0, r[2] - 1.0, r[3] - 1.0);
     let grid = Pen::new([90, 90, 90], 1.0);
     let mut z = (tv.z_min / tv.step).ceil() * tv.step;
     while z <= tv.z_max + 1e-9 {
@@ -714,7 +716,7 @@ pub fn draw_top_view(frame: &mut RgbImage, hands: &[HandRecord], cameras: &[Came
             }
         }
         let p = tv.to_pixel(j[WRIST][0], j[WRIST][2]);
-        if p[0] >= inner[0] && p[0] <= inner[2] && p[1] >= inner[1] && p[1] <= inner[3] {
+        if inner.contains(p) {
             fill_circle(
                 frame,
                 p,
@@ -869,9 +871,9 @@ mod tests {
         // The camera is at the bottom centre of the plot, drawn light grey.
         let cp = tv.to_pixel(0.0, 0.0);
         assert_eq!(f.get_pixel(cp[0] as u32, cp[1] as u32).0, [230, 230, 230]);
-        assert!(cp[1] > tv.rect[3] - 10.0);
+        assert!(cp[1] > tv.rect.y_max - 10.0);
         // The inset covers the bottom-right corner, not the top-left.
-        assert!(tv.rect[0] > 400.0 && tv.rect[1] > 300.0);
+        assert!(tv.rect.x_min > 400.0 && tv.rect.y_min > 300.0);
         assert_eq!(f.get_pixel(5, 5).0, [0, 0, 0]);
     }
 
@@ -916,6 +918,6 @@ mod tests {
         }
         assert_eq!(nice_ceil(501.0), 750.0);
         assert_eq!(nice_ceil(2600.0), 3000.0);
-        assert!(clip_segment([0.0, 0.0], [10.0, 0.0], [20.0, -1.0, 30.0, 1.0]).is_none());
+        assert!(clip_segment([0.0, 0.0], [10.0, 0.0], BBox::new(20.0, -1.0, 30.0, 1.0)).is_none());
     }
 }

@@ -322,7 +322,9 @@ impl PyHand {
     /// Box around the keypoints, `(x0, y0, x1, y1)` pixels.
     #[getter]
     fn bbox(&self) -> Option<(f64, f64, f64, f64)> {
-        self.inner.bbox.map(|b| (b[0], b[1], b[2], b[3]))
+        self.inner
+            .bbox
+            .map(|b| (b.x_min, b.y_min, b.x_max, b.y_max))
     }
     /// `(21, 3)`: pixel x, y and confidence per joint (wrist, then 4 per finger, thumb to
     /// little), in the first camera's image.

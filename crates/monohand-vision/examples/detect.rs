@@ -51,7 +51,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             t.elapsed().as_secs_f64() * 1e3
         );
         for h in &found.hands {
-            let b = monohand_vision::pipeline::point_bounds(&h.keypoints);
+            let b = h.keypoints.bounds().to_array();
             let conf: Vec<String> = h
                 .keypoints
                 .points
@@ -66,7 +66,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         for h in &found.heads {
             println!(
                 "  head {:.3} [{:.0} {:.0} {:.0} {:.0}]",
-                h.score, h.head_box[0], h.head_box[1], h.head_box[2], h.head_box[3]
+                h.score, h.head_box.x_min, h.head_box.y_min, h.head_box.x_max, h.head_box.y_max
             );
         }
         if let Some(dir) = &overlay {
@@ -102,7 +102,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 }
             }
             for h in &found.heads {
-                let b = h.head_box;
+                let b = h.head_box.to_array();
                 for t in 0..=20 {
                     let f = t as f64 / 20.0;
                     dot(b[0] + f * (b[2] - b[0]), b[1], r, [255, 0, 255]);

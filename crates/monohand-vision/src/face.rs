@@ -7,6 +7,7 @@
 //! a webcam); small faces in crowd photos are missed.
 
 use image::RgbImage;
+use monohand_core::bbox::BBox;
 
 use crate::error::Result;
 use crate::network::TfliteNet;
@@ -24,10 +25,10 @@ pub const HEAD_FROM_FACE: [f64; 3] = [1.6, 1.9, 0.25];
 pub struct HeadDetection {
     /// Detector score in `[0, 1]`.
     pub score: f32,
-    /// The face box `[xmin, ymin, xmax, ymax]` as detected.
-    pub face_box: [f64; 4],
-    /// The head box `[xmin, ymin, xmax, ymax]` derived from it.
-    pub head_box: [f64; 4],
+    /// The face box as detected.
+    pub face_box: BBox,
+    /// The head box derived from it.
+    pub head_box: BBox,
     /// Six face keypoints `[x, y]`.
     pub keypoints: [[f64; 2]; 6],
 }
@@ -70,12 +71,14 @@ impl FaceDetector {
 }
 
 /// Applies [`HEAD_FROM_FACE`] to a face box.
-pub fn head_from_face(f: [f64; 4]) -> [f64; 4] {
-    let (w, h) = (f[2] - f[0], f[3] - f[1]);
-    let cx = (f[0] + f[2]) / 2.0;
-    let cy = (f[1] + f[3]) / 2.0 - HEAD_FROM_FACE[2] * h;
-    let (hw, hh) = (w * HEAD_FROM_FACE[0] / 2.0, h * HEAD_FROM_FACE[1] / 2.0);
-    [cx - hw, cy - hh, cx + hw, cy + hh]
+pub fn head_from_face(f: BBox) -> BBox {
+    let (w, h) = (f.width(), f.height());
+    let [cx, cy] = f.centre();
+    BBox::from_centre_size(
+        [cx, cy - HEAD_FROM_FACE[2] * h],
+        w * HEAD_FROM_FACE[0],
+        h * HEAD_FROM_FACE[1],
+    )
 }
 
 #[cfg(test)]
@@ -84,9 +87,11 @@ mod tests {
 
     #[test]
     fn head_box_contains_face_box_and_extends_upwards() {
-        let f = [100.0, 100.0, 150.0, 160.0];
+        let f = BBox::new(100.0, 100.0, 150.0, 160.0);
         let h = head_from_face(f);
-        assert!(h[0] < f[0] && h[1] < f[1] && h[2] > f[2] && h[3] >= f[3] - 1e-9);
-        assert!(f[1] - h[1] > h[3] - f[3]);
+        assert!(h.x_min < f.x_min && h.y_min < f.y_min && h.x_max > f.x_max);
+        assert!(h.y_max >= f.y_max - 1e-9);
+        assert!(f.y_min - h.y_min > h.y_max - f.y_max);
+        assert!((h.fraction_covered_by(&f) - f.area() / h.area()).abs() < 1e-12);
     }
 }

@@ -6,6 +6,8 @@
 //! converted once, at the end, to the OpenCV/OpenPose convention (centre of the first pixel
 //! at 0) by [`to_pixel_centres`].
 
+use monohand_core::bbox::BBox;
+
 /// `p ↦ A p + t`, stored row-major as `[[a, b, tx], [c, d, ty]]`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Affine2(pub [[f64; 3]; 2]);
@@ -114,17 +116,9 @@ impl RotatedRect {
         ]
     }
 
-    /// Axis-aligned bounds `[xmin, ymin, xmax, ymax]` of the rotated rectangle.
-    pub fn bounds(&self) -> [f64; 4] {
-        let c = self.corners();
-        let xs = c.iter().map(|p| p[0]);
-        let ys = c.iter().map(|p| p[1]);
-        [
-            xs.clone().fold(f64::INFINITY, f64::min),
-            ys.clone().fold(f64::INFINITY, f64::min),
-            xs.fold(f64::NEG_INFINITY, f64::max),
-            ys.fold(f64::NEG_INFINITY, f64::max),
-        ]
+    /// Axis-aligned bounds of the rotated rectangle.
+    pub fn bounds(&self) -> BBox {
+        BBox::around(self.corners())
     }
 }
 

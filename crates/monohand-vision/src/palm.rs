@@ -4,6 +4,7 @@
 //! `RectTransformationCalculator` with scale 2.6 and shift_y −0.5).
 
 use image::RgbImage;
+use monohand_core::bbox::BBox;
 
 use crate::error::Result;
 use crate::geometry::{normalize_angle, Affine2, RotatedRect};
@@ -25,8 +26,8 @@ pub const ROI_SHIFT_Y: f64 = -0.5;
 pub struct PalmDetection {
     /// Detector score in `[0, 1]`.
     pub score: f32,
-    /// Axis-aligned palm box `[xmin, ymin, xmax, ymax]`.
-    pub bbox: [f64; 4],
+    /// Axis-aligned palm box.
+    pub bbox: BBox,
     /// The 7 palm keypoints (wrist, index MCP, middle MCP, ring MCP, pinky MCP, thumb CMC,
     /// thumb MCP — MediaPipe's order).
     pub keypoints: [[f64; 2]; 7],
@@ -44,14 +45,11 @@ impl PalmDetection {
     /// [`Self::rotation`], shifted half a box towards the fingers and enlarged 2.6 times
     /// around its long side.
     pub fn hand_roi(&self) -> RotatedRect {
-        let [x0, y0, x1, y1] = self.bbox;
-        let (w, h) = (x1 - x0, y1 - y0);
+        let (w, h) = (self.bbox.width(), self.bbox.height());
+        let [cx, cy] = self.bbox.centre();
         let r = self.rotation();
         let (s, c) = r.sin_cos();
-        let center = [
-            (x0 + x1) / 2.0 - h * ROI_SHIFT_Y * s,
-            (y0 + y1) / 2.0 + h * ROI_SHIFT_Y * c,
-        ];
+        let center = [cx - h * ROI_SHIFT_Y * s, cy + h * ROI_SHIFT_Y * c];
         let side = w.max(h) * ROI_SCALE;
         RotatedRect {
             center,
@@ -139,7 +137,7 @@ mod tests {
         keypoints[PALM_MIDDLE_MCP] = middle;
         PalmDetection {
             score: 0.9,
-            bbox: [90.0, 90.0, 110.0, 110.0],
+            bbox: BBox::new(90.0, 90.0, 110.0, 110.0),
             keypoints,
         }
     }

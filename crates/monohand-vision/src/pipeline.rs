@@ -15,6 +15,7 @@
 use std::path::{Path, PathBuf};
 
 use image::RgbImage;
+use monohand_core::bbox::BBox;
 use monohand_core::hand_model::HandSide;
 use monohand_core::observation::{HandObservation, Keypoints2d, NetworkCues};
 
@@ -315,10 +316,10 @@ impl DetectedHand {
 pub struct DetectedHead {
     /// Face detector score.
     pub score: f32,
-    /// Head box `[xmin, ymin, xmax, ymax]`.
-    pub head_box: [f64; 4],
-    /// Face box `[xmin, ymin, xmax, ymax]`.
-    pub face_box: [f64; 4],
+    /// Head box.
+    pub head_box: BBox,
+    /// Face box.
+    pub face_box: BBox,
 }
 
 /// Everything found in one image.
@@ -495,11 +496,8 @@ impl HandPipeline {
                 }
                 // A palm inside a hand already found is that hand: skip the landmark
                 // inference (MediaPipe drops such detections the same way).
-                let [cx, cy] = to_pixel_centres(region.roi.center);
-                if hands.iter().any(|h| {
-                    let b = point_bounds(&h.keypoints);
-                    b[0] <= cx && cx <= b[2] && b[1] <= cy && cy <= b[3]
-                }) {
+                let centre = to_pixel_centres(region.roi.center);
+                if hands.iter().any(|h| h.keypoints.bounds().contains(centre)) {
                     continue;
                 }
                 if let Some(hand) = self.estimate_region(img, &region, false, &hands)? {
@@ -516,9 +514,9 @@ impl HandPipeline {
                 .into_iter()
                 .map(to_head)
                 .filter(|h| {
-                    !hands.iter().any(|hand| {
-                        overlap_fraction(&h.face_box, &point_bounds(&hand.keypoints)) > 0.7
-                    })
+                    !hands
+                        .iter()
+                        .any(|hand| h.face_box.fraction_covered_by(&hand.keypoints.bounds()) > 0.7)
                 })
                 .collect(),
             _ => Vec::new(),
@@ -561,10 +559,10 @@ impl HandPipeline {
             return Ok(None);
         }
         let hand = to_detected(region, kp);
-        let b = point_bounds(&hand.keypoints);
+        let b = hand.keypoints.bounds();
         if found
             .iter()
-            .any(|h| iou(&point_bounds(&h.keypoints), &b) > self.options.duplicate_iou)
+            .any(|h| h.keypoints.bounds().iou(&b) > self.options.duplicate_iou)
         {
             return Ok(None);
         }
@@ -572,19 +570,11 @@ impl HandPipeline {
     }
 }
 
-fn shift_box(b: [f64; 4]) -> [f64; 4] {
-    let ([x0, y0], [x1, y1]) = (
-        to_pixel_centres([b[0], b[1]]),
-        to_pixel_centres([b[2], b[3]]),
-    );
-    [x0, y0, x1, y1]
-}
-
 fn to_head(h: HeadDetection) -> DetectedHead {
     DetectedHead {
         score: h.score,
-        head_box: shift_box(h.head_box),
-        face_box: shift_box(h.face_box),
+        head_box: h.head_box.map_corners(to_pixel_centres),
+        face_box: h.face_box.map_corners(to_pixel_centres),
     }
 }
 
@@ -633,48 +623,6 @@ fn to_detected(region: &HandRegion, kp: HandKeypoints) -> DetectedHand {
     }
 }
 
-/// Axis-aligned bounds `[xmin, ymin, xmax, ymax]` of keypoints.
-pub fn point_bounds(k: &Keypoints2d) -> [f64; 4] {
-    let mut b = [
-        f64::INFINITY,
-        f64::INFINITY,
-        f64::NEG_INFINITY,
-        f64::NEG_INFINITY,
-    ];
-    for p in &k.points {
-        b[0] = b[0].min(p[0]);
-        b[1] = b[1].min(p[1]);
-        b[2] = b[2].max(p[0]);
-        b[3] = b[3].max(p[1]);
-    }
-    b
-}
-
-/// Fraction of box `a`'s area covered by box `b`.
-pub fn overlap_fraction(a: &[f64; 4], b: &[f64; 4]) -> f64 {
-    let iw = (a[2].min(b[2]) - a[0].max(b[0])).max(0.0);
-    let ih = (a[3].min(b[3]) - a[1].max(b[1])).max(0.0);
-    let area = (a[2] - a[0]) * (a[3] - a[1]);
-    if area > 0.0 {
-        iw * ih / area
-    } else {
-        0.0
-    }
-}
-
-/// Intersection over union of two `[xmin, ymin, xmax, ymax]` boxes.
-pub fn iou(a: &[f64; 4], b: &[f64; 4]) -> f64 {
-    let iw = (a[2].min(b[2]) - a[0].max(b[0])).max(0.0);
-    let ih = (a[3].min(b[3]) - a[1].max(b[1])).max(0.0);
-    let inter = iw * ih;
-    let union = (a[2] - a[0]) * (a[3] - a[1]) + (b[2] - b[0]) * (b[3] - b[1]) - inter;
-    if union > 0.0 {
-        inter / union
-    } else {
-        0.0
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -712,12 +660,5 @@ mod tests {
         };
         let json = serde_json::to_string(&d).expect("json");
         assert!(json.contains("\"image_size\":[4,3]"), "{json}");
-    }
-
-    #[test]
-    fn iou_of_disjoint_and_identical_boxes() {
-        let a = [0.0, 0.0, 10.0, 10.0];
-        assert_eq!(iou(&a, &a), 1.0);
-        assert_eq!(iou(&a, &[20.0, 20.0, 30.0, 30.0]), 0.0);
     }
 }

@@ -3,6 +3,8 @@
 //! `SsdAnchorsCalculator`, `TensorsToDetectionsCalculator` and `NonMaxSuppressionCalculator`
 //! for the configurations these models use (fixed anchor size 1, two anchors per cell).
 
+use monohand_core::bbox::BBox;
+
 /// An anchor centre in normalised input coordinates (its width and height are fixed to 1).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Anchor {
@@ -54,24 +56,15 @@ pub struct RawDetection {
 }
 
 impl RawDetection {
-    fn xyxy(&self) -> [f32; 4] {
-        let [cx, cy, w, h] = self.bbox;
-        [cx - w / 2.0, cy - h / 2.0, cx + w / 2.0, cy + h / 2.0]
+    /// The box as a [`BBox`] (normalised input coordinates).
+    pub fn bbox(&self) -> BBox {
+        let [cx, cy, w, h] = self.bbox.map(f64::from);
+        BBox::from_centre_size([cx, cy], w, h)
     }
 
     /// Intersection over union with another detection's box.
-    pub fn iou(&self, other: &RawDetection) -> f32 {
-        let a = self.xyxy();
-        let b = other.xyxy();
-        let iw = (a[2].min(b[2]) - a[0].max(b[0])).max(0.0);
-        let ih = (a[3].min(b[3]) - a[1].max(b[1])).max(0.0);
-        let inter = iw * ih;
-        let union = (a[2] - a[0]) * (a[3] - a[1]) + (b[2] - b[0]) * (b[3] - b[1]) - inter;
-        if union <= 0.0 {
-            0.0
-        } else {
-            inter / union
-        }
+    pub fn iou(&self, other: &RawDetection) -> f64 {
+        self.bbox().iou(&other.bbox())
     }
 }
 
@@ -124,8 +117,9 @@ pub fn weighted_nms(mut dets: Vec<RawDetection>, iou_threshold: f32) -> Vec<RawD
     let mut out = Vec::new();
     while !dets.is_empty() {
         let top = dets[0].clone();
-        let (group, rest): (Vec<_>, Vec<_>) =
-            dets.into_iter().partition(|d| d.iou(&top) > iou_threshold);
+        let (group, rest): (Vec<_>, Vec<_>) = dets
+            .into_iter()
+            .partition(|d| d.iou(&top) > f64::from(iou_threshold));
         dets = rest;
         let group = if group.is_empty() {
             vec![top.clone()]
@@ -156,8 +150,8 @@ pub fn weighted_nms(mut dets: Vec<RawDetection>, iou_threshold: f32) -> Vec<RawD
 pub struct SsdDetection<const K: usize> {
     /// Score in `[0, 1]`.
     pub score: f32,
-    /// `[xmin, ymin, xmax, ymax]`.
-    pub bbox: [f64; 4],
+    /// The box (continuous coordinates).
+    pub bbox: BBox,
     /// The `K` keypoints `[x, y]`.
     pub keypoints: [[f64; 2]; K],
 }
@@ -241,6 +235,7 @@ impl<const K: usize> SsdDetector<K> {
             .into_iter()
             .map(|d| {
                 let p = |x: f32, y: f32| to_image.apply([x as f64 * s, y as f64 * s]);
+                // The corners in f32, as the network's numbers are (MediaPipe's arithmetic).
                 let [cx, cy, w, h] = d.bbox;
                 let a = p(cx - w / 2.0, cy - h / 2.0);
                 let b = p(cx + w / 2.0, cy + h / 2.0);
@@ -250,7 +245,7 @@ impl<const K: usize> SsdDetector<K> {
                 }
                 SsdDetection {
                     score: d.score,
-                    bbox: [a[0], a[1], b[0], b[1]],
+                    bbox: BBox::new(a[0], a[1], b[0], b[1]),
                     keypoints,
                 }
             })

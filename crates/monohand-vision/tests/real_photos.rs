@@ -5,8 +5,8 @@
 
 mod common;
 
+use monohand_core::bbox::BBox;
 use monohand_core::hand_model::HandSide;
-use monohand_vision::pipeline::{iou, point_bounds};
 use monohand_vision::{HandPipeline, ModelOptions, PipelineOptions};
 
 /// (image, minimum and maximum hand count, pinned hands: keypoint bounds and the physical side
@@ -124,7 +124,7 @@ fn hands_are_found_where_hands_are() {
             let best = found
                 .hands
                 .iter()
-                .map(|h| (iou(&point_bounds(&h.keypoints), bbox), h))
+                .map(|h| (h.keypoints.bounds().iou(&BBox::from(*bbox)), h))
                 .max_by(|a, b| a.0.total_cmp(&b.0))
                 .expect("at least one hand");
             assert!(

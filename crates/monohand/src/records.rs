@@ -11,7 +11,7 @@ use monohand_vision::{DetectedHand, Detections};
 pub fn hand_record(hand: &DetectedHand) -> HandRecord {
     let r = &hand.oriented_box;
     let mut record = HandRecord::from_keypoints(hand.side, &hand.keypoints);
-    record.bbox = Some(monohand_vision::pipeline::point_bounds(&hand.keypoints));
+    record.bbox = Some(hand.keypoints.bounds());
     record.score = Some(f64::from(hand.detection_score));
     record.side_score = Some(f64::from(hand.side_score));
     record.oriented_box = Some(OrientedBox {
