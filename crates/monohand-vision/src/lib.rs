@@ -16,6 +16,16 @@
 //! ```
 //!
 //! Weights are fetched from the PyPI wheel `mediapipe==0.10.14` on first use ([`models`]).
+//!
+//! **Pixel conventions.** What [`HandPipeline`] returns ([`Detections`], [`DetectedHand`],
+//! [`DetectedHead`]; their boxes are `monohand_core::bbox::BBox`) is in pixel-centre
+//! coordinates, the centre of the first pixel at `(0, 0)` as in OpenCV and OpenPose, like
+//! everything in the project's files. The network layer below it, where crops are cut
+//! and network outputs mapped back ([`palm`], [`face`], [`ssd`], [`landmarks`], [`warp`],
+//! [`geometry`], and the plug-in traits [`HandDetector`] and [`KeypointEstimator`] with
+//! [`HandRegion`] and [`HandKeypoints`]), works in continuous coordinates (pixel `i` covers
+//! `[i, i+1)`), the networks' own; the pipeline converts between the two at its boundary
+//! only ([`geometry::to_pixel_centres`]).
 #![deny(missing_docs)]
 
 pub mod error;
