@@ -263,12 +263,33 @@ fn double_pyramid_indices() -> Vec<u16> {
     idx
 }
 
-/// The track of one hand: its 3D joints (glTF coordinates) per frame, `None` when absent.
+/// The track of one hand: its 3D joints (glTF coordinates) per frame from the frame it
+/// first appeared in to the last it was seen in, `None` where it was absent between.
 #[derive(Debug, Clone)]
 struct Track {
     side: HandSide,
     id: Option<u64>,
+    /// The frame of `samples[0]`.
+    start: usize,
     samples: Vec<Option<[[f32; 3]; NUM_JOINTS]>>,
+}
+
+impl Track {
+    /// The frames its keys are at, `first..=last` (its life, with one hidden frame before
+    /// and after where those exist), and the samples over them.
+    fn keyed(&self, frames: usize) -> (usize, Vec<Option<[[f32; 3]; NUM_JOINTS]>>) {
+        let first = self.start.saturating_sub(1);
+        let end = self.start + self.samples.len();
+        let mut keyed = Vec::with_capacity(self.samples.len() + 2);
+        if first < self.start {
+            keyed.push(None);
+        }
+        keyed.extend_from_slice(&self.samples);
+        if end < frames {
+            keyed.push(None);
+        }
+        (first, keyed)
+    }
 }
 
 /// Accumulates the 3D joints of every frame and writes an animated glTF 2.0
@@ -279,13 +300,17 @@ struct Track {
 /// [`JOINT_NAMES`]) and 20 bone nodes (tapered pyramids, coloured per finger)
 /// whose translation, rotation and scale are animated at the frame timestamps
 /// (linear interpolation; visibility uses step interpolation of the scale:
-/// a hand absent from a frame is scaled to 0). Coordinates are glTF's:
+/// a hand absent from a frame is scaled to 0). A track is keyed over its own life
+/// only (from the frame before it appears to the frame after it was last seen), so
+/// hands that come and go cost what they are seen for. Coordinates are glTF's:
 /// metres, x right, y up, z toward the viewer, i.e. the camera frame's
 /// `(x, -y, -z) / 1000`; a glTF camera at the origin looks along -z, so it
 /// sees the scene as the real camera did.
 ///
-/// Memory: 21 x 3 floats per hand per frame (about 250 bytes). The file is
-/// written to `PATH.tmp` and renamed, so it is either complete or absent.
+/// Memory: 21 x 3 floats per hand per frame it lives (256 bytes: 27.6 MB per hand
+/// per hour at 30 fps), held until [`GltfWriter::finish`], which builds the whole
+/// file in memory. The file is written to `PATH.tmp` and renamed, so it is either
+/// complete or absent.
 /// Nothing is written unless `finish` is called.
 #[derive(Debug, Clone)]
 pub struct GltfWriter {
@@ -384,9 +409,6 @@ impl GltfWriter {
         }
         let n = self.times.len();
         self.times.push(t_s);
-        for t in &mut self.tracks {
-            t.samples.push(None);
-        }
         for h in hands {
             let Some(joints) = h.joints_3d_mm else {
                 continue;
@@ -401,13 +423,19 @@ impl GltfWriter {
                     self.tracks.push(Track {
                         side: h.side,
                         id: h.id,
-                        samples: vec![None; n + 1],
+                        start: n,
+                        samples: Vec::new(),
                     });
                     self.tracks.len() - 1
                 }
             };
-            if self.tracks[i].samples[n].is_none() {
-                self.tracks[i].samples[n] = Some(joints.map(to_gltf));
+            let track = &mut self.tracks[i];
+            let k = n - track.start;
+            if track.samples.len() <= k {
+                track.samples.resize(k + 1, None);
+            }
+            if track.samples[k].is_none() {
+                track.samples[k] = Some(joints.map(to_gltf));
             }
         }
         Ok(())
@@ -487,13 +515,18 @@ impl GltfWriter {
         nodes.push(json!({"name": "camera", "camera": 0}));
         scene_roots.push(0);
 
-        let time_acc = (!self.times.is_empty() && !self.tracks.is_empty()).then(|| {
-            let t: Vec<f32> = self.times.iter().map(|&t| t as f32).collect();
-            b.scalar_accessor(&t)
-        });
         for track in &self.tracks {
-            let filled = fill_gaps(&track.samples);
-            let visible: Vec<bool> = track.samples.iter().map(Option::is_some).collect();
+            let (first, samples) = track.keyed(self.times.len());
+            let times: Vec<f32> = self
+                .times
+                .iter()
+                .skip(first)
+                .take(samples.len())
+                .map(|&t| t as f32)
+                .collect();
+            let time_acc = (!times.is_empty()).then(|| b.scalar_accessor(&times));
+            let filled = fill_gaps(&samples);
+            let visible: Vec<bool> = samples.iter().map(Option::is_some).collect();
             let id = track.id.map_or("na".to_string(), |i| i.to_string());
             let skin_parts = self.meshes.as_ref().map(|meshes| {
                 let si = side_index(track.side);

@@ -216,3 +216,59 @@ fn empty_export_is_still_a_valid_file_and_bad_paths_fail_cleanly() {
     assert!(e.contains("x.glb.tmp"), "{e}");
     assert!(!bad.exists());
 }
+
+#[test]
+fn each_hand_is_keyed_over_its_own_life_only() {
+    // 1,000 frames; hand #1 in all of them, then a new id every 100 frames for 10 frames
+    // (hands lost and found again, as in a long video). Each short-lived track is keyed
+    // over its 10 frames and one hidden frame either side: its cost does not grow with
+    // the video's length.
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("long.glb");
+    let mut w = GltfWriter::new(&path);
+    for i in 0..1000u64 {
+        let t = i as f64 / 30.0;
+        let mut hands = vec![hand(HandSide::Right, 1, t)];
+        if i % 100 >= 50 && i % 100 < 60 {
+            hands.push(hand(HandSide::Left, 100 + i / 100, t));
+        }
+        w.add_frame(t, &hands).unwrap();
+    }
+    w.finish().unwrap();
+    let glb = parse_glb(&std::fs::read(&path).unwrap());
+    let j = &glb.json;
+    let nodes = j["nodes"].as_array().unwrap();
+    let anim = &j["animations"][0];
+    let input_of = |name: &str| {
+        let node = nodes.iter().position(|n| n["name"] == name).unwrap();
+        let c = anim["channels"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|c| c["target"]["node"] == node && c["target"]["path"] == "scale")
+            .unwrap();
+        let s = &anim["samplers"][c["sampler"].as_u64().unwrap() as usize];
+        (
+            glb.floats(s["input"].as_u64().unwrap() as usize),
+            glb.floats(s["output"].as_u64().unwrap() as usize),
+        )
+    };
+    let (t1, _) = input_of("wrist_1_right");
+    assert_eq!(t1.len(), 1000);
+    // Hand #104 lives in frames 450-459: keys at frames 449..=460, hidden at both ends.
+    let (t, sc) = input_of("wrist_104_left");
+    assert_eq!(t.len(), 12);
+    assert_eq!(t[0], (449.0f64 / 30.0) as f32);
+    assert_eq!(t[11], (460.0f64 / 30.0) as f32);
+    let shown: Vec<f32> = sc.chunks(3).map(|c| c[0]).collect();
+    assert_eq!(shown[0], 0.0);
+    assert!(shown[1..11].iter().all(|&s| s == 1.0));
+    assert_eq!(shown[11], 0.0);
+    // 11 tracks: the file is about the long track plus 10 short ones, not 11 long ones.
+    let size = std::fs::metadata(&path).unwrap().len();
+    let per_key = 4 * (1 + 3) * (21 * 2 + 20 * 3); // bytes per frame of one track, about
+    assert!(
+        (size as usize) < per_key * (1000 + 10 * 12) + 200_000,
+        "{size} bytes"
+    );
+}
