@@ -1,5 +1,5 @@
 //! Reading images: format sniffed from the content (a WebP named `.jpg` still decodes), EXIF
-//! orientation applied, every pixel format (8/16-bit, grey, RGBA) converted to 8-bit RGB.
+//! orientation applied, every pixel format (8/16-bit, grey, RGBA, CMYK JPEG) converted to 8-bit RGB.
 
 use std::io::Cursor;
 use std::path::Path;

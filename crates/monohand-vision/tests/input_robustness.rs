@@ -1,5 +1,5 @@
 //! Awkward inputs: corrupt files, a 1x1 image, 16-bit, grayscale and RGBA PNGs, a WebP named
-//! `.jpg`, and images without hands.
+//! `.jpg`, a CMYK JPEG, and images without hands.
 #![allow(clippy::unwrap_used, clippy::expect_used)] // a failed test or bench is a panic
 
 mod common;
@@ -105,6 +105,28 @@ fn webp_disguised_as_jpg_decodes() {
         .expect("WebP named .jpg must decode by content");
     assert_eq!(found.image_size, (600, 600));
     assert!(!found.hands.is_empty(), "stacked hands photo");
+}
+
+#[test]
+fn cmyk_jpeg_decodes_to_its_colours() {
+    // tests/fixtures/cmyk_quadrants.jpg: 64x64, made with Pillow from an RGB image of four
+    // quadrants (red, green, blue, white) converted to CMYK (Adobe JPEG, as print
+    // workflows and some scanners write them).
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/cmyk_quadrants.jpg");
+    let rgb = monohand_vision::image_io::load_rgb(&path).expect("CMYK JPEG decodes");
+    assert_eq!(rgb.dimensions(), (64, 64));
+    for ((x, y), want) in [
+        ((16, 16), [220, 30, 30]),
+        ((48, 16), [30, 200, 60]),
+        ((16, 48), [30, 60, 220]),
+        ((48, 48), [255, 255, 255]),
+    ] {
+        let got = rgb.get_pixel(x, y).0;
+        assert!(
+            got.iter().zip(want).all(|(g, w)| g.abs_diff(w) <= 12),
+            "pixel ({x}, {y}): {got:?}, want {want:?}"
+        );
+    }
 }
 
 #[test]
