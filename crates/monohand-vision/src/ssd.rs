@@ -57,14 +57,14 @@ pub struct RawDetection {
 
 impl RawDetection {
     /// The box as a [`BBox`] (normalised input coordinates).
-    pub fn bbox(&self) -> BBox {
+    pub fn as_bbox(&self) -> BBox {
         let [cx, cy, w, h] = self.bbox.map(f64::from);
         BBox::from_centre_size([cx, cy], w, h)
     }
 
     /// Intersection over union with another detection's box.
     pub fn iou(&self, other: &RawDetection) -> f64 {
-        self.bbox().iou(&other.bbox())
+        self.as_bbox().iou(&other.as_bbox())
     }
 }
 
