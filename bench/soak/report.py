@@ -6,7 +6,7 @@ resident memory from a sixth of the way in (the 10th minute of an hour) to the e
 Usage: report.py OUT_DIR FRAMES_IN EXIT_STATUS ELAPSED_S
 
 The glTF writer keeps 256 bytes per hand per frame in memory until the end (21 joints x
-3 floats; docs/performance.md#soak). That growth is stated, not hidden: the report prints
+3 floats; docs/performance.md, "Soak"). That growth is stated, not hidden: the report prints
 the raw growth and the growth net of those bytes, and passes on the second (< 5%) when
 the raw growth is all the glTF's.
 """

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Soak benchmark: an hour of 30 fps video through `monohand run` with tracking, the depth
 # overlay video and the glTF export on, the resident memory sampled every few seconds.
-# Not part of .ci/run (it takes most of an hour). Results: docs/performance.md#soak.
+# Not part of .ci/run (it takes most of an hour). Results: docs/performance.md, "Soak".
 #
 # Usage: bench/soak/run.sh [--minutes M] [--size WxH] [--every S]
 #   --minutes M  length of the video (default 60)
