@@ -1,5 +1,8 @@
 //! Reading images: format sniffed from the content (a WebP named `.jpg` still decodes), EXIF
 //! orientation applied, every pixel format (8/16-bit, grey, RGBA, CMYK JPEG) converted to 8-bit RGB.
+//!
+//! [`load_photo`] also reads the focal length a camera wrote into the EXIF ([`PhotoFocal`]), so
+//! that a photo without a calibration still gets its own field of view.
 
 use std::io::Cursor;
 use std::path::Path;
@@ -37,15 +40,71 @@ pub fn images_in_folder(dir: &Path) -> Result<Vec<std::path::PathBuf>> {
 
 /// Reads and decodes an image file (see the module docs).
 pub fn load_rgb(path: &Path) -> Result<RgbImage> {
-    let bytes = std::fs::read(path).map_err(|source| VisionError::ImageRead {
-        path: path.into(),
-        source,
-    })?;
-    decode_rgb(&bytes, &path.display().to_string())
+    load_photo(path).map(|p| p.image)
 }
 
 /// Decodes an in-memory encoded image (JPEG, PNG or WebP); `what` names it in errors.
 pub fn decode_rgb(bytes: &[u8], what: &str) -> Result<RgbImage> {
+    decode_photo(bytes, what).map(|p| p.image)
+}
+
+/// A decoded photo and the focal length its EXIF states, if any.
+#[derive(Clone, Debug)]
+pub struct Photo {
+    /// The pixels, upright (EXIF orientation applied), 8-bit RGB.
+    pub image: RgbImage,
+    /// The focal length from the EXIF, in pixels of `image`; `None` when the file has no
+    /// usable focal length (see [`PhotoFocal`]).
+    pub focal: Option<PhotoFocal>,
+}
+
+/// A focal length in pixels, read from a photo's EXIF.
+///
+/// In order of preference (the order COLMAP uses too):
+/// 1. `FocalLengthIn35mmFilm` (tag 0xA405, what phones write): the focal length that gives
+///    a 36 x 24 mm frame the same angle of view. By its definition (CIPA DC-008) the angle is
+///    the diagonal's, so `px = f35 * diagonal_px / 43.27` with 43.27 mm the diagonal of 36 x 24.
+/// 2. `FocalLength` (0x920A) in mm with the sensor's `FocalPlaneXResolution` (0xA20E, pixels
+///    per `FocalPlaneResolutionUnit` 0xA210: inch, cm, mm or µm), scaled from the EXIF's
+///    `PixelXDimension` (0xA002) to the stored image's width when the two differ.
+///
+/// Both assume the photo shows the whole sensor frame (no crop after capture) and square
+/// pixels. Values outside [`PhotoFocal::PLAUSIBLE_35MM`] (as a 35 mm equivalent) are
+/// ignored as broken.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PhotoFocal {
+    /// Focal length in pixels (the same on both axes).
+    pub px: f64,
+    /// The tags it came from, for the user (for example `FocalLengthIn35mmFilm 26 mm`).
+    pub source: String,
+}
+
+impl PhotoFocal {
+    /// 35 mm-equivalent focal lengths taken as real, in mm: from a 4 mm fisheye-like
+    /// wide angle (about 157 degrees across the diagonal) to a 2000 mm telephoto.
+    pub const PLAUSIBLE_35MM: std::ops::RangeInclusive<f64> = 4.0..=2000.0;
+
+    /// The 35 mm-equivalent focal length of this focal for an image of this size, mm.
+    pub fn equivalent_35mm(&self, width: u32, height: u32) -> f64 {
+        self.px * DIAGONAL_35MM / (width as f64).hypot(height as f64)
+    }
+}
+
+/// Diagonal of a 36 x 24 mm frame, mm.
+const DIAGONAL_35MM: f64 = 43.266_615_305_567_875;
+
+/// Reads and decodes a photo with its EXIF focal length (see the module docs).
+pub fn load_photo(path: &Path) -> Result<Photo> {
+    let bytes = std::fs::read(path).map_err(|source| VisionError::ImageRead {
+        path: path.into(),
+        source,
+    })?;
+    decode_photo(&bytes, &path.display().to_string())
+}
+
+/// Decodes an in-memory photo with its EXIF focal length; `what` names it in errors. A
+/// damaged EXIF block is no error: the photo is decoded without a focal length.
+pub fn decode_photo(bytes: &[u8], what: &str) -> Result<Photo> {
     let err = |reason: String| VisionError::ImageDecode {
         what: what.into(),
         reason,
@@ -59,6 +118,9 @@ pub fn decode_rgb(bytes: &[u8], what: &str) -> Result<RgbImage> {
         ));
     }
     let mut decoder = reader.into_decoder().map_err(|e| err(e.to_string()))?;
+    let stored_width = decoder.dimensions().0;
+    // Read before `orientation`, which may consume the same block.
+    let exif = decoder.exif_metadata().ok().flatten();
     let orientation = decoder.orientation().map_err(|e| err(e.to_string()))?;
     let mut img = DynamicImage::from_decoder(decoder).map_err(|e| err(e.to_string()))?;
     img.apply_orientation(orientation);
@@ -73,7 +135,83 @@ pub fn decode_rgb(bytes: &[u8], what: &str) -> Result<RgbImage> {
             ),
         });
     }
-    Ok(rgb)
+    let focal = exif.and_then(|raw| {
+        focal_from_exif(raw, stored_width, rgb.width(), rgb.height())
+            .map_err(|why| tracing::warn!("{what}: EXIF focal length not used: {why}"))
+            .ok()
+            .flatten()
+    });
+    Ok(Photo { image: rgb, focal })
+}
+
+/// The focal length in pixels of an image `width` x `height` (upright; `stored_width` is its
+/// width as stored, before the EXIF orientation) from its raw EXIF (TIFF) block. `Ok(None)`:
+/// no focal length in it; `Err`: one that cannot be right.
+fn focal_from_exif(
+    raw: Vec<u8>,
+    stored_width: u32,
+    width: u32,
+    height: u32,
+) -> std::result::Result<Option<PhotoFocal>, String> {
+    use exif::{In, Tag};
+    let exif = exif::Reader::new()
+        .read_raw(raw)
+        .map_err(|e| format!("unreadable EXIF: {e}"))?;
+    let number = |tag: Tag| -> Option<f64> {
+        let field = exif.get_field(tag, In::PRIMARY)?;
+        match &field.value {
+            exif::Value::Rational(v) => v.first().map(|r| r.to_f64()),
+            exif::Value::SRational(v) => v.first().map(|r| r.to_f64()),
+            other => other.get_uint(0).map(f64::from),
+        }
+    };
+    let diagonal = (width as f64).hypot(height as f64);
+    let focal = if let Some(f35) = number(Tag::FocalLengthIn35mmFilm).filter(|&f| f > 0.0) {
+        // 0 means "unknown" in the standard.
+        PhotoFocal {
+            px: f35 * diagonal / DIAGONAL_35MM,
+            source: format!("EXIF FocalLengthIn35mmFilm {f35} mm"),
+        }
+    } else {
+        let (Some(f_mm), Some(res)) =
+            (number(Tag::FocalLength), number(Tag::FocalPlaneXResolution))
+        else {
+            return Ok(None);
+        };
+        // Pixels per unit on the sensor; the unit is the inch when the tag is absent.
+        let unit_mm = match number(Tag::FocalPlaneResolutionUnit).map_or(2, |u| u as u32) {
+            2 => 25.4,
+            3 => 10.0,
+            4 => 1.0,
+            5 => 1e-3,
+            u => return Err(format!("FocalPlaneResolutionUnit {u} is not a length")),
+        };
+        let scale = match number(Tag::PixelXDimension).filter(|&p| p > 0.0) {
+            Some(p) => stored_width as f64 / p,
+            None => 1.0,
+        };
+        PhotoFocal {
+            px: f_mm * res / unit_mm * scale,
+            source: format!(
+                "EXIF FocalLength {f_mm} mm at {res} pixels per {} on the sensor",
+                match unit_mm {
+                    25.4 => "inch",
+                    10.0 => "cm",
+                    1.0 => "mm",
+                    _ => "µm",
+                }
+            ),
+        }
+    };
+    let f35 = focal.equivalent_35mm(width, height);
+    if !(focal.px.is_finite() && PhotoFocal::PLAUSIBLE_35MM.contains(&f35)) {
+        return Err(format!(
+            "{} gives a 35 mm equivalent of {f35:.1} mm, outside {:?} mm",
+            focal.source,
+            PhotoFocal::PLAUSIBLE_35MM
+        ));
+    }
+    Ok(Some(focal))
 }
 
 #[cfg(test)]
