@@ -5,6 +5,8 @@
 #![allow(clippy::unwrap_used, clippy::expect_used)] // a failed test is a panic
 
 mod common;
+#[path = "../../monohand-vision/tests/exif_support/mod.rs"]
+mod exif_support;
 
 use common::{monohand, networks_ready, ok, p};
 use monohand_core::prelude::*;
@@ -174,4 +176,67 @@ fn tiny_and_huge_images() {
         assert!(frames[0].error.is_none(), "{:?}", frames[0].error);
         assert_eq!(frames[0].hands.len(), hands, "{}", img.display());
     }
+}
+
+/// Photos that state their focal length in EXIF get their own camera when no `--camera` is
+/// given, and the user is told once; a photo without it gets the generic 60 degree guess.
+/// The same pixels at twice the focal length put the hand twice as far (within 3%: the
+/// hand's own depth does not scale), and the generic camera's focal length (0.866 x the
+/// width) against the 26 mm phone lens's (0.751 x) moves it by their ratio.
+#[test]
+fn a_photo_with_its_focal_length_in_exif_gets_its_own_camera() {
+    use exif_support::{tag, tiff_block, with_exif, Value};
+    assert!(networks_ready());
+    let dir = tempfile::tempdir().unwrap();
+    let photos = dir.path().join("photos");
+    std::fs::create_dir(&photos).unwrap();
+    let plain = photos.join("c_no_exif.jpg");
+    ffmpeg(&["-i", p(&hand_png()), "-q:v", "2", p(&plain)]);
+    let jpeg = std::fs::read(&plain).unwrap();
+    for (name, f35) in [("a_26mm.jpg", 26), ("b_52mm.jpg", 52)] {
+        let tiff = tiff_block(1, &[(tag::FOCAL_35MM, Value::Short(f35))]);
+        std::fs::write(photos.join(name), with_exif(&jpeg, &tiff)).unwrap();
+    }
+    let out = dir.path().join("out.jsonl");
+    let run = monohand(&["run", p(&photos), "-o", p(&out)]);
+    ok(&run);
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert_eq!(
+        stderr
+            .matches("the camera comes from the photo's EXIF FocalLengthIn35mmFilm 26 mm")
+            .count(),
+        1,
+        "{stderr}"
+    );
+    assert!(!stderr.contains("52 mm"), "said once: {stderr}");
+    assert_eq!(
+        stderr
+            .matches("assuming a generic camera for 640x480")
+            .count(),
+        1,
+        "{stderr}"
+    );
+    let frames = read_jsonl(&out).unwrap();
+    let depth: Vec<f64> = frames
+        .iter()
+        .map(|f| {
+            assert_eq!(f.hands.len(), 1, "{:?}", f.source);
+            f.hands[0].joints_3d_mm.expect("3D")[0][2]
+        })
+        .collect();
+    let names: Vec<_> = frames.iter().map(|f| f.source.clone().unwrap()).collect();
+    assert_eq!(names, ["a_26mm.jpg", "b_52mm.jpg", "c_no_exif.jpg"]);
+    let twice = depth[1] / depth[0];
+    assert!(
+        (twice - 2.0).abs() < 0.06,
+        "52 mm / 26 mm depth ratio {twice}"
+    );
+    let f26 = 26.0 * 800.0 / 36f64.hypot(24.0);
+    let generic = 320.0 / 30f64.to_radians().tan();
+    let ratio = depth[2] / depth[0];
+    assert!(
+        (ratio - generic / f26).abs() < 0.03 * generic / f26,
+        "generic / 26 mm depth ratio {ratio}, focal ratio {}",
+        generic / f26
+    );
 }

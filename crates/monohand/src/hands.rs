@@ -7,6 +7,7 @@ use crate::fit::{fit_views, FitOutcome};
 use monohand_core::filtering::{OneEuroFilter, OneEuroParams};
 use monohand_core::fitting::{estimate_hand_scale, ScaleEstimate};
 use monohand_core::prelude::*;
+use monohand_vision::image_io::PhotoFocal;
 use monohand_vision::DetectedHand;
 use nalgebra::Vector3;
 use std::collections::HashMap;
@@ -108,6 +109,8 @@ fn side_index(side: HandSide) -> usize {
 pub struct HandsFitter<T = ()> {
     cameras: Vec<Camera>,
     generic: bool,
+    /// Whether the generic guess and an EXIF focal length were announced.
+    said: [bool; 2],
     prototypes: [HandTracker; 2],
     settings: FitSettings,
     tracks: HashMap<HandId, Track>,
@@ -118,8 +121,9 @@ pub struct HandsFitter<T = ()> {
 
 impl<T> HandsFitter<T> {
     /// A 3D stage for these cameras (one per view; the first is the reference whose frame
-    /// the 3D is in). With no camera at all, a generic camera is assumed for each image size
-    /// ([`Camera::generic`]) and said once in [`Self::take_notes`].
+    /// the 3D is in). With no camera at all, each frame gets a camera for its image size:
+    /// from the focal length its file states ([`VisionFrame::focal`], EXIF), else the
+    /// generic guess ([`Camera::generic`]); each kind is said once in [`Self::take_notes`].
     pub fn new(cameras: Vec<Camera>, settings: FitSettings) -> Result<HandsFitter<T>, CoreError> {
         for c in &cameras {
             c.validate()?;
@@ -127,6 +131,7 @@ impl<T> HandsFitter<T> {
         settings.options.validate()?;
         Ok(HandsFitter {
             generic: cameras.is_empty(),
+            said: [false; 2],
             cameras,
             prototypes: [
                 HandTracker::new(settings.skeletons[0], settings.options)?,
@@ -299,23 +304,43 @@ impl<T> HandsFitter<T> {
             .collect()
     }
 
-    /// Makes the camera fit the frame: a generic camera for its size, or a check that the
-    /// calibration's size matches.
-    fn camera_for(&mut self, size: (u32, u32)) -> Result<(), String> {
+    /// Makes the camera fit the frame: without calibrated cameras, one for its size (from
+    /// the focal length its file states, else the generic guess); with them, a check that
+    /// the size is the calibrated one.
+    fn camera_for(&mut self, size: (u32, u32), focal: Option<&PhotoFocal>) -> Result<(), String> {
         let (w, h) = size;
         if self.generic {
-            let current = self
-                .cameras
-                .first()
-                .map(|c| (c.intrinsics.width, c.intrinsics.height));
-            if current != Some((w, h)) {
-                let cam = Camera::generic(w, h).map_err(|e| e.to_string())?;
-                if self.cameras.is_empty() {
-                    self.notes.push(format!(
-                        "no --camera: assuming a generic camera for {w}x{h} (60 degree horizontal \
-                         field of view); absolute depth is only as right as this guess \
-                         (docs/calibration.md)"
-                    ));
+            let cam = match focal {
+                Some(f) => Camera::pinhole(
+                    f.px,
+                    f.px,
+                    (w as f64 - 1.0) / 2.0,
+                    (h as f64 - 1.0) / 2.0,
+                    w,
+                    h,
+                ),
+                None => Camera::generic(w, h),
+            }
+            .map_err(|e| e.to_string())?;
+            if self.cameras.first().map(|c| &c.intrinsics) != Some(&cam.intrinsics) {
+                let kind = usize::from(focal.is_some());
+                if !self.said[kind] {
+                    self.said[kind] = true;
+                    self.notes.push(match focal {
+                        Some(f) => format!(
+                            "no --camera: the camera comes from the photo's {}: fx = fy = {:.1} \
+                             px for {w}x{h} ({:.1} degree horizontal field of view; photos \
+                             without it get the generic 60 degree guess)",
+                            f.source,
+                            f.px,
+                            2.0 * (0.5 * w as f64 / f.px).atan().to_degrees()
+                        ),
+                        None => format!(
+                            "no --camera: assuming a generic camera for {w}x{h} (60 degree \
+                             horizontal field of view); absolute depth is only as right as \
+                             this guess (docs/calibration.md)"
+                        ),
+                    });
                 }
                 self.cameras = vec![cam];
             }
@@ -351,7 +376,7 @@ impl<T> HandsFitter<T> {
             }
             None => return out,
         };
-        if let Err(e) = self.camera_for(size) {
+        if let Err(e) = self.camera_for(size, out.vision.focal.as_ref()) {
             tracing::warn!("frame {}: {e}", out.vision.index);
             out.error = Some(e);
             return out;

@@ -171,6 +171,27 @@ impl Session {
         images: &[&RgbImage],
         time_s: f64,
     ) -> SessionResult<Vec<FittedFrame>> {
+        self.process_with_focal(images, time_s, None)
+    }
+
+    /// [`Session::process`] for one photo read with
+    /// [`load_photo`](monohand_vision::image_io::load_photo): when the session has no
+    /// calibrated camera, the focal length the photo's EXIF states gives its camera
+    /// (said once in [`Session::take_notes`]) instead of the generic 60 degree guess.
+    pub fn process_photo(
+        &mut self,
+        photo: &monohand_vision::image_io::Photo,
+        time_s: f64,
+    ) -> SessionResult<Vec<FittedFrame>> {
+        self.process_with_focal(&[&photo.image], time_s, photo.focal.clone())
+    }
+
+    fn process_with_focal(
+        &mut self,
+        images: &[&RgbImage],
+        time_s: f64,
+        focal: Option<monohand_vision::image_io::PhotoFocal>,
+    ) -> SessionResult<Vec<FittedFrame>> {
         if images.len() != self.views {
             return Err(SessionError::Invalid(format!(
                 "{} image(s) for {} camera(s): give one image per camera, in order",
@@ -184,7 +205,8 @@ impl Session {
             )));
         }
         let images: Vec<Result<&RgbImage, String>> = images.iter().map(|&i| Ok(i)).collect();
-        let frame = self.crops.process(self.next_index, time_s, &images);
+        let mut frame = self.crops.process(self.next_index, time_s, &images);
+        frame.focal = focal;
         self.next_index += 1;
         Ok(self
             .fitter

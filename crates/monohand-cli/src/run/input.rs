@@ -3,7 +3,7 @@
 
 use anyhow::{bail, Result};
 use monohand_media::video::{VideoInput, VideoReader};
-use monohand_vision::image_io::{images_in_folder, load_rgb, IMAGE_EXTENSIONS};
+use monohand_vision::image_io::{images_in_folder, load_photo, PhotoFocal, IMAGE_EXTENSIONS};
 use monohand_vision::RgbImage;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
@@ -21,6 +21,8 @@ pub(crate) struct Frame {
     pub image: Result<RgbImage, String>,
     /// Milliseconds spent reading and decoding it.
     pub decode_ms: f64,
+    /// The focal length the image file states in its EXIF (photos only).
+    pub focal: Option<PhotoFocal>,
 }
 
 /// The kind of an input, decided from its name.
@@ -147,13 +149,17 @@ impl FrameSource {
                 };
                 let index = *next as u64;
                 *next += 1;
-                let image = load_rgb(path).map_err(|e| e.to_string());
+                let (image, focal) = match load_photo(path) {
+                    Ok(p) => (Ok(p.image), p.focal),
+                    Err(e) => (Err(e.to_string()), None),
+                };
                 Ok(Some(Frame {
                     index,
                     source: path.file_name().map(|n| n.to_string_lossy().into_owned()),
                     timestamp_s: index as f64 / 30.0,
                     image,
                     decode_ms: t.elapsed().as_secs_f64() * 1e3,
+                    focal,
                 }))
             }
             FrameSource::Video { reader } => {
@@ -167,6 +173,7 @@ impl FrameSource {
                         timestamp_s: f.timestamp_s,
                         image: Ok(f.image),
                         decode_ms: t.elapsed().as_secs_f64() * 1e3,
+                        focal: None,
                     })),
                     Ok(None) => {
                         *reader = None;

@@ -130,6 +130,8 @@ struct RawFrame {
     timestamp_s: f64,
     images: Vec<Result<RgbImage, String>>,
     decode_ms: f64,
+    /// The EXIF focal length of the first view's image file.
+    focal: Option<monohand_vision::image_io::PhotoFocal>,
 }
 
 /// Totals for the summary line.
@@ -340,7 +342,8 @@ pub(crate) fn run(args: &RunArgs) -> Result<Outcome> {
                     .iter()
                     .map(|i| i.as_ref().map_err(Clone::clone))
                     .collect();
-                let f = stage.process(raw.index, raw.timestamp_s, &images);
+                let mut f = stage.process(raw.index, raw.timestamp_s, &images);
+                f.focal = raw.focal;
                 let extra = FrameExtra {
                     source: raw.source,
                     is_video: tracking,
@@ -427,7 +430,8 @@ pub(crate) fn run(args: &RunArgs) -> Result<Outcome> {
             });
             for (raw, (d, ms)) in batch.drain(..).zip(detected) {
                 let image = raw.images.into_iter().next().and_then(Result::ok);
-                let f = stage.assign(raw.index, raw.timestamp_s, d, ms);
+                let mut f = stage.assign(raw.index, raw.timestamp_s, d, ms);
+                f.focal = raw.focal;
                 let extra = FrameExtra {
                     source: raw.source,
                     is_video: false,
@@ -530,6 +534,7 @@ fn next_raw(sources: &mut [FrameSource]) -> Result<Option<RawFrame>, String> {
         timestamp_s: f.timestamp_s,
         images,
         decode_ms,
+        focal: f.focal,
     }))
 }
 
