@@ -12,4 +12,4 @@ pub use limits::JointLimits;
 pub use params::{
     angle_index, angle_names, FingerAngle, HandPose, NUM_ANGLES, NUM_DOF, NUM_PARAMS,
 };
-pub use skeleton::{FingerGeometry, HandSkeleton};
+pub use skeleton::{FingerGeometry, HandSkeleton, THUMB_HINGE_ROLL_DEG};

@@ -16,7 +16,7 @@
 use crate::error::{CoreError, CoreResult};
 use crate::hand_model::joints::{Finger, HandSide, BONES, NUM_FINGERS, NUM_JOINTS};
 use crate::hand_model::limits::JointLimits;
-use nalgebra::{Unit, Vector3};
+use nalgebra::{Rotation3, Unit, Vector3};
 
 /// The geometry of one finger in the hand frame at rest (all angles zero).
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -94,6 +94,16 @@ const DEFAULT_RIGHT: [([f64; 3], [f64; 3]); NUM_FINGERS] = [
     ([-33.0, 80.0, -4.0], [32.0, 20.0, 20.0]), // little
 ];
 
+/// Roll of the default thumb's hinge axis about its metacarpal, degrees (right hand).
+///
+/// The thumb's three flexion joints share one hinge axis in this model. Its roll
+/// about the metacarpal is taken from UmeTrack's generic hand model
+/// (`shared/data/hand_models/umetrack`): posed so that its metacarpal points where
+/// UmeTrack's does, the model's hinge lies 39.1 degrees from UmeTrack's MCP axis
+/// and 48.2 degrees from its IP axis; this is their mean. Without it the thumb bent
+/// in a plane turned away from real thumbs (docs/accuracy.md, "The thumb's hinge").
+pub const THUMB_HINGE_ROLL_DEG: f64 = -43.6;
+
 impl HandSkeleton {
     /// A default adult hand of the given side (hand length ~ 185 mm).
     ///
@@ -117,10 +127,16 @@ impl HandSkeleton {
             if i == 0 {
                 // Thumb: metacarpal points radially, distally and a little palmar;
                 // it flexes across the palm and abducts away from the palm plane.
+                // Its hinge is rolled about the metacarpal by THUMB_HINGE_ROLL_DEG.
+                let d = Vector3::new(0.62, 0.72, 0.30);
+                let roll = Rotation3::from_axis_angle(
+                    &Unit::new_normalize(d),
+                    THUMB_HINGE_ROLL_DEG.to_radians(),
+                );
                 FingerGeometry::new(
                     base,
-                    Vector3::new(0.62, 0.72, 0.30),
-                    Vector3::new(-0.55, 0.15, 0.82),
+                    d,
+                    roll * Vector3::new(-0.55, 0.15, 0.82),
                     Vector3::new(0.0, 0.0, 1.0),
                     len,
                 )
