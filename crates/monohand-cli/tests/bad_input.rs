@@ -23,7 +23,12 @@ fn keypoints() -> ([Vector3<f64>; 21], Keypoints2d) {
         rotation: UnitQuaternion::from_euler_angles(2.8, 0.2, 0.3),
         angles: [0.1; 20],
     };
-    let joints = forward_kinematics(&HandSkeleton::default_for(HandSide::Right), &pose);
+    // `lift` of 2D keypoints alone poses the default skeleton's planar thumb
+    // (`HandFitter::skeleton`), so the exact hand is made of it.
+    let joints = forward_kinematics(
+        &HandSkeleton::default_for(HandSide::Right).planar_thumb(),
+        &pose,
+    );
     let mut kp = Keypoints2d::default();
     for (j, x) in joints.iter().enumerate() {
         let px = camera().project(x).unwrap();

@@ -10,7 +10,9 @@ use nalgebra::{UnitQuaternion, Vector3};
 
 fn scene() -> (Camera, HandSkeleton, HandPose) {
     let (cam, _) = stb_rig();
-    let sk = HandSkeleton::default_for(HandSide::Right);
+    // These fits see 2D keypoints only, so they pose the planar thumb
+    // (`HandFitter::skeleton`); the synthetic hand is made of the same skeleton.
+    let sk = HandSkeleton::default_for(HandSide::Right).planar_thumb();
     let mut pose = HandPose::default();
     pose.translation = Vector3::new(10.0, -20.0, 500.0);
     pose.rotation = UnitQuaternion::from_euler_angles(2.9, 0.3, 0.2);

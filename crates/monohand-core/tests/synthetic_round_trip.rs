@@ -21,7 +21,9 @@ fn synthetic_mono_round_trip_under_1mm() {
     let mut errors = Vec::new();
     let mut failures = Vec::new();
     for side in [HandSide::Right, HandSide::Left] {
-        let sk = HandSkeleton::default_for(side);
+        // 2D keypoints only: the fit poses the planar thumb (`HandFitter::skeleton`),
+        // so the synthetic hands are made of it.
+        let sk = HandSkeleton::default_for(side).planar_thumb();
         let mut fitter = HandFitter::new(sk, FitOptions::default()).unwrap();
         let mut n = 0;
         while n < 100 {
@@ -70,7 +72,7 @@ fn synthetic_mono_round_trip_under_1mm() {
 fn synthetic_stereo_round_trip_under_1mm() {
     let (left, right) = stb_rig();
     let mut rng = rng(11);
-    let sk = HandSkeleton::default_for(HandSide::Left);
+    let sk = HandSkeleton::default_for(HandSide::Left).planar_thumb();
     let mut fitter = HandFitter::new(sk, FitOptions::default()).unwrap();
     let mut worst = 0.0f64;
     for _ in 0..100 {

@@ -24,7 +24,7 @@ pub(crate) type Candidates = [Option<HandPose>; 8];
 /// Starting poses for a fit: closed-form palm estimates refined on the palm,
 /// or an orientation sweep when the palm is not seen.
 pub(crate) fn root_candidates(fitter: &HandFitter, observed: &JointMask) -> Candidates {
-    let sk = fitter.skeleton();
+    let sk = fitter.fitted_skeleton();
     let views = fitter.views.as_slice();
     let mut out: Candidates = [None; 8];
     let neutral = sk.limits.neutral();

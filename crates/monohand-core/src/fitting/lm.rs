@@ -82,7 +82,11 @@ pub(crate) struct Solution {
 /// its buffers are kept between calls.
 #[derive(Debug, Clone)]
 pub struct HandFitter {
-    skeleton: HandSkeleton,
+    /// The skeleton of the fit in progress: `given`, or `planar` for a fit without
+    /// the network's 3D cues (see [`HandFitter::skeleton`]).
+    posed: HandSkeleton,
+    given: HandSkeleton,
+    planar: HandSkeleton,
     options: FitOptions,
     pub(crate) views: Vec<PreparedView>,
     /// Bone lengths of the skeleton, in [`BONES`] order.
@@ -98,7 +102,9 @@ impl HandFitter {
         options.validate()?;
         Ok(HandFitter {
             bone_lengths: skeleton.bone_lengths(),
-            skeleton,
+            posed: skeleton,
+            given: skeleton,
+            planar: skeleton.planar_thumb(),
             options,
             views: Vec::with_capacity(2),
             prior: None,
@@ -106,15 +112,29 @@ impl HandFitter {
     }
 
     /// The skeleton being fitted.
+    ///
+    /// A fit that sees only 2D keypoints (no view with the network's 3D cues at a
+    /// weight above 0) poses its [`HandSkeleton::planar_thumb`] instead: with the
+    /// pixels alone the rolled thumb hinge lets the hand trade the thumb's bending
+    /// plane for a tilt in depth (docs/accuracy.md, "The thumb's hinge"). The two
+    /// differ only in the thumb's hinge; bone lengths and limits are the same.
     pub fn skeleton(&self) -> &HandSkeleton {
-        &self.skeleton
+        &self.given
+    }
+
+    /// The skeleton the last fit posed ([`HandFitter::skeleton`], or its planar thumb
+    /// for a 2D-only fit): the one its [`FitResult::joints_3d`] come from.
+    pub fn fitted_skeleton(&self) -> &HandSkeleton {
+        &self.posed
     }
 
     /// Replaces the skeleton (e.g. after estimating the hand's size).
     pub fn set_skeleton(&mut self, skeleton: HandSkeleton) -> CoreResult<()> {
         skeleton.validate()?;
         self.bone_lengths = skeleton.bone_lengths();
-        self.skeleton = skeleton;
+        self.posed = skeleton;
+        self.given = skeleton;
+        self.planar = skeleton.planar_thumb();
         Ok(())
     }
 
@@ -141,7 +161,7 @@ impl HandFitter {
             // Second pass: re-seat the fingers on the root refined by all joints.
             if sol.cost > 1e-12 * used as f64 {
                 let mut again = sol.pose;
-                init::init_fingers(&self.skeleton, &mut again, &self.views[view_index]);
+                init::init_fingers(&self.posed, &mut again, &self.views[view_index]);
                 let second = self.solve(again, &observed, &free, self.options.max_iterations);
                 if second.cost < sol.cost {
                     sol = second;
@@ -188,7 +208,7 @@ impl HandFitter {
     /// [`FitOptions::temporal_weight`] above 0, every joint is also pulled
     /// towards its position in `start`.
     pub fn fit_from(&mut self, views: &[View], start: &HandPose) -> CoreResult<FitResult> {
-        let towards = forward_kinematics(&self.skeleton, start);
+        let towards = forward_kinematics(&self.posed, start);
         self.fit_from_towards(views, start, Some(towards))
     }
 
@@ -210,7 +230,7 @@ impl HandFitter {
         let observed = self.observed_joints();
         let free = free_dofs(&observed);
         let mut start = *start;
-        self.skeleton.limits.clamp(&mut start.angles);
+        self.posed.limits.clamp(&mut start.angles);
         if !self.in_front(&start) {
             return self.fit(views);
         }
@@ -266,6 +286,11 @@ impl HandFitter {
         }
         // Several views' network 3D are estimates of one shape: together they weigh as
         // much as one view's (the pixel terms, which add geometry, are summed as they are).
+        let has_cues = self
+            .views
+            .iter()
+            .any(|v| v.bone_weights.iter().flatten().any(|&w| w > 0.0));
+        self.posed = if has_cues { self.given } else { self.planar };
         let with_cues = views.iter().filter(|v| v.cues.is_some()).count();
         if with_cues > 1 {
             let share = (1.0 / with_cues as f64).sqrt();
@@ -292,14 +317,14 @@ impl HandFitter {
     }
 
     pub(crate) fn in_front(&self, pose: &HandPose) -> bool {
-        let pts = forward_kinematics(&self.skeleton, pose);
+        let pts = forward_kinematics(&self.posed, pose);
         self.views
             .iter()
             .all(|v| pts.iter().all(|p| v.camera.extrinsics.transform(p).z > 1.0))
     }
 
     fn finish(&self, sol: Solution, used: usize) -> FitResult {
-        let joints_3d = forward_kinematics(&self.skeleton, &sol.pose);
+        let joints_3d = forward_kinematics(&self.posed, &sol.pose);
         // The temporal pull is left out of the reported cost, so that a
         // warm-started and a from-scratch fit of one frame compare fairly.
         let cost = match self.prior {
@@ -333,7 +358,7 @@ impl HandFitter {
 
     /// Cost of a pose over the masked joints; `None` if a joint is behind a camera.
     pub(crate) fn cost(&self, pose: &HandPose, mask: &JointMask) -> Option<f64> {
-        let pts = forward_kinematics(&self.skeleton, pose);
+        let pts = forward_kinematics(&self.posed, pose);
         let temporal: f64 = (0..NUM_JOINTS)
             .filter_map(|j| self.temporal_residual(j, &pts, mask))
             .map(|r| r.norm_squared())
@@ -382,7 +407,7 @@ impl HandFitter {
     ) -> Option<f64> {
         let mut pts = [Vector3::zeros(); NUM_JOINTS];
         let mut jac = [SMatrix::<f64, 3, LOCAL_DOF>::zeros(); NUM_JOINTS];
-        forward_kinematics_with_jacobian(&self.skeleton, pose, &mut pts, &mut jac);
+        forward_kinematics_with_jacobian(&self.posed, pose, &mut pts, &mut jac);
         h.fill(0.0);
         g.fill(0.0);
         let mut cost = 0.0;
@@ -467,7 +492,7 @@ impl HandFitter {
         free: &DofMask,
         max_iter: usize,
     ) -> Solution {
-        let limits = &self.skeleton.limits;
+        let limits = &self.posed.limits;
         let mut pose = start;
         limits.clamp(&mut pose.angles);
         let mut h = Mat26::zeros();

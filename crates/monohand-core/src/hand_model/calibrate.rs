@@ -97,11 +97,14 @@ pub fn fit_skeleton(
             .collect();
         if raw.len() >= 10 {
             let reference = match f {
-                Finger::Thumb => unrolled_thumb_hinge(g, side),
+                Finger::Thumb => template.planar_thumb().fingers[0].flexion_axis.into_inner(),
                 _ => g.flexion_axis.into_inner(),
             };
             if let Some(fitted) = hinge_from_normals(&raw, reference, g) {
                 *g = fitted;
+                if f == Finger::Thumb {
+                    sk.thumb_hinge_roll_deg = 0.0;
+                }
             }
         }
     }
@@ -209,17 +212,6 @@ fn finger_ik(sk: &HandSkeleton, f: Finger, pts: &[Vector3<f64>; 4]) -> (f64, [f6
         }
     }
     best
-}
-
-/// The thumb's hinge turned back by the default roll about its metacarpal
-/// (mirrored for a left hand, whose rotations turn the other way).
-fn unrolled_thumb_hinge(g: &FingerGeometry, side: HandSide) -> Vector3<f64> {
-    let roll = crate::hand_model::THUMB_HINGE_ROLL_DEG.to_radians();
-    let angle = match side {
-        HandSide::Right => -roll,
-        HandSide::Left => roll,
-    };
-    Rotation3::from_axis_angle(&g.rest_direction, angle) * g.flexion_axis.into_inner()
 }
 
 #[cfg(test)]

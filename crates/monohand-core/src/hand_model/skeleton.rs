@@ -77,6 +77,11 @@ pub struct HandSkeleton {
     pub fingers: [FingerGeometry; NUM_FINGERS],
     /// Joint angle limits.
     pub limits: JointLimits,
+    /// How far the thumb's hinge is rolled about its metacarpal from the planar
+    /// thumb of the paper's model, degrees in the right hand's sense:
+    /// [`THUMB_HINGE_ROLL_DEG`] for the default skeleton, 0 for a thumb whose hinge
+    /// was fitted to 3D labels. [`HandSkeleton::planar_thumb`] undoes it.
+    pub thumb_hinge_roll_deg: f64,
 }
 
 /// Default adult right hand, mm: (base position, rest direction, bone lengths).
@@ -113,14 +118,14 @@ impl HandSkeleton {
     /// assert!(sk.bone_lengths()[9] > 40.0);
     /// ```
     pub fn default_for(side: HandSide) -> HandSkeleton {
-        let right = Self::default_right();
+        let right = Self::default_right(THUMB_HINGE_ROLL_DEG);
         match side {
             HandSide::Right => right,
             HandSide::Left => right.mirrored(),
         }
     }
 
-    fn default_right() -> HandSkeleton {
+    fn default_right(thumb_roll_deg: f64) -> HandSkeleton {
         let fingers = std::array::from_fn(|i| {
             let (b, len) = DEFAULT_RIGHT[i];
             let base = Vector3::new(b[0], b[1], b[2]);
@@ -131,7 +136,7 @@ impl HandSkeleton {
                 let d = Vector3::new(0.62, 0.72, 0.30);
                 let roll = Rotation3::from_axis_angle(
                     &Unit::new_normalize(d),
-                    THUMB_HINGE_ROLL_DEG.to_radians(),
+                    thumb_roll_deg.to_radians(),
                 );
                 FingerGeometry::new(
                     base,
@@ -155,7 +160,28 @@ impl HandSkeleton {
             side: HandSide::Right,
             fingers,
             limits: JointLimits::default(),
+            thumb_hinge_roll_deg: thumb_roll_deg,
         }
+    }
+
+    /// The same hand with the thumb's hinge rolled back to the planar thumb
+    /// ([`Self::thumb_hinge_roll_deg`] 0). The fitter uses it for fits that see
+    /// only 2D keypoints: there the roll lets the hand trade the thumb's bending
+    /// plane for a tilt in depth that no pixel can tell apart (docs/accuracy.md).
+    pub fn planar_thumb(&self) -> HandSkeleton {
+        let mut out = *self;
+        let roll = -self.thumb_hinge_roll_deg.to_radians();
+        let g = &mut out.fingers[0];
+        let angle = match self.side {
+            HandSide::Right => roll,
+            // A mirrored skeleton's rotations turn the other way.
+            HandSide::Left => -roll,
+        };
+        g.flexion_axis = Unit::new_normalize(
+            Rotation3::from_axis_angle(&g.rest_direction, angle) * g.flexion_axis.into_inner(),
+        );
+        out.thumb_hinge_roll_deg = 0.0;
+        out
     }
 
     /// The mirror image (`x -> -x` in the hand frame), with the side swapped.
@@ -175,6 +201,7 @@ impl HandSkeleton {
             side: self.side.opposite(),
             fingers,
             limits: self.limits,
+            thumb_hinge_roll_deg: self.thumb_hinge_roll_deg,
         }
     }
 
@@ -256,6 +283,30 @@ impl HandSkeleton {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn planar_thumb_undoes_the_default_roll_on_both_sides() {
+        let planar_right = HandSkeleton::default_right(0.0);
+        for (side, planar) in [
+            (HandSide::Right, planar_right),
+            (HandSide::Left, planar_right.mirrored()),
+        ] {
+            let rolled = HandSkeleton::default_for(side);
+            let unrolled = rolled.planar_thumb();
+            assert_eq!(unrolled.thumb_hinge_roll_deg, 0.0);
+            let (a, b) = (unrolled.fingers[0], planar.fingers[0]);
+            assert!((a.flexion_axis.into_inner() - b.flexion_axis.into_inner()).norm() < 1e-12);
+            assert_eq!(a.rest_direction, b.rest_direction);
+            assert_eq!(a.abduction_axis, b.abduction_axis);
+            // The roll is real (44 degrees), and nothing else moves.
+            let turned = rolled.fingers[0].flexion_axis.angle(&a.flexion_axis);
+            assert!((turned.to_degrees() - THUMB_HINGE_ROLL_DEG.abs()).abs() < 1e-9);
+            assert_eq!(unrolled.fingers[1..], rolled.fingers[1..]);
+            assert_eq!(unrolled.bone_lengths(), rolled.bone_lengths());
+            // Planar already: nothing to undo.
+            assert_eq!(unrolled.planar_thumb(), unrolled);
+        }
+    }
 
     #[test]
     fn axes_are_orthonormal_where_expected() {
