@@ -379,7 +379,14 @@ impl Job<'_> {
                 let width = NR.min(self.cout - c0);
                 let mut r = r0;
                 while r < r1 {
-                    let m = MR.min(r1 - r);
+                    // Rather than a last tile of 1 to 3 rows (which streams the whole panel
+                    // for little work), two tiles of about equal height.
+                    let left = r1 - r;
+                    let m = if left > MR && left < MR + 4 {
+                        left.div_ceil(2)
+                    } else {
+                        MR.min(left)
+                    };
                     let t = Tile {
                         // SAFETY (all pointers): r + m <= rows and c0 + width <= cout, and the
                         // lengths were checked above.
@@ -707,6 +714,59 @@ mod tests {
         );
         for (g, w) in got.iter().zip(&want) {
             assert!((g - w).abs() < 1e-5, "{g} vs {w}");
+        }
+    }
+}
+
+#[cfg(test)]
+mod speed {
+    use super::*;
+
+    /// GFLOP/s of the dispatched kernel on the hand-landmark (full) shapes:
+    /// `cargo test --release -p monohand-tflite pointwise::speed -- --ignored --nocapture`.
+    #[test]
+    #[ignore = "a measurement, not a test"]
+    fn landmark_shapes() {
+        let shapes = [
+            (12544, 24, 16),
+            (12544, 16, 64),
+            (3136, 64, 24),
+            (3136, 24, 144),
+            (3136, 144, 24),
+            (784, 144, 40),
+            (784, 40, 240),
+            (784, 240, 40),
+            (196, 240, 80),
+            (196, 80, 480),
+            (196, 480, 80),
+            (196, 112, 672),
+            (196, 672, 112),
+            (49, 192, 1152),
+            (49, 1152, 192),
+            (576, 128, 128),
+            (144, 256, 256),
+            (9216, 32, 32),
+        ];
+        for (rows, cin, cout) in shapes {
+            let x = vec![0.5f32; rows * cin];
+            let w = Tensor::zero::<f32>(&[cout, cin]).expect("w");
+            let b = Tensor::zero::<f32>(&[cout]).expect("b");
+            let op = PointwiseConv::new(&w, &b, Activation::Relu6).expect("op");
+            let mut out = vec![0f32; rows * cout];
+            let n = (1e9 / (rows * cin * cout) as f64).max(3.0) as usize;
+            let mut best = f64::MAX;
+            for _ in 0..7 {
+                let t = std::time::Instant::now();
+                for _ in 0..n {
+                    op.compute(&x, None, &mut out, Kernel::best()).expect("run");
+                }
+                best = best.min(t.elapsed().as_secs_f64() / n as f64);
+            }
+            let gflops = 2.0 * (rows * cin * cout) as f64 / best / 1e9;
+            println!(
+                "{rows:>6} x {cin:>5} -> {cout:>5}: {:8.3} ms {gflops:6.1} GFLOP/s",
+                best * 1e3
+            );
         }
     }
 }
