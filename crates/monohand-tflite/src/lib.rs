@@ -91,7 +91,9 @@ pub struct ImportOptions {
     /// of four tract element-wise ops. Default: true.
     pub fused_prelu: bool,
     /// Translate 1x1 stride-1 `CONV_2D` to [`PointwiseConv`] (weights packed at load, bias
-    /// and activation applied in registers) instead of tract's generic `Conv`. Default: true.
+    /// and activation applied in registers) instead of tract's generic `Conv`, on CPUs where
+    /// [`PointwiseConv::fast_kernel_available`] (x86-64 with AVX2 + FMA; elsewhere tract's
+    /// `Conv` is kept either way). Default: true.
     pub fast_pointwise: bool,
     /// With `fast_pointwise`: fold a residual `ADD` (with its activation) and/or a `PRELU`
     /// that is the only consumer of a [`PointwiseConv`]'s result into its epilogue.

@@ -436,7 +436,13 @@ fn conv(cx: &mut Ctx, depthwise: bool) -> Result<OutletId, ImportError> {
         let y = cx.node("depthwise", op, &[x])?;
         return cx.activation(y, act);
     }
-    if !depthwise && cx.options.fast_pointwise && ks[1] == 1 && ks[2] == 1 && strides == [1, 1] {
+    if !depthwise
+        && cx.options.fast_pointwise
+        && ks[1] == 1
+        && ks[2] == 1
+        && strides == [1, 1]
+        && PointwiseConv::fast_kernel_available()
+    {
         // 1x1 stride 1: padding and dilation change nothing.
         let act = match act {
             ActivationFunctionType::NONE => Some(Activation::None),

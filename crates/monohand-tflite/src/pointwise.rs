@@ -14,7 +14,9 @@
 //!   shape with its own activation, and optionally a per-channel PRELU — the patterns that
 //!   follow the 1x1 convolutions in MediaPipe's palm and hand-landmark networks;
 //! * runs a hand-written AVX2 + FMA micro-kernel (6 rows x 16 channels in 12 registers) when
-//!   the CPU has these features (checked at run time), a portable one otherwise.
+//!   the CPU has these features (checked at run time), a portable one otherwise. The portable
+//!   one is a correct but slow fallback; the importer uses this operator only where
+//!   [`PointwiseConv::fast_kernel_available`].
 //!
 //! There is no AVX-512 variant: the machine this was written on has none to test it with.
 
@@ -147,6 +149,14 @@ impl PointwiseConv {
     /// Output channels.
     pub fn output_channels(&self) -> usize {
         self.cout
+    }
+
+    /// Whether this CPU runs a vectorised kernel (x86-64 with AVX2 and FMA). The portable
+    /// fallback is correct but slow (≈ 4 GFLOP/s against ≈ 65-95 for AVX2 + FMA on the
+    /// hand-landmark shapes, and slower than tract's own kernels), so the importer only uses
+    /// this operator when this is true.
+    pub fn fast_kernel_available() -> bool {
+        Kernel::best() != Kernel::Portable
     }
 
     /// Whether a residual input is added (see [`with_residual`](Self::with_residual)).
@@ -722,7 +732,8 @@ mod tests {
 mod speed {
     use super::*;
 
-    /// GFLOP/s of the dispatched kernel on the hand-landmark (full) shapes:
+    /// GFLOP/s of the dispatched kernel (`PORTABLE=1`: the portable one) on the
+    /// hand-landmark (full) and some palm shapes:
     /// `cargo test --release -p monohand-tflite pointwise::speed -- --ignored --nocapture`.
     #[test]
     #[ignore = "a measurement, not a test"]
@@ -747,6 +758,11 @@ mod speed {
             (144, 256, 256),
             (9216, 32, 32),
         ];
+        let kernel = if std::env::var_os("PORTABLE").is_some() {
+            Kernel::Portable
+        } else {
+            Kernel::best()
+        };
         for (rows, cin, cout) in shapes {
             let x = vec![0.5f32; rows * cin];
             let w = Tensor::zero::<f32>(&[cout, cin]).expect("w");
@@ -758,7 +774,7 @@ mod speed {
             for _ in 0..7 {
                 let t = std::time::Instant::now();
                 for _ in 0..n {
-                    op.compute(&x, None, &mut out, Kernel::best()).expect("run");
+                    op.compute(&x, None, &mut out, kernel).expect("run");
                 }
                 best = best.min(t.elapsed().as_secs_f64() / n as f64);
             }
