@@ -14,19 +14,24 @@
 //!
 //! Anything else is refused with [`ImportError::UnsupportedOperator`] rather than guessed.
 //!
-//! Two operators are this crate's own tract operators, because tract's generic versions were
-//! the largest costs of the palm detector: [`NhwcDepthwise`] (depthwise convolution with the
-//! channels innermost) and [`ChannelPrelu`] (PRELU in one pass). [`ImportOptions`] switches
-//! back to tract's built-in operators.
+//! Three operators are this crate's own tract operators, because tract's generic versions
+//! were the largest costs of the networks: [`NhwcDepthwise`] (depthwise convolution with the
+//! channels innermost), [`ChannelPrelu`] (PRELU in one pass) and [`PointwiseConv`] (the 1x1
+//! stride-1 convolutions, i.e. a `[H·W, Cin] x [Cin, Cout]` product, with weights packed at
+//! load, an AVX2 + FMA micro-kernel chosen at run time and a fused epilogue: bias,
+//! activation, and the residual `ADD` and/or `PRELU` that follow it when nothing else reads
+//! the convolution's result). [`ImportOptions`] switches back to tract's built-in operators.
 
 #![deny(missing_docs)]
 
 mod depthwise;
 mod ops;
+mod pointwise;
 mod prelu;
 mod tensors;
 
 pub use depthwise::NhwcDepthwise;
+pub use pointwise::{Activation, PointwiseConv};
 pub use prelu::ChannelPrelu;
 
 use std::collections::HashMap;
@@ -85,6 +90,15 @@ pub struct ImportOptions {
     /// Translate PRELU with constant per-channel slopes to one [`ChannelPrelu`] pass instead
     /// of four tract element-wise ops. Default: true.
     pub fused_prelu: bool,
+    /// Translate 1x1 stride-1 `CONV_2D` to [`PointwiseConv`] (weights packed at load, bias
+    /// and activation applied in registers) instead of tract's generic `Conv`, on CPUs where
+    /// [`PointwiseConv::fast_kernel_available`] (x86-64 with AVX2 + FMA; elsewhere tract's
+    /// `Conv` is kept either way). Default: true.
+    pub fast_pointwise: bool,
+    /// With `fast_pointwise`: fold a residual `ADD` (with its activation) and/or a `PRELU`
+    /// that is the only consumer of a [`PointwiseConv`]'s result into its epilogue.
+    /// Default: true.
+    pub fused_pointwise_epilogue: bool,
 }
 
 impl Default for ImportOptions {
@@ -92,6 +106,8 @@ impl Default for ImportOptions {
         ImportOptions {
             fast_depthwise: true,
             fused_prelu: true,
+            fast_pointwise: true,
+            fused_pointwise_epilogue: true,
         }
     }
 }
@@ -120,8 +136,24 @@ pub fn import_with(bytes: &[u8], options: ImportOptions) -> Result<TypedModel, I
         let wire = target.add_source(name, fact)?;
         values.insert(input, ops::Value::Wire(wire));
     }
+    // How many times each tensor is read (by an operator or as a graph output): a result
+    // read once may be folded into the operator that produces it.
+    let mut uses: HashMap<i32, usize> = HashMap::new();
+    for op in graph.operators().into_iter().flatten() {
+        for i in op.inputs().into_iter().flatten() {
+            *uses.entry(i).or_default() += 1;
+        }
+    }
+    for o in graph.outputs().into_iter().flatten() {
+        *uses.entry(o).or_default() += 1;
+    }
+    let mut cx = ops::Graph {
+        target: &mut target,
+        values: &mut values,
+        uses: &uses,
+    };
     for (ix, op) in graph.operators().into_iter().flatten().enumerate() {
-        ops::translate(&model, &graph, &op, ix, &mut target, &mut values, options)?;
+        ops::translate(&model, &graph, &op, ix, &mut cx, options)?;
     }
     let mut outputs = tvec!();
     for output in graph.outputs().into_iter().flatten() {

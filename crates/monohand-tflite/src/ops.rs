@@ -13,6 +13,7 @@ use tract_core::ops::nn::{
 };
 use tract_tflite::tflite::{self, ActivationFunctionType, BuiltinOperator, Padding};
 
+use super::pointwise::{Activation, PointwiseConv};
 use super::{tensors, ImportError};
 
 /// Names of the TFLite builtin operators [`super::import`] translates.
@@ -90,6 +91,16 @@ pub(super) fn operator_name(
         .unwrap_or_else(|| format!("builtin #{}", code.0)))
 }
 
+/// The graph under construction, shared by all operator translations.
+pub(super) struct Graph<'a> {
+    /// The tract model.
+    pub(super) target: &'a mut TypedModel,
+    /// TFLite tensor index -> its value in `target`.
+    pub(super) values: &'a mut HashMap<i32, Value>,
+    /// TFLite tensor index -> how many times it is read (graph outputs count).
+    pub(super) uses: &'a HashMap<i32, usize>,
+}
+
 /// Everything an operator translation needs.
 struct Ctx<'a, 'm> {
     model: &'a tflite::Model<'m>,
@@ -97,6 +108,7 @@ struct Ctx<'a, 'm> {
     op: &'a tflite::Operator<'m>,
     target: &'a mut TypedModel,
     values: &'a mut HashMap<i32, Value>,
+    uses: &'a HashMap<i32, usize>,
     prefix: String,
     inputs: Vec<i32>,
     options: super::ImportOptions,
@@ -222,8 +234,7 @@ pub(super) fn translate(
     graph: &tflite::SubGraph,
     op: &tflite::Operator,
     ix: usize,
-    target: &mut TypedModel,
-    values: &mut HashMap<i32, Value>,
+    g: &mut Graph,
     options: super::ImportOptions,
 ) -> Result<(), ImportError> {
     let code = builtin_code(model, op)?;
@@ -241,8 +252,9 @@ pub(super) fn translate(
         model,
         graph,
         op,
-        target,
-        values,
+        target: g.target,
+        values: g.values,
+        uses: g.uses,
         prefix,
         inputs,
         options,
@@ -265,6 +277,9 @@ pub(super) fn translate(
                 .op
                 .builtin_options_as_add_options()
                 .map(|o| o.fused_activation_function());
+            if let Some(y) = fuse_residual(&mut cx, f.unwrap_or(ActivationFunctionType::NONE))? {
+                return finish(cx, output, &out_shape, Value::Wire(y));
+            }
             let (a, b) = (cx.wire(0)?, cx.wire(1)?);
             let y = cx.broadcast("add", math::add(), &[a, b])?;
             Value::Wire(cx.activation(y, f.unwrap_or(ActivationFunctionType::NONE))?)
@@ -318,10 +333,16 @@ pub(super) fn translate(
             ))
         }
     };
+    finish(cx, output, &out_shape, value)
+}
+
+/// Checks the shape tract infers for an operator's result against the model's, and records
+/// the result.
+fn finish(cx: Ctx, output: i32, out_shape: &[usize], value: Value) -> Result<(), ImportError> {
     if let Value::Wire(w) = &value {
         let fact = cx.target.outlet_fact(*w)?;
         let got: Option<Vec<usize>> = fact.shape.as_concrete().map(|s| s.to_vec());
-        if got.as_deref() != Some(out_shape.as_slice()) {
+        if got.as_deref() != Some(out_shape) {
             return Err(ImportError::Malformed(format!(
                 "{}: tract infers shape {:?}, the model says {out_shape:?}",
                 cx.prefix, fact.shape
@@ -415,6 +436,25 @@ fn conv(cx: &mut Ctx, depthwise: bool) -> Result<OutletId, ImportError> {
         let y = cx.node("depthwise", op, &[x])?;
         return cx.activation(y, act);
     }
+    if !depthwise
+        && cx.options.fast_pointwise
+        && ks[1] == 1
+        && ks[2] == 1
+        && strides == [1, 1]
+        && PointwiseConv::fast_kernel_available()
+    {
+        // 1x1 stride 1: padding and dilation change nothing.
+        let act = match act {
+            ActivationFunctionType::NONE => Some(Activation::None),
+            ActivationFunctionType::RELU => Some(Activation::Relu),
+            ActivationFunctionType::RELU6 => Some(Activation::Relu6),
+            _ => None,
+        };
+        if let Some(act) = act {
+            let op = PointwiseConv::new(&kernel, &bias, act)?;
+            return cx.node("pointwise", op, &[x]);
+        }
+    }
     // tract's OHWI carries the group on I: a depthwise kernel 1xHxWxC with group C is
     // exactly TFLite's layout.
     let k = cx.add_const("kernel", kernel.into_tensor())?;
@@ -448,6 +488,12 @@ fn prelu(cx: &mut Ctx) -> Result<OutletId, ImportError> {
                     .cast_to::<f32>()?
                     .into_owned()
                     .into_shape(&[channels])?;
+                if let Some((node, op)) = fusable_pointwise(cx, 0, x)? {
+                    if !op.has_prelu() {
+                        cx.target.node_mut(node).op = Box::new(op.with_prelu(&alpha)?);
+                        return Ok(x);
+                    }
+                }
                 let op = super::prelu::ChannelPrelu {
                     alpha: alpha.into_arc_tensor(),
                 };
@@ -461,6 +507,80 @@ fn prelu(cx: &mut Ctx) -> Result<OutletId, ImportError> {
     let neg = cx.broadcast("neg", math::min(), &[x, zero])?;
     let scaled = cx.broadcast("scaled", math::mul(), &[neg, alpha])?;
     cx.broadcast("prelu", math::add(), &[pos, scaled])
+}
+
+/// The [`PointwiseConv`] node computing input `slot` (the wire `w`) if its epilogue may take
+/// in the current operator: fusion enabled, the tensor read by this operator only (and not a
+/// graph output).
+fn fusable_pointwise(
+    cx: &Ctx,
+    slot: usize,
+    w: OutletId,
+) -> Result<Option<(usize, PointwiseConv)>, ImportError> {
+    if !cx.options.fused_pointwise_epilogue {
+        return Ok(None);
+    }
+    let Some(&id) = cx.inputs.get(slot) else {
+        return Ok(None);
+    };
+    if cx.uses.get(&id) != Some(&1) || w.slot != 0 {
+        return Ok(None);
+    }
+    Ok(cx
+        .target
+        .node(w.node)
+        .op_as::<PointwiseConv>()
+        .map(|op| (w.node, op.clone())))
+}
+
+/// `ADD` of a [`PointwiseConv`]'s result (read by nothing else, no residual nor PRELU yet)
+/// and another computed tensor of the same shape: the addition and its activation `f` go
+/// into the convolution's epilogue, the other tensor becoming its second input.
+fn fuse_residual(cx: &mut Ctx, f: ActivationFunctionType) -> Result<Option<OutletId>, ImportError> {
+    let act = match f {
+        ActivationFunctionType::NONE => Activation::None,
+        ActivationFunctionType::RELU => Activation::Relu,
+        ActivationFunctionType::RELU6 => Activation::Relu6,
+        _ => return Ok(None),
+    };
+    if cx.inputs.len() != 2 {
+        return Ok(None);
+    }
+    for slot in 0..2 {
+        let (Value::Wire(w), Value::Wire(other)) = (cx.value(slot)?, cx.value(1 - slot)?) else {
+            continue;
+        };
+        let Some((node, op)) = fusable_pointwise(cx, slot, w)? else {
+            continue;
+        };
+        if op.has_residual() || op.has_prelu() || other.node == node {
+            continue;
+        }
+        let same_shape = {
+            let a = cx
+                .target
+                .outlet_fact(w)?
+                .shape
+                .as_concrete()
+                .map(|s| s.to_vec());
+            let b = cx
+                .target
+                .outlet_fact(other)?
+                .shape
+                .as_concrete()
+                .map(|s| s.to_vec());
+            a.is_some() && a == b
+        };
+        if !same_shape {
+            continue;
+        }
+        // The convolution's result is read by this ADD only, so `other` cannot depend on it:
+        // the new edge keeps the graph acyclic even when `other` is computed later.
+        cx.target.node_mut(node).op = Box::new(op.with_residual(act));
+        cx.target.add_edge(other, InletId::new(node, 1))?;
+        return Ok(Some(w));
+    }
+    Ok(None)
 }
 
 fn max_pool(cx: &mut Ctx) -> Result<OutletId, ImportError> {

@@ -2,8 +2,11 @@
 //! network, face detection, the whole pipeline on a still image and one tracked video frame
 //! (with and without the palm detector), on `../shared/data/images/pinto/hand.png`.
 //!
+//! `*_network_tract_1x1`: the same network with tract's convolution for the 1x1 layers
+//! instead of monohand's `PointwiseConv` (before/after in one session).
+//!
 //! Compare with LiteRT (1 thread) from `tools/litert_reference.py`, which prints its own
-//! ms/inference for the same models.
+//! ms/inference for the same models, or run `bench/networks/run.sh` (both interleaved).
 #![allow(clippy::unwrap_used, clippy::expect_used)] // a failed test or bench is a panic
 
 use std::path::PathBuf;
@@ -11,6 +14,7 @@ use std::path::PathBuf;
 use criterion::{criterion_group, criterion_main, Criterion};
 use monohand_vision::landmarks::{LandmarkModel, LandmarkOptions};
 use monohand_vision::palm::{PalmDetector, PalmOptions};
+use monohand_vision::tflite_import::ImportOptions;
 use monohand_vision::{
     face::FaceDetector, image_io, HandPipeline, ModelFile, ModelOptions, ModelStore,
     PipelineOptions, TfliteNet,
@@ -18,6 +22,17 @@ use monohand_vision::{
 
 fn net(store: &ModelStore, f: ModelFile) -> TfliteNet {
     TfliteNet::from_bytes(&store.load(f).expect("load"), &store.path_of(f)).expect("import")
+}
+
+/// The network with tract's own convolution for the 1x1 layers instead of
+/// `tflite_import::PointwiseConv` (the state before it, for comparison in one session).
+fn net_tract_1x1(store: &ModelStore, f: ModelFile) -> TfliteNet {
+    let options = ImportOptions {
+        fast_pointwise: false,
+        ..ImportOptions::default()
+    };
+    TfliteNet::from_bytes_with(&store.load(f).expect("load"), &store.path_of(f), options)
+        .expect("import")
 }
 
 fn stages(c: &mut Criterion) {
@@ -56,6 +71,8 @@ fn stages(c: &mut Criterion) {
         let lm = LandmarkModel::new(net(&store, lm_file), LandmarkOptions::default()).expect("lm");
         let palm_net = net(&store, palm_file);
         let lm_net = net(&store, lm_file);
+        let palm_net_tract = net_tract_1x1(&store, palm_file);
+        let lm_net_tract = net_tract_1x1(&store, lm_file);
         let detections = palm.detect(&img).expect("detect");
         let roi = detections.first().expect("a palm in hand.png").hand_roi();
         c.bench_function(&format!("palm_{name}_preprocess"), |b| {
@@ -68,6 +85,13 @@ fn stages(c: &mut Criterion) {
                     .expect("run")
             })
         });
+        c.bench_function(&format!("palm_{name}_network_tract_1x1"), |b| {
+            b.iter(|| {
+                palm_net_tract
+                    .run(palm_net_tract.input_tensor().expect("t"))
+                    .expect("run")
+            })
+        });
         c.bench_function(&format!("palm_{name}_detect_total"), |b| {
             b.iter(|| palm.detect(&img).expect("detect"))
         });
@@ -76,6 +100,13 @@ fn stages(c: &mut Criterion) {
         });
         c.bench_function(&format!("landmark_{name}_network"), |b| {
             b.iter(|| lm_net.run(lm_net.input_tensor().expect("t")).expect("run"))
+        });
+        c.bench_function(&format!("landmark_{name}_network_tract_1x1"), |b| {
+            b.iter(|| {
+                lm_net_tract
+                    .run(lm_net_tract.input_tensor().expect("t"))
+                    .expect("run")
+            })
         });
     }
     let face = FaceDetector::new(net(&store, ModelFile::FaceDetectionShortRange)).expect("face");

@@ -1,6 +1,7 @@
 //! Time per operator type of an imported, optimised network (where does tract spend time?).
 //!
 //! `cargo run --release -p monohand-vision --example profile_net -- palm_detection_full`
+//! (`PER_NODE=1`: per node instead of per operator type).
 #![allow(clippy::unwrap_used, clippy::expect_used)] // a failed test or bench is a panic
 
 use std::collections::HashMap;
@@ -39,6 +40,8 @@ fn main() -> TractResult<()> {
             }
         }
     }
+    // PER_NODE=1: time per node (with its output shape) instead of per operator type.
+    let per_node = std::env::var_os("PER_NODE").is_some();
     let plan = model.into_runnable()?;
     let input = Tensor::zero::<f32>(&shape)?;
     let mut per_op: HashMap<String, (Duration, usize)> = HashMap::new();
@@ -51,7 +54,17 @@ fn main() -> TractResult<()> {
             |ctx, st, node, inputs| {
                 let t = Instant::now();
                 let r = tract_core::plan::eval(ctx, st, node, inputs);
-                let e = per_op.entry(node.op().name().to_string()).or_default();
+                let key = if per_node {
+                    let facts: Vec<String> = node
+                        .outputs
+                        .iter()
+                        .map(|o| format!("{:?}", o.fact.shape))
+                        .collect();
+                    format!("{} #{} -> {}", node.op().name(), node.id, facts.join(" "))
+                } else {
+                    node.op().name().to_string()
+                };
+                let e = per_op.entry(key).or_default();
                 e.0 += t.elapsed();
                 e.1 += 1;
                 r

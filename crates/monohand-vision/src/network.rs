@@ -18,10 +18,21 @@ impl TfliteNet {
     /// Imports, optimises and prepares `bytes` (a `.tflite` flatbuffer). `origin` names the
     /// model in errors.
     pub fn from_bytes(bytes: &[u8], origin: &Path) -> Result<Self> {
-        let model = tflite_import::import(bytes).map_err(|source| VisionError::Import {
-            path: origin.into(),
-            source,
-        })?;
+        Self::from_bytes_with(bytes, origin, tflite_import::ImportOptions::default())
+    }
+
+    /// [`from_bytes`](Self::from_bytes) with explicit importer options (e.g. tract's own
+    /// operators instead of monohand's, to compare).
+    pub fn from_bytes_with(
+        bytes: &[u8],
+        origin: &Path,
+        options: tflite_import::ImportOptions,
+    ) -> Result<Self> {
+        let model =
+            tflite_import::import_with(bytes, options).map_err(|source| VisionError::Import {
+                path: origin.into(),
+                source,
+            })?;
         let fact = model.input_fact(0)?.clone();
         let shape = fact
             .shape

@@ -92,6 +92,8 @@ fn fuzz_tflite_import() {
             let options = ImportOptions {
                 fast_depthwise: input.len() % 2 == 0,
                 fused_prelu: input.len() % 3 != 0,
+                fast_pointwise: input.len() % 5 != 0,
+                fused_pointwise_epilogue: input.len() % 7 != 0,
             };
             import(input)?;
             import_with(input, options).map(|m| m.nodes().len())

@@ -1,0 +1,87 @@
+//! Times networks loaded through [`TfliteNet`] (1 thread), driven line by line on stdin so
+//! that `bench/networks/run.py` can interleave it with LiteRT in the same session.
+//!
+//! Commands (one per line, one answer line each):
+//! * `load NAME MODEL.tflite INPUT.f32 OPTIONS`: imports the model; `INPUT.f32` holds the
+//!   input as raw little-endian f32 (NHWC); `OPTIONS` is `default` or a comma-separated
+//!   list among `no-pointwise`, `no-epilogue`, `no-depthwise`, `no-prelu`
+//!   (switching monohand's own operators back to tract's). Answers `ok`.
+//! * `time NAME RUNS`: runs the network `RUNS` times; answers the milliseconds of each run,
+//!   space separated.
+//! * `output NAME`: answers the first values of each output (to check both runtimes agree).
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a failed bench is a panic
+
+use std::collections::HashMap;
+use std::io::{BufRead, Write};
+use std::path::Path;
+use std::time::Instant;
+
+use monohand_vision::tflite_import::ImportOptions;
+use monohand_vision::TfliteNet;
+use tract_core::internal::*;
+
+fn main() {
+    let mut nets: HashMap<String, (TfliteNet, Tensor)> = HashMap::new();
+    let stdin = std::io::stdin();
+    let mut out = std::io::stdout().lock();
+    for line in stdin.lock().lines() {
+        let line = line.expect("stdin");
+        let words: Vec<&str> = line.split_whitespace().collect();
+        match words.as_slice() {
+            ["load", name, model, input, options] => {
+                let mut o = ImportOptions::default();
+                for opt in options.split(',') {
+                    match opt {
+                        "default" => {}
+                        "no-pointwise" => o.fast_pointwise = false,
+                        "no-epilogue" => o.fused_pointwise_epilogue = false,
+                        "no-depthwise" => o.fast_depthwise = false,
+                        "no-prelu" => o.fused_prelu = false,
+                        other => panic!("unknown option {other}"),
+                    }
+                }
+                let bytes = std::fs::read(model).expect("model");
+                let net = TfliteNet::from_bytes_with(&bytes, Path::new(model), o).expect("import");
+                let raw = std::fs::read(input).expect("input");
+                let values: Vec<f32> = raw
+                    .chunks_exact(4)
+                    .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+                    .collect();
+                let x = Tensor::from_shape(&net.input_shape(), &values).expect("input shape");
+                net.run(x.clone()).expect("warm-up run");
+                nets.insert(name.to_string(), (net, x));
+                writeln!(out, "ok").expect("stdout");
+            }
+            ["time", name, runs] => {
+                let (net, x) = &nets[*name];
+                let runs: usize = runs.parse().expect("runs");
+                let ms: Vec<String> = (0..runs)
+                    .map(|_| {
+                        let input = x.clone();
+                        let t = Instant::now();
+                        std::hint::black_box(net.run(input).expect("run"));
+                        format!("{:.4}", t.elapsed().as_secs_f64() * 1e3)
+                    })
+                    .collect();
+                writeln!(out, "{}", ms.join(" ")).expect("stdout");
+            }
+            ["output", name] => {
+                let (net, x) = &nets[*name];
+                let outs = net.run(x.clone()).expect("run");
+                let heads: Vec<String> = outs
+                    .iter()
+                    .map(|o| {
+                        o.iter()
+                            .take(8)
+                            .map(|v| format!("{v}"))
+                            .collect::<Vec<_>>()
+                            .join(",")
+                    })
+                    .collect();
+                writeln!(out, "{}", heads.join(" ")).expect("stdout");
+            }
+            _ => panic!("unknown command: {line}"),
+        }
+        out.flush().expect("stdout");
+    }
+}
