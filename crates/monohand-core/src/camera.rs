@@ -187,6 +187,12 @@ impl Camera {
     /// square pixels, horizontal field of view [`GENERIC_HFOV_DEG`].
     pub fn generic(width: u32, height: u32) -> CoreResult<Camera> {
         let f = 0.5 * width as f64 / (0.5 * GENERIC_HFOV_DEG.to_radians()).tan();
+        Camera::centred(f, width, height)
+    }
+
+    /// A camera with square pixels of focal length `f` (pixels) and the principal point
+    /// at the image centre (pixel-centre convention), for example from a photo's EXIF.
+    pub fn centred(f: f64, width: u32, height: u32) -> CoreResult<Camera> {
         Camera::pinhole(
             f,
             f,

@@ -311,14 +311,7 @@ impl<T> HandsFitter<T> {
         let (w, h) = size;
         if self.generic {
             let cam = match focal {
-                Some(f) => Camera::pinhole(
-                    f.px,
-                    f.px,
-                    (w as f64 - 1.0) / 2.0,
-                    (h as f64 - 1.0) / 2.0,
-                    w,
-                    h,
-                ),
+                Some(f) => Camera::centred(f.px, w, h),
                 None => Camera::generic(w, h),
             }
             .map_err(|e| e.to_string())?;
