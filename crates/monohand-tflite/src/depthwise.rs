@@ -8,8 +8,12 @@
 
 use tract_core::internal::*;
 
+use crate::pointwise::Activation;
+
 /// Depthwise `KH x KW` convolution, depth multiplier 1, on `[1, H, W, C]` f32 tensors, with
-/// TFLite's padding rule (SAME: extra padding at the bottom/right) and a bias per channel.
+/// TFLite's padding rule (SAME: extra padding at the bottom/right), a bias per channel and a
+/// fused activation (TFLite's `RELU`/`RELU6`, applied to each output row while it is in
+/// cache).
 #[derive(Debug, Clone, PartialEq, Eq, Hash)]
 pub struct NhwcDepthwise {
     /// Weights `[KH, KW, C]`.
@@ -20,6 +24,8 @@ pub struct NhwcDepthwise {
     pub strides: (usize, usize),
     /// TFLite SAME padding (else VALID).
     pub same: bool,
+    /// Activation applied to the result.
+    pub activation: Activation,
 }
 
 /// Output size and leading padding of one axis under TFLite's rules.
@@ -93,7 +99,7 @@ impl EvalOp for NhwcDepthwise {
                 oh,
                 ow,
             };
-            run(&g, src, k, b, dst);
+            run(&g, src, k, b, dst, self.activation.bounds());
         }
         Ok(tvec!(output.into_tvalue()))
     }
@@ -128,30 +134,48 @@ struct Geometry {
     ow: usize,
 }
 
-fn run(g: &Geometry, src: &[f32], k: &[f32], b: &[f32], dst: &mut [f32]) {
+/// Clamp bounds of the activation, `(low, high)`.
+type Bounds = (f32, f32);
+
+fn run(g: &Geometry, src: &[f32], k: &[f32], b: &[f32], dst: &mut [f32], act: Bounds) {
     #[cfg(target_arch = "x86_64")]
     {
         if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
         {
             // SAFETY: the CPU supports the features the function is compiled for.
-            unsafe { run_avx2_fma(g, src, k, b, dst) };
+            unsafe { run_avx2_fma(g, src, k, b, dst, act) };
             return;
         }
     }
-    kernel::<false>(g, src, k, b, dst);
+    kernel::<false>(g, src, k, b, dst, act);
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
-unsafe fn run_avx2_fma(g: &Geometry, src: &[f32], k: &[f32], b: &[f32], dst: &mut [f32]) {
-    kernel::<true>(g, src, k, b, dst);
+unsafe fn run_avx2_fma(
+    g: &Geometry,
+    src: &[f32],
+    k: &[f32],
+    b: &[f32],
+    dst: &mut [f32],
+    act: Bounds,
+) {
+    kernel::<true>(g, src, k, b, dst, act);
 }
 
 /// The loop nest: output row, kernel tap, output column, channels (innermost, contiguous).
 /// For one tap the valid output columns are computed once, so the two inner loops run over
 /// contiguous chunks without per-pixel bounds tests.
 #[inline(always)]
-fn kernel<const FMA: bool>(g: &Geometry, src: &[f32], k: &[f32], b: &[f32], dst: &mut [f32]) {
+fn kernel<const FMA: bool>(
+    g: &Geometry,
+    src: &[f32],
+    k: &[f32],
+    b: &[f32],
+    dst: &mut [f32],
+    (low, high): Bounds,
+) {
+    let clamp = low > f32::NEG_INFINITY || high < f32::INFINITY;
     let c = g.c;
     let row_in = g.w * c;
     let row_out = g.ow * c;
@@ -193,6 +217,12 @@ fn kernel<const FMA: bool>(g: &Geometry, src: &[f32], k: &[f32], b: &[f32], dst:
                         }
                     }
                 }
+            }
+        }
+        if clamp {
+            // As tract's `Max` then `Min` did: max(x, low), then min(., high).
+            for v in orow.iter_mut() {
+                *v = v.max(low).min(high);
             }
         }
     }
@@ -266,12 +296,16 @@ mod tests {
         let x: Vec<f32> = (0..h * w * c)
             .map(|i| ((i * 37 % 101) as f32 - 50.0) / 25.0)
             .collect();
-        for (kh, kw, s, same) in [
+        let (mut below, mut above) = (false, false);
+        for ((kh, kw, s, same), activation) in [
             (3, 3, 1, true),
             (5, 5, 2, true),
             (3, 3, 2, false),
             (1, 1, 1, true),
-        ] {
+        ]
+        .into_iter()
+        .flat_map(|g| [Activation::None, Activation::Relu, Activation::Relu6].map(|a| (g, a)))
+        {
             let k: Vec<f32> = (0..kh * kw * c)
                 .map(|i| ((i * 13 % 17) as f32 - 8.0) / 8.0)
                 .collect();
@@ -283,6 +317,7 @@ mod tests {
                 bias: Tensor::from_shape(&[c], &b).expect("b").into_arc_tensor(),
                 strides: (s, s),
                 same,
+                activation,
             };
             let input = Tensor::from_shape(&[1, h, w, c], &x).expect("x");
             let out = op
@@ -293,9 +328,22 @@ mod tests {
             assert_eq!(out[0].shape(), &[1, oh, ow, c]);
             let got = out[0].try_as_plain_ram().expect("ram");
             let got = got.as_slice::<f32>().expect("f32");
+            let (low, high) = match activation {
+                Activation::None => (f32::NEG_INFINITY, f32::INFINITY),
+                Activation::Relu => (0.0, f32::INFINITY),
+                Activation::Relu6 => (0.0, 6.0),
+            };
+            below |= want.iter().any(|&v| v < 0.0);
+            above |= want.iter().any(|&v| v > 6.0);
             for (g, w) in got.iter().zip(&want) {
-                assert!((g - w).abs() < 1e-5, "k{kh} s{s} same {same}: {g} vs {w}");
+                let w = w.max(low).min(high);
+                assert!(
+                    (g - w).abs() < 1e-5,
+                    "k{kh} s{s} same {same} {activation:?}: {g} vs {w}"
+                );
             }
         }
+        // The references reach past both bounds, so each clamp is exercised.
+        assert!(below && above);
     }
 }

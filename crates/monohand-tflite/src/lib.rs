@@ -99,6 +99,10 @@ pub struct ImportOptions {
     /// that is the only consumer of a [`PointwiseConv`]'s result into its epilogue.
     /// Default: true.
     pub fused_pointwise_epilogue: bool,
+    /// With `fast_depthwise`: apply a depthwise convolution's fused `RELU`/`RELU6` inside
+    /// [`NhwcDepthwise`], on each output row while it is in cache, instead of as tract's
+    /// `Max` and `Min` nodes over the whole tensor. Default: true.
+    pub fused_depthwise_activation: bool,
 }
 
 impl Default for ImportOptions {
@@ -108,6 +112,7 @@ impl Default for ImportOptions {
             fused_prelu: true,
             fast_pointwise: true,
             fused_pointwise_epilogue: true,
+            fused_depthwise_activation: true,
         }
     }
 }

@@ -427,14 +427,24 @@ fn conv(cx: &mut Ctx, depthwise: bool) -> Result<OutletId, ImportError> {
     if depthwise && cx.options.fast_depthwise && dilations == [1, 1] {
         let [_, kh, kw, c] = [ks[0], ks[1], ks[2], ks[3]];
         let kernel = kernel.into_tensor().into_shape(&[kh, kw, c])?;
+        let fused = match act {
+            _ if !cx.options.fused_depthwise_activation => None,
+            ActivationFunctionType::RELU => Some(Activation::Relu),
+            ActivationFunctionType::RELU6 => Some(Activation::Relu6),
+            _ => None,
+        };
         let op = super::depthwise::NhwcDepthwise {
             kernel: kernel.into_arc_tensor(),
             bias: bias.into_arc_tensor(),
             strides: (strides[0] as usize, strides[1] as usize),
             same: pad == Padding::SAME,
+            activation: fused.unwrap_or_default(),
         };
         let y = cx.node("depthwise", op, &[x])?;
-        return cx.activation(y, act);
+        return match fused {
+            Some(_) => Ok(y),
+            None => cx.activation(y, act),
+        };
     }
     if !depthwise
         && cx.options.fast_pointwise

@@ -44,7 +44,7 @@ pub enum Activation {
 
 impl Activation {
     /// The clamp bounds `(low, high)` the activation amounts to.
-    fn bounds(self) -> (f32, f32) {
+    pub(crate) fn bounds(self) -> (f32, f32) {
         match self {
             Activation::None => (f32::NEG_INFINITY, f32::INFINITY),
             Activation::Relu => (0.0, f32::INFINITY),
