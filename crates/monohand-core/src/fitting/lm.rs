@@ -78,6 +78,19 @@ pub(crate) struct Solution {
     pub converged: bool,
 }
 
+/// What a warm-started fit's temporal term pulls towards.
+// Passed by value once per fit; boxing the joints would allocate per fit.
+#[allow(clippy::large_enum_variant)]
+#[derive(Debug, Clone, Copy)]
+enum Towards {
+    /// The joints of the starting pose, posed with the skeleton the fit uses.
+    Start,
+    /// Given joints (reference frame), e.g. a constant-velocity prediction.
+    Joints([Vector3<f64>; NUM_JOINTS]),
+    /// No temporal term.
+    Nothing,
+}
+
 /// Fits a [`HandSkeleton`] to 2D keypoints. Reuse one fitter for many fits:
 /// its buffers are kept between calls.
 #[derive(Debug, Clone)]
@@ -208,8 +221,7 @@ impl HandFitter {
     /// [`FitOptions::temporal_weight`] above 0, every joint is also pulled
     /// towards its position in `start`.
     pub fn fit_from(&mut self, views: &[View], start: &HandPose) -> CoreResult<FitResult> {
-        let towards = forward_kinematics(&self.posed, start);
-        self.fit_from_towards(views, start, Some(towards))
+        self.fit_from_with(views, start, Towards::Start)
     }
 
     /// [`HandFitter::fit_from`] with the temporal term pulling towards `towards`
@@ -220,6 +232,19 @@ impl HandFitter {
         views: &[View],
         start: &HandPose,
         towards: Option<[Vector3<f64>; NUM_JOINTS]>,
+    ) -> CoreResult<FitResult> {
+        let towards = match towards {
+            Some(joints) => Towards::Joints(joints),
+            None => Towards::Nothing,
+        };
+        self.fit_from_with(views, start, towards)
+    }
+
+    fn fit_from_with(
+        &mut self,
+        views: &[View],
+        start: &HandPose,
+        towards: Towards,
     ) -> CoreResult<FitResult> {
         if !start.is_finite() {
             return Err(CoreError::InvalidOptions(
@@ -234,6 +259,13 @@ impl HandFitter {
         if !self.in_front(&start) {
             return self.fit(views);
         }
+        // The start's joints are computed only now: `prepare` chose the skeleton this
+        // fit poses (planar thumb or not), and the pull must use the same one.
+        let towards = match towards {
+            Towards::Start => Some(forward_kinematics(&self.posed, &start)),
+            Towards::Joints(joints) => Some(joints),
+            Towards::Nothing => None,
+        };
         self.prior = towards.filter(|_| self.options.temporal_weight > 0.0);
         let sol = self.solve(
             start,
@@ -894,5 +926,54 @@ mod tests {
             .cost(&apply_step(&pose, &(step * 0.5), &limits), &mask)
             .unwrap();
         assert!(after < cost, "{after} >= {cost}");
+    }
+
+    #[test]
+    fn a_warm_start_pulls_towards_the_start_posed_with_the_skeleton_it_fits() {
+        // The last fit had 3D cues (rolled thumb); the next has pixels only, so it poses
+        // the planar thumb. Keypoints exactly at the start's planar projection: the fit
+        // must stay there. A pull towards the rolled thumb's joints would drag the thumb.
+        let sk = HandSkeleton::default_for(HandSide::Left);
+        let cam = Camera::pinhole(800.0, 800.0, 320.0, 240.0, 640, 480).unwrap();
+        let mut pose = HandPose::default();
+        pose.translation = Vector3::new(10.0, -5.0, 450.0);
+        pose.rotation = UnitQuaternion::from_euler_angles(0.3, -0.2, 2.0);
+        for (i, a) in pose.angles.iter_mut().enumerate() {
+            *a = 0.03 * (i % 4) as f64;
+        }
+        let project = |skeleton: &HandSkeleton| {
+            let mut kp = crate::observation::Keypoints2d::default();
+            for (j, x) in forward_kinematics(skeleton, &pose).iter().enumerate() {
+                let p = cam.project(x).unwrap();
+                kp.points[j] = [p.x, p.y, 1.0];
+            }
+            kp
+        };
+        let options = FitOptions {
+            temporal_weight: 1.0,
+            ..FitOptions::default()
+        };
+        let mut fitter = HandFitter::new(sk, options).unwrap();
+        let rolled = forward_kinematics(&sk, &pose);
+        let cues = NetworkCues {
+            world_mm: Some(rolled.map(|x| [x.x, x.y, x.z])),
+            depth_px: None,
+        };
+        let with_cues = project(&sk);
+        fitter
+            .fit_from(&[View::new(&cam, &with_cues).with_cues(Some(&cues))], &pose)
+            .unwrap();
+        let planar = sk.planar_thumb();
+        let pixels = project(&planar);
+        let fit = fitter.fit_from(&[View::new(&cam, &pixels)], &pose).unwrap();
+        let expected = forward_kinematics(&planar, &pose);
+        let worst = (0..NUM_JOINTS)
+            .map(|j| (fit.joints_3d[j] - expected[j]).norm())
+            .fold(0.0, f64::max);
+        let thumb_moved = (1..5)
+            .map(|j| (rolled[j] - expected[j]).norm())
+            .fold(0.0, f64::max);
+        assert!(thumb_moved > 3.0, "the two thumbs differ: {thumb_moved} mm");
+        assert!(worst < 1e-3, "the fit left its exact start by {worst} mm");
     }
 }
