@@ -142,25 +142,139 @@ fn run(g: &Geometry, src: &[f32], k: &[f32], b: &[f32], dst: &mut [f32], act: Bo
     {
         if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
         {
-            // SAFETY: the CPU supports the features the function is compiled for.
-            unsafe { run_avx2_fma(g, src, k, b, dst, act) };
+            if src.len() >= g.h * g.w * g.c
+                && k.len() >= g.kh * g.kw * g.c
+                && b.len() >= g.c
+                && dst.len() >= g.oh * g.ow * g.c
+            {
+                // SAFETY: the CPU supports the features the function is compiled for, and
+                // the slices hold the sizes the geometry says (checked just above).
+                unsafe { avx2::run(g, src, k, b, dst, act) };
+            } else {
+                kernel::<true>(g, src, k, b, dst, act);
+            }
             return;
         }
     }
     kernel::<false>(g, src, k, b, dst, act);
 }
 
+/// The AVX2 + FMA kernel: register-blocked like XNNPACK's "up" depthwise kernels. For each
+/// output pixel and block of 32 (then 8) channels, the accumulators stay in registers over
+/// all of the pixel's kernel taps and are stored once, with the activation applied; the
+/// portable loop nest instead reads and writes the output row once per tap. The taps are
+/// summed in the same order (bias, then row by row, column by column) with the same fused
+/// multiply-adds, so the results are bit-identical to it.
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma")]
-unsafe fn run_avx2_fma(
-    g: &Geometry,
-    src: &[f32],
-    k: &[f32],
-    b: &[f32],
-    dst: &mut [f32],
-    act: Bounds,
-) {
-    kernel::<true>(g, src, k, b, dst, act);
+mod avx2 {
+    use super::{Bounds, Geometry};
+    use std::arch::x86_64::*;
+
+    /// # Safety
+    /// The CPU must support AVX2 and FMA; `src`, `k`, `b` and `dst` must hold at least
+    /// `h·w·c`, `kh·kw·c`, `c` and `oh·ow·c` elements.
+    #[target_feature(enable = "avx2,fma")]
+    pub(super) unsafe fn run(
+        g: &Geometry,
+        src: &[f32],
+        k: &[f32],
+        b: &[f32],
+        dst: &mut [f32],
+        (low, high): Bounds,
+    ) {
+        let c = g.c;
+        let (src, k, b, dst) = (src.as_ptr(), k.as_ptr(), b.as_ptr(), dst.as_mut_ptr());
+        let (lo, hi) = (_mm256_set1_ps(low), _mm256_set1_ps(high));
+        let clamp = low > f32::NEG_INFINITY || high < f32::INFINITY;
+        for oy in 0..g.oh {
+            // Kernel rows whose input row lies inside the image.
+            let y0 = (oy * g.sy) as isize - g.pt as isize;
+            let ky0 = (-y0).max(0) as usize;
+            let ky1 = ((g.h as isize - y0).max(0) as usize).min(g.kh);
+            for ox in 0..g.ow {
+                let x0 = (ox * g.sx) as isize - g.pl as isize;
+                let kx0 = (-x0).max(0) as usize;
+                let kx1 = ((g.w as isize - x0).max(0) as usize).min(g.kw);
+                let out = dst.add((oy * g.ow + ox) * c);
+                // Input pixel of tap (ky, kx) is (y0 + ky, x0 + kx); ky >= ky0 keeps it >= 0.
+                let tap_in = |ky: usize, kx: usize| -> *const f32 {
+                    let iy = (y0 + ky as isize) as usize;
+                    let ix = (x0 + kx as isize) as usize;
+                    src.add((iy * g.w + ix) * c)
+                };
+                let tap_k = |ky: usize, kx: usize| -> *const f32 { k.add((ky * g.kw + kx) * c) };
+                let mut ch = 0;
+                while ch + 32 <= c {
+                    let mut a0 = _mm256_loadu_ps(b.add(ch));
+                    let mut a1 = _mm256_loadu_ps(b.add(ch + 8));
+                    let mut a2 = _mm256_loadu_ps(b.add(ch + 16));
+                    let mut a3 = _mm256_loadu_ps(b.add(ch + 24));
+                    for ky in ky0..ky1 {
+                        for kx in kx0..kx1 {
+                            let i = tap_in(ky, kx).add(ch);
+                            let w = tap_k(ky, kx).add(ch);
+                            a0 = _mm256_fmadd_ps(_mm256_loadu_ps(i), _mm256_loadu_ps(w), a0);
+                            a1 = _mm256_fmadd_ps(
+                                _mm256_loadu_ps(i.add(8)),
+                                _mm256_loadu_ps(w.add(8)),
+                                a1,
+                            );
+                            a2 = _mm256_fmadd_ps(
+                                _mm256_loadu_ps(i.add(16)),
+                                _mm256_loadu_ps(w.add(16)),
+                                a2,
+                            );
+                            a3 = _mm256_fmadd_ps(
+                                _mm256_loadu_ps(i.add(24)),
+                                _mm256_loadu_ps(w.add(24)),
+                                a3,
+                            );
+                        }
+                    }
+                    if clamp {
+                        // max(x, low) then min(., high), as the portable loop.
+                        a0 = _mm256_min_ps(_mm256_max_ps(a0, lo), hi);
+                        a1 = _mm256_min_ps(_mm256_max_ps(a1, lo), hi);
+                        a2 = _mm256_min_ps(_mm256_max_ps(a2, lo), hi);
+                        a3 = _mm256_min_ps(_mm256_max_ps(a3, lo), hi);
+                    }
+                    _mm256_storeu_ps(out.add(ch), a0);
+                    _mm256_storeu_ps(out.add(ch + 8), a1);
+                    _mm256_storeu_ps(out.add(ch + 16), a2);
+                    _mm256_storeu_ps(out.add(ch + 24), a3);
+                    ch += 32;
+                }
+                while ch + 8 <= c {
+                    let mut a = _mm256_loadu_ps(b.add(ch));
+                    for ky in ky0..ky1 {
+                        for kx in kx0..kx1 {
+                            let i = tap_in(ky, kx).add(ch);
+                            let w = tap_k(ky, kx).add(ch);
+                            a = _mm256_fmadd_ps(_mm256_loadu_ps(i), _mm256_loadu_ps(w), a);
+                        }
+                    }
+                    if clamp {
+                        a = _mm256_min_ps(_mm256_max_ps(a, lo), hi);
+                    }
+                    _mm256_storeu_ps(out.add(ch), a);
+                    ch += 8;
+                }
+                while ch < c {
+                    let mut a = *b.add(ch);
+                    for ky in ky0..ky1 {
+                        for kx in kx0..kx1 {
+                            a = (*tap_in(ky, kx).add(ch)).mul_add(*tap_k(ky, kx).add(ch), a);
+                        }
+                    }
+                    if clamp {
+                        a = a.max(low).min(high);
+                    }
+                    *out.add(ch) = a;
+                    ch += 1;
+                }
+            }
+        }
+    }
 }
 
 /// The loop nest: output row, kernel tap, output column, channels (innermost, contiguous).
@@ -292,7 +406,14 @@ mod tests {
 
     #[test]
     fn matches_naive_reference_for_same_and_valid_strides_1_and_2() {
-        let (h, w, c) = (7, 6, 5);
+        // 5 channels: the scalar tail only; 45: a block of 32, one of 8 and a tail of 5.
+        for c in [5, 45] {
+            matches_naive_reference_with_channels(c);
+        }
+    }
+
+    fn matches_naive_reference_with_channels(c: usize) {
+        let (h, w) = (7, 6);
         let x: Vec<f32> = (0..h * w * c)
             .map(|i| ((i * 37 % 101) as f32 - 50.0) / 25.0)
             .collect();
@@ -345,5 +466,59 @@ mod tests {
         }
         // The references reach past both bounds, so each clamp is exercised.
         assert!(below && above);
+    }
+
+    /// The AVX2 kernel sums in the portable loop's order with the same fused
+    /// multiply-adds: its results are the same bits.
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn the_avx2_kernel_is_bit_identical_to_the_portable_loop() {
+        if !(std::arch::is_x86_feature_detected!("avx2")
+            && std::arch::is_x86_feature_detected!("fma"))
+        {
+            eprintln!("no AVX2 + FMA on this CPU: only the portable loop runs here");
+            return;
+        }
+        for (h, w, c, kh, s, same) in [
+            (9, 8, 72, 3, 1, true),
+            (10, 11, 45, 5, 2, true),
+            (8, 8, 40, 3, 2, false),
+        ] {
+            let x: Vec<f32> = (0..h * w * c)
+                .map(|i| ((i * 7919 % 1009) as f32 - 504.0) / 97.0)
+                .collect();
+            let k: Vec<f32> = (0..kh * kh * c)
+                .map(|i| ((i * 31 % 59) as f32 - 29.0) / 13.0)
+                .collect();
+            let b: Vec<f32> = (0..c).map(|i| i as f32 * 0.37 - 3.0).collect();
+            let (oh, pt) = axis_geometry(h, kh, s, same);
+            let (ow, pl) = axis_geometry(w, kh, s, same);
+            let g = Geometry {
+                h,
+                w,
+                c,
+                kh,
+                kw: kh,
+                sy: s,
+                sx: s,
+                pt,
+                pl,
+                oh,
+                ow,
+            };
+            for act in [(f32::NEG_INFINITY, f32::INFINITY), (0.0, 6.0)] {
+                let mut fast = vec![0.0; oh * ow * c];
+                let mut portable = vec![0.0; oh * ow * c];
+                // SAFETY: AVX2 and FMA were detected; the buffers have the geometry's sizes.
+                unsafe { avx2::run(&g, &x, &k, &b, &mut fast, act) };
+                kernel::<true>(&g, &x, &k, &b, &mut portable, act);
+                let differ = fast
+                    .iter()
+                    .zip(&portable)
+                    .filter(|(a, b)| a.to_bits() != b.to_bits())
+                    .count();
+                assert_eq!(differ, 0, "{h}x{w}x{c} k{kh} s{s} same {same} {act:?}");
+            }
+        }
     }
 }
