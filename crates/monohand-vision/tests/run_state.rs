@@ -1,9 +1,11 @@
-//! Reused run states give exactly the outputs of fresh runs.
+//! Reused run states give exactly the outputs of fresh runs, and running the independent
+//! network passes of a frame side by side gives exactly the sequential result.
 #![allow(clippy::unwrap_used, clippy::expect_used)] // a failed test or bench is a panic
 
 mod common;
 
-use monohand_vision::{ModelFile, TfliteNet};
+use monohand_vision::image_io::load_rgb;
+use monohand_vision::{HandPipeline, ModelFile, ModelOptions, PipelineOptions, TfliteNet};
 use tract_core::prelude::Tensor;
 
 /// A deterministic input in `[0, 1]`, different for each `seed`.
@@ -79,4 +81,44 @@ fn reused_state_matches_fresh_runs_across_calls() {
             );
         }
     }
+}
+
+#[test]
+fn parallel_two_hand_tracking_matches_sequential() {
+    let Some(store) = common::models() else {
+        return;
+    };
+    let models = ModelOptions {
+        model_dir: Some(store.dir().to_path_buf()),
+        detect_heads: true,
+        ..Default::default()
+    };
+    let mut pipeline = HandPipeline::new(&models, PipelineOptions::default()).expect("pipeline");
+    // Two-hand photos, tracked as if they were video frames: each frame is tracked from the
+    // previous frame's hands, with and without the detectors.
+    let frames: Vec<_> = ["images/hamer/test5.jpg", "images/interwild/image.jpg"]
+        .iter()
+        .filter_map(|rel| common::shared(rel))
+        .map(|p| load_rgb(&p).expect("image"))
+        .collect();
+    let mut runs = Vec::new();
+    for parallel in [false, true] {
+        pipeline.set_parallel(parallel);
+        let mut out = Vec::new();
+        for img in &frames {
+            let first = pipeline.detect(img).expect("detect");
+            assert!(first.hands.len() >= 2, "{} hands", first.hands.len());
+            let mut previous = first.hands.clone();
+            out.push((first, Vec::new()));
+            for detect_new in [false, true, false] {
+                let (d, origin) = pipeline.track(img, &previous, detect_new).expect("track");
+                assert!(d.hands.len() >= 2, "{} hands tracked", d.hands.len());
+                previous = d.hands.clone();
+                out.push((d, origin));
+            }
+        }
+        runs.push(out);
+    }
+    assert!(!runs[0].is_empty());
+    assert_eq!(runs[0], runs[1]);
 }
