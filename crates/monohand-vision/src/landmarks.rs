@@ -121,17 +121,43 @@ impl LandmarkModel {
 
     /// Runs the model on `roi` of `img`.
     pub fn estimate(&self, img: &RgbImage, roi: &RotatedRect) -> Result<HandLandmarks> {
-        let input = self.preprocess(img, roi)?;
-        let out = self.net.run(input)?;
-        self.postprocess(&out, roi)
+        let m = roi.crop_to_image(self.size, self.size);
+        // The crop straight into the network's reused input buffer, the outputs read in place.
+        self.net.run_pooled(
+            |buf| {
+                warp_into_with_border(
+                    img,
+                    &m,
+                    self.size,
+                    self.size,
+                    Normalization::UNIT,
+                    Border::Replicate,
+                    buf,
+                )
+            },
+            |out| {
+                let outputs: [&[f32]; 4] = out.first()?;
+                self.postprocess(&outputs, roi)
+            },
+        )
     }
 
     /// Maps raw outputs (`[63], [1], [1], [63]`) back to the image.
-    pub fn postprocess(&self, out: &[Vec<f32>], roi: &RotatedRect) -> Result<HandLandmarks> {
+    pub fn postprocess<S: AsRef<[f32]>>(
+        &self,
+        out: &[S],
+        roi: &RotatedRect,
+    ) -> Result<HandLandmarks> {
         let (screen, presence, handed, world) = match out {
-            [a, b, c, d] if a.len() == 63 && b.len() == 1 && c.len() == 1 && d.len() == 63 => {
-                (a, b[0], c[0], d)
+            [a, b, c, d] => (a.as_ref(), b.as_ref(), c.as_ref(), d.as_ref()),
+            _ => {
+                return Err(VisionError::ModelOutput(
+                    "hand landmark outputs are not [63, 1, 1, 63]".into(),
+                ))
             }
+        };
+        let (presence, handed) = match (presence, handed) {
+            ([p], [h]) if screen.len() == 63 && world.len() == 63 => (*p, *h),
             _ => {
                 return Err(VisionError::ModelOutput(
                     "hand landmark outputs are not [63, 1, 1, 63]".into(),

@@ -47,7 +47,7 @@ pub use error::{Result, VisionError};
 /// Re-exported so callers can build inputs without depending on `image` themselves.
 pub use image::RgbImage;
 pub use models::{ModelFile, ModelStore};
-pub use network::TfliteNet;
+pub use network::{NetOutputs, NetState, TfliteNet};
 pub use pipeline::{
     DetectedHand, DetectedHead, Detections, HandDetector, HandKeypoints, HandPipeline, HandRegion,
     KeypointEstimator, ModelOptions, ModelVariant, PipelineOptions,

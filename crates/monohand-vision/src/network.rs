@@ -1,6 +1,7 @@
 //! A network imported from `.tflite`, optimised and ready to run on f32 NHWC tensors.
 
 use std::path::Path;
+use std::sync::Mutex;
 
 use tract_core::internal::*;
 
@@ -8,10 +9,77 @@ use crate::error::{Result, VisionError};
 use monohand_tflite as tflite_import;
 
 /// An optimised tract plan for one TFLite network with a single NHWC f32 input.
+///
+/// Besides the one-shot [`run`](Self::run), a network runs on reusable [`NetState`]s: tract's
+/// run state and the input tensor are kept from call to call, the input is written in place
+/// and the outputs are read as slices of tract's own output tensors (no copies). The
+/// [`run_pooled`](Self::run_pooled) entry point keeps such states in a small pool shared by
+/// the clones of a network, one per concurrent caller, so a network can be shared across
+/// threads and still reuse its states.
 #[derive(Debug, Clone)]
 pub struct TfliteNet {
     plan: Arc<TypedSimplePlan>,
     input_shape: [usize; 4],
+    /// Idle run states, reused by [`Self::run_pooled`].
+    pool: Arc<Mutex<Vec<NetState>>>,
+}
+
+/// One reusable run of a [`TfliteNet`]: tract's run state and the input tensor, kept across
+/// calls (see [`TfliteNet::run_in`]). Made by [`TfliteNet::new_state`]; a state runs only the
+/// network that made it.
+#[derive(Debug)]
+pub struct NetState {
+    state: TypedSimpleState,
+    /// The input tensor. The state holds a second reference only while a run is under way,
+    /// so between runs this one is unique and is written in place.
+    input: Arc<Tensor>,
+}
+
+impl NetState {
+    /// The input tensor, as the last run left it (its buffer is reused by the next run).
+    pub fn input(&self) -> &Tensor {
+        &self.input
+    }
+}
+
+/// The outputs of the last run of a [`NetState`], read in place.
+#[derive(Debug, Clone, Copy)]
+pub struct NetOutputs<'a> {
+    state: &'a TypedSimpleState,
+    count: usize,
+}
+
+impl<'a> NetOutputs<'a> {
+    /// Number of outputs.
+    pub fn len(&self) -> usize {
+        self.count
+    }
+
+    /// Whether the network has no outputs.
+    pub fn is_empty(&self) -> bool {
+        self.count == 0
+    }
+
+    /// Output `i`, flattened (an error if it is not f32).
+    pub fn get(&self, i: usize) -> Result<&'a [f32]> {
+        let t: &'a Tensor = self.state.output(i)?;
+        if t.datum_type() != f32::datum_type() {
+            return Err(VisionError::Inference(format!(
+                "output {i} is {:?}, not f32",
+                t.datum_type()
+            )));
+        }
+        Ok(t.try_as_plain_ram()?.as_slice::<f32>()?)
+    }
+
+    /// The first `N` outputs (an error if there are fewer).
+    pub fn first<const N: usize>(&self) -> Result<[&'a [f32]; N]> {
+        let mut out: [&'a [f32]; N] = [&[]; N];
+        for (i, o) in out.iter_mut().enumerate() {
+            *o = self.get(i)?;
+        }
+        Ok(out)
+    }
 }
 
 impl TfliteNet {
@@ -49,6 +117,7 @@ impl TfliteNet {
         Ok(TfliteNet {
             plan,
             input_shape: shape,
+            pool: Arc::new(Mutex::new(Vec::new())),
         })
     }
 
@@ -72,7 +141,85 @@ impl TfliteNet {
         Ok(t)
     }
 
-    /// Runs the network; returns each output flattened to f32.
+    /// A fresh run state for this network.
+    pub fn new_state(&self) -> Result<NetState> {
+        Ok(NetState {
+            state: self.plan.spawn()?,
+            input: Arc::new(self.input_tensor()?),
+        })
+    }
+
+    /// Runs the network on `state`: `fill` writes the input in place (the `h x w x c` f32
+    /// buffer, which still holds the previous call's input, so `fill` must write every value),
+    /// then `read` gets the outputs. Nothing is allocated for the input or the outputs once
+    /// the state has run; tract still allocates its intermediate tensors.
+    pub fn run_in<R>(
+        &self,
+        state: &mut NetState,
+        fill: impl FnOnce(&mut [f32]),
+        read: impl FnOnce(NetOutputs<'_>) -> Result<R>,
+    ) -> Result<R> {
+        if !Arc::ptr_eq(state.state.plan(), &self.plan) {
+            return Err(VisionError::Inference(
+                "run state belongs to another network".into(),
+            ));
+        }
+        if Arc::get_mut(&mut state.input).is_none() {
+            // Something still holds the previous input (an operator kept it): start anew.
+            state.input = Arc::new(self.input_tensor()?);
+        }
+        let input = Arc::get_mut(&mut state.input)
+            .ok_or_else(|| VisionError::Inference("input tensor is shared".into()))?;
+        {
+            let mut view = input.try_as_plain_ram_mut()?;
+            fill(view.as_slice_mut::<f32>()?);
+        }
+        state
+            .state
+            .set_input(0, TValue::from_const(Arc::clone(&state.input)))?;
+        let out = match state.state.exec() {
+            Ok(()) => read(NetOutputs {
+                count: self.plan.model().outputs.len(),
+                state: &state.state,
+            }),
+            Err(e) => Err(e.into()),
+        };
+        // Drops this run's values (the outputs, and the state's reference to the input), as
+        // tract's own `run` does.
+        let reset = state.state.reset_turn();
+        let out = out?;
+        reset?;
+        Ok(out)
+    }
+
+    /// [`run_in`](Self::run_in) on a state taken from the network's pool (made on first use),
+    /// returned to it afterwards. Concurrent callers each get their own state.
+    pub fn run_pooled<R>(
+        &self,
+        fill: impl FnOnce(&mut [f32]),
+        read: impl FnOnce(NetOutputs<'_>) -> Result<R>,
+    ) -> Result<R> {
+        let idle = self.lock_pool()?.pop();
+        let mut state = match idle {
+            Some(s) => s,
+            None => self.new_state()?,
+        };
+        let out = self.run_in(&mut state, fill, read);
+        // A state whose run failed is dropped rather than reused.
+        if out.is_ok() {
+            self.lock_pool()?.push(state);
+        }
+        out
+    }
+
+    fn lock_pool(&self) -> Result<std::sync::MutexGuard<'_, Vec<NetState>>> {
+        self.pool
+            .lock()
+            .map_err(|_| VisionError::Inference("run state pool poisoned".into()))
+    }
+
+    /// Runs the network once on a fresh tract state; returns each output flattened to f32
+    /// (copied). For repeated calls [`run_pooled`](Self::run_pooled) avoids the overhead.
     pub fn run(&self, input: Tensor) -> Result<Vec<Vec<f32>>> {
         if input.shape() != self.input_shape {
             return Err(VisionError::Inference(format!(

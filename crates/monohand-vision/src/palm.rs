@@ -109,7 +109,11 @@ impl PalmDetector {
     }
 
     /// Decoding, NMS and mapping back to the image of raw network outputs.
-    pub fn postprocess(&self, out: &[Vec<f32>], to_image: &Affine2) -> Result<Vec<PalmDetection>> {
+    pub fn postprocess<S: AsRef<[f32]>>(
+        &self,
+        out: &[S],
+        to_image: &Affine2,
+    ) -> Result<Vec<PalmDetection>> {
         let found =
             self.ssd
                 .postprocess(out, to_image, self.options.min_score, self.options.nms_iou)?;

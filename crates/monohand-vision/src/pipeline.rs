@@ -341,6 +341,9 @@ pub struct HandPipeline {
     /// for the hand's side (to mirror one-sided networks) and its presence score.
     side_source: Option<MediaPipeKeypoints>,
     face: Option<FaceDetector>,
+    /// Whether independent network passes of one frame run side by side (see
+    /// [`HandPipeline::set_parallel`]).
+    parallel: bool,
     /// Options.
     pub options: PipelineOptions,
 }
@@ -396,6 +399,7 @@ impl HandPipeline {
             estimator: Box::new(estimator),
             side_source: None,
             face,
+            parallel: true,
             options,
         })
     }
@@ -436,8 +440,21 @@ impl HandPipeline {
             estimator,
             side_source: None,
             face,
+            parallel: true,
             options,
         }
+    }
+
+    /// Whether the network passes of one frame that do not depend on each other (the
+    /// landmark passes of tracked hands, the palm and face detectors) run side by side on
+    /// rayon's threads (the default) or one after the other. The results are the same.
+    pub fn set_parallel(&mut self, parallel: bool) {
+        self.parallel = parallel;
+    }
+
+    /// See [`HandPipeline::set_parallel`].
+    pub fn parallel(&self) -> bool {
+        self.parallel
     }
 
     /// Reads an image file (EXIF orientation applied) and detects in it.
@@ -464,31 +481,57 @@ impl HandPipeline {
         previous: &[DetectedHand],
         detect_new: bool,
     ) -> Result<(Detections, Vec<Option<usize>>)> {
+        // The crop each previous hand's keypoints predict (a hand with non-finite keypoints
+        // is dropped).
+        let tracked: Vec<(usize, HandRegion)> = previous
+            .iter()
+            .enumerate()
+            .filter_map(|(i, prev)| {
+                let mut lm = [[0.0; 3]; NUM_LANDMARKS];
+                for (dst, p) in lm.iter_mut().zip(&prev.keypoints.points) {
+                    let [u, v] = from_pixel_centres([p[0], p[1]]);
+                    *dst = [u, v, p[2]];
+                }
+                if lm.iter().any(|p| !(p[0].is_finite() && p[1].is_finite())) {
+                    return None;
+                }
+                let region = HandRegion {
+                    score: prev.detection_score,
+                    roi: roi_from_landmarks(&lm),
+                };
+                Some((i, region))
+            })
+            .collect();
+        // The networks that do not depend on each other run side by side: the landmark
+        // passes of the tracked hands (as many as may be kept), and the palm and face
+        // detectors when they run. What is kept is then decided in order, exactly as one
+        // pass after the other would.
+        let ahead = tracked.len().min(self.options.max_hands);
+        let face = self.face.as_ref().filter(|_| detect_new);
+        let (mut tracked_kp, (regions, faces)) = self.side_by_side(
+            &tracked[..ahead],
+            img,
+            detect_new.then_some(self.detector.as_ref()),
+            face,
+        );
         let mut hands: Vec<DetectedHand> = Vec::new();
         let mut origin: Vec<Option<usize>> = Vec::new();
-        for (i, prev) in previous.iter().enumerate() {
+        for (k, (i, region)) in tracked.iter().enumerate() {
             if hands.len() >= self.options.max_hands {
                 break;
             }
-            let mut lm = [[0.0; 3]; NUM_LANDMARKS];
-            for (dst, p) in lm.iter_mut().zip(&prev.keypoints.points) {
-                let [u, v] = from_pixel_centres([p[0], p[1]]);
-                *dst = [u, v, p[2]];
-            }
-            if lm.iter().any(|p| !(p[0].is_finite() && p[1].is_finite())) {
-                continue;
-            }
-            let region = HandRegion {
-                score: prev.detection_score,
-                roi: roi_from_landmarks(&lm),
+            let kp = match tracked_kp.get_mut(k).and_then(Option::take) {
+                Some(kp) => kp?,
+                // Beyond the passes run ahead (earlier hands were dropped): run it now.
+                None => self.estimate_keypoints(img, region, true)?,
             };
-            if let Some(hand) = self.estimate_region(img, &region, true, &hands)? {
+            if let Some(hand) = self.accept(region, kp, &hands) {
                 hands.push(hand);
-                origin.push(Some(i));
+                origin.push(Some(*i));
             }
         }
-        if detect_new {
-            let mut regions = self.detector.detect_hands(img)?;
+        if let Some(regions) = regions {
+            let mut regions = regions?;
             regions.sort_by(|a, b| b.score.total_cmp(&a.score));
             for region in regions {
                 if hands.len() >= self.options.max_hands {
@@ -508,9 +551,8 @@ impl HandPipeline {
         }
         // A face detection lying mostly on a detected hand is a palm seen as a face. Heads
         // are context for new hands, so they are looked for when the detector runs.
-        let heads = match &self.face {
-            Some(f) if detect_new => f
-                .detect(img)?
+        let heads = match faces {
+            Some(found) => found?
                 .into_iter()
                 .map(to_head)
                 .filter(|h| {
@@ -529,6 +571,86 @@ impl HandPipeline {
         Ok((detections, origin))
     }
 
+    /// The tracked hands' keypoints, and the palm and face detections when `detector` and
+    /// `face` are given, computed side by side on rayon's threads when there are two or more
+    /// of them (each network call takes its own run state). Results come back in order.
+    #[allow(clippy::type_complexity)]
+    fn side_by_side(
+        &self,
+        tracked: &[(usize, HandRegion)],
+        img: &RgbImage,
+        detector: Option<&dyn HandDetector>,
+        face: Option<&FaceDetector>,
+    ) -> (
+        Vec<Option<Result<HandKeypoints>>>,
+        (
+            Option<Result<Vec<HandRegion>>>,
+            Option<Result<Vec<HeadDetection>>>,
+        ),
+    ) {
+        let hand =
+            |(_, region): &(usize, HandRegion)| Some(self.estimate_keypoints(img, region, true));
+        let palms = || detector.map(|d| d.detect_hands(img));
+        let faces = || face.map(|f| f.detect(img));
+        let jobs = tracked.len() + usize::from(detector.is_some()) + usize::from(face.is_some());
+        if jobs < 2 || !self.parallel {
+            return (tracked.iter().map(hand).collect(), (palms(), faces()));
+        }
+        use rayon::prelude::*;
+        rayon::join(
+            || tracked.par_iter().map(hand).collect(),
+            || rayon::join(palms, faces),
+        )
+    }
+
+    /// Keypoints in one region (the network passes only).
+    fn estimate_keypoints(
+        &self,
+        img: &RgbImage,
+        region: &HandRegion,
+        tracked: bool,
+    ) -> Result<HandKeypoints> {
+        let estimate = |e: &dyn KeypointEstimator, hint| {
+            if tracked {
+                e.estimate_tracked(img, region, hint)
+            } else {
+                e.estimate(img, region, hint)
+            }
+        };
+        Ok(match &self.side_source {
+            None => estimate(self.estimator.as_ref(), None)?,
+            Some(mp) => {
+                let first = estimate(mp, None)?;
+                let mut kp = estimate(self.estimator.as_ref(), first.side.map(|s| s.0))?;
+                kp.presence = first.presence;
+                kp.side = first.side;
+                kp
+            }
+        })
+    }
+
+    /// The hand `kp` describes in `region`; `None` when no hand is present there or it
+    /// duplicates one of `found`.
+    fn accept(
+        &self,
+        region: &HandRegion,
+        kp: HandKeypoints,
+        found: &[DetectedHand],
+    ) -> Option<DetectedHand> {
+        if kp.presence < self.options.min_presence {
+            return None;
+        }
+        let hand = to_detected(region, kp);
+        let b = hand.keypoints.bounds();
+        if found
+            .iter()
+            .any(|h| h.keypoints.bounds().iou(&b) > self.options.duplicate_iou)
+        {
+            return None;
+        }
+        Some(hand)
+    }
+
     /// Keypoints in one region; `None` when no hand is present there or it duplicates one of
     /// `found`.
     fn estimate_region(
@@ -538,35 +660,8 @@ impl HandPipeline {
         tracked: bool,
         found: &[DetectedHand],
     ) -> Result<Option<DetectedHand>> {
-        let estimate = |e: &dyn KeypointEstimator, hint| {
-            if tracked {
-                e.estimate_tracked(img, region, hint)
-            } else {
-                e.estimate(img, region, hint)
-            }
-        };
-        let kp = match &self.side_source {
-            None => estimate(self.estimator.as_ref(), None)?,
-            Some(mp) => {
-                let first = estimate(mp, None)?;
-                let mut kp = estimate(self.estimator.as_ref(), first.side.map(|s| s.0))?;
-                kp.presence = first.presence;
-                kp.side = first.side;
-                kp
-            }
-        };
-        if kp.presence < self.options.min_presence {
-            return Ok(None);
-        }
-        let hand = to_detected(region, kp);
-        let b = hand.keypoints.bounds();
-        if found
-            .iter()
-            .any(|h| h.keypoints.bounds().iou(&b) > self.options.duplicate_iou)
-        {
-            return Ok(None);
-        }
-        Ok(Some(hand))
+        let kp = self.estimate_keypoints(img, region, tracked)?;
+        Ok(self.accept(region, kp, found))
     }
 }
 

@@ -211,16 +211,18 @@ impl<const K: usize> SsdDetector<K> {
     }
 
     /// Decoding, NMS and mapping back to the image of raw network outputs.
-    pub fn postprocess(
+    pub fn postprocess<S: AsRef<[f32]>>(
         &self,
-        out: &[Vec<f32>],
+        out: &[S],
         to_image: &crate::geometry::Affine2,
         min_score: f32,
         nms_iou: f32,
     ) -> crate::error::Result<Vec<SsdDetection<K>>> {
         let n = self.anchors.len();
         let (boxes, scores) = match out {
-            [b, s] if b.len() == n * (4 + 2 * K) && s.len() == n => (b, s),
+            [b, s] if b.as_ref().len() == n * (4 + 2 * K) && s.as_ref().len() == n => {
+                (b.as_ref(), s.as_ref())
+            }
             _ => {
                 return Err(crate::error::VisionError::ModelOutput(format!(
                     "{} outputs are not [{n}x{}, {n}]",
@@ -259,9 +261,24 @@ impl<const K: usize> SsdDetector<K> {
         min_score: f32,
         nms_iou: f32,
     ) -> crate::error::Result<Vec<SsdDetection<K>>> {
-        let (input, to_image) = self.preprocess(img)?;
-        let out = self.net.run(input)?;
-        self.postprocess(&out, &to_image, min_score, nms_iou)
+        let to_image = crate::geometry::letterbox_to_image(img.width(), img.height(), self.size);
+        // The letterboxed crop straight into the network's reused input buffer.
+        self.net.run_pooled(
+            |buf| {
+                crate::warp::warp_into(
+                    img,
+                    &to_image,
+                    self.size,
+                    self.size,
+                    self.normalization,
+                    buf,
+                )
+            },
+            |out| {
+                let outputs: [&[f32]; 2] = out.first()?;
+                self.postprocess(&outputs, &to_image, min_score, nms_iou)
+            },
+        )
     }
 }
 
