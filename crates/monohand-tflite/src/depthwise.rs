@@ -26,6 +26,9 @@ pub struct NhwcDepthwise {
     pub same: bool,
     /// Activation applied to the result.
     pub activation: Activation,
+    /// Use the register-blocked AVX2 + FMA kernel where the CPU has those features (the
+    /// same results, bit for bit); false keeps the portable loop, to compare.
+    pub register_blocked: bool,
 }
 
 /// Output size and leading padding of one axis under TFLite's rules.
@@ -99,7 +102,15 @@ impl EvalOp for NhwcDepthwise {
                 oh,
                 ow,
             };
-            run(&g, src, k, b, dst, self.activation.bounds());
+            run(
+                &g,
+                src,
+                k,
+                b,
+                dst,
+                self.activation.bounds(),
+                self.register_blocked,
+            );
         }
         Ok(tvec!(output.into_tvalue()))
     }
@@ -137,12 +148,21 @@ struct Geometry {
 /// Clamp bounds of the activation, `(low, high)`.
 type Bounds = (f32, f32);
 
-fn run(g: &Geometry, src: &[f32], k: &[f32], b: &[f32], dst: &mut [f32], act: Bounds) {
+fn run(
+    g: &Geometry,
+    src: &[f32],
+    k: &[f32],
+    b: &[f32],
+    dst: &mut [f32],
+    act: Bounds,
+    blocked: bool,
+) {
     #[cfg(target_arch = "x86_64")]
     {
         if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
         {
-            if src.len() >= g.h * g.w * g.c
+            if blocked
+                && src.len() >= g.h * g.w * g.c
                 && k.len() >= g.kh * g.kw * g.c
                 && b.len() >= g.c
                 && dst.len() >= g.oh * g.ow * g.c
@@ -151,7 +171,8 @@ fn run(g: &Geometry, src: &[f32], k: &[f32], b: &[f32], dst: &mut [f32], act: Bo
                 // the slices hold the sizes the geometry says (checked just above).
                 unsafe { avx2::run(g, src, k, b, dst, act) };
             } else {
-                kernel::<true>(g, src, k, b, dst, act);
+                // SAFETY: the CPU supports the features the function is compiled for.
+                unsafe { run_avx2_fma(g, src, k, b, dst, act) };
             }
             return;
         }
@@ -159,12 +180,28 @@ fn run(g: &Geometry, src: &[f32], k: &[f32], b: &[f32], dst: &mut [f32], act: Bo
     kernel::<false>(g, src, k, b, dst, act);
 }
 
-/// The AVX2 + FMA kernel: register-blocked like XNNPACK's "up" depthwise kernels. For each
-/// output pixel and block of 32 (then 8) channels, the accumulators stay in registers over
+/// The portable loop nest compiled for AVX2 + FMA (the kernel before the register-blocked
+/// one; kept to compare, and for slices shorter than the geometry, which never happen).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn run_avx2_fma(
+    g: &Geometry,
+    src: &[f32],
+    k: &[f32],
+    b: &[f32],
+    dst: &mut [f32],
+    act: Bounds,
+) {
+    kernel::<true>(g, src, k, b, dst, act);
+}
+
+/// The AVX2 + FMA kernel: register-blocked like XNNPACK's depthwise kernels. For each block
+/// of 32 (then 8) channels, and each output pixel, the accumulators stay in registers over
 /// all of the pixel's kernel taps and are stored once, with the activation applied; the
-/// portable loop nest instead reads and writes the output row once per tap. The taps are
-/// summed in the same order (bias, then row by row, column by column) with the same fused
-/// multiply-adds, so the results are bit-identical to it.
+/// block's weights (at most 25 taps x 32 channels, 3.2 kB) stay in L1 while the block
+/// sweeps the image. The portable loop nest instead reads and writes the output row once
+/// per tap. The taps are summed in the same order (bias, then row by row, column by column)
+/// with the same fused multiply-adds, so the results are bit-identical to it.
 #[cfg(target_arch = "x86_64")]
 mod avx2 {
     use super::{Bounds, Geometry};
@@ -180,97 +217,120 @@ mod avx2 {
         k: &[f32],
         b: &[f32],
         dst: &mut [f32],
+        act: Bounds,
+    ) {
+        let (src, k, b, dst) = (src.as_ptr(), k.as_ptr(), b.as_ptr(), dst.as_mut_ptr());
+        let mut ch = 0;
+        while ch + 32 <= g.c {
+            block::<4>(g, src, k, b, dst, ch, act);
+            ch += 32;
+        }
+        while ch + 8 <= g.c {
+            block::<1>(g, src, k, b, dst, ch, act);
+            ch += 8;
+        }
+        if ch < g.c {
+            tail(g, src, k, b, dst, ch, act);
+        }
+    }
+
+    /// Valid kernel rows (or columns) `[k0, k1)` of an output pixel whose window starts at
+    /// input coordinate `start` on an axis of `size` pixels.
+    #[inline(always)]
+    fn valid(start: isize, size: usize, k: usize) -> (usize, usize) {
+        let k0 = (-start).max(0) as usize;
+        let k1 = ((size as isize - start).max(0) as usize).min(k);
+        (k0, k1)
+    }
+
+    /// Channels `ch .. ch + 8·N` of the whole output.
+    #[inline(always)]
+    unsafe fn block<const N: usize>(
+        g: &Geometry,
+        src: *const f32,
+        k: *const f32,
+        b: *const f32,
+        dst: *mut f32,
+        ch: usize,
         (low, high): Bounds,
     ) {
         let c = g.c;
-        let (src, k, b, dst) = (src.as_ptr(), k.as_ptr(), b.as_ptr(), dst.as_mut_ptr());
-        let (lo, hi) = (_mm256_set1_ps(low), _mm256_set1_ps(high));
         let clamp = low > f32::NEG_INFINITY || high < f32::INFINITY;
+        let (lo, hi) = (_mm256_set1_ps(low), _mm256_set1_ps(high));
+        let mut bias = [_mm256_setzero_ps(); N];
+        for (r, v) in bias.iter_mut().enumerate() {
+            *v = _mm256_loadu_ps(b.add(ch + 8 * r));
+        }
         for oy in 0..g.oh {
-            // Kernel rows whose input row lies inside the image.
             let y0 = (oy * g.sy) as isize - g.pt as isize;
-            let ky0 = (-y0).max(0) as usize;
-            let ky1 = ((g.h as isize - y0).max(0) as usize).min(g.kh);
+            let (ky0, ky1) = valid(y0, g.h, g.kh);
             for ox in 0..g.ow {
                 let x0 = (ox * g.sx) as isize - g.pl as isize;
-                let kx0 = (-x0).max(0) as usize;
-                let kx1 = ((g.w as isize - x0).max(0) as usize).min(g.kw);
-                let out = dst.add((oy * g.ow + ox) * c);
-                // Input pixel of tap (ky, kx) is (y0 + ky, x0 + kx); ky >= ky0 keeps it >= 0.
-                let tap_in = |ky: usize, kx: usize| -> *const f32 {
-                    let iy = (y0 + ky as isize) as usize;
-                    let ix = (x0 + kx as isize) as usize;
-                    src.add((iy * g.w + ix) * c)
-                };
-                let tap_k = |ky: usize, kx: usize| -> *const f32 { k.add((ky * g.kw + kx) * c) };
-                let mut ch = 0;
-                while ch + 32 <= c {
-                    let mut a0 = _mm256_loadu_ps(b.add(ch));
-                    let mut a1 = _mm256_loadu_ps(b.add(ch + 8));
-                    let mut a2 = _mm256_loadu_ps(b.add(ch + 16));
-                    let mut a3 = _mm256_loadu_ps(b.add(ch + 24));
-                    for ky in ky0..ky1 {
-                        for kx in kx0..kx1 {
-                            let i = tap_in(ky, kx).add(ch);
-                            let w = tap_k(ky, kx).add(ch);
-                            a0 = _mm256_fmadd_ps(_mm256_loadu_ps(i), _mm256_loadu_ps(w), a0);
-                            a1 = _mm256_fmadd_ps(
-                                _mm256_loadu_ps(i.add(8)),
-                                _mm256_loadu_ps(w.add(8)),
-                                a1,
-                            );
-                            a2 = _mm256_fmadd_ps(
-                                _mm256_loadu_ps(i.add(16)),
-                                _mm256_loadu_ps(w.add(16)),
-                                a2,
-                            );
-                            a3 = _mm256_fmadd_ps(
-                                _mm256_loadu_ps(i.add(24)),
-                                _mm256_loadu_ps(w.add(24)),
-                                a3,
+                let (kx0, kx1) = valid(x0, g.w, g.kw);
+                let mut acc = bias;
+                for ky in ky0..ky1 {
+                    // ky >= ky0 and kx >= kx0 keep the input coordinates >= 0.
+                    let row = src.add((y0 + ky as isize) as usize * g.w * c + ch);
+                    let wrow = k.add(ky * g.kw * c + ch);
+                    for kx in kx0..kx1 {
+                        let i = row.add((x0 + kx as isize) as usize * c);
+                        let w = wrow.add(kx * c);
+                        for (r, a) in acc.iter_mut().enumerate() {
+                            *a = _mm256_fmadd_ps(
+                                _mm256_loadu_ps(i.add(8 * r)),
+                                _mm256_loadu_ps(w.add(8 * r)),
+                                *a,
                             );
                         }
                     }
-                    if clamp {
-                        // max(x, low) then min(., high), as the portable loop.
-                        a0 = _mm256_min_ps(_mm256_max_ps(a0, lo), hi);
-                        a1 = _mm256_min_ps(_mm256_max_ps(a1, lo), hi);
-                        a2 = _mm256_min_ps(_mm256_max_ps(a2, lo), hi);
-                        a3 = _mm256_min_ps(_mm256_max_ps(a3, lo), hi);
-                    }
-                    _mm256_storeu_ps(out.add(ch), a0);
-                    _mm256_storeu_ps(out.add(ch + 8), a1);
-                    _mm256_storeu_ps(out.add(ch + 16), a2);
-                    _mm256_storeu_ps(out.add(ch + 24), a3);
-                    ch += 32;
                 }
-                while ch + 8 <= c {
-                    let mut a = _mm256_loadu_ps(b.add(ch));
-                    for ky in ky0..ky1 {
-                        for kx in kx0..kx1 {
-                            let i = tap_in(ky, kx).add(ch);
-                            let w = tap_k(ky, kx).add(ch);
-                            a = _mm256_fmadd_ps(_mm256_loadu_ps(i), _mm256_loadu_ps(w), a);
-                        }
-                    }
-                    if clamp {
-                        a = _mm256_min_ps(_mm256_max_ps(a, lo), hi);
-                    }
-                    _mm256_storeu_ps(out.add(ch), a);
-                    ch += 8;
+                let out = dst.add((oy * g.ow + ox) * c + ch);
+                for (r, a) in acc.iter().enumerate() {
+                    // max(x, low) then min(., high), as the portable loop.
+                    let v = if clamp {
+                        _mm256_min_ps(_mm256_max_ps(*a, lo), hi)
+                    } else {
+                        *a
+                    };
+                    _mm256_storeu_ps(out.add(8 * r), v);
                 }
-                while ch < c {
+            }
+        }
+    }
+
+    /// The last `c - ch0` (< 8) channels, one at a time.
+    #[inline(always)]
+    unsafe fn tail(
+        g: &Geometry,
+        src: *const f32,
+        k: *const f32,
+        b: *const f32,
+        dst: *mut f32,
+        ch0: usize,
+        (low, high): Bounds,
+    ) {
+        let c = g.c;
+        let clamp = low > f32::NEG_INFINITY || high < f32::INFINITY;
+        for oy in 0..g.oh {
+            let y0 = (oy * g.sy) as isize - g.pt as isize;
+            let (ky0, ky1) = valid(y0, g.h, g.kh);
+            for ox in 0..g.ow {
+                let x0 = (ox * g.sx) as isize - g.pl as isize;
+                let (kx0, kx1) = valid(x0, g.w, g.kw);
+                for ch in ch0..c {
                     let mut a = *b.add(ch);
                     for ky in ky0..ky1 {
+                        let iy = (y0 + ky as isize) as usize;
                         for kx in kx0..kx1 {
-                            a = (*tap_in(ky, kx).add(ch)).mul_add(*tap_k(ky, kx).add(ch), a);
+                            let ix = (x0 + kx as isize) as usize;
+                            let i = *src.add((iy * g.w + ix) * c + ch);
+                            a = i.mul_add(*k.add((ky * g.kw + kx) * c + ch), a);
                         }
                     }
                     if clamp {
                         a = a.max(low).min(high);
                     }
-                    *out.add(ch) = a;
-                    ch += 1;
+                    *dst.add((oy * g.ow + ox) * c + ch) = a;
                 }
             }
         }
@@ -439,6 +499,7 @@ mod tests {
                 strides: (s, s),
                 same,
                 activation,
+                register_blocked: true,
             };
             let input = Tensor::from_shape(&[1, h, w, c], &x).expect("x");
             let out = op
@@ -511,7 +572,8 @@ mod tests {
                 let mut portable = vec![0.0; oh * ow * c];
                 // SAFETY: AVX2 and FMA were detected; the buffers have the geometry's sizes.
                 unsafe { avx2::run(&g, &x, &k, &b, &mut fast, act) };
-                kernel::<true>(&g, &x, &k, &b, &mut portable, act);
+                // SAFETY: as above.
+                unsafe { run_avx2_fma(&g, &x, &k, &b, &mut portable, act) };
                 let differ = fast
                     .iter()
                     .zip(&portable)

@@ -103,6 +103,11 @@ pub struct ImportOptions {
     /// [`NhwcDepthwise`], on each output row while it is in cache, instead of as tract's
     /// `Max` and `Min` nodes over the whole tensor. Default: true.
     pub fused_depthwise_activation: bool,
+    /// With `fast_depthwise`: on CPUs with AVX2 + FMA, sum each output pixel's taps in
+    /// registers over blocks of channels ([`NhwcDepthwise::register_blocked`]) instead of
+    /// the portable loop that passes over the output row once per tap. The results are the
+    /// same bits. Default: true.
+    pub register_blocked_depthwise: bool,
 }
 
 impl Default for ImportOptions {
@@ -113,6 +118,7 @@ impl Default for ImportOptions {
             fast_pointwise: true,
             fused_pointwise_epilogue: true,
             fused_depthwise_activation: true,
+            register_blocked_depthwise: true,
         }
     }
 }

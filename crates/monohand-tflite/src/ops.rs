@@ -439,6 +439,7 @@ fn conv(cx: &mut Ctx, depthwise: bool) -> Result<OutletId, ImportError> {
             strides: (strides[0] as usize, strides[1] as usize),
             same: pad == Padding::SAME,
             activation: fused.unwrap_or_default(),
+            register_blocked: cx.options.register_blocked_depthwise,
         };
         let y = cx.node("depthwise", op, &[x])?;
         return match fused {

@@ -4,7 +4,7 @@
 //! Commands (one per line, one answer line each):
 //! * `load NAME MODEL.tflite INPUT.f32 OPTIONS`: imports the model; `INPUT.f32` holds the
 //!   input as raw little-endian f32 (NHWC); `OPTIONS` is `default` or a comma-separated
-//!   list among `no-pointwise`, `no-epilogue`, `no-depthwise`, `no-prelu`, `no-dw-act`
+//!   list among `no-pointwise`, `no-epilogue`, `no-depthwise`, `no-prelu`, `no-dw-act`, `no-dw-blocking`
 //!   (switching monohand's own operators back to tract's). Answers `ok`.
 //! * `time NAME RUNS`: runs the network `RUNS` times; answers the milliseconds of each run,
 //!   space separated.
@@ -38,6 +38,7 @@ fn main() {
                         "no-depthwise" => o.fast_depthwise = false,
                         "no-prelu" => o.fused_prelu = false,
                         "no-dw-act" => o.fused_depthwise_activation = false,
+                        "no-dw-blocking" => o.register_blocked_depthwise = false,
                         other => panic!("unknown option {other}"),
                     }
                 }

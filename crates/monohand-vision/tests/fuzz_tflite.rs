@@ -95,6 +95,7 @@ fn fuzz_tflite_import() {
                 fast_pointwise: input.len() % 5 != 0,
                 fused_pointwise_epilogue: input.len() % 7 != 0,
                 fused_depthwise_activation: input.len() % 11 != 0,
+                register_blocked_depthwise: input.len() % 13 != 0,
             };
             import(input)?;
             import_with(input, options).map(|m| m.nodes().len())
