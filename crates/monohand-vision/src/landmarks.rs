@@ -105,36 +105,28 @@ impl LandmarkModel {
         img: &RgbImage,
         roi: &RotatedRect,
     ) -> Result<tract_core::prelude::Tensor> {
+        self.net.input_with(|buf| self.crop_into(img, roi, buf))
+    }
+
+    /// Warps the crop of `roi` into `buf`, a `size x size x 3` network input.
+    fn crop_into(&self, img: &RgbImage, roi: &RotatedRect, buf: &mut [f32]) {
         let m = roi.crop_to_image(self.size, self.size);
-        self.net.input_with(|buf| {
-            warp_into_with_border(
-                img,
-                &m,
-                self.size,
-                self.size,
-                Normalization::UNIT,
-                Border::Replicate,
-                buf,
-            )
-        })
+        warp_into_with_border(
+            img,
+            &m,
+            self.size,
+            self.size,
+            Normalization::UNIT,
+            Border::Replicate,
+            buf,
+        )
     }
 
     /// Runs the model on `roi` of `img`.
     pub fn estimate(&self, img: &RgbImage, roi: &RotatedRect) -> Result<HandLandmarks> {
-        let m = roi.crop_to_image(self.size, self.size);
         // The crop straight into the network's reused input buffer, the outputs read in place.
         self.net.run_pooled(
-            |buf| {
-                warp_into_with_border(
-                    img,
-                    &m,
-                    self.size,
-                    self.size,
-                    Normalization::UNIT,
-                    Border::Replicate,
-                    buf,
-                )
-            },
+            |buf| self.crop_into(img, roi, buf),
             |out| {
                 let outputs: [&[f32]; 4] = out.first()?;
                 self.postprocess(&outputs, roi)

@@ -197,17 +197,20 @@ impl<const K: usize> SsdDetector<K> {
         img: &image::RgbImage,
     ) -> crate::error::Result<(tract_core::prelude::Tensor, crate::geometry::Affine2)> {
         let to_image = crate::geometry::letterbox_to_image(img.width(), img.height(), self.size);
-        let input = self.net.input_with(|buf| {
-            crate::warp::warp_into(
-                img,
-                &to_image,
-                self.size,
-                self.size,
-                self.normalization,
-                buf,
-            )
-        })?;
+        let input = self
+            .net
+            .input_with(|buf| self.letterbox_into(img, &to_image, buf))?;
         Ok((input, to_image))
+    }
+
+    /// Warps the letterboxed image into `buf`, a `size x size x 3` network input.
+    fn letterbox_into(
+        &self,
+        img: &image::RgbImage,
+        to_image: &crate::geometry::Affine2,
+        buf: &mut [f32],
+    ) {
+        crate::warp::warp_into(img, to_image, self.size, self.size, self.normalization, buf)
     }
 
     /// Decoding, NMS and mapping back to the image of raw network outputs.
@@ -264,16 +267,7 @@ impl<const K: usize> SsdDetector<K> {
         let to_image = crate::geometry::letterbox_to_image(img.width(), img.height(), self.size);
         // The letterboxed crop straight into the network's reused input buffer.
         self.net.run_pooled(
-            |buf| {
-                crate::warp::warp_into(
-                    img,
-                    &to_image,
-                    self.size,
-                    self.size,
-                    self.normalization,
-                    buf,
-                )
-            },
+            |buf| self.letterbox_into(img, &to_image, buf),
             |out| {
                 let outputs: [&[f32]; 2] = out.first()?;
                 self.postprocess(&outputs, &to_image, min_score, nms_iou)
