@@ -228,6 +228,31 @@ fn options_missing(what: &str) -> ImportError {
     ImportError::Malformed(format!("{what} operator without its options"))
 }
 
+/// A stride, dilation or window size from an operator's options: at least 1.
+fn at_least_one(v: i32, what: &str, prefix: &str) -> Result<usize, ImportError> {
+    if v >= 1 {
+        Ok(v as usize)
+    } else {
+        Err(ImportError::Malformed(format!(
+            "{prefix}: {what} {v} (must be at least 1)"
+        )))
+    }
+}
+
+/// An axis of a tensor of rank `rank`, counted from the end when negative (TFLite's
+/// convention): an error unless `-rank <= axis < rank`.
+fn axis_in(axis: i64, rank: usize, what: &str, prefix: &str) -> Result<usize, ImportError> {
+    let r = rank as i64;
+    let a = if axis < 0 { axis + r } else { axis };
+    if (0..r).contains(&a) {
+        Ok(a as usize)
+    } else {
+        Err(ImportError::Malformed(format!(
+            "{prefix}: {what} axis {axis} out of range for rank {rank}"
+        )))
+    }
+}
+
 /// Translates operator number `ix` of the subgraph, recording its output in `values`.
 pub(super) fn translate(
     model: &tflite::Model,
@@ -298,12 +323,12 @@ pub(super) fn translate(
                 .op
                 .builtin_options_as_concatenation_options()
                 .ok_or_else(|| options_missing("CONCATENATION"))?;
-            let rank = out_shape.len() as i32;
-            let axis = if o.axis() < 0 {
-                o.axis() + rank
-            } else {
-                o.axis()
-            } as usize;
+            let axis = axis_in(
+                o.axis() as i64,
+                out_shape.len(),
+                "CONCATENATION",
+                &cx.prefix,
+            )?;
             let wires = (0..cx.inputs.len())
                 .map(|i| cx.wire(i))
                 .collect::<Result<Vec<_>, _>>()?;
@@ -410,12 +435,26 @@ fn conv(cx: &mut Ctx, depthwise: bool) -> Result<OutletId, ImportError> {
             ks[0],
         )
     };
+    let strides = [
+        at_least_one(strides[0], "stride", &cx.prefix)?,
+        at_least_one(strides[1], "stride", &cx.prefix)?,
+    ];
+    let dilations = [
+        at_least_one(dilations[0], "dilation", &cx.prefix)?,
+        at_least_one(dilations[1], "dilation", &cx.prefix)?,
+    ];
+    if ks[1] == 0 || ks[2] == 0 {
+        return Err(ImportError::Malformed(format!(
+            "{}: empty kernel {ks:?}",
+            cx.prefix
+        )));
+    }
     let pool_spec = PoolSpec {
         data_format: DataFormat::NHWC,
         kernel_shape: tvec!(ks[1], ks[2]),
         padding: padding(pad)?,
-        strides: Some(tvec!(strides[0] as usize, strides[1] as usize)),
-        dilations: Some(tvec!(dilations[0] as usize, dilations[1] as usize)),
+        strides: Some(tvec!(strides[0], strides[1])),
+        dilations: Some(tvec!(dilations[0], dilations[1])),
         input_channels: in_channels,
         output_channels: out_channels,
     };
@@ -436,7 +475,7 @@ fn conv(cx: &mut Ctx, depthwise: bool) -> Result<OutletId, ImportError> {
         let op = super::depthwise::NhwcDepthwise {
             kernel: kernel.into_arc_tensor(),
             bias: bias.into_arc_tensor(),
-            strides: (strides[0] as usize, strides[1] as usize),
+            strides: (strides[0], strides[1]),
             same: pad == Padding::SAME,
             activation: fused.unwrap_or_default(),
             register_blocked: cx.options.register_blocked_depthwise,
@@ -609,9 +648,15 @@ fn max_pool(cx: &mut Ctx) -> Result<OutletId, ImportError> {
         .ok_or_else(|| ImportError::Malformed("pool input".into()))?;
     let pool_spec = PoolSpec {
         data_format: DataFormat::NHWC,
-        kernel_shape: tvec!(o.filter_height() as usize, o.filter_width() as usize),
+        kernel_shape: tvec!(
+            at_least_one(o.filter_height(), "window height", &cx.prefix)?,
+            at_least_one(o.filter_width(), "window width", &cx.prefix)?
+        ),
         padding: padding(o.padding())?,
-        strides: Some(tvec!(o.stride_h() as usize, o.stride_w() as usize)),
+        strides: Some(tvec!(
+            at_least_one(o.stride_h(), "stride", &cx.prefix)?,
+            at_least_one(o.stride_w(), "stride", &cx.prefix)?
+        )),
         dilations: None,
         input_channels: channels,
         output_channels: channels,
@@ -680,8 +725,8 @@ fn mean(cx: &mut Ctx) -> Result<OutletId, ImportError> {
         .try_as_plain_ram()?
         .as_slice::<i64>()?
         .iter()
-        .map(|&a| if a < 0 { a + shape.len() as i64 } else { a } as usize)
-        .collect();
+        .map(|&a| axis_in(a, shape.len(), "MEAN", &cx.prefix))
+        .collect::<Result<_, _>>()?;
     axes.sort_unstable();
     axes.dedup();
     let keep_dims = cx
@@ -730,6 +775,12 @@ fn fully_connected(cx: &mut Ctx, out_shape: &[usize]) -> Result<OutletId, Import
                 .map_err(|e| ImportError::Malformed(format!("dynamic FC input: {e}")))
         })
         .product::<Result<usize, ImportError>>()?;
+    if ws[1] == 0 || total % ws[1] != 0 {
+        return Err(ImportError::Malformed(format!(
+            "{}: an input of {total} values does not split into rows of {} (weights {ws:?})",
+            cx.prefix, ws[1]
+        )));
+    }
     if in_shape.len() != 2 || in_shape[1] != ws[1].to_dim() {
         let to = tvec!((total / ws[1]).to_dim(), ws[1].to_dim());
         x = cx.node("flatten", AxisOp::Reshape(0, in_shape, to), &[x])?;
