@@ -6,8 +6,10 @@
 //!   input as raw little-endian f32 (NHWC); `OPTIONS` is `default` or a comma-separated
 //!   list among `no-pointwise`, `no-epilogue`, `no-depthwise`, `no-prelu`, `no-dw-act`, `no-dw-blocking`
 //!   (switching monohand's own operators back to tract's). Answers `ok`.
-//! * `time NAME RUNS`: runs the network `RUNS` times; answers the milliseconds of each run,
-//!   space separated.
+//! * `time NAME RUNS`: runs the network `RUNS` times on a reused run state, as the pipeline
+//!   does (the input is copied into the state's buffer before each timed run, like LiteRT's
+//!   `set_tensor` before `invoke`; only the run is timed); answers the milliseconds of each
+//!   run, space separated.
 //! * `output NAME`: answers the first values of each output (to check both runtimes agree).
 #![allow(clippy::unwrap_used, clippy::expect_used)] // a failed bench is a panic
 
@@ -17,11 +19,11 @@ use std::path::Path;
 use std::time::Instant;
 
 use monohand_vision::tflite_import::ImportOptions;
-use monohand_vision::TfliteNet;
+use monohand_vision::{NetState, TfliteNet};
 use tract_core::internal::*;
 
 fn main() {
-    let mut nets: HashMap<String, (TfliteNet, Tensor)> = HashMap::new();
+    let mut nets: HashMap<String, (TfliteNet, Tensor, NetState)> = HashMap::new();
     let stdin = std::io::stdin();
     let mut out = std::io::stdout().lock();
     for line in stdin.lock().lines() {
@@ -51,24 +53,41 @@ fn main() {
                     .collect();
                 let x = Tensor::from_shape(&net.input_shape(), &values).expect("input shape");
                 net.run(x.clone()).expect("warm-up run");
-                nets.insert(name.to_string(), (net, x));
+                let mut state = net.new_state().expect("run state");
+                net.run_in(&mut state, |buf| buf.copy_from_slice(&values), |_| Ok(()))
+                    .expect("warm-up run in the state");
+                nets.insert(name.to_string(), (net, x, state));
                 writeln!(out, "ok").expect("stdout");
             }
             ["time", name, runs] => {
-                let (net, x) = &nets[*name];
+                let (net, x, state) = nets.get_mut(*name).expect("a loaded network");
+                let values = x
+                    .try_as_plain_ram()
+                    .and_then(|r| r.as_slice::<f32>())
+                    .expect("f32 input");
                 let runs: usize = runs.parse().expect("runs");
                 let ms: Vec<String> = (0..runs)
                     .map(|_| {
-                        let input = x.clone();
-                        let t = Instant::now();
-                        std::hint::black_box(net.run(input).expect("run"));
+                        let mut t = Instant::now();
+                        net.run_in(
+                            state,
+                            |buf| {
+                                buf.copy_from_slice(values);
+                                t = Instant::now();
+                            },
+                            |out| {
+                                std::hint::black_box(out.len());
+                                Ok(())
+                            },
+                        )
+                        .expect("run");
                         format!("{:.4}", t.elapsed().as_secs_f64() * 1e3)
                     })
                     .collect();
                 writeln!(out, "{}", ms.join(" ")).expect("stdout");
             }
             ["output", name] => {
-                let (net, x) = &nets[*name];
+                let (net, x, _) = &nets[*name];
                 let outs = net.run(x.clone()).expect("run");
                 let heads: Vec<String> = outs
                     .iter()
