@@ -45,15 +45,18 @@ MEDIAPIPE_RUNS = [
 MONOHAND_RUNS = [
     ("monohand run (defaults: tracking, detector every 10 frames)", []),
     ("monohand run --detect-every 1", ["--detect-every", "1"]),
-    ("monohand run --hands 2 --no-heads --detect-every 1", ["--hands", "2", "--no-heads", "--detect-every", "1"]),
+    # Like for like with MediaPipe, which reads each crop once: no mirror pass.
+    ("monohand run --hands 2 --no-heads --detect-every 1 --no-mirror-pass",
+     ["--hands", "2", "--no-heads", "--detect-every", "1", "--no-mirror-pass"]),
+    ("monohand run --hands 1 --no-heads --no-mirror-pass", ["--hands", "1", "--no-heads", "--no-mirror-pass"]),
     ("monohand run --hands 1 --no-heads", ["--hands", "1", "--no-heads"]),
     ("monohand run --no-track", ["--no-track"]),
 ]
 # Which monohand run is compared with which MediaPipe run (same detector schedule).
 PAIRS = [
-    ("monohand run --hands 2 --no-heads --detect-every 1", "mediapipe max_num_hands=2",
+    ("monohand run --hands 2 --no-heads --detect-every 1 --no-mirror-pass", "mediapipe max_num_hands=2",
      "palm detector + landmarks every frame, tracking crops"),
-    ("monohand run --hands 1 --no-heads", "mediapipe max_num_hands=1",
+    ("monohand run --hands 1 --no-heads --no-mirror-pass", "mediapipe max_num_hands=1",
      "landmarks from tracking crops, detector only when the hand is lost"),
     ("monohand run (defaults: tracking, detector every 10 frames)", "mediapipe max_num_hands=2",
      "defaults of each (monohand tracking vs the brief's MediaPipe setting)"),

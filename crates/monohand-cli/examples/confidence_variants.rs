@@ -27,6 +27,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let options = PipelineOptions {
             landmarks: LandmarkOptions {
                 agreement_sigma: sigma,
+                ..LandmarkOptions::default()
             },
             ..PipelineOptions::default()
         };

@@ -267,8 +267,14 @@ pub(crate) fn run(args: &EvalArgs) -> Result<()> {
         Stage::Full => {
             let pipeline = args.models.pipeline(1)?;
             let description = format!(
-                "MediaPipe 0.10.14 palm detector ({:?}) + hand landmarks ({:?}) in tract",
-                args.models.palm_model, args.models.landmark_model
+                "MediaPipe 0.10.14 palm detector ({:?}) + hand landmarks ({:?}{}) in tract",
+                args.models.palm_model,
+                args.models.landmark_model,
+                if args.models.no_mirror_pass {
+                    ", one pass per crop"
+                } else {
+                    ", mean of each crop and its mirror image"
+                }
             );
             let mut source = Detected(VisionDetector {
                 pipeline,

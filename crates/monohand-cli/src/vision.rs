@@ -59,6 +59,12 @@ pub(crate) struct ModelArgs {
     /// Images are selfie-mirrored (front cameras): swap left and right.
     #[arg(long)]
     pub mirrored: bool,
+    /// Run the landmark network once per crop, without the second pass on the crop's
+    /// mirror image that is averaged in by default (faster: the mirror pass doubles the
+    /// landmark network's time, run on a second core when there is one; it lowers the 3D
+    /// error, see docs/accuracy.md).
+    #[arg(long)]
+    pub no_mirror_pass: bool,
     /// An ONNX keypoint network to use instead of MediaPipe's landmark model (MediaPipe's
     /// still tells the side and presence; one-sided networks get mirrored crops).
     #[arg(long, value_name = "MODEL.onnx", requires = "keypoint_format")]
@@ -108,6 +114,10 @@ impl ModelArgs {
             min_presence: self.min_presence,
             mirrored_input: self.mirrored,
             refine_passes,
+            landmarks: monohand_vision::landmarks::LandmarkOptions {
+                mirror_pass: !self.no_mirror_pass,
+                ..Default::default()
+            },
             ..PipelineOptions::default()
         };
         let pipeline = match (&self.keypoint_model, self.keypoint_format) {

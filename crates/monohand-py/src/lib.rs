@@ -439,31 +439,38 @@ fn to_cameras(cameras: Option<&Bound<'_, PyAny>>) -> PyResult<Vec<Camera>> {
 }
 
 /// The networks, loaded once and shared by any number of sessions (for example one per
-/// video on a worker): `Models(hands=2, tracking=True, model_dir=None, heads=False)`.
-/// `tracking=False` is for independent images (one extra landmark pass per hand).
+/// video on a worker): `Models(hands=2, tracking=True, model_dir=None, heads=False,
+/// mirror_pass=True)`. `tracking=False` is for independent images (one extra landmark pass
+/// per hand). `mirror_pass=False` reads each crop once instead of also reading its mirror
+/// image (faster, larger 3D error; docs/accuracy.md).
 #[pyclass(module = "monohand._monohand", name = "Models", frozen)]
 struct PyModels {
     pipeline: Arc<HandPipeline>,
     hands: usize,
     tracking: bool,
     heads: bool,
+    mirror_pass: bool,
 }
 
 #[pymethods]
 impl PyModels {
     #[new]
-    #[pyo3(signature = (hands=2, tracking=true, model_dir=None, heads=false))]
+    #[pyo3(signature = (hands=2, tracking=true, model_dir=None, heads=false, mirror_pass=true))]
     fn new(
         py: Python<'_>,
         hands: usize,
         tracking: bool,
         model_dir: Option<std::path::PathBuf>,
         heads: bool,
+        mirror_pass: bool,
     ) -> PyResult<PyModels> {
         if hands == 0 {
             return Err(PyValueError::new_err("at least one hand per frame"));
         }
-        let mut options = SessionOptions::default().hands(hands).heads(heads);
+        let mut options = SessionOptions::default()
+            .hands(hands)
+            .heads(heads)
+            .mirror_pass(mirror_pass);
         if let Some(dir) = model_dir {
             options = options.model_dir(dir);
         }
@@ -483,6 +490,7 @@ impl PyModels {
             hands,
             tracking,
             heads,
+            mirror_pass,
         })
     }
 
@@ -496,12 +504,19 @@ impl PyModels {
     fn tracking(&self) -> bool {
         self.tracking
     }
+    /// Whether the landmark network also reads each crop's mirror image.
+    #[getter]
+    fn mirror_pass(&self) -> bool {
+        self.mirror_pass
+    }
     fn __repr__(&self) -> String {
+        let py_bool = |b: bool| if b { "True" } else { "False" };
         format!(
-            "Models(hands={}, tracking={}, heads={})",
+            "Models(hands={}, tracking={}, heads={}, mirror_pass={})",
             self.hands,
-            if self.tracking { "True" } else { "False" },
-            if self.heads { "True" } else { "False" }
+            py_bool(self.tracking),
+            py_bool(self.heads),
+            py_bool(self.mirror_pass)
         )
     }
 }
@@ -531,7 +546,7 @@ impl PySession {
 #[pymethods]
 impl PySession {
     #[new]
-    #[pyo3(signature = (cameras=None, hands=2, tracking=true, model_dir=None, smoothing=false, heads=false, detect_every=10, models=None, hand_scale=1.0))]
+    #[pyo3(signature = (cameras=None, hands=2, tracking=true, model_dir=None, smoothing=false, heads=false, detect_every=10, models=None, hand_scale=1.0, mirror_pass=true))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -544,6 +559,7 @@ impl PySession {
         detect_every: usize,
         models: Option<PyRef<'_, PyModels>>,
         hand_scale: f64,
+        mirror_pass: bool,
     ) -> PyResult<PySession> {
         let cameras = to_cameras(cameras)?;
         if smoothing && !tracking {
@@ -553,6 +569,7 @@ impl PySession {
             .hands(hands)
             .tracking(tracking)
             .heads(heads)
+            .mirror_pass(mirror_pass)
             .skeletons(skeletons(hand_scale)?)
             .smoothing(smoothing.then(OneEuroParams::default));
         options.detect_every = detect_every;
@@ -561,10 +578,12 @@ impl PySession {
         }
         let inner = match models {
             Some(m) => {
-                if (m.hands, m.tracking, m.heads) != (hands, tracking, heads) {
+                if (m.hands, m.tracking, m.heads, m.mirror_pass)
+                    != (hands, tracking, heads, mirror_pass)
+                {
                     return Err(PyValueError::new_err(format!(
-                        "the session asks for hands={hands}, tracking={tracking}, heads={heads} \
-                         but the models were loaded with {}",
+                        "the session asks for hands={hands}, tracking={tracking}, heads={heads}, \
+                         mirror_pass={mirror_pass} but the models were loaded with {}",
                         m.__repr__()
                     )));
                 }

@@ -41,6 +41,30 @@ def test_session_equals_the_cli_on_the_same_video(tmp_path, moving_video):
     assert len({h.id for _, _, hs in py for h in hs}) == 1, "one hand, one id"
 
 
+def test_without_the_mirror_pass_the_session_equals_the_cli_without_it(tmp_path, moving_video):
+    out = tmp_path / "cli.jsonl"
+    run_cli("run", str(moving_video), "-o", str(out), "--hands", "2", "--no-mirror-pass")
+    cli = read_jsonl(out)
+    models = monohand.Models(hands=2, mirror_pass=False)
+    assert models.mirror_pass is False and "mirror_pass=False" in repr(models)
+    with pytest.raises(ValueError, match="mirror_pass=True"):
+        monohand.Session(None, hands=2, models=models)
+    with monohand.read_video(str(moving_video)) as video, monohand.Session(
+        None, hands=2, models=models, mirror_pass=False
+    ) as s, monohand.Session(None, hands=2) as both:
+        differs = 0
+        for f, rec in zip(video, cli):
+            hands = s.process(f.image, f.time_s)
+            assert [h.to_dict()["keypoints_2d"] for h in hands] == [r["keypoints_2d"] for r in rec["hands"]]
+            assert [h.to_dict().get("joints_3d_mm") for h in hands] == [r.get("joints_3d_mm") for r in rec["hands"]]
+            default = both.process(f.image, f.time_s)
+            differs += any(
+                not np.array_equal(a.keypoints_2d, b.keypoints_2d) for a, b in zip(hands, default)
+            )
+    # The default (both passes) reads the crops otherwise: its keypoints differ.
+    assert differs >= 30, f"the mirror pass changed the keypoints of {differs} of 40 frames"
+
+
 def test_frames_are_handed_over_without_a_copy(moving_video):
     with monohand.read_video(str(moving_video)) as video:
         frame = next(iter(video))

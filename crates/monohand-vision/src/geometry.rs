@@ -34,6 +34,13 @@ impl Affine2 {
         ]
     }
 
+    /// The left-right mirror of a crop `width` pixels wide, in its own pixel grid:
+    /// `(x, y) ↦ (width − x, y)` (its own inverse). Composed after a crop's map,
+    /// `crop.compose(&Affine2::mirror_x(w))`, it samples the crop mirrored.
+    pub fn mirror_x(width: f64) -> Affine2 {
+        Affine2([[-1.0, 0.0, width], [0.0, 1.0, 0.0]])
+    }
+
     /// `self ∘ other`: first `other`, then `self`.
     pub fn compose(&self, other: &Affine2) -> Affine2 {
         let a = &self.0;

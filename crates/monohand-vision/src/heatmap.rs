@@ -147,7 +147,7 @@ mod onnx_model {
             let (w, h) = self.config.input_size;
             let mut crop = region.roi.crop_to_image(w, h);
             if self.mirrored(side_hint) {
-                crop = crop.compose(&Affine2([[-1.0, 0.0, w as f64], [0.0, 1.0, 0.0]]));
+                crop = crop.compose(&Affine2::mirror_x(w as f64));
             }
             let mut hwc = vec![0f32; w * h * 3];
             warp_into(img, &crop, w, h, self.config.normalization, &mut hwc);

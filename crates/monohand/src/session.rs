@@ -75,6 +75,13 @@ impl SessionOptions {
         self
     }
 
+    /// Whether the landmark network also reads each crop's mirror image, averaged in (on by
+    /// default; see [`monohand_vision::landmarks::LandmarkOptions::mirror_pass`]).
+    pub fn mirror_pass(mut self, on: bool) -> Self {
+        self.pipeline.landmarks.mirror_pass = on;
+        self
+    }
+
     /// Also report heads (the paper's context for left and right; about 3 ms per frame).
     pub fn heads(mut self, on: bool) -> Self {
         self.models.detect_heads = on;

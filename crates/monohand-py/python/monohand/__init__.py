@@ -122,12 +122,18 @@ def video_rows(
     max_frames: Optional[int] = None,
     empty_frames: bool = True,
     models: Optional[Models] = None,
+    mirror_pass: bool = True,
 ) -> Iterator[dict]:
     """Tracks a whole video and yields plain rows: one per frame per hand, plus (with
     ``empty_frames``) one row with ``hand_id=None`` for each frame without hands, so that
     every frame appears. Raises `MonohandError` if the video cannot be read."""
     with read_video(path) as frames, Session(
-        camera, hands=hands, model_dir=model_dir, smoothing=smoothing, models=models
+        camera,
+        hands=hands,
+        model_dir=model_dir,
+        smoothing=smoothing,
+        models=models,
+        mirror_pass=mirror_pass,
     ) as session:
         for frame in frames:
             if max_frames is not None and frame.index >= max_frames:
@@ -148,6 +154,7 @@ def track_video(
     smoothing: bool = False,
     max_frames: Optional[int] = None,
     output: str = "pandas",
+    mirror_pass: bool = True,
 ) -> Any:
     """Tracks a whole video and returns a table with one row per frame per hand (and one
     row with null hand fields for each frame without hands): a pandas DataFrame
@@ -167,7 +174,13 @@ def track_video(
     except ImportError as e:
         raise ImportError(f"track_video needs {e.name}: pip install 'monohand[table]'") from e
     rows = video_rows(
-        path, camera, hands=hands, model_dir=model_dir, smoothing=smoothing, max_frames=max_frames
+        path,
+        camera,
+        hands=hands,
+        model_dir=model_dir,
+        smoothing=smoothing,
+        max_frames=max_frames,
+        mirror_pass=mirror_pass,
     )
     table = pa.Table.from_pylist(list(rows), schema=row_schema())
     return table.to_pandas() if output == "pandas" else table

@@ -123,11 +123,14 @@ class Models:
         tracking: bool = True,
         model_dir: Optional[Union[str, PathLike[str]]] = None,
         heads: bool = False,
+        mirror_pass: bool = True,
     ) -> None: ...
     @property
     def hands(self) -> int: ...
     @property
     def tracking(self) -> bool: ...
+    @property
+    def mirror_pass(self) -> bool: ...
 
 Image = npt.NDArray[np.uint8]
 
@@ -145,6 +148,7 @@ class Session:
         detect_every: int = 10,
         models: Optional[Models] = None,
         hand_scale: float = 1.0,
+        mirror_pass: bool = True,
     ) -> None: ...
     def process(self, image: Union[Image, List[Image]], time_s: Optional[float] = None) -> List[Hand]:
         """One frame (default time: 30 fps); its hands."""
