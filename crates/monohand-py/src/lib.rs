@@ -438,6 +438,15 @@ fn to_cameras(cameras: Option<&Bound<'_, PyAny>>) -> PyResult<Vec<Camera>> {
         .collect()
 }
 
+/// A bool as Python writes it.
+fn py_bool(b: bool) -> &'static str {
+    if b {
+        "True"
+    } else {
+        "False"
+    }
+}
+
 /// The networks, loaded once and shared by any number of sessions (for example one per
 /// video on a worker): `Models(hands=2, tracking=True, model_dir=None, heads=False,
 /// mirror_pass=True)`. `tracking=False` is for independent images (one extra landmark pass
@@ -510,7 +519,6 @@ impl PyModels {
         self.mirror_pass
     }
     fn __repr__(&self) -> String {
-        let py_bool = |b: bool| if b { "True" } else { "False" };
         format!(
             "Models(hands={}, tracking={}, heads={}, mirror_pass={})",
             self.hands,
@@ -582,8 +590,11 @@ impl PySession {
                     != (hands, tracking, heads, mirror_pass)
                 {
                     return Err(PyValueError::new_err(format!(
-                        "the session asks for hands={hands}, tracking={tracking}, heads={heads}, \
-                         mirror_pass={mirror_pass} but the models were loaded with {}",
+                        "the session asks for hands={hands}, tracking={}, heads={}, \
+                         mirror_pass={} but the models were loaded with {}",
+                        py_bool(tracking),
+                        py_bool(heads),
+                        py_bool(mirror_pass),
                         m.__repr__()
                     )));
                 }
