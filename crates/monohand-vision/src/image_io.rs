@@ -14,6 +14,11 @@ use crate::error::{Result, VisionError};
 /// Smallest accepted side length in pixels: anything smaller cannot show a detectable hand.
 pub const MIN_SIDE: u32 = 16;
 
+/// The largest image decoded, in pixels (2^27, about 134 megapixels: a 108-megapixel phone
+/// photo passes; its 8-bit RGB copy takes 3 bytes per pixel, 402 MB at the limit). A larger
+/// image is refused before any pixel is decoded, with this limit in the message.
+pub const MAX_IMAGE_PIXELS: u64 = 1 << 27;
+
 /// File extensions (lower-case) treated as images by [`images_in_folder`].
 pub const IMAGE_EXTENSIONS: &[&str] = &["jpg", "jpeg", "png", "webp"];
 
@@ -118,7 +123,17 @@ pub fn decode_photo(bytes: &[u8], what: &str) -> Result<Photo> {
         ));
     }
     let mut decoder = reader.into_decoder().map_err(|e| err(e.to_string()))?;
-    let stored_width = decoder.dimensions().0;
+    let (stored_width, stored_height) = decoder.dimensions();
+    if u64::from(stored_width) * u64::from(stored_height) > MAX_IMAGE_PIXELS {
+        return Err(VisionError::ImageUnusable {
+            what: what.into(),
+            reason: format!(
+                "{stored_width}x{stored_height} pixels is over the largest image monohand \
+                 decodes, {:.0} megapixels (image_io::MAX_IMAGE_PIXELS); downscale it first",
+                MAX_IMAGE_PIXELS as f64 / 1e6
+            ),
+        });
+    }
     // Read before `orientation`, which may consume the same block.
     let exif = decoder.exif_metadata().ok().flatten();
     let orientation = decoder.orientation().map_err(|e| err(e.to_string()))?;
@@ -280,5 +295,57 @@ mod tests {
         assert!(matches!(e, VisionError::ImageDecode { .. }), "{e}");
         let e = decode_rgb(b"hello world", "text.jpg").expect_err("not an image");
         assert!(e.to_string().contains("unknown image format"), "{e}");
+    }
+
+    /// A PNG chunk: length, type, data, CRC-32 of type and data.
+    fn png_chunk(kind: &[u8; 4], data: &[u8]) -> Vec<u8> {
+        let mut crc = 0xffff_ffffu32;
+        for &byte in kind.iter().chain(data) {
+            crc ^= u32::from(byte);
+            for _ in 0..8 {
+                crc = if crc & 1 == 1 {
+                    (crc >> 1) ^ 0xedb8_8320
+                } else {
+                    crc >> 1
+                };
+            }
+        }
+        let mut out = (data.len() as u32).to_be_bytes().to_vec();
+        out.extend_from_slice(kind);
+        out.extend_from_slice(data);
+        out.extend_from_slice(&(!crc).to_be_bytes());
+        out
+    }
+
+    /// The header of an 8-bit RGB PNG of `w` x `h` pixels, with a stub of pixel data.
+    fn png_header(w: u32, h: u32) -> Vec<u8> {
+        let mut ihdr = w.to_be_bytes().to_vec();
+        ihdr.extend_from_slice(&h.to_be_bytes());
+        ihdr.extend_from_slice(&[8, 2, 0, 0, 0]);
+        let mut png = b"\x89PNG\r\n\x1a\n".to_vec();
+        png.extend(png_chunk(b"IHDR", &ihdr));
+        png.extend(png_chunk(
+            b"IDAT",
+            &[0x78, 0x9c, 0x03, 0x00, 0x00, 0x00, 0x00, 0x01],
+        ));
+        png.extend(png_chunk(b"IEND", &[]));
+        png
+    }
+
+    #[test]
+    fn an_image_over_the_size_limit_is_refused_before_decoding() {
+        // 60 000 x 40 000 pixels claimed by a 60-byte file: refused by its header, with the
+        // limit named, before any allocation for its pixels.
+        let e = decode_rgb(&png_header(60_000, 40_000), "huge.png").expect_err("too large");
+        let msg = e.to_string();
+        assert!(matches!(e, VisionError::ImageUnusable { .. }), "{msg}");
+        assert!(
+            msg.contains("60000x40000") && msg.contains("134 megapixels"),
+            "{msg}"
+        );
+        // Just under the limit the header is accepted, and the stub of pixel data is the
+        // error (a decode error, not the size).
+        let e = decode_rgb(&png_header(16_384, 8_192), "big.png").expect_err("no pixels");
+        assert!(matches!(e, VisionError::ImageDecode { .. }), "{e}");
     }
 }
