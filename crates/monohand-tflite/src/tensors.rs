@@ -90,8 +90,14 @@ pub(super) fn constant_of(
     let bytes = data.bytes();
     let shape = shape_of(graph, id)?;
     let dt = datum_type(t.type_())?;
-    let len: usize = shape.iter().product();
-    if bytes.len() != len * dt.size_of() {
+    // Checked: forged dimensions (each up to 2^31 - 1) could overflow the product.
+    let size = shape
+        .iter()
+        .try_fold(dt.size_of(), |n, &d| n.checked_mul(d))
+        .ok_or_else(|| {
+            ImportError::Malformed(format!("tensor {id}: shape {shape:?} is too large"))
+        })?;
+    if bytes.len() != size {
         return Err(ImportError::Malformed(format!(
             "tensor {id}: buffer of {} bytes for shape {shape:?} of {dt:?}",
             bytes.len()

@@ -172,3 +172,31 @@ fn a_fully_connected_weight_without_columns_is_refused() {
     let columns = shape.bytes().as_ptr() as usize - base + 4;
     import(&with_i32(&bytes, columns, 0)).expect("the dequantized tensor's shape is not read");
 }
+
+#[test]
+fn a_constant_whose_forged_shape_overflows_is_refused() {
+    // The first 4-D constant (a convolution kernel, stored in fp16) with every dimension
+    // forged to 2^31 - 1: the product of its dimensions overflows, which the importer must
+    // catch rather than wrap or panic on.
+    let bytes = model(ModelFile::HandLandmarkFull);
+    let m = tflite::root_as_model(&bytes).expect("a valid model");
+    let graph = m.subgraphs().expect("subgraphs").get(0);
+    let buffers = m.buffers().expect("buffers");
+    let base = bytes.as_ptr() as usize;
+    let shape = graph
+        .tensors()
+        .expect("tensors")
+        .iter()
+        .find(|t| {
+            t.shape().is_some_and(|s| s.len() == 4)
+                && buffers.get(t.buffer() as usize).data().is_some()
+        })
+        .and_then(|t| t.shape())
+        .expect("a constant kernel");
+    let start = shape.bytes().as_ptr() as usize - base;
+    let mut forged = bytes.clone();
+    for k in 0..4 {
+        forged[start + 4 * k..start + 4 * k + 4].copy_from_slice(&i32::MAX.to_le_bytes());
+    }
+    refused(&forged, "is too large");
+}
