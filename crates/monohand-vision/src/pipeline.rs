@@ -447,7 +447,9 @@ impl HandPipeline {
 
     /// Whether the network passes of one frame that do not depend on each other (the
     /// landmark passes of tracked hands, the palm and face detectors) run side by side on
-    /// rayon's threads (the default) or one after the other. The results are the same.
+    /// rayon's threads (the default) or one after the other. The results are the same. The
+    /// two passes of the mirror pass ([`LandmarkOptions::mirror_pass`]) are always given
+    /// to rayon together; rayon's pool (`RAYON_NUM_THREADS=1`) limits them.
     pub fn set_parallel(&mut self, parallel: bool) {
         self.parallel = parallel;
     }

@@ -27,10 +27,17 @@ fn opcode(model: &tflite::Model, op: &tflite::Operator) -> BuiltinOperator {
         .max(BuiltinOperator(code.deprecated_builtin_code() as i32))
 }
 
-/// Every operator of the main graph with its opcode.
-fn operators(bytes: &[u8]) -> Vec<(BuiltinOperator, tflite::Operator<'_>)> {
+/// The model's main graph and the address of its first byte (to turn a field's address
+/// into a position in the file).
+fn main_graph(bytes: &[u8]) -> (tflite::Model<'_>, tflite::SubGraph<'_>, usize) {
     let m = tflite::root_as_model(bytes).expect("a valid model");
     let graph = m.subgraphs().expect("subgraphs").get(0);
+    (m, graph, bytes.as_ptr() as usize)
+}
+
+/// Every operator of the main graph with its opcode.
+fn operators(bytes: &[u8]) -> Vec<(BuiltinOperator, tflite::Operator<'_>)> {
+    let (m, graph, _) = main_graph(bytes);
     graph
         .operators()
         .expect("operators")
@@ -113,11 +120,9 @@ fn a_convolution_stride_below_one_is_refused() {
 fn a_mean_axis_out_of_range_is_refused() {
     // The landmark networks end in a global average (MEAN over the two image axes).
     let bytes = model(ModelFile::HandLandmarkFull);
-    let m = tflite::root_as_model(&bytes).expect("a valid model");
-    let graph = m.subgraphs().expect("subgraphs").get(0);
+    let (m, graph, base) = main_graph(&bytes);
     let tensors = graph.tensors().expect("tensors");
     let buffers = m.buffers().expect("buffers");
-    let base = bytes.as_ptr() as usize;
     let pos = operators(&bytes)
         .iter()
         .find(|(code, _)| *code == BuiltinOperator::MEAN)
@@ -138,10 +143,8 @@ fn a_mean_axis_out_of_range_is_refused() {
 #[test]
 fn a_fully_connected_weight_without_columns_is_refused() {
     let bytes = model(ModelFile::HandLandmarkFull);
-    let m = tflite::root_as_model(&bytes).expect("a valid model");
-    let graph = m.subgraphs().expect("subgraphs").get(0);
+    let (_, graph, base) = main_graph(&bytes);
     let tensors = graph.tensors().expect("tensors");
-    let base = bytes.as_ptr() as usize;
     let ops = operators(&bytes);
     // The weight of the first FULLY_CONNECTED, and the fp16 tensor it is dequantized from.
     let weight = ops
@@ -179,10 +182,8 @@ fn a_constant_whose_forged_shape_overflows_is_refused() {
     // forged to 2^31 - 1: the product of its dimensions overflows, which the importer must
     // catch rather than wrap or panic on.
     let bytes = model(ModelFile::HandLandmarkFull);
-    let m = tflite::root_as_model(&bytes).expect("a valid model");
-    let graph = m.subgraphs().expect("subgraphs").get(0);
+    let (m, graph, base) = main_graph(&bytes);
     let buffers = m.buffers().expect("buffers");
-    let base = bytes.as_ptr() as usize;
     let shape = graph
         .tensors()
         .expect("tensors")
