@@ -14,13 +14,15 @@
 //!
 //! Anything else is refused with [`ImportError::UnsupportedOperator`] rather than guessed.
 //!
-//! Three operators are this crate's own tract operators, because tract's generic versions
+//! Four operators are this crate's own tract operators, because tract's generic versions
 //! were the largest costs of the networks: [`NhwcDepthwise`] (depthwise convolution with the
-//! channels innermost), [`ChannelPrelu`] (PRELU in one pass) and [`PointwiseConv`] (the 1x1
+//! channels innermost), [`ChannelPrelu`] (PRELU in one pass), [`PointwiseConv`] (the 1x1
 //! stride-1 convolutions, i.e. a `[H·W, Cin] x [Cin, Cout]` product, with weights packed at
 //! load, an AVX2 + FMA micro-kernel chosen at run time and a fused epilogue: bias,
 //! activation, and the residual `ADD` and/or `PRELU` that follow it when nothing else reads
-//! the convolution's result). [`ImportOptions`] switches back to tract's built-in operators.
+//! the convolution's result) and [`DirectConv`] (the first layer's strided convolution of
+//! the image, without tract's padded copy and im2col). [`ImportOptions`] switches back to
+//! tract's built-in operators.
 
 #![deny(missing_docs)]
 
@@ -28,11 +30,13 @@ mod depthwise;
 mod ops;
 mod pointwise;
 mod prelu;
+mod stem;
 mod tensors;
 
 pub use depthwise::NhwcDepthwise;
 pub use pointwise::{Activation, PointwiseConv};
 pub use prelu::ChannelPrelu;
+pub use stem::{DirectConv, DIRECT_CONV_MAX_INPUT_CHANNELS};
 
 use std::collections::HashMap;
 
@@ -108,6 +112,11 @@ pub struct ImportOptions {
     /// the portable loop that passes over the output row once per tap. The results are the
     /// same bits. Default: true.
     pub register_blocked_depthwise: bool,
+    /// Translate a `CONV_2D` with at most [`DIRECT_CONV_MAX_INPUT_CHANNELS`] input
+    /// channels (the networks' first layer, on the image) to [`DirectConv`], which reads
+    /// the image in place and applies bias and `RELU`/`RELU6` in registers, instead of
+    /// tract's padded copy, im2col product and separate activation. Default: true.
+    pub direct_conv: bool,
 }
 
 impl Default for ImportOptions {
@@ -119,6 +128,7 @@ impl Default for ImportOptions {
             fused_pointwise_epilogue: true,
             fused_depthwise_activation: true,
             register_blocked_depthwise: true,
+            direct_conv: true,
         }
     }
 }

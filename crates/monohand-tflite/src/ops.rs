@@ -505,6 +505,28 @@ fn conv(cx: &mut Ctx, depthwise: bool) -> Result<OutletId, ImportError> {
             return cx.node("pointwise", op, &[x]);
         }
     }
+    if !depthwise
+        && cx.options.direct_conv
+        && in_channels <= super::stem::DIRECT_CONV_MAX_INPUT_CHANNELS
+        && dilations == [1, 1]
+    {
+        let fused = match act {
+            ActivationFunctionType::NONE => Some(Activation::None),
+            ActivationFunctionType::RELU => Some(Activation::Relu),
+            ActivationFunctionType::RELU6 => Some(Activation::Relu6),
+            _ => None,
+        };
+        if let Some(act) = fused {
+            let op = super::stem::DirectConv::new(
+                &kernel,
+                &bias,
+                (strides[0], strides[1]),
+                pad == Padding::SAME,
+                act,
+            )?;
+            return cx.node("direct_conv", op, &[x]);
+        }
+    }
     // tract's OHWI carries the group on I: a depthwise kernel 1xHxWxC with group C is
     // exactly TFLite's layout.
     let k = cx.add_const("kernel", kernel.into_tensor())?;

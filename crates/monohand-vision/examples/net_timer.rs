@@ -41,6 +41,7 @@ fn main() {
                         "no-prelu" => o.fused_prelu = false,
                         "no-dw-act" => o.fused_depthwise_activation = false,
                         "no-dw-blocking" => o.register_blocked_depthwise = false,
+                        "no-direct-conv" => o.direct_conv = false,
                         other => panic!("unknown option {other}"),
                     }
                 }

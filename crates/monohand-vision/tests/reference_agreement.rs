@@ -105,3 +105,65 @@ fn face_detector_matches_litert() {
     check("face regressors", &out[0], "face_regressors.npy", 1e-4);
     check("face scores", &out[1], "face_scores.npy", 1e-4);
 }
+
+/// monohand's `DirectConv` (the first layer, on the image) against tract's own `Conv` for
+/// that layer, every other operator the same: every output of every network is the same
+/// bits, on the real inputs above.
+#[test]
+fn the_direct_first_layer_gives_the_same_bits_as_tracts_conv() {
+    use monohand_vision::tflite_import::ImportOptions;
+    let Some(store) = common::models() else {
+        return;
+    };
+    let tract_conv = ImportOptions {
+        direct_conv: false,
+        ..ImportOptions::default()
+    };
+    for (file, fixture, scale, offset) in [
+        (
+            ModelFile::PalmDetectionFull,
+            "palm_input_u8.npy",
+            1.0 / 255.0,
+            0.0,
+        ),
+        (
+            ModelFile::PalmDetectionLite,
+            "palm_input_u8.npy",
+            1.0 / 255.0,
+            0.0,
+        ),
+        (
+            ModelFile::HandLandmarkFull,
+            "landmark_input_u8.npy",
+            1.0 / 255.0,
+            0.0,
+        ),
+        (
+            ModelFile::HandLandmarkLite,
+            "landmark_input_u8.npy",
+            1.0 / 255.0,
+            0.0,
+        ),
+        (
+            ModelFile::FaceDetectionShortRange,
+            "face_input_u8.npy",
+            1.0 / 127.5,
+            -1.0,
+        ),
+    ] {
+        let bytes = store.load(file).expect("load model");
+        let path = store.path_of(file);
+        let ours = TfliteNet::from_bytes(&bytes, &path).expect("import");
+        let theirs = TfliteNet::from_bytes_with(&bytes, &path, tract_conv).expect("import");
+        let x = input(fixture, scale, offset);
+        let (a, b) = (
+            ours.run(x.clone()).expect("run"),
+            theirs.run(x).expect("run"),
+        );
+        assert_eq!(a.len(), b.len());
+        for (i, (a, b)) in a.iter().zip(&b).enumerate() {
+            let bits = |v: &[f32]| v.iter().map(|f| f.to_bits()).collect::<Vec<_>>();
+            assert!(bits(a) == bits(b), "{file:?} output {i} differs");
+        }
+    }
+}
