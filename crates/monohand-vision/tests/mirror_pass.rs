@@ -6,7 +6,7 @@ mod common;
 
 use monohand_vision::image_io::load_rgb;
 use monohand_vision::landmarks::{HandLandmarks, LandmarkModel, LandmarkOptions};
-use monohand_vision::{HandPipeline, ModelFile, ModelOptions, PipelineOptions, TfliteNet};
+use monohand_vision::{ModelFile, TfliteNet};
 
 fn mean_dist(a: &[[f64; 3]], b: &[[f64; 3]], dims: usize) -> f64 {
     a.iter()
@@ -18,14 +18,9 @@ fn mean_dist(a: &[[f64; 3]], b: &[[f64; 3]], dims: usize) -> f64 {
 
 #[test]
 fn the_mirrored_pass_turned_back_describes_the_same_hand() {
-    let Some(store) = common::models() else {
+    let Some((store, pipeline)) = common::pipeline(false) else {
         return;
     };
-    let models = ModelOptions {
-        model_dir: Some(store.dir().to_path_buf()),
-        ..Default::default()
-    };
-    let pipeline = HandPipeline::new(&models, PipelineOptions::default()).expect("pipeline");
     let bytes = store.load(ModelFile::HandLandmarkFull).expect("load");
     let net =
         TfliteNet::from_bytes(&bytes, &store.path_of(ModelFile::HandLandmarkFull)).expect("import");

@@ -7,7 +7,6 @@ mod common;
 
 use monohand_core::bbox::BBox;
 use monohand_core::hand_model::HandSide;
-use monohand_vision::{HandPipeline, ModelOptions, PipelineOptions};
 
 /// (image, minimum and maximum hand count, pinned hands: keypoint bounds and the physical side
 /// where it is certain from the photo, minimum and maximum head count).
@@ -94,15 +93,9 @@ const CASES: &[Case] = &[
 
 #[test]
 fn hands_are_found_where_hands_are() {
-    let Some(store) = common::models() else {
+    let Some((_, pipeline)) = common::pipeline(true) else {
         return;
     };
-    let models = ModelOptions {
-        model_dir: Some(store.dir().to_path_buf()),
-        detect_heads: true,
-        ..Default::default()
-    };
-    let pipeline = HandPipeline::new(&models, PipelineOptions::default()).expect("pipeline");
     let mut checked = 0;
     for (rel, min, max, pinned, hmin, hmax) in CASES {
         let Some(path) = common::shared(rel) else {

@@ -5,7 +5,7 @@
 mod common;
 
 use monohand_vision::image_io::load_rgb;
-use monohand_vision::{HandPipeline, ModelFile, ModelOptions, PipelineOptions, TfliteNet};
+use monohand_vision::{ModelFile, TfliteNet};
 use tract_core::prelude::Tensor;
 
 /// A deterministic input in `[0, 1]`, different for each `seed`.
@@ -85,15 +85,9 @@ fn reused_state_matches_fresh_runs_across_calls() {
 
 #[test]
 fn parallel_two_hand_tracking_matches_sequential() {
-    let Some(store) = common::models() else {
+    let Some((_, mut pipeline)) = common::pipeline(true) else {
         return;
     };
-    let models = ModelOptions {
-        model_dir: Some(store.dir().to_path_buf()),
-        detect_heads: true,
-        ..Default::default()
-    };
-    let mut pipeline = HandPipeline::new(&models, PipelineOptions::default()).expect("pipeline");
     // Two-hand photos, tracked as if they were video frames: each frame is tracked from the
     // previous frame's hands, with and without the detectors.
     let frames: Vec<_> = ["images/hamer/test5.jpg", "images/interwild/image.jpg"]

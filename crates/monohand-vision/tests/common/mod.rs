@@ -4,7 +4,7 @@
 
 use std::path::PathBuf;
 
-use monohand_vision::{ModelStore, VisionError};
+use monohand_vision::{HandPipeline, ModelOptions, ModelStore, PipelineOptions, VisionError};
 
 /// The model store, fetched if needed. `None` (after printing why) only when pip or the
 /// network is unavailable and `MONOHAND_REQUIRE_MODELS` is unset (CI sets it, so there a
@@ -22,6 +22,19 @@ pub fn models() -> Option<ModelStore> {
         }
         Err(e) => panic!("model fetch failed: {e}"),
     }
+}
+
+/// The model store and a [`HandPipeline`] with the default options built from it (with the
+/// face detector if `detect_heads`); `None` as [`models`].
+pub fn pipeline(detect_heads: bool) -> Option<(ModelStore, HandPipeline)> {
+    let store = models()?;
+    let options = ModelOptions {
+        model_dir: Some(store.dir().to_path_buf()),
+        detect_heads,
+        ..Default::default()
+    };
+    let pipeline = HandPipeline::new(&options, PipelineOptions::default()).expect("pipeline");
+    Some((store, pipeline))
 }
 
 /// `../shared/data/<rel>` from the repository root; a missing file fails the test.
