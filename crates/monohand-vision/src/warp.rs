@@ -5,6 +5,12 @@
 //! When one output pixel covers more than 2 image pixels (a 4000-pixel photo squeezed into
 //! 192 pixels) the footprint is supersampled on an `n x n` grid (n ≤ 8) so the detector does
 //! not see aliasing; for ordinary crops n = 1 and the warp is plain bilinear, as MediaPipe's.
+//!
+//! A rotated crop (every hand crop) is sampled eight output pixels at a time with AVX2 where
+//! the CPU has it (chosen at run time): gathers of the four neighbours and the same f32
+//! operations in the same order as the one-pixel loop, so the outputs are the same bits. A
+//! close-up hand (a crop 2-3x the network's input, so 4 or 9 sub-samples per pixel) spent
+//! more time here than in the landmark network before (docs/performance.md).
 
 use image::RgbImage;
 
@@ -124,13 +130,29 @@ pub fn warp_into_with_border(
     } else {
         1
     };
-    let scale = norm.scale / (n * n) as f32;
     let m = crop_to_image.0;
     if m[0][1] == 0.0 && m[1][0] == 0.0 {
         return warp_axis_aligned(img, &m, (out_w, out_h), n, norm, border, out);
     }
+    let out_size = (out_w, out_h);
+    warp_rotated(img, &m, out_size, n, norm, border, out, Simd::best());
+}
+
+/// The general warp (`n x n` sub-samples per output pixel), with the row loop `simd`.
+#[allow(clippy::too_many_arguments)]
+fn warp_rotated(
+    img: &RgbImage,
+    m: &[[f64; 3]; 2],
+    (out_w, out_h): (usize, usize),
+    n: usize,
+    norm: Normalization,
+    border: Border,
+    out: &mut [f32],
+    simd: Simd,
+) {
     let (w, h) = (img.width() as i32, img.height() as i32);
     let raw = img.as_raw().as_slice();
+    let (scale, offset) = (norm.scale / (n * n) as f32, norm.offset);
     // Sub-sample offsets inside an output pixel, and the image-space step per output column.
     let offsets: Vec<(f64, f64)> = (0..n * n)
         .map(|k| {
@@ -141,38 +163,229 @@ pub fn warp_into_with_border(
         })
         .collect();
     let (dx_col, dy_col) = (m[0][0] as f32, m[1][0] as f32);
+    let mut starts: Vec<(f32, f32)> = Vec::with_capacity(offsets.len());
     for (row, line) in out.chunks_exact_mut(out_w * 3).take(out_h).enumerate() {
         // Image position of each sub-sample at column 0, then stepped along the row in f32
         // (exact enough: < 1e-3 px drift over 224 columns).
-        let starts: Vec<(f32, f32)> = offsets
-            .iter()
-            .map(|&(ou, ov)| {
-                let v = row as f64 + ov;
-                (
-                    (m[0][0] * ou + m[0][1] * v + m[0][2]) as f32,
-                    (m[1][0] * ou + m[1][1] * v + m[1][2]) as f32,
-                )
-            })
-            .collect();
-        for (col, px) in line.chunks_exact_mut(3).enumerate() {
-            let mut acc = [0.0f32; 3];
-            let cf = col as f32;
-            for &(x0, y0) in &starts {
-                let (mut x, mut y) = (x0 + dx_col * cf, y0 + dy_col * cf);
-                if border == Border::Replicate {
-                    // Bilinear sampling clamped to the outer pixel centres = edge replication.
-                    x = x.clamp(0.5, w as f32 - 0.5);
-                    y = y.clamp(0.5, h as f32 - 0.5);
-                }
-                let s = sample(raw, w, h, x, y);
-                acc[0] += s[0];
-                acc[1] += s[1];
-                acc[2] += s[2];
-            }
-            px[0] = acc[0] * scale + norm.offset;
-            px[1] = acc[1] * scale + norm.offset;
-            px[2] = acc[2] * scale + norm.offset;
+        starts.clear();
+        starts.extend(offsets.iter().map(|&(ou, ov)| {
+            let v = row as f64 + ov;
+            (
+                (m[0][0] * ou + m[0][1] * v + m[0][2]) as f32,
+                (m[1][0] * ou + m[1][1] * v + m[1][2]) as f32,
+            )
+        }));
+        let r = Row {
+            raw,
+            w,
+            h,
+            starts: &starts,
+            step: (dx_col, dy_col),
+            border,
+            scale,
+            offset,
+        };
+        let done = match simd {
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: `Simd::best` chose AVX2 only on a CPU that has it.
+            Simd::Avx2 => unsafe { avx2::row(&r, line) },
+            Simd::None => 0,
+        };
+        r.scalar(line, done);
+    }
+}
+
+/// Which row loop runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Simd {
+    /// One output pixel at a time.
+    None,
+    /// Eight output pixels at a time with AVX2 (the same arithmetic, so the same bits).
+    #[cfg(target_arch = "x86_64")]
+    Avx2,
+}
+
+impl Simd {
+    fn best() -> Simd {
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            return Simd::Avx2;
         }
+        Simd::None
+    }
+}
+
+/// One output row of the general (rotated) warp.
+struct Row<'a> {
+    raw: &'a [u8],
+    w: i32,
+    h: i32,
+    /// Image position of each sub-sample of column 0.
+    starts: &'a [(f32, f32)],
+    /// Image step per output column.
+    step: (f32, f32),
+    border: Border,
+    scale: f32,
+    offset: f32,
+}
+
+impl Row<'_> {
+    /// The sub-sample `(x0, y0)` of output column `cf`, clamped for a replicated border.
+    #[inline(always)]
+    fn position(&self, (x0, y0): (f32, f32), cf: f32) -> (f32, f32) {
+        let (mut x, mut y) = (x0 + self.step.0 * cf, y0 + self.step.1 * cf);
+        if self.border == Border::Replicate {
+            // Bilinear sampling clamped to the outer pixel centres = edge replication.
+            x = x.clamp(0.5, self.w as f32 - 0.5);
+            y = y.clamp(0.5, self.h as f32 - 0.5);
+        }
+        (x, y)
+    }
+
+    /// The sum of output column `col`'s sub-samples.
+    #[inline(always)]
+    fn sum(&self, col: usize) -> [f32; 3] {
+        let mut acc = [0.0f32; 3];
+        let cf = col as f32;
+        for &start in self.starts {
+            let (x, y) = self.position(start, cf);
+            let s = sample(self.raw, self.w, self.h, x, y);
+            acc[0] += s[0];
+            acc[1] += s[1];
+            acc[2] += s[2];
+        }
+        acc
+    }
+
+    /// Output columns from `from` on, one at a time.
+    fn scalar(&self, line: &mut [f32], from: usize) {
+        for (col, px) in line.chunks_exact_mut(3).enumerate().skip(from) {
+            let acc = self.sum(col);
+            px[0] = acc[0] * self.scale + self.offset;
+            px[1] = acc[1] * self.scale + self.offset;
+            px[2] = acc[2] * self.scale + self.offset;
+        }
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+mod avx2 {
+    use super::Row;
+    use std::arch::x86_64::*;
+
+    /// Output columns in groups of eight, each lane doing exactly [`Row::sum`]'s arithmetic
+    /// (`sample`'s interior case; a group with a sub-sample outside the interior takes the
+    /// scalar `sample` for that sub-sample). Returns how many columns it wrote.
+    #[target_feature(enable = "avx2")]
+    pub(super) unsafe fn row(r: &Row, line: &mut [f32]) -> usize {
+        let cols = line.len() / 3;
+        let groups = cols / 8;
+        let stride = r.w * 3;
+        // A gather reads 4 bytes from a pixel's 3: the last one it may start at.
+        let last = r.raw.len() as i32 - 4;
+        let lane = _mm256_setr_ps(0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0);
+        let one = _mm256_set1_epi32(1);
+        let (wv, hv) = (_mm256_set1_epi32(r.w), _mm256_set1_epi32(r.h));
+        let (half, ff) = (_mm256_set1_ps(0.5), _mm256_set1_epi32(0xff));
+        let (lo_x, hi_x) = (_mm256_set1_ps(0.5), _mm256_set1_ps(r.w as f32 - 0.5));
+        let (lo_y, hi_y) = (_mm256_set1_ps(0.5), _mm256_set1_ps(r.h as f32 - 0.5));
+        let (sx, sy) = (_mm256_set1_ps(r.step.0), _mm256_set1_ps(r.step.1));
+        let base = r.raw.as_ptr() as *const i32;
+        for g in 0..groups {
+            let cf = _mm256_add_ps(_mm256_set1_ps((g * 8) as f32), lane);
+            let mut acc = [_mm256_setzero_ps(); 3];
+            for &(x0, y0) in r.starts {
+                let mut x = _mm256_add_ps(_mm256_set1_ps(x0), _mm256_mul_ps(sx, cf));
+                let mut y = _mm256_add_ps(_mm256_set1_ps(y0), _mm256_mul_ps(sy, cf));
+                if r.border == super::Border::Replicate {
+                    // f32::clamp for numbers: max with the low bound, then min with the high.
+                    x = _mm256_min_ps(_mm256_max_ps(x, lo_x), hi_x);
+                    y = _mm256_min_ps(_mm256_max_ps(y, lo_y), hi_y);
+                }
+                let fx = _mm256_sub_ps(x, half);
+                let fy = _mm256_sub_ps(y, half);
+                let flx = _mm256_floor_ps(fx);
+                let fly = _mm256_floor_ps(fy);
+                let ix = _mm256_cvttps_epi32(flx);
+                let iy = _mm256_cvttps_epi32(fly);
+                let ax = _mm256_sub_ps(fx, flx);
+                let ay = _mm256_sub_ps(fy, fly);
+                let o = _mm256_add_epi32(
+                    _mm256_mullo_epi32(iy, _mm256_set1_epi32(stride)),
+                    _mm256_mullo_epi32(ix, _mm256_set1_epi32(3)),
+                );
+                // Interior as `sample` has it, and the bottom-right gather inside the buffer.
+                let inside = _mm256_and_si256(
+                    _mm256_and_si256(
+                        _mm256_cmpgt_epi32(ix, _mm256_set1_epi32(-1)),
+                        _mm256_cmpgt_epi32(iy, _mm256_set1_epi32(-1)),
+                    ),
+                    _mm256_and_si256(
+                        _mm256_and_si256(
+                            _mm256_cmpgt_epi32(wv, _mm256_add_epi32(ix, one)),
+                            _mm256_cmpgt_epi32(hv, _mm256_add_epi32(iy, one)),
+                        ),
+                        _mm256_cmpgt_epi32(
+                            _mm256_set1_epi32(last + 1),
+                            _mm256_add_epi32(o, _mm256_set1_epi32(stride + 3)),
+                        ),
+                    ),
+                );
+                // NaN positions convert to i32::MIN, which fails the interior test above.
+                if _mm256_movemask_ps(_mm256_castsi256_ps(inside)) != 0xff {
+                    let mut xs = [0f32; 8];
+                    let mut ys = [0f32; 8];
+                    _mm256_storeu_ps(xs.as_mut_ptr(), x);
+                    _mm256_storeu_ps(ys.as_mut_ptr(), y);
+                    let mut s = [[0f32; 8]; 3];
+                    for l in 0..8 {
+                        let v = super::sample(r.raw, r.w, r.h, xs[l], ys[l]);
+                        for c in 0..3 {
+                            s[c][l] = v[c];
+                        }
+                    }
+                    for c in 0..3 {
+                        acc[c] = _mm256_add_ps(acc[c], _mm256_loadu_ps(s[c].as_ptr()));
+                    }
+                    continue;
+                }
+                // SAFETY: every lane is interior: its four pixels' bytes, read 4 at a time from
+                // each pixel's first byte, lie inside `raw` (checked against `last` above).
+                let tl = _mm256_i32gather_epi32::<1>(base, o);
+                let tr =
+                    _mm256_i32gather_epi32::<1>(base, _mm256_add_epi32(o, _mm256_set1_epi32(3)));
+                let ob = _mm256_add_epi32(o, _mm256_set1_epi32(stride));
+                let bl = _mm256_i32gather_epi32::<1>(base, ob);
+                let br =
+                    _mm256_i32gather_epi32::<1>(base, _mm256_add_epi32(ob, _mm256_set1_epi32(3)));
+                for (c, acc) in acc.iter_mut().enumerate() {
+                    let ch = |v: __m256i| {
+                        let shifted = match c {
+                            0 => v,
+                            1 => _mm256_srli_epi32::<8>(v),
+                            _ => _mm256_srli_epi32::<16>(v),
+                        };
+                        _mm256_cvtepi32_ps(_mm256_and_si256(shifted, ff))
+                    };
+                    let (a, b, cc, d) = (ch(tl), ch(tr), ch(bl), ch(br));
+                    let t = _mm256_add_ps(a, _mm256_mul_ps(_mm256_sub_ps(b, a), ax));
+                    let bo = _mm256_add_ps(cc, _mm256_mul_ps(_mm256_sub_ps(d, cc), ax));
+                    let s = _mm256_add_ps(t, _mm256_mul_ps(_mm256_sub_ps(bo, t), ay));
+                    *acc = _mm256_add_ps(*acc, s);
+                }
+            }
+            let mut out = [[0f32; 8]; 3];
+            for c in 0..3 {
+                _mm256_storeu_ps(out[c].as_mut_ptr(), acc[c]);
+            }
+            for l in 0..8 {
+                let px = &mut line[(g * 8 + l) * 3..(g * 8 + l) * 3 + 3];
+                for c in 0..3 {
+                    px[c] = out[c][l] * r.scale + r.offset;
+                }
+            }
+        }
+        groups * 8
     }
 }
 
@@ -367,6 +580,57 @@ mod tests {
                 assert!((a - b).abs() < 1e-2, "{a} vs {b}");
             }
         }
+    }
+
+    #[test]
+    fn the_simd_rows_give_the_same_bits_as_the_scalar_rows() {
+        let img = RgbImage::from_fn(211, 157, |x, y| {
+            image::Rgb([(x * 7 + y * 3) as u8, (x * y) as u8, (x ^ (y * 5)) as u8])
+        });
+        let simd = Simd::best();
+        if simd == Simd::None {
+            eprintln!("no SIMD row loop on this CPU: nothing to compare");
+            return;
+        }
+        let mut checked = 0;
+        // Rotations, scales giving 1 to 4 sub-samples, crops inside, across the border and
+        // past the bottom-right pixel, outside; both borders; sizes with a scalar tail.
+        for (k, angle) in [0.3f64, -1.1, 2.7, 0.05].into_iter().enumerate() {
+            for (scale, centre) in [
+                (0.7, (100.0, 80.0)),
+                (2.6, (105.0, 78.0)),
+                (3.4, (200.0, 150.0)),
+                (1.0, (-30.0, 40.0)),
+                (1.5, (400.0, 400.0)),
+            ] {
+                let (c, s) = (angle.cos() * scale, angle.sin() * scale);
+                let size = [224usize, 37][k % 2];
+                let half = size as f64 / 2.0;
+                let m = [
+                    [c, -s, centre.0 - c * half + s * half],
+                    [s, c, centre.1 - s * half - c * half],
+                ];
+                let n = if scale > 2.0 {
+                    (scale.round() as usize).clamp(2, 8)
+                } else {
+                    1
+                };
+                for border in [Border::Zero, Border::Replicate] {
+                    let mut a = vec![0.0f32; size * size * 3];
+                    let mut b = vec![1.0f32; size * size * 3];
+                    let norm = Normalization::UNIT;
+                    warp_rotated(&img, &m, (size, size), n, norm, border, &mut a, Simd::None);
+                    warp_rotated(&img, &m, (size, size), n, norm, border, &mut b, simd);
+                    let bits = |v: &[f32]| v.iter().map(|f| f.to_bits()).collect::<Vec<_>>();
+                    assert!(
+                        bits(&a) == bits(&b),
+                        "angle {angle} scale {scale} {border:?}"
+                    );
+                    checked += 1;
+                }
+            }
+        }
+        assert_eq!(checked, 40);
     }
 
     #[test]
