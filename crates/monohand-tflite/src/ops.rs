@@ -775,7 +775,7 @@ fn fully_connected(cx: &mut Ctx, out_shape: &[usize]) -> Result<OutletId, Import
                 .map_err(|e| ImportError::Malformed(format!("dynamic FC input: {e}")))
         })
         .product::<Result<usize, ImportError>>()?;
-    if ws[1] == 0 || total % ws[1] != 0 {
+    if ws[1] == 0 || !total.is_multiple_of(ws[1]) {
         return Err(ImportError::Malformed(format!(
             "{}: an input of {total} values does not split into rows of {} (weights {ws:?})",
             cx.prefix, ws[1]
