@@ -18,7 +18,7 @@
 //! were the largest costs of the networks: [`NhwcDepthwise`] (depthwise convolution with the
 //! channels innermost), [`ChannelPrelu`] (PRELU in one pass) and [`PointwiseConv`] (the 1x1
 //! stride-1 convolutions, i.e. a `[H·W, Cin] x [Cin, Cout]` product, with weights packed at
-//! load, an AVX2 + FMA micro-kernel chosen at run time and a fused epilogue: bias,
+//! load, an AVX-512 or AVX2 + FMA micro-kernel chosen at run time and a fused epilogue: bias,
 //! activation, and the residual `ADD` and/or `PRELU` that follow it when nothing else reads
 //! the convolution's result). [`ImportOptions`] switches back to tract's built-in operators.
 
