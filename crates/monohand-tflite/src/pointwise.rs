@@ -311,7 +311,7 @@ pub(crate) enum Kernel {
 
 impl Kernel {
     /// The name `MONOHAND_KERNEL` selects this kernel by.
-    fn name(self) -> &'static str {
+    pub(crate) fn name(self) -> &'static str {
         match self {
             Kernel::Portable => "portable",
             #[cfg(target_arch = "x86_64")]
