@@ -103,10 +103,10 @@ pub struct ImportOptions {
     /// [`NhwcDepthwise`], on each output row while it is in cache, instead of as tract's
     /// `Max` and `Min` nodes over the whole tensor. Default: true.
     pub fused_depthwise_activation: bool,
-    /// With `fast_depthwise`: on CPUs with AVX2 + FMA (or AVX-512), sum each output pixel's taps in
-    /// registers over blocks of channels ([`NhwcDepthwise::register_blocked`]) instead of
-    /// the portable loop that passes over the output row once per tap. The results are the
-    /// same bits. Default: true.
+    /// With `fast_depthwise`: on CPUs with AVX2 + FMA (or AVX-512), sum each output pixel's
+    /// taps in registers over blocks of channels ([`NhwcDepthwise::register_blocked`])
+    /// instead of the portable loop that passes over the output row once per tap. The
+    /// results are the same bits. Default: true.
     pub register_blocked_depthwise: bool,
 }
 
