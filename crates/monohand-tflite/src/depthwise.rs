@@ -453,7 +453,9 @@ mod avx512 {
                 (2, false) => block::<2, false, K>(g, src, k, b, dst, ch, mask, act),
                 (2, true) => block::<2, true, K>(g, src, k, b, dst, ch, mask, act),
                 (3, false) => block::<3, false, K>(g, src, k, b, dst, ch, mask, act),
-                (_, _) => block::<3, true, K>(g, src, k, b, dst, ch, mask, act),
+                (3, true) => block::<3, true, K>(g, src, k, b, dst, ch, mask, act),
+                // rest < 64: four vectors only with a partial last one.
+                (_, _) => block::<4, true, K>(g, src, k, b, dst, ch, mask, act),
             }
         }
     }
@@ -743,7 +745,7 @@ mod tests {
     /// The AVX2 and AVX-512 kernels sum in the portable loop's order with the same fused
     /// multiply-adds: their results are the same bits. The channel counts cover AVX2's blocks
     /// of 32 and 8 and its scalar tail, and AVX-512's blocks of 64 and its last blocks of 1,
-    /// 2 and 3 vectors, with and without a masked last vector.
+    /// 2 and 3 vectors with and without a masked last vector, and of 4 with one.
     #[cfg(target_arch = "x86_64")]
     #[test]
     fn the_simd_kernels_are_bit_identical_to_the_portable_loop() {
@@ -763,6 +765,8 @@ mod tests {
             (6, 7, 96, 3, 2, true),
             (5, 5, 16, 3, 1, false),
             (6, 6, 48, 5, 1, true),
+            (7, 6, 56, 3, 1, true),
+            (6, 7, 120, 5, 2, true),
         ] {
             let x: Vec<f32> = (0..h * w * c)
                 .map(|i| ((i * 7919 % 1009) as f32 - 504.0) / 97.0)
