@@ -35,7 +35,7 @@ pub struct NhwcDepthwise {
 }
 
 /// Output size and leading padding of one axis under TFLite's rules.
-fn axis_geometry(input: usize, k: usize, stride: usize, same: bool) -> (usize, usize) {
+pub(crate) fn axis_geometry(input: usize, k: usize, stride: usize, same: bool) -> (usize, usize) {
     if same {
         let out = input.div_ceil(stride);
         let total = ((out - 1) * stride + k).saturating_sub(input);

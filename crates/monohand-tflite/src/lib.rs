@@ -14,22 +14,27 @@
 //!
 //! Anything else is refused with [`ImportError::UnsupportedOperator`] rather than guessed.
 //!
-//! Three operators are this crate's own tract operators, because tract's generic versions
+//! Four operators are this crate's own tract operators, because tract's generic versions
 //! were the largest costs of the networks: [`NhwcDepthwise`] (depthwise convolution with the
 //! channels innermost), [`ChannelPrelu`] (PRELU in one pass) and [`PointwiseConv`] (the 1x1
 //! stride-1 convolutions, i.e. a `[H·W, Cin] x [Cin, Cout]` product, with weights packed at
 //! load, an AVX-512 or AVX2 + FMA micro-kernel chosen at run time and a fused epilogue: bias,
 //! activation, and the residual `ADD` and/or `PRELU` that follow it when nothing else reads
-//! the convolution's result). [`ImportOptions`] switches back to tract's built-in operators.
+//! the convolution's result), and [`NhwcConv`] (the other convolutions over few input
+//! channels, i.e. the stems: im2col rows gathered a few output rows at a time, padding
+//! included, and multiplied with [`PointwiseConv`]'s kernels). [`ImportOptions`] switches
+//! back to tract's built-in operators.
 
 #![deny(missing_docs)]
 
+mod conv;
 mod depthwise;
 mod ops;
 mod pointwise;
 mod prelu;
 mod tensors;
 
+pub use conv::NhwcConv;
 pub use depthwise::NhwcDepthwise;
 pub use pointwise::{Activation, PointwiseConv};
 pub use prelu::ChannelPrelu;
@@ -108,6 +113,12 @@ pub struct ImportOptions {
     /// instead of the portable loop that passes over the output row once per tap. The
     /// results are the same bits. Default: true.
     pub register_blocked_depthwise: bool,
+    /// Translate the other `CONV_2D`s (kernels larger than 1x1 or strides above 1) with at
+    /// most 512 weights per output channel and a NONE/RELU/RELU6 activation — the networks'
+    /// first layer — to [`NhwcConv`] (padding, product, bias and activation in one operator)
+    /// instead of tract's `Pad`, im2col product and activation nodes, where
+    /// [`PointwiseConv::fast_kernel_available`]. Default: true.
+    pub fast_conv: bool,
 }
 
 impl Default for ImportOptions {
@@ -119,6 +130,7 @@ impl Default for ImportOptions {
             fused_pointwise_epilogue: true,
             fused_depthwise_activation: true,
             register_blocked_depthwise: true,
+            fast_conv: true,
         }
     }
 }

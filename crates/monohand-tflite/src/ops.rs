@@ -505,6 +505,30 @@ fn conv(cx: &mut Ctx, depthwise: bool) -> Result<OutletId, ImportError> {
             return cx.node("pointwise", op, &[x]);
         }
     }
+    if !depthwise
+        && cx.options.fast_conv
+        && !(ks[1] == 1 && ks[2] == 1 && strides == [1, 1])
+        && dilations == [1, 1]
+        && ks[1] * ks[2] * ks[3] <= 512
+        && PointwiseConv::fast_kernel_available()
+    {
+        let act = match act {
+            ActivationFunctionType::NONE => Some(Activation::None),
+            ActivationFunctionType::RELU => Some(Activation::Relu),
+            ActivationFunctionType::RELU6 => Some(Activation::Relu6),
+            _ => None,
+        };
+        if let Some(act) = act {
+            let op = super::conv::NhwcConv::new(
+                &kernel,
+                &bias,
+                (strides[0], strides[1]),
+                pad == Padding::SAME,
+                act,
+            )?;
+            return cx.node("conv", op, &[x]);
+        }
+    }
     // tract's OHWI carries the group on I: a depthwise kernel 1xHxWxC with group C is
     // exactly TFLite's layout.
     let k = cx.add_const("kernel", kernel.into_tensor())?;

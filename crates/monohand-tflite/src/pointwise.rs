@@ -179,7 +179,9 @@ impl PointwiseConv {
         self.prelu.is_some()
     }
 
-    fn compute(
+    /// The product of `x` (rows of `Cin`) into `out` (rows of `Cout`), with `residual` (the
+    /// output's shape) where the operator has one.
+    pub(crate) fn compute(
         &self,
         x: &[f32],
         residual: Option<&[f32]>,
