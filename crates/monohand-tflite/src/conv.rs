@@ -107,6 +107,22 @@ impl NhwcConv {
                 let iy0 = (oy * sy) as isize - pt as isize;
                 let ix0 = (ox * sx) as isize - pl as isize;
                 // Column (c, ky, kx) at (c·KH + ky)·KW + kx.
+                if iy0 >= 0 && ix0 >= 0 && iy0 as usize + kh <= h && ix0 as usize + kw <= w {
+                    // The whole window is inside the image.
+                    let window = &src[(iy0 as usize * w + ix0 as usize) * cin..];
+                    let mut taps = col.iter_mut();
+                    for c in 0..cin {
+                        for ky in 0..kh {
+                            let row = &window[ky * w * cin + c..];
+                            // The row's `kw` taps first: `zip` then stops without taking
+                            // one more column.
+                            for (&v, t) in row.iter().step_by(cin).take(kw).zip(taps.by_ref()) {
+                                *t = v;
+                            }
+                        }
+                    }
+                    continue;
+                }
                 for ky in 0..kh {
                     let iy = iy0 + ky as isize;
                     let row = (iy >= 0 && iy < h as isize)
