@@ -10,7 +10,7 @@
 #   --runs N         timed inferences per round, network and runtime (default 20)
 #   --variants LIST  extra monohand variants, comma-separated, each a '+'-joined list of
 #                    no-pointwise, no-epilogue, no-depthwise, no-prelu, no-dw-act,
-#                    no-dw-blocking, no-direct-conv
+#                    no-dw-blocking, no-conv
 #                    (default no-pointwise)
 # Environment: MODELS (default ~/.cache/monohand/models), CARGO_TARGET_DIR (default target),
 #   VENV (default /tmp/monohand-litert-venv), PYTHON (default python3).

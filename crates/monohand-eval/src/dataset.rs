@@ -155,7 +155,7 @@ impl Dataset {
         let mut seq_pos = std::collections::HashMap::<String, usize>::new();
         self.frames.retain(|f| {
             let c = seq_pos.entry(f.sequence.clone()).or_insert(0);
-            let keep = *c % step == 0;
+            let keep = (*c).is_multiple_of(step);
             *c += 1;
             keep
         });

@@ -528,7 +528,7 @@ fn push_tag(out: &mut Vec<u8>, ty: u32, data: &[u8]) {
     out.extend_from_slice(&ty.to_le_bytes());
     out.extend_from_slice(&(data.len() as u32).to_le_bytes());
     out.extend_from_slice(data);
-    while out.len() % 8 != 0 {
+    while !out.len().is_multiple_of(8) {
         out.push(0);
     }
 }
@@ -738,7 +738,7 @@ mod tests {
             let mut v = ty.to_be_bytes().to_vec();
             v.extend_from_slice(&(d.len() as u32).to_be_bytes());
             v.extend_from_slice(d);
-            while v.len() % 8 != 0 {
+            while !v.len().is_multiple_of(8) {
                 v.push(0);
             }
             v

@@ -78,7 +78,7 @@ fn big_endian_seed() -> Vec<u8> {
         out.extend(ty.to_be_bytes());
         out.extend((data.len() as u32).to_be_bytes());
         out.extend_from_slice(data);
-        while out.len() % 8 != 0 {
+        while !out.len().is_multiple_of(8) {
             out.push(0);
         }
     }

@@ -763,7 +763,7 @@ struct GlbBuilder {
 impl GlbBuilder {
     /// Appends bytes as a new buffer view (4-byte aligned); returns its index.
     fn view(&mut self, bytes: &[u8], target: Option<u32>) -> usize {
-        while self.bin.len() % 4 != 0 {
+        while !self.bin.len().is_multiple_of(4) {
             self.bin.push(0);
         }
         let mut v = json!({"buffer": 0, "byteOffset": self.bin.len(), "byteLength": bytes.len()});
@@ -834,14 +834,14 @@ impl GlbBuilder {
 
     /// The GLB container: header, JSON chunk, BIN chunk.
     fn finish(mut self, mut doc: Value) -> Vec<u8> {
-        while self.bin.len() % 4 != 0 {
+        while !self.bin.len().is_multiple_of(4) {
             self.bin.push(0);
         }
         doc["buffers"] = json!([{"byteLength": self.bin.len()}]);
         doc["bufferViews"] = json!(self.views);
         doc["accessors"] = json!(self.accessors);
         let mut js = doc.to_string().into_bytes();
-        while js.len() % 4 != 0 {
+        while !js.len().is_multiple_of(4) {
             js.push(b' ');
         }
         let total = 12 + 8 + js.len() + 8 + self.bin.len();

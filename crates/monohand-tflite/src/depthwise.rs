@@ -4,7 +4,10 @@
 //! largest single cost of the palm detector (≈ 40 % of the time). This operator keeps
 //! TFLite's NHWC layout and puts the channels in the innermost loop, so each kernel tap is a
 //! contiguous multiply-add over all channels that the compiler vectorises — with AVX2 + FMA
-//! when the CPU has them (checked at run time), SSE2 otherwise.
+//! when the CPU has them (checked at run time), SSE2 otherwise. On CPUs with AVX2 + FMA or
+//! AVX-512F, register-blocked kernels sum each output pixel's taps in registers (see
+//! [`NhwcDepthwise::register_blocked`]); the kernel is chosen as for
+//! [`crate::PointwiseConv`], `MONOHAND_KERNEL` included.
 
 use tract_core::internal::*;
 
@@ -26,8 +29,8 @@ pub struct NhwcDepthwise {
     pub same: bool,
     /// Activation applied to the result.
     pub activation: Activation,
-    /// Use the register-blocked AVX2 + FMA kernel where the CPU has those features (the
-    /// same results, bit for bit); false keeps the portable loop, to compare.
+    /// Use the register-blocked AVX-512 or AVX2 + FMA kernel where the CPU has those
+    /// features (the same results, bit for bit); false keeps the portable loop, to compare.
     pub register_blocked: bool,
 }
 
@@ -159,25 +162,79 @@ fn run(
 ) {
     #[cfg(target_arch = "x86_64")]
     {
-        if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
-        {
-            if blocked
-                && src.len() >= g.h * g.w * g.c
+        use crate::pointwise::Kernel;
+        let kernel = Kernel::best();
+        if kernel != Kernel::Portable {
+            let sized = src.len() >= g.h * g.w * g.c
                 && k.len() >= g.kh * g.kw * g.c
                 && b.len() >= g.c
-                && dst.len() >= g.oh * g.ow * g.c
-            {
-                // SAFETY: the CPU supports the features the function is compiled for, and
-                // the slices hold the sizes the geometry says (checked just above).
-                unsafe { avx2::run(g, src, k, b, dst, act) };
-            } else {
+                && dst.len() >= g.oh * g.ow * g.c;
+            match kernel {
+                // SAFETY: `Kernel::best` only returns kernels whose features the CPU has, and
+                // the slices hold the sizes the geometry says (`sized`).
+                Kernel::Avx512 if blocked && sized => unsafe {
+                    avx512::run(g, src, k, b, dst, act)
+                },
+                // SAFETY: as above (AVX-512 CPUs have AVX2 and FMA).
+                _ if blocked && sized => unsafe { avx2::run(g, src, k, b, dst, act) },
                 // SAFETY: the CPU supports the features the function is compiled for.
-                unsafe { run_avx2_fma(g, src, k, b, dst, act) };
+                _ => unsafe { run_avx2_fma(g, src, k, b, dst, act) },
             }
             return;
         }
     }
     kernel::<false>(g, src, k, b, dst, act);
+}
+
+/// Valid kernel rows (or columns) `[k0, k1)` of an output pixel whose window starts at
+/// input coordinate `start` on an axis of `size` pixels.
+#[inline(always)]
+fn valid(start: isize, size: usize, k: usize) -> (usize, usize) {
+    let k0 = (-start).max(0) as usize;
+    let k1 = ((size as isize - start).max(0) as usize).min(k);
+    (k0, k1)
+}
+
+/// The window of one output pixel, for the register-blocked kernels.
+#[derive(Clone, Copy)]
+struct Window {
+    /// Index of the output pixel (`oy · ow + ox`).
+    pixel: usize,
+    /// Input coordinates of the window's top left tap (may be negative: padding).
+    y0: isize,
+    x0: isize,
+    /// Kernel rows `[ky0, ky1)` and columns `[kx0, kx1)` inside the image.
+    ky: (usize, usize),
+    kx: (usize, usize),
+}
+
+impl Window {
+    /// Offset in the input of channel 0 of tap `(ky, kx)`, which must be a valid tap
+    /// (`ky >= ky0` and `kx >= kx0` keep the coordinates >= 0).
+    #[inline(always)]
+    fn input(&self, g: &Geometry, ky: usize, kx: usize) -> usize {
+        ((self.y0 + ky as isize) as usize * g.w + (self.x0 + kx as isize) as usize) * g.c
+    }
+}
+
+/// Calls `f` with each output pixel's window, row by row.
+#[inline(always)]
+fn each_window(g: &Geometry, mut f: impl FnMut(Window)) {
+    for oy in 0..g.oh {
+        let y0 = (oy * g.sy) as isize - g.pt as isize;
+        let ky = valid(y0, g.h, g.kh);
+        for ox in 0..g.ow {
+            let x0 = (ox * g.sx) as isize - g.pl as isize;
+            let kx = valid(x0, g.w, g.kw);
+            f(Window {
+                pixel: oy * g.ow + ox,
+                y0,
+                x0,
+                ky,
+                kx,
+            });
+        }
+    }
 }
 
 /// The portable loop nest compiled for AVX2 + FMA (the kernel before the register-blocked
@@ -204,7 +261,7 @@ unsafe fn run_avx2_fma(
 /// with the same fused multiply-adds, so the results are bit-identical to it.
 #[cfg(target_arch = "x86_64")]
 mod avx2 {
-    use super::{Bounds, Geometry};
+    use super::{each_window, Bounds, Geometry};
     use std::arch::x86_64::*;
 
     /// # Safety
@@ -234,17 +291,12 @@ mod avx2 {
         }
     }
 
-    /// Valid kernel rows (or columns) `[k0, k1)` of an output pixel whose window starts at
-    /// input coordinate `start` on an axis of `size` pixels.
-    #[inline(always)]
-    fn valid(start: isize, size: usize, k: usize) -> (usize, usize) {
-        let k0 = (-start).max(0) as usize;
-        let k1 = ((size as isize - start).max(0) as usize).min(k);
-        (k0, k1)
-    }
-
     /// Channels `ch .. ch + 8·N` of the whole output.
-    #[inline(always)]
+    ///
+    /// # Safety
+    /// As [`run`], and `ch + 8·N <= c`.
+    #[target_feature(enable = "avx2,fma")]
+    #[inline]
     unsafe fn block<const N: usize>(
         g: &Geometry,
         src: *const f32,
@@ -259,22 +311,17 @@ mod avx2 {
         let (lo, hi) = (_mm256_set1_ps(low), _mm256_set1_ps(high));
         let mut bias = [_mm256_setzero_ps(); N];
         for (r, v) in bias.iter_mut().enumerate() {
-            *v = _mm256_loadu_ps(b.add(ch + 8 * r));
+            // SAFETY: ch + 8·N <= c biases.
+            *v = unsafe { _mm256_loadu_ps(b.add(ch + 8 * r)) };
         }
-        for oy in 0..g.oh {
-            let y0 = (oy * g.sy) as isize - g.pt as isize;
-            let (ky0, ky1) = valid(y0, g.h, g.kh);
-            for ox in 0..g.ow {
-                let x0 = (ox * g.sx) as isize - g.pl as isize;
-                let (kx0, kx1) = valid(x0, g.w, g.kw);
-                let mut acc = bias;
-                for ky in ky0..ky1 {
-                    // ky >= ky0 and kx >= kx0 keep the input coordinates >= 0.
-                    let row = src.add((y0 + ky as isize) as usize * g.w * c + ch);
-                    let wrow = k.add(ky * g.kw * c + ch);
-                    for kx in kx0..kx1 {
-                        let i = row.add((x0 + kx as isize) as usize * c);
-                        let w = wrow.add(kx * c);
+        each_window(g, |win| {
+            let mut acc = bias;
+            for ky in win.ky.0..win.ky.1 {
+                for kx in win.kx.0..win.kx.1 {
+                    // SAFETY: a valid tap of the window, channels ch .. ch + 8·N < c.
+                    unsafe {
+                        let i = src.add(win.input(g, ky, kx) + ch);
+                        let w = k.add((ky * g.kw + kx) * c + ch);
                         for (r, a) in acc.iter_mut().enumerate() {
                             *a = _mm256_fmadd_ps(
                                 _mm256_loadu_ps(i.add(8 * r)),
@@ -284,22 +331,28 @@ mod avx2 {
                         }
                     }
                 }
-                let out = dst.add((oy * g.ow + ox) * c + ch);
-                for (r, a) in acc.iter().enumerate() {
-                    // max(x, low) then min(., high), as the portable loop.
-                    let v = if clamp {
-                        _mm256_min_ps(_mm256_max_ps(*a, lo), hi)
-                    } else {
-                        *a
-                    };
-                    _mm256_storeu_ps(out.add(8 * r), v);
-                }
             }
-        }
+            // SAFETY: the pixel's channels ch .. ch + 8·N.
+            let out = unsafe { dst.add(win.pixel * c + ch) };
+            for (r, a) in acc.iter().enumerate() {
+                // max(x, low) then min(., high), as the portable loop.
+                let v = if clamp {
+                    _mm256_min_ps(_mm256_max_ps(*a, lo), hi)
+                } else {
+                    *a
+                };
+                // SAFETY: as above.
+                unsafe { _mm256_storeu_ps(out.add(8 * r), v) };
+            }
+        });
     }
 
     /// The last `c - ch0` (< 8) channels, one at a time.
-    #[inline(always)]
+    ///
+    /// # Safety
+    /// As [`run`], and `ch0 <= c`.
+    #[target_feature(enable = "avx2,fma")]
+    #[inline]
     unsafe fn tail(
         g: &Geometry,
         src: *const f32,
@@ -311,29 +364,189 @@ mod avx2 {
     ) {
         let c = g.c;
         let clamp = low > f32::NEG_INFINITY || high < f32::INFINITY;
-        for oy in 0..g.oh {
-            let y0 = (oy * g.sy) as isize - g.pt as isize;
-            let (ky0, ky1) = valid(y0, g.h, g.kh);
-            for ox in 0..g.ow {
-                let x0 = (ox * g.sx) as isize - g.pl as isize;
-                let (kx0, kx1) = valid(x0, g.w, g.kw);
-                for ch in ch0..c {
+        each_window(g, |win| {
+            for ch in ch0..c {
+                // SAFETY: channel ch < c of the biases, of valid taps and of the pixel.
+                unsafe {
                     let mut a = *b.add(ch);
-                    for ky in ky0..ky1 {
-                        let iy = (y0 + ky as isize) as usize;
-                        for kx in kx0..kx1 {
-                            let ix = (x0 + kx as isize) as usize;
-                            let i = *src.add((iy * g.w + ix) * c + ch);
+                    for ky in win.ky.0..win.ky.1 {
+                        for kx in win.kx.0..win.kx.1 {
+                            let i = *src.add(win.input(g, ky, kx) + ch);
                             a = i.mul_add(*k.add((ky * g.kw + kx) * c + ch), a);
                         }
                     }
                     if clamp {
                         a = a.max(low).min(high);
                     }
-                    *dst.add((oy * g.ow + ox) * c + ch) = a;
+                    *dst.add(win.pixel * c + ch) = a;
                 }
             }
+        });
+    }
+}
+
+/// The AVX-512 kernel: [`avx2`]'s register blocking with 16-lane vectors, 64 channels per
+/// block, then the remaining 1-63 channels in one block whose last vector is under a lane
+/// mask (instead of one channel at a time). Same order of the same fused multiply-adds per lane, so
+/// the results are bit-identical to the portable loop's.
+#[cfg(target_arch = "x86_64")]
+mod avx512 {
+    use super::{each_window, Bounds, Geometry};
+    use std::arch::x86_64::*;
+
+    /// # Safety
+    /// The CPU must support AVX-512F; `src`, `k`, `b` and `dst` must hold at least
+    /// `h·w·c`, `kh·kw·c`, `c` and `oh·ow·c` elements.
+    #[target_feature(enable = "avx512f")]
+    pub(super) unsafe fn run(
+        g: &Geometry,
+        src: &[f32],
+        k: &[f32],
+        b: &[f32],
+        dst: &mut [f32],
+        act: Bounds,
+    ) {
+        let (src, k, b, dst) = (src.as_ptr(), k.as_ptr(), b.as_ptr(), dst.as_mut_ptr());
+        // SAFETY: the caller's contract.
+        unsafe {
+            match (g.kh, g.kw) {
+                (3, 3) => sweep::<3>(g, src, k, b, dst, act),
+                (5, 5) => sweep::<5>(g, src, k, b, dst, act),
+                _ => sweep::<0>(g, src, k, b, dst, act),
+            }
         }
+    }
+
+    /// [`run`] for square `K x K` kernels (`K = 0`: any size).
+    ///
+    /// # Safety
+    /// As [`run`], with pointers to the slices; `K` is 0 or `kh == kw == K`.
+    #[target_feature(enable = "avx512f")]
+    #[inline]
+    unsafe fn sweep<const K: usize>(
+        g: &Geometry,
+        src: *const f32,
+        k: *const f32,
+        b: *const f32,
+        dst: *mut f32,
+        act: Bounds,
+    ) {
+        let mut ch = 0;
+        // SAFETY (all blocks): the channels each block touches are below c.
+        while ch + 64 <= g.c {
+            unsafe { block::<4, false, K>(g, src, k, b, dst, ch, 0xffff, act) };
+            ch += 64;
+        }
+        // The rest in one sweep of the image (24 channels: one block of a whole and a
+        // half-masked vector, not two sweeps).
+        let rest = g.c - ch;
+        let mask = match rest % 16 {
+            0 => 0xffff,
+            r => (1u16 << r) - 1,
+        };
+        let masked = !rest.is_multiple_of(16);
+        unsafe {
+            match (rest.div_ceil(16), masked) {
+                (0, _) => {}
+                (1, false) => block::<1, false, K>(g, src, k, b, dst, ch, mask, act),
+                (1, true) => block::<1, true, K>(g, src, k, b, dst, ch, mask, act),
+                (2, false) => block::<2, false, K>(g, src, k, b, dst, ch, mask, act),
+                (2, true) => block::<2, true, K>(g, src, k, b, dst, ch, mask, act),
+                (3, false) => block::<3, false, K>(g, src, k, b, dst, ch, mask, act),
+                (3, true) => block::<3, true, K>(g, src, k, b, dst, ch, mask, act),
+                // rest < 64: four vectors only with a partial last one.
+                (_, _) => block::<4, true, K>(g, src, k, b, dst, ch, mask, act),
+            }
+        }
+    }
+
+    /// Channels `ch .. ch + 16·N` of the whole output; with `MASKED`, the last vector's
+    /// lanes outside `mask` are neither read nor written. With `K > 0` (a `K x K` kernel)
+    /// the windows inside the image take a fully unrolled path (the same taps in the same
+    /// order).
+    ///
+    /// # Safety
+    /// As [`sweep`], and the lanes read and written are channels below `c`.
+    #[target_feature(enable = "avx512f")]
+    #[inline]
+    #[allow(clippy::too_many_arguments)]
+    unsafe fn block<const N: usize, const MASKED: bool, const K: usize>(
+        g: &Geometry,
+        src: *const f32,
+        k: *const f32,
+        b: *const f32,
+        dst: *mut f32,
+        ch: usize,
+        mask: __mmask16,
+        (low, high): Bounds,
+    ) {
+        let c = g.c;
+        let clamp = low > f32::NEG_INFINITY || high < f32::INFINITY;
+        let (lo, hi) = (_mm512_set1_ps(low), _mm512_set1_ps(high));
+        // SAFETY (loads and stores): the channels of the caller's contract.
+        let load = |p: *const f32, r: usize| unsafe {
+            if MASKED && r + 1 == N {
+                _mm512_maskz_loadu_ps(mask, p.add(16 * r))
+            } else {
+                _mm512_loadu_ps(p.add(16 * r))
+            }
+        };
+        let mut bias = [_mm512_setzero_ps(); N];
+        for (r, v) in bias.iter_mut().enumerate() {
+            // SAFETY: channels ch .. of the biases.
+            *v = load(unsafe { b.add(ch) }, r);
+        }
+        let row = g.w * c;
+        each_window(g, |win| {
+            let mut acc = bias;
+            if K > 0 && win.ky == (0, K) && win.kx == (0, K) {
+                // SAFETY: every tap of the window is inside the image.
+                let i0 = unsafe { src.add(win.input(g, 0, 0) + ch) };
+                for ky in 0..K {
+                    for kx in 0..K {
+                        // SAFETY: as above; tap (ky, kx) of the K x K weights.
+                        let (i, w) =
+                            unsafe { (i0.add(ky * row + kx * c), k.add((ky * K + kx) * c + ch)) };
+                        for (r, a) in acc.iter_mut().enumerate() {
+                            *a = _mm512_fmadd_ps(load(i, r), load(w, r), *a);
+                        }
+                    }
+                }
+            } else {
+                for ky in win.ky.0..win.ky.1 {
+                    for kx in win.kx.0..win.kx.1 {
+                        // SAFETY: a valid tap of the window.
+                        let (i, w) = unsafe {
+                            (
+                                src.add(win.input(g, ky, kx) + ch),
+                                k.add((ky * g.kw + kx) * c + ch),
+                            )
+                        };
+                        for (r, a) in acc.iter_mut().enumerate() {
+                            *a = _mm512_fmadd_ps(load(i, r), load(w, r), *a);
+                        }
+                    }
+                }
+            }
+            // SAFETY: the pixel's channels from ch.
+            let out = unsafe { dst.add(win.pixel * c + ch) };
+            for (r, a) in acc.iter().enumerate() {
+                // max(x, low) then min(., high), as the portable loop.
+                let v = if clamp {
+                    _mm512_min_ps(_mm512_max_ps(*a, lo), hi)
+                } else {
+                    *a
+                };
+                // SAFETY: as above.
+                unsafe {
+                    if MASKED && r + 1 == N {
+                        _mm512_mask_storeu_ps(out.add(16 * r), mask, v);
+                    } else {
+                        _mm512_storeu_ps(out.add(16 * r), v);
+                    }
+                }
+            }
+        });
     }
 }
 
@@ -529,14 +742,16 @@ mod tests {
         assert!(below && above);
     }
 
-    /// The AVX2 kernel sums in the portable loop's order with the same fused
-    /// multiply-adds: its results are the same bits.
+    /// The AVX2 and AVX-512 kernels sum in the portable loop's order with the same fused
+    /// multiply-adds: their results are the same bits. The channel counts cover AVX2's blocks
+    /// of 32 and 8 and its scalar tail, and AVX-512's blocks of 64 and its last blocks of 1,
+    /// 2 and 3 vectors with and without a masked last vector, and of 4 with one.
     #[cfg(target_arch = "x86_64")]
     #[test]
-    fn the_avx2_kernel_is_bit_identical_to_the_portable_loop() {
-        if !(std::arch::is_x86_feature_detected!("avx2")
-            && std::arch::is_x86_feature_detected!("fma"))
-        {
+    fn the_simd_kernels_are_bit_identical_to_the_portable_loop() {
+        use crate::pointwise::Kernel;
+        let kernels = Kernel::supported();
+        if !kernels.contains(&Kernel::Avx2Fma) {
             eprintln!("no AVX2 + FMA on this CPU: only the portable loop runs here");
             return;
         }
@@ -544,6 +759,14 @@ mod tests {
             (9, 8, 72, 3, 1, true),
             (10, 11, 45, 5, 2, true),
             (8, 8, 40, 3, 2, false),
+            (7, 9, 100, 3, 1, true),
+            (6, 5, 3, 5, 1, true),
+            (9, 9, 24, 3, 1, true),
+            (6, 7, 96, 3, 2, true),
+            (5, 5, 16, 3, 1, false),
+            (6, 6, 48, 5, 1, true),
+            (7, 6, 56, 3, 1, true),
+            (6, 7, 120, 5, 2, true),
         ] {
             let x: Vec<f32> = (0..h * w * c)
                 .map(|i| ((i * 7919 % 1009) as f32 - 504.0) / 97.0)
@@ -568,19 +791,102 @@ mod tests {
                 ow,
             };
             for act in [(f32::NEG_INFINITY, f32::INFINITY), (0.0, 6.0)] {
-                let mut fast = vec![0.0; oh * ow * c];
                 let mut portable = vec![0.0; oh * ow * c];
-                // SAFETY: AVX2 and FMA were detected; the buffers have the geometry's sizes.
-                unsafe { avx2::run(&g, &x, &k, &b, &mut fast, act) };
-                // SAFETY: as above.
+                // SAFETY: AVX2 and FMA were detected.
                 unsafe { run_avx2_fma(&g, &x, &k, &b, &mut portable, act) };
-                let differ = fast
-                    .iter()
-                    .zip(&portable)
-                    .filter(|(a, b)| a.to_bits() != b.to_bits())
-                    .count();
-                assert_eq!(differ, 0, "{h}x{w}x{c} k{kh} s{s} same {same} {act:?}");
+                for &kernel in &kernels {
+                    let mut fast = vec![f32::NAN; oh * ow * c];
+                    match kernel {
+                        Kernel::Portable => continue,
+                        // SAFETY: the CPU has the kernel's features (`supported`); the
+                        // buffers have the geometry's sizes.
+                        Kernel::Avx2Fma => unsafe { avx2::run(&g, &x, &k, &b, &mut fast, act) },
+                        // SAFETY: as above.
+                        Kernel::Avx512 => unsafe { avx512::run(&g, &x, &k, &b, &mut fast, act) },
+                    }
+                    let differ = fast
+                        .iter()
+                        .zip(&portable)
+                        .filter(|(a, b)| a.to_bits() != b.to_bits())
+                        .count();
+                    assert_eq!(
+                        differ, 0,
+                        "{kernel:?} {h}x{w}x{c} k{kh} s{s} same {same} {act:?}"
+                    );
+                }
             }
+        }
+    }
+}
+
+#[cfg(all(test, target_arch = "x86_64"))]
+mod speed {
+    use super::*;
+    use crate::pointwise::Kernel;
+
+    /// Microseconds per call of each SIMD kernel the CPU runs, side by side, on the
+    /// hand-landmark lite shapes (best of 7):
+    /// `cargo test --release -p monohand-tflite depthwise::speed -- --ignored --nocapture`.
+    #[test]
+    #[ignore = "a measurement, not a test"]
+    fn landmark_shapes() {
+        // (h, w, c, k, stride) of the input.
+        let shapes = [
+            (112, 112, 24, 3, 1),
+            (112, 112, 64, 3, 2),
+            (56, 56, 96, 3, 1),
+            (56, 56, 96, 3, 2),
+            (28, 28, 144, 5, 2),
+            (14, 14, 288, 5, 1),
+            (14, 14, 384, 3, 1),
+            (7, 7, 672, 5, 1),
+        ];
+        for (h, w, c, kh, s) in shapes {
+            let (oh, pt) = axis_geometry(h, kh, s, true);
+            let (ow, pl) = axis_geometry(w, kh, s, true);
+            let g = Geometry {
+                h,
+                w,
+                c,
+                kh,
+                kw: kh,
+                sy: s,
+                sx: s,
+                pt,
+                pl,
+                oh,
+                ow,
+            };
+            let x = vec![0.5f32; h * w * c];
+            let k = vec![0.25f32; kh * kh * c];
+            let b = vec![0.1f32; c];
+            let mut out = vec![0f32; oh * ow * c];
+            let mut line = format!("{h:>4}x{w:<4}x{c:>4} k{kh} s{s}:");
+            for kernel in Kernel::supported() {
+                let n = (2e7 / (oh * ow * c * kh * kh) as f64).max(3.0) as usize;
+                let mut best = f64::MAX;
+                for _ in 0..7 {
+                    let t = std::time::Instant::now();
+                    for _ in 0..n {
+                        match kernel {
+                            Kernel::Portable => continue,
+                            // SAFETY: the CPU has the kernel's features; sizes as the geometry.
+                            Kernel::Avx2Fma => unsafe {
+                                avx2::run(&g, &x, &k, &b, &mut out, (0.0, 6.0))
+                            },
+                            // SAFETY: as above.
+                            Kernel::Avx512 => unsafe {
+                                avx512::run(&g, &x, &k, &b, &mut out, (0.0, 6.0))
+                            },
+                        }
+                    }
+                    best = best.min(t.elapsed().as_secs_f64() / n as f64);
+                }
+                if kernel != Kernel::Portable {
+                    line += &format!("  {}: {:7.1} us", kernel.name(), best * 1e6);
+                }
+            }
+            println!("{line}");
         }
     }
 }

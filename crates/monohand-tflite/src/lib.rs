@@ -18,25 +18,26 @@
 //! were the largest costs of the networks: [`NhwcDepthwise`] (depthwise convolution with the
 //! channels innermost), [`ChannelPrelu`] (PRELU in one pass), [`PointwiseConv`] (the 1x1
 //! stride-1 convolutions, i.e. a `[H·W, Cin] x [Cin, Cout]` product, with weights packed at
-//! load, an AVX2 + FMA micro-kernel chosen at run time and a fused epilogue: bias,
+//! load, an AVX-512 or AVX2 + FMA micro-kernel chosen at run time and a fused epilogue: bias,
 //! activation, and the residual `ADD` and/or `PRELU` that follow it when nothing else reads
-//! the convolution's result) and [`DirectConv`] (the first layer's strided convolution of
-//! the image, without tract's padded copy and im2col). [`ImportOptions`] switches back to
-//! tract's built-in operators.
+//! the convolution's result), and [`NhwcConv`] (the other convolutions over few input
+//! channels, i.e. the stems: im2col rows gathered a few output rows at a time, padding
+//! included, and multiplied with [`PointwiseConv`]'s kernels). [`ImportOptions`] switches
+//! back to tract's built-in operators.
 
 #![deny(missing_docs)]
 
+mod conv;
 mod depthwise;
 mod ops;
 mod pointwise;
 mod prelu;
-mod stem;
 mod tensors;
 
+pub use conv::NhwcConv;
 pub use depthwise::NhwcDepthwise;
 pub use pointwise::{Activation, PointwiseConv};
 pub use prelu::ChannelPrelu;
-pub use stem::{DirectConv, DIRECT_CONV_MAX_INPUT_CHANNELS};
 
 use std::collections::HashMap;
 
@@ -107,16 +108,17 @@ pub struct ImportOptions {
     /// [`NhwcDepthwise`], on each output row while it is in cache, instead of as tract's
     /// `Max` and `Min` nodes over the whole tensor. Default: true.
     pub fused_depthwise_activation: bool,
-    /// With `fast_depthwise`: on CPUs with AVX2 + FMA, sum each output pixel's taps in
-    /// registers over blocks of channels ([`NhwcDepthwise::register_blocked`]) instead of
-    /// the portable loop that passes over the output row once per tap. The results are the
-    /// same bits. Default: true.
+    /// With `fast_depthwise`: on CPUs with AVX2 + FMA (or AVX-512), sum each output pixel's
+    /// taps in registers over blocks of channels ([`NhwcDepthwise::register_blocked`])
+    /// instead of the portable loop that passes over the output row once per tap. The
+    /// results are the same bits. Default: true.
     pub register_blocked_depthwise: bool,
-    /// Translate a `CONV_2D` with at most [`DIRECT_CONV_MAX_INPUT_CHANNELS`] input
-    /// channels (the networks' first layer, on the image) to [`DirectConv`], which reads
-    /// the image in place and applies bias and `RELU`/`RELU6` in registers, instead of
-    /// tract's padded copy, im2col product and separate activation. Default: true.
-    pub direct_conv: bool,
+    /// Translate the other `CONV_2D`s (kernels larger than 1x1 or strides above 1) with at
+    /// most 512 weights per output channel and a NONE/RELU/RELU6 activation — the networks'
+    /// first layer — to [`NhwcConv`] (padding, product, bias and activation in one operator)
+    /// instead of tract's `Pad`, im2col product and activation nodes, where
+    /// [`PointwiseConv::fast_kernel_available`]. Default: true.
+    pub fast_conv: bool,
 }
 
 impl Default for ImportOptions {
@@ -128,7 +130,7 @@ impl Default for ImportOptions {
             fused_pointwise_epilogue: true,
             fused_depthwise_activation: true,
             register_blocked_depthwise: true,
-            direct_conv: true,
+            fast_conv: true,
         }
     }
 }

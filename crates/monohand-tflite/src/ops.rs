@@ -505,27 +505,28 @@ fn conv(cx: &mut Ctx, depthwise: bool) -> Result<OutletId, ImportError> {
             return cx.node("pointwise", op, &[x]);
         }
     }
-    if !depthwise
-        && cx.options.direct_conv
-        && in_channels <= super::stem::DIRECT_CONV_MAX_INPUT_CHANNELS
-        && dilations == [1, 1]
-    {
-        let fused = match act {
-            ActivationFunctionType::NONE => Some(Activation::None),
-            ActivationFunctionType::RELU => Some(Activation::Relu),
-            ActivationFunctionType::RELU6 => Some(Activation::Relu6),
-            _ => None,
-        };
-        if let Some(act) = fused {
-            let op = super::stem::DirectConv::new(
-                &kernel,
-                &bias,
-                (strides[0], strides[1]),
-                pad == Padding::SAME,
-                act,
-            )?;
-            return cx.node("direct_conv", op, &[x]);
-        }
+    let fused = match act {
+        ActivationFunctionType::NONE => Some(Activation::None),
+        ActivationFunctionType::RELU => Some(Activation::Relu),
+        ActivationFunctionType::RELU6 => Some(Activation::Relu6),
+        _ => None,
+    };
+    if let Some(act) = fused.filter(|_| {
+        !depthwise
+            && cx.options.fast_conv
+            && !(ks[1] == 1 && ks[2] == 1 && strides == [1, 1])
+            && dilations == [1, 1]
+            && ks[1] * ks[2] * ks[3] <= 512
+            && PointwiseConv::fast_kernel_available()
+    }) {
+        let op = super::conv::NhwcConv::new(
+            &kernel,
+            &bias,
+            (strides[0], strides[1]),
+            pad == Padding::SAME,
+            act,
+        )?;
+        return cx.node("conv", op, &[x]);
     }
     // tract's OHWI carries the group on I: a depthwise kernel 1xHxWxC with group C is
     // exactly TFLite's layout.
@@ -797,7 +798,7 @@ fn fully_connected(cx: &mut Ctx, out_shape: &[usize]) -> Result<OutletId, Import
                 .map_err(|e| ImportError::Malformed(format!("dynamic FC input: {e}")))
         })
         .product::<Result<usize, ImportError>>()?;
-    if ws[1] == 0 || total % ws[1] != 0 {
+    if ws[1] == 0 || !total.is_multiple_of(ws[1]) {
         return Err(ImportError::Malformed(format!(
             "{}: an input of {total} values does not split into rows of {} (weights {ws:?})",
             cx.prefix, ws[1]

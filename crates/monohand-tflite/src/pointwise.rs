@@ -13,19 +13,28 @@
 //!   activation (none, RELU, RELU6), optionally a residual `ADD` of a second input of the same
 //!   shape with its own activation, and optionally a per-channel PRELU — the patterns that
 //!   follow the 1x1 convolutions in MediaPipe's palm and hand-landmark networks;
-//! * runs a hand-written AVX2 + FMA micro-kernel (6 rows x 16 channels in 12 registers) when
-//!   the CPU has these features (checked at run time), a portable one otherwise. The portable
-//!   one is a correct but slow fallback; the importer uses this operator only where
-//!   [`PointwiseConv::fast_kernel_available`].
+//! * runs a hand-written micro-kernel chosen at run time: AVX-512F + VL (8 rows x 32
+//!   channels, two panels side by side, in 16-lane registers, an 8-lane one for a last 8 or
+//!   fewer channels, masked loads and stores for the channel tail) when the CPU has it, else AVX2 + FMA (6 rows x 16 channels in 12 registers), else a
+//!   portable one. The portable one is a correct but slow fallback; the importer uses this
+//!   operator only where [`PointwiseConv::fast_kernel_available`].
 //!
-//! There is no AVX-512 variant: the machine this was written on has none to test it with.
+//! The environment variable `MONOHAND_KERNEL` (`portable`, `avx2` or `avx512`, read once per
+//! process) forces a slower kernel than the CPU allows, to compare them in one run; a kernel
+//! the CPU lacks is ignored (the best one runs). It also steers [`crate::NhwcDepthwise`].
+//! `portable` makes [`PointwiseConv::fast_kernel_available`] false, so the importer then
+//! keeps tract's own 1x1 convolutions.
 
 use tract_core::internal::*;
 
 /// Output channels per packed weight panel (two AVX2 vectors of 8 floats).
 pub const NR: usize = 16;
-/// Rows (pixels) per micro-tile.
+/// Rows (pixels) per micro-tile of the portable and AVX2 kernels.
 const MR: usize = 6;
+/// Rows per micro-tile of the AVX-512 kernel (its tiles are two panels wide: `2·MR512`
+/// accumulators plus two weight vectors of the 32 registers).
+#[cfg(target_arch = "x86_64")]
+const MR512: usize = 8;
 /// Input bytes of one block of rows that should stay in L2 while every weight panel passes
 /// over it.
 const ROW_BLOCK_BYTES: usize = 128 * 1024;
@@ -151,7 +160,8 @@ impl PointwiseConv {
         self.cout
     }
 
-    /// Whether this CPU runs a vectorised kernel (x86-64 with AVX2 and FMA). The portable
+    /// Whether this CPU runs a vectorised kernel (x86-64 with AVX2 and FMA, or AVX-512F and
+    /// AVX-512VL), and `MONOHAND_KERNEL` does not force the portable one. The portable
     /// fallback is correct but slow (≈ 4 GFLOP/s against ≈ 65-95 for AVX2 + FMA on the
     /// hand-landmark shapes, and slower than tract's own kernels), so the importer only uses
     /// this operator when this is true.
@@ -169,7 +179,9 @@ impl PointwiseConv {
         self.prelu.is_some()
     }
 
-    fn compute(
+    /// The product of `x` (rows of `Cin`) into `out` (rows of `Cout`), with `residual` (the
+    /// output's shape) where the operator has one.
+    pub(crate) fn compute(
         &self,
         x: &[f32],
         residual: Option<&[f32]>,
@@ -294,48 +306,103 @@ pub(crate) enum Kernel {
     /// `std::arch` AVX2 + FMA intrinsics.
     #[cfg(target_arch = "x86_64")]
     Avx2Fma,
+    /// `std::arch` AVX-512F + VL intrinsics.
+    #[cfg(target_arch = "x86_64")]
+    Avx512,
 }
 
 impl Kernel {
-    /// The fastest kernel this CPU runs.
-    fn best() -> Kernel {
+    /// The name `MONOHAND_KERNEL` selects this kernel by.
+    pub(crate) fn name(self) -> &'static str {
+        match self {
+            Kernel::Portable => "portable",
+            #[cfg(target_arch = "x86_64")]
+            Kernel::Avx2Fma => "avx2",
+            #[cfg(target_arch = "x86_64")]
+            Kernel::Avx512 => "avx512",
+        }
+    }
+
+    /// Every kernel this CPU runs, slowest first.
+    pub(crate) fn supported() -> Vec<Kernel> {
+        #[allow(unused_mut)]
+        let mut v = vec![Kernel::Portable];
         #[cfg(target_arch = "x86_64")]
         {
             if std::arch::is_x86_feature_detected!("avx2")
                 && std::arch::is_x86_feature_detected!("fma")
             {
-                return Kernel::Avx2Fma;
+                v.push(Kernel::Avx2Fma);
+            }
+            if std::arch::is_x86_feature_detected!("avx512f")
+                && std::arch::is_x86_feature_detected!("avx512vl")
+            {
+                v.push(Kernel::Avx512);
             }
         }
-        Kernel::Portable
+        v
+    }
+
+    /// The fastest kernel this CPU runs, or the one `MONOHAND_KERNEL` names if the CPU runs
+    /// it (decided once per process).
+    pub(crate) fn best() -> Kernel {
+        static BEST: std::sync::OnceLock<Kernel> = std::sync::OnceLock::new();
+        *BEST.get_or_init(|| {
+            let supported = Kernel::supported();
+            let forced = std::env::var("MONOHAND_KERNEL").ok();
+            let forced = supported
+                .iter()
+                .copied()
+                .find(|k| forced.as_deref() == Some(k.name()));
+            forced
+                .or_else(|| supported.last().copied())
+                .unwrap_or(Kernel::Portable)
+        })
     }
 
     /// Every kernel this CPU runs.
     #[cfg(test)]
     fn available() -> Vec<Kernel> {
-        let mut v = vec![Kernel::Portable];
-        if Kernel::best() != Kernel::Portable {
-            v.push(Kernel::best());
-        }
-        v
+        Kernel::supported()
     }
 
-    /// The tile function for `m` rows and `v` vectors of 8 channels (`1 <= m <= MR`,
-    /// `1 <= v <= NR / 8`).
-    fn tile(self, m: usize, v: usize) -> TileFn {
+    /// Rows per micro-tile.
+    fn rows(self) -> usize {
+        match self {
+            #[cfg(target_arch = "x86_64")]
+            Kernel::Avx512 => MR512,
+            _ => MR,
+        }
+    }
+
+    /// Weight panels per micro-tile.
+    fn panels(self) -> usize {
+        match self {
+            #[cfg(target_arch = "x86_64")]
+            Kernel::Avx512 => 2,
+            _ => 1,
+        }
+    }
+
+    /// The tile function for `m` rows and `width` channels (`1 <= m <= self.rows()`,
+    /// `1 <= width <= NR · self.panels()`).
+    fn tile(self, m: usize, width: usize) -> TileFn {
         match self {
             Kernel::Portable => tile_portable,
             #[cfg(target_arch = "x86_64")]
-            Kernel::Avx2Fma => avx2::tile(m, v),
+            Kernel::Avx2Fma => avx2::tile(m, width.div_ceil(8)),
+            #[cfg(target_arch = "x86_64")]
+            Kernel::Avx512 => avx512::tile(m, width),
         }
     }
 }
 
 /// One micro-tile: `m` rows of the input against one weight panel, epilogue included.
 ///
-/// Pointers are valid for: `a`: `m` rows of `lda` floats; `b`: `k` rows of [`NR`] floats;
-/// `bias`, `alpha`: [`NR`] floats; `out`, `res`: `m` rows of stride `ldo`, `width` floats each.
-/// `alpha`, `res` may be null (absent).
+/// Pointers are valid for: `a`: `m` rows of `lda` floats; `b`: `k` rows of [`NR`] floats
+/// (one panel), followed, when `width > NR`, by the next panel's `k` rows; `bias`, `alpha`:
+/// `NR · width.div_ceil(NR)` floats; `out`, `res`: `m` rows of stride `ldo`, `width` floats
+/// each. `alpha`, `res` may be null (absent).
 struct Tile {
     a: *const f32,
     lda: usize,
@@ -380,22 +447,23 @@ impl Job<'_> {
                 && self.residual.is_none_or(|r| r.len() == out.len()),
             "pointwise convolution: inconsistent buffer sizes"
         );
-        let block = (ROW_BLOCK_BYTES / (4 * self.cin)).max(MR) / MR * MR;
+        let (mr, step) = (kernel.rows(), kernel.panels());
+        let block = (ROW_BLOCK_BYTES / (4 * self.cin)).max(mr) / mr * mr;
         let mut r0 = 0;
         while r0 < self.rows {
             let r1 = (r0 + block).min(self.rows);
-            for p in 0..panels {
+            for p in (0..panels).step_by(step) {
                 let c0 = p * NR;
-                let width = NR.min(self.cout - c0);
+                let width = (step * NR).min(self.cout - c0);
                 let mut r = r0;
                 while r < r1 {
-                    // Rather than a last tile of 1 to 3 rows (which streams the whole panel
-                    // for little work), two tiles of about equal height.
+                    // Rather than a last tile of at most half the height (which streams the
+                    // whole panel for little work), two tiles of about equal height.
                     let left = r1 - r;
-                    let m = if left > MR && left < MR + 4 {
+                    let m = if left > mr && left <= mr + mr / 2 {
                         left.div_ceil(2)
                     } else {
-                        MR.min(left)
+                        mr.min(left)
                     };
                     let t = Tile {
                         // SAFETY (all pointers): r + m <= rows and c0 + width <= cout, and the
@@ -420,7 +488,7 @@ impl Job<'_> {
                     };
                     // SAFETY: the tile's pointers satisfy `Tile`'s contract (see above), and
                     // the kernel was chosen among those the CPU supports.
-                    unsafe { kernel.tile(m, width.div_ceil(8))(&t) };
+                    unsafe { kernel.tile(m, width)(&t) };
                     r += m;
                 }
             }
@@ -556,6 +624,147 @@ mod avx2 {
                     } else {
                         _mm256_maskstore_ps(t.out.add(at), mask, y);
                     }
+                }
+            }
+        }
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+mod avx512 {
+    use super::{Tile, TileFn, MR512, NR};
+    use std::arch::x86_64::*;
+
+    /// The tiles of 1 to 8 rows for `V` 16-lane and `H` 8-lane vectors.
+    macro_rules! heights {
+        ($v:literal, $h:literal) => {
+            [
+                micro::<1, $v, $h>,
+                micro::<2, $v, $h>,
+                micro::<3, $v, $h>,
+                micro::<4, $v, $h>,
+                micro::<5, $v, $h>,
+                micro::<6, $v, $h>,
+                micro::<7, $v, $h>,
+                micro::<8, $v, $h>,
+            ]
+        };
+    }
+
+    /// By width class (1-8, 9-16, 17-24, 25-32 channels), then height.
+    static TILES: [[TileFn; MR512]; 4] = [
+        heights!(0, 1),
+        heights!(1, 0),
+        heights!(1, 1),
+        heights!(2, 0),
+    ];
+
+    /// The monomorphised tile for `m` rows and `width` channels (`1 <= width <= 32`): whole
+    /// 16-lane vectors, and an 8-lane one where at most 8 channels are left (on cores that
+    /// split 512-bit operations in two, such as Zen 4, it costs half).
+    pub(super) fn tile(m: usize, width: usize) -> TileFn {
+        TILES[(width.clamp(1, 2 * NR) - 1) / 8][m.clamp(1, MR512) - 1]
+    }
+
+    /// The mask of the first `n` (<= 16) lanes.
+    #[inline(always)]
+    fn lanes(n: usize) -> u16 {
+        if n >= 16 {
+            0xffff
+        } else {
+            (1u16 << n) - 1
+        }
+    }
+
+    /// `M` rows x (`V` vectors of 16 channels, then `H` of 8) accumulated in registers; the
+    /// epilogue runs on the registers, and the last vector loads and stores under a mask
+    /// where the tile is narrower than the vectors.
+    ///
+    /// # Safety
+    /// The CPU has AVX-512F and AVX-512VL; `t` satisfies `Tile`'s contract with `t.m == M`,
+    /// `H <= 1`, `V + H >= 1` and `16·V + 8·H - (8 if H else 16) < t.width <= 16·V + 8·H`.
+    #[target_feature(enable = "avx512f,avx512vl")]
+    unsafe fn micro<const M: usize, const V: usize, const H: usize>(t: &Tile) {
+        unsafe {
+            let mut acc = [[_mm512_setzero_ps(); V]; M];
+            let mut half = [[_mm256_setzero_ps(); H]; M];
+            let mut a = t.a;
+            let mut b = t.b;
+            // The second panel's rows start a whole panel further.
+            let panel = t.k * NR;
+            for _ in 0..t.k {
+                let mut bv = [_mm512_setzero_ps(); V];
+                for (v, bv) in bv.iter_mut().enumerate() {
+                    *bv = _mm512_loadu_ps(b.add(v * panel));
+                }
+                let mut bh = [_mm256_setzero_ps(); H];
+                for bh in bh.iter_mut() {
+                    *bh = _mm256_loadu_ps(b.add(V * panel));
+                }
+                for (i, (acc, half)) in acc.iter_mut().zip(half.iter_mut()).enumerate() {
+                    let s = *a.add(i * t.lda);
+                    let x = _mm512_set1_ps(s);
+                    for (acc, &bv) in acc.iter_mut().zip(&bv) {
+                        *acc = _mm512_fmadd_ps(x, bv, *acc);
+                    }
+                    let x = _mm256_set1_ps(s);
+                    for (half, &bh) in half.iter_mut().zip(&bh) {
+                        *half = _mm256_fmadd_ps(x, bh, *half);
+                    }
+                }
+                a = a.add(1);
+                b = b.add(NR);
+            }
+            // Lanes of the last vector: the 16-lane one if there is no 8-lane one.
+            let last = if H == 0 {
+                lanes(t.width - 16 * (V - 1))
+            } else {
+                lanes(t.width - 16 * V)
+            };
+            let (lo, hi) = (_mm512_set1_ps(t.act.0), _mm512_set1_ps(t.act.1));
+            let (rlo, rhi) = (
+                _mm512_set1_ps(t.residual_act.0),
+                _mm512_set1_ps(t.residual_act.1),
+            );
+            let zero = _mm512_setzero_ps();
+            for (i, (acc, half)) in acc.iter().zip(&half).enumerate() {
+                for (v, &acc) in acc.iter().enumerate() {
+                    let mask = if H == 0 && v + 1 == V { last } else { 0xffff };
+                    let at = i * t.ldo + 16 * v;
+                    let mut y = _mm512_add_ps(acc, _mm512_loadu_ps(t.bias.add(16 * v)));
+                    y = _mm512_min_ps(_mm512_max_ps(y, lo), hi);
+                    if !t.res.is_null() {
+                        let r = _mm512_maskz_loadu_ps(mask, t.res.add(at));
+                        y = _mm512_min_ps(_mm512_max_ps(_mm512_add_ps(y, r), rlo), rhi);
+                    }
+                    if !t.alpha.is_null() {
+                        let al = _mm512_loadu_ps(t.alpha.add(16 * v));
+                        y = _mm512_fmadd_ps(al, _mm512_min_ps(y, zero), _mm512_max_ps(y, zero));
+                    }
+                    _mm512_mask_storeu_ps(t.out.add(at), mask, y);
+                }
+                for &acc in half {
+                    let mask = last as u8;
+                    let at = i * t.ldo + 16 * V;
+                    let y = _mm256_add_ps(acc, _mm256_loadu_ps(t.bias.add(16 * V)));
+                    let y = _mm256_min_ps(
+                        _mm256_max_ps(y, _mm512_castps512_ps256(lo)),
+                        _mm512_castps512_ps256(hi),
+                    );
+                    let mut y = y;
+                    if !t.res.is_null() {
+                        let r = _mm256_maskz_loadu_ps(mask, t.res.add(at));
+                        y = _mm256_min_ps(
+                            _mm256_max_ps(_mm256_add_ps(y, r), _mm512_castps512_ps256(rlo)),
+                            _mm512_castps512_ps256(rhi),
+                        );
+                    }
+                    if !t.alpha.is_null() {
+                        let al = _mm256_loadu_ps(t.alpha.add(16 * V));
+                        let z = _mm256_setzero_ps();
+                        y = _mm256_fmadd_ps(al, _mm256_min_ps(y, z), _mm256_max_ps(y, z));
+                    }
+                    _mm256_mask_storeu_ps(t.out.add(at), mask, y);
                 }
             }
         }
@@ -732,8 +941,8 @@ mod tests {
 mod speed {
     use super::*;
 
-    /// GFLOP/s of the dispatched kernel (`PORTABLE=1`: the portable one) on the
-    /// hand-landmark (full) and some palm shapes:
+    /// GFLOP/s of the dispatched kernel (`MONOHAND_KERNEL=portable|avx2|avx512` forces one)
+    /// on the hand-landmark (full) and some palm shapes:
     /// `cargo test --release -p monohand-tflite pointwise::speed -- --ignored --nocapture`.
     #[test]
     #[ignore = "a measurement, not a test"]
@@ -758,11 +967,7 @@ mod speed {
             (144, 256, 256),
             (9216, 32, 32),
         ];
-        let kernel = if std::env::var_os("PORTABLE").is_some() {
-            Kernel::Portable
-        } else {
-            Kernel::best()
-        };
+        let kernel = Kernel::best();
         for (rows, cin, cout) in shapes {
             let x = vec![0.5f32; rows * cin];
             let w = Tensor::zero::<f32>(&[cout, cin]).expect("w");

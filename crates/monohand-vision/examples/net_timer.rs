@@ -4,7 +4,8 @@
 //! Commands (one per line, one answer line each):
 //! * `load NAME MODEL.tflite INPUT.f32 OPTIONS`: imports the model; `INPUT.f32` holds the
 //!   input as raw little-endian f32 (NHWC); `OPTIONS` is `default` or a comma-separated
-//!   list among `no-pointwise`, `no-epilogue`, `no-depthwise`, `no-prelu`, `no-dw-act`, `no-dw-blocking`
+//!   list among `no-pointwise`, `no-epilogue`, `no-depthwise`, `no-prelu`, `no-dw-act`, `no-dw-blocking`,
+//!   `no-conv`
 //!   (switching monohand's own operators back to tract's). Answers `ok`.
 //! * `time NAME RUNS`: runs the network `RUNS` times on a reused run state, as the pipeline
 //!   does (the input is copied into the state's buffer before each timed run, like LiteRT's
@@ -41,7 +42,7 @@ fn main() {
                         "no-prelu" => o.fused_prelu = false,
                         "no-dw-act" => o.fused_depthwise_activation = false,
                         "no-dw-blocking" => o.register_blocked_depthwise = false,
-                        "no-direct-conv" => o.direct_conv = false,
+                        "no-conv" => o.fast_conv = false,
                         other => panic!("unknown option {other}"),
                     }
                 }

@@ -96,7 +96,7 @@ fn fuzz_tflite_import() {
                 fused_pointwise_epilogue: input.len() % 7 != 0,
                 fused_depthwise_activation: input.len() % 11 != 0,
                 register_blocked_depthwise: input.len() % 13 != 0,
-                direct_conv: input.len() % 17 != 0,
+                fast_conv: input.len() % 17 != 0,
             };
             import(input)?;
             import_with(input, options).map(|m| m.nodes().len())

@@ -106,7 +106,7 @@ fn face_detector_matches_litert() {
     check("face scores", &out[1], "face_scores.npy", 1e-4);
 }
 
-/// monohand's `DirectConv` (the first layer, on the image) against tract's own `Conv` for
+/// monohand's `NhwcConv` (the first layer, on the image) against tract's own `Conv` for
 /// that layer, every other operator the same: every output of every network is the same
 /// bits, on the real inputs above.
 #[test]
@@ -116,7 +116,7 @@ fn the_direct_first_layer_gives_the_same_bits_as_tracts_conv() {
         return;
     };
     let tract_conv = ImportOptions {
-        direct_conv: false,
+        fast_conv: false,
         ..ImportOptions::default()
     };
     for (file, fixture, scale, offset) in [

@@ -1,0 +1,457 @@
+//! A `K x K` convolution over few input channels (the networks' stems), channels last.
+//!
+//! The first layer of MediaPipe's hand networks is a 3x3 stride-2 convolution of the RGB
+//! crop (palm: 5x5), followed by RELU6 (palm: PRELU). tract 0.23 runs it as a `Pad` that
+//! copies the whole image, an im2col matrix product, and the activation as a third pass over
+//! the output; in hand_landmark_lite that was about a fifth of the time for 5 % of the
+//! multiply-adds. This operator gathers the im2col rows of a few output rows at a time into
+//! a buffer that stays in cache, writing zeros for the padding (TFLite's rule: SAME pads at
+//! the bottom/right first), and multiplies them with [`PointwiseConv`]'s packed weights and
+//! micro-kernels, bias and activation applied in registers. The columns are in tract's
+//! order (channel, then kernel row, then column) and the bias is added after the sum, as
+//! tract does, so the results are the same bits as tract's `Conv` (checked in a test
+//! against tract's own operator).
+
+use tract_core::internal::*;
+
+use crate::depthwise::axis_geometry;
+use crate::pointwise::{Activation, Kernel, PointwiseConv};
+
+/// Floats of im2col rows gathered per product (64 KiB: the buffer stays in L2 while the
+/// product runs over it).
+const BAND_FLOATS: usize = 16 * 1024;
+
+/// `KH x KW` convolution with strides `(sy, sx)` on `[1, H, W, Cin]` f32 tensors, TFLite's
+/// SAME (or VALID) padding, a bias per output channel and a fused activation.
+#[derive(Debug, Clone, PartialEq, Eq, Hash)]
+pub struct NhwcConv {
+    kh: usize,
+    kw: usize,
+    cin: usize,
+    strides: (usize, usize),
+    same: bool,
+    /// The product `[pixels, KH·KW·Cin] x [KH·KW·Cin, Cout]` with the epilogue.
+    product: PointwiseConv,
+}
+
+impl NhwcConv {
+    /// From TFLite's OHWI `weights` (`[Cout, KH, KW, Cin]`), `bias` (`[Cout]`), strides
+    /// `(y, x)`, SAME (else VALID) padding and the convolution's activation.
+    pub fn new(
+        weights: &Tensor,
+        bias: &Tensor,
+        strides: (usize, usize),
+        same: bool,
+        activation: Activation,
+    ) -> TractResult<Self> {
+        let s = weights.shape();
+        ensure!(
+            s.len() == 4 && s.iter().all(|&d| d > 0),
+            "convolution weights must be a non-empty [Cout, KH, KW, Cin], got {s:?}"
+        );
+        ensure!(
+            strides.0 > 0 && strides.1 > 0,
+            "convolution strides {strides:?}"
+        );
+        let (cout, kh, kw, cin) = (s[0], s[1], s[2], s[3]);
+        // The im2col columns in (channel, ky, kx) order, the order in which tract's im2col
+        // product sums (so the results are the bits tract's `Conv` gave).
+        let flat = weights
+            .clone()
+            .permute_axes(&[0, 3, 1, 2])?
+            .into_shape(&[cout, kh * kw * cin])?;
+        Ok(NhwcConv {
+            kh,
+            kw,
+            cin,
+            strides,
+            same,
+            product: PointwiseConv::new(&flat, bias, activation)?,
+        })
+    }
+
+    /// Output height, width and leading padding (top, left) for an `h x w` input.
+    fn geometry(&self, h: usize, w: usize) -> (usize, usize, usize, usize) {
+        let (oh, pt) = axis_geometry(h, self.kh, self.strides.0, self.same);
+        let (ow, pl) = axis_geometry(w, self.kw, self.strides.1, self.same);
+        (oh, ow, pt, pl)
+    }
+
+    /// The convolution of `src` (`h x w x Cin`) into `out` (`oh x ow x Cout`).
+    fn compute(
+        &self,
+        src: &[f32],
+        (h, w): (usize, usize),
+        out: &mut [f32],
+        kernel: Kernel,
+    ) -> TractResult<()> {
+        let (oh, ow, pt, pl) = self.geometry(h, w);
+        let (cin, cout) = (self.cin, self.product.output_channels());
+        let (kh, kw, (sy, sx)) = (self.kh, self.kw, self.strides);
+        let kdim = kh * kw * cin;
+        ensure!(
+            src.len() == h * w * cin && out.len() == oh * ow * cout,
+            "convolution: inconsistent buffer sizes"
+        );
+        if oh == 0 || ow == 0 {
+            return Ok(());
+        }
+        let band = (BAND_FLOATS / (ow * kdim)).max(1);
+        let mut buf = vec![0f32; band.min(oh) * ow * kdim];
+        let mut oy0 = 0;
+        while oy0 < oh {
+            let rows = band.min(oh - oy0);
+            let cols = &mut buf[..rows * ow * kdim];
+            for (p, col) in cols.chunks_exact_mut(kdim).enumerate() {
+                let (oy, ox) = (oy0 + p / ow, p % ow);
+                let iy0 = (oy * sy) as isize - pt as isize;
+                let ix0 = (ox * sx) as isize - pl as isize;
+                // Column (c, ky, kx) at (c·KH + ky)·KW + kx.
+                if iy0 >= 0 && ix0 >= 0 && iy0 as usize + kh <= h && ix0 as usize + kw <= w {
+                    // The whole window is inside the image.
+                    let window = &src[(iy0 as usize * w + ix0 as usize) * cin..];
+                    let mut taps = col.iter_mut();
+                    for c in 0..cin {
+                        for ky in 0..kh {
+                            let row = &window[ky * w * cin + c..];
+                            // The row's `kw` taps first: `zip` then stops without taking
+                            // one more column.
+                            for (&v, t) in row.iter().step_by(cin).take(kw).zip(taps.by_ref()) {
+                                *t = v;
+                            }
+                        }
+                    }
+                    continue;
+                }
+                for ky in 0..kh {
+                    let iy = iy0 + ky as isize;
+                    let row = (iy >= 0 && iy < h as isize)
+                        .then(|| &src[iy as usize * w * cin..][..w * cin]);
+                    for kx in 0..kw {
+                        let ix = ix0 + kx as isize;
+                        let tap = row
+                            .filter(|_| ix >= 0 && ix < w as isize)
+                            .map(|row| &row[ix as usize * cin..][..cin]);
+                        for c in 0..cin {
+                            col[(c * kh + ky) * kw + kx] = tap.map_or(0.0, |t| t[c]);
+                        }
+                    }
+                }
+            }
+            let o = &mut out[oy0 * ow * cout..(oy0 + rows) * ow * cout];
+            self.product.compute(cols, None, o, kernel)?;
+            oy0 += rows;
+        }
+        Ok(())
+    }
+}
+
+impl Op for NhwcConv {
+    fn name(&self) -> StaticName {
+        "MonohandNhwcConv".into()
+    }
+
+    fn info(&self) -> TractResult<Vec<String>> {
+        Ok(vec![format!(
+            "{}x{} stride {:?} same {} {}->{}",
+            self.kh,
+            self.kw,
+            self.strides,
+            self.same,
+            self.cin,
+            self.product.output_channels()
+        )])
+    }
+
+    op_as_typed_op!();
+}
+
+impl EvalOp for NhwcConv {
+    op_out_of_plan!();
+
+    fn eval(&self, _ctx: &EvalContext, inputs: TVec<TValue>) -> TractResult<TVec<TValue>> {
+        let input = args_1!(inputs);
+        let shape = input.shape();
+        ensure!(
+            shape.len() == 4 && shape[0] == 1 && shape[3] == self.cin,
+            "convolution over {} channels expects [1, H, W, {}], got {shape:?}",
+            self.cin,
+            self.cin
+        );
+        let (h, w) = (shape[1], shape[2]);
+        let (oh, ow, _, _) = self.geometry(h, w);
+        let cout = self.product.output_channels();
+        // Every element is written by the product's epilogue before anything reads it.
+        let mut output = unsafe { Tensor::uninitialized::<f32>(&[1, oh, ow, cout])? };
+        {
+            let src = input.try_as_plain_ram()?;
+            let mut dst = output.try_as_plain_ram_mut()?;
+            self.compute(
+                src.as_slice::<f32>()?,
+                (h, w),
+                dst.as_slice_mut::<f32>()?,
+                Kernel::best(),
+            )?;
+        }
+        Ok(tvec!(output.into_tvalue()))
+    }
+}
+
+impl TypedOp for NhwcConv {
+    as_op!();
+
+    fn output_facts(&self, inputs: &[&TypedFact]) -> TractResult<TVec<TypedFact>> {
+        let shape = inputs[0]
+            .shape
+            .as_concrete()
+            .context("convolution needs a concrete input shape")?;
+        ensure!(
+            shape.len() == 4 && shape[3] == self.cin,
+            "convolution over {} channels, input {shape:?}",
+            self.cin
+        );
+        let (oh, ow, _, _) = self.geometry(shape[1], shape[2]);
+        Ok(tvec!(f32::fact([
+            shape[0],
+            oh,
+            ow,
+            self.product.output_channels()
+        ])))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// TFLite's convolution written out naively, in f64.
+    #[allow(clippy::too_many_arguments)]
+    fn reference(
+        x: &[f32],
+        (h, w, cin): (usize, usize, usize),
+        k: &[f32],
+        (cout, kh, kw): (usize, usize, usize),
+        b: &[f32],
+        (sy, sx): (usize, usize),
+        same: bool,
+        act: Activation,
+    ) -> Vec<f32> {
+        let (oh, pt) = axis_geometry(h, kh, sy, same);
+        let (ow, pl) = axis_geometry(w, kw, sx, same);
+        let (lo, hi) = act.bounds();
+        let mut out = vec![0f32; oh * ow * cout];
+        for oy in 0..oh {
+            for ox in 0..ow {
+                for o in 0..cout {
+                    let mut acc = b[o] as f64;
+                    for ky in 0..kh {
+                        for kx in 0..kw {
+                            let iy = (oy * sy + ky) as isize - pt as isize;
+                            let ix = (ox * sx + kx) as isize - pl as isize;
+                            if iy < 0 || ix < 0 || iy >= h as isize || ix >= w as isize {
+                                continue;
+                            }
+                            for c in 0..cin {
+                                acc += x[(iy as usize * w + ix as usize) * cin + c] as f64
+                                    * k[((o * kh + ky) * kw + kx) * cin + c] as f64;
+                            }
+                        }
+                    }
+                    out[(oy * ow + ox) * cout + o] = acc.max(lo as f64).min(hi as f64) as f32;
+                }
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn every_kernel_matches_a_naive_reference() {
+        let mut seed = 5u64;
+        let mut next = move || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((seed >> 40) as f32 / (1u64 << 24) as f32) * 2.0 - 1.0
+        };
+        // (h, w, cin, cout, kh, kw, stride, same): the landmark and palm stems (smaller
+        // images), odd sizes where SAME pads one side only or both, VALID, and an image
+        // wide enough that a band holds a single output row.
+        let cases = [
+            (16, 16, 3, 24, 3, 3, 2, true),
+            (15, 13, 3, 24, 3, 3, 2, true),
+            (12, 12, 3, 32, 5, 5, 2, true),
+            (9, 10, 2, 7, 3, 3, 1, true),
+            (9, 11, 3, 40, 3, 3, 2, false),
+            (4, 700, 3, 16, 3, 3, 1, true),
+            (3, 3, 1, 1, 3, 3, 2, true),
+        ];
+        for kernel in Kernel::supported() {
+            for (h, w, cin, cout, kh, kw, s, same) in cases {
+                let x: Vec<f32> = (0..h * w * cin).map(|_| next() * 3.0).collect();
+                let k: Vec<f32> = (0..cout * kh * kw * cin).map(|_| next()).collect();
+                let b: Vec<f32> = (0..cout).map(|_| next()).collect();
+                for act in [Activation::None, Activation::Relu6] {
+                    let op = NhwcConv::new(
+                        &Tensor::from_shape(&[cout, kh, kw, cin], &k).expect("k"),
+                        &tensor1(&b),
+                        (s, s),
+                        same,
+                        act,
+                    )
+                    .expect("op");
+                    let (oh, ow, _, _) = op.geometry(h, w);
+                    let mut got = vec![f32::NAN; oh * ow * cout];
+                    op.compute(&x, (h, w), &mut got, kernel).expect("compute");
+                    let want =
+                        reference(&x, (h, w, cin), &k, (cout, kh, kw), &b, (s, s), same, act);
+                    for (i, (g, w)) in got.iter().zip(&want).enumerate() {
+                        assert!(
+                            (g - w).abs() <= 1e-5 * (1.0 + w.abs()),
+                            "{kernel:?} {h}x{w}x{cin} k{kh} s{s} same {same} {act:?} at {i}: \
+                             {g} vs {w}"
+                        );
+                    }
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn evaluates_as_a_tract_operator() {
+        let (h, w, cin, cout) = (6, 5, 3, 8);
+        let x: Vec<f32> = (0..h * w * cin).map(|i| (i % 7) as f32 - 3.0).collect();
+        let k: Vec<f32> = (0..cout * 9 * cin).map(|i| (i % 5) as f32 * 0.25).collect();
+        let b: Vec<f32> = (0..cout).map(|i| i as f32).collect();
+        let op = NhwcConv::new(
+            &Tensor::from_shape(&[cout, 3, 3, cin], &k).expect("k"),
+            &tensor1(&b),
+            (2, 2),
+            true,
+            Activation::Relu,
+        )
+        .expect("op");
+        let out = op
+            .eval_out_of_plan(tvec!(Tensor::from_shape(&[1, h, w, cin], &x)
+                .expect("x")
+                .into_tvalue()))
+            .expect("eval")
+            .expect("evaluates out of plan");
+        assert_eq!(out[0].shape(), &[1, 3, 3, cout]);
+        let got = out[0].try_as_plain_ram().expect("ram");
+        let got = got.as_slice::<f32>().expect("f32");
+        let want = reference(
+            &x,
+            (h, w, cin),
+            &k,
+            (cout, 3, 3),
+            &b,
+            (2, 2),
+            true,
+            Activation::Relu,
+        );
+        for (g, w) in got.iter().zip(&want) {
+            assert!((g - w).abs() < 1e-4, "{g} vs {w}");
+        }
+    }
+}
+
+#[cfg(test)]
+mod versus_tract {
+    use super::*;
+    use tract_core::ops::cnn::{Conv, KernelFormat, PaddingSpec, PoolSpec};
+    use tract_core::ops::nn::DataFormat;
+
+    /// tract's `Conv` (as the importer wired it before this operator) on `x`.
+    #[allow(clippy::too_many_arguments)]
+    fn tract_conv(
+        x: &[f32],
+        (h, w, cin): (usize, usize, usize),
+        k: &[f32],
+        (cout, kh): (usize, usize),
+        b: &[f32],
+        s: usize,
+        same: bool,
+    ) -> Vec<f32> {
+        let mut m = TypedModel::default();
+        let xi = m
+            .add_source("x", f32::fact([1, h, w, cin]))
+            .expect("source");
+        let kt = Tensor::from_shape(&[cout, kh, kh, cin], k).expect("k");
+        let kt = m.add_const("k", kt).expect("k");
+        let bt = m.add_const("b", tensor1(b)).expect("b");
+        let op = Conv {
+            pool_spec: PoolSpec {
+                data_format: DataFormat::NHWC,
+                kernel_shape: tvec!(kh, kh),
+                padding: if same {
+                    PaddingSpec::SameUpper
+                } else {
+                    PaddingSpec::Valid
+                },
+                strides: Some(tvec!(s, s)),
+                dilations: Some(tvec!(1, 1)),
+                input_channels: cin,
+                output_channels: cout,
+            },
+            kernel_fmt: KernelFormat::OHWI,
+            group: 1,
+            q_params: None,
+        };
+        let y = m.wire_node("conv", op, &[xi, kt, bt]).expect("wire");
+        m.select_output_outlets(&y).expect("outputs");
+        let plan = m
+            .into_optimized()
+            .expect("optimise")
+            .into_runnable()
+            .expect("plan");
+        let x = Tensor::from_shape(&[1, h, w, cin], x).expect("x");
+        let r = plan.run(tvec!(x.into_tvalue())).expect("run");
+        let r = r[0].try_as_plain_ram().expect("ram");
+        r.as_slice::<f32>().expect("f32").to_vec()
+    }
+
+    /// On the stems' shapes (landmark 3x3, palm and face 5x5, stride 2, 3 -> 24/32
+    /// channels; smaller images) the operator gives tract's bits with every vectorised
+    /// kernel, so swapping it in moves no keypoint.
+    #[test]
+    fn gives_the_bits_of_tracts_conv() {
+        for kernel in Kernel::supported() {
+            if kernel == Kernel::Portable {
+                // tract's own kernels use FMA where the CPU has it; the portable product
+                // multiplies and adds.
+                continue;
+            }
+            for (h, w, cin, cout, kh, s, same) in [
+                (32, 32, 3, 24, 3, 2, true),
+                (31, 29, 3, 24, 3, 2, true),
+                (24, 24, 3, 32, 5, 2, true),
+                (17, 19, 3, 24, 5, 2, false),
+            ] {
+                let x: Vec<f32> = (0..h * w * cin)
+                    .map(|i| ((i * 7919 % 1009) as f32 - 504.0) / 97.0)
+                    .collect();
+                let k: Vec<f32> = (0..cout * kh * kh * cin)
+                    .map(|i| ((i * 31 % 59) as f32 - 29.0) / 13.0)
+                    .collect();
+                let b: Vec<f32> = (0..cout).map(|i| i as f32 * 0.37 - 3.0).collect();
+                let want = tract_conv(&x, (h, w, cin), &k, (cout, kh), &b, s, same);
+                let op = NhwcConv::new(
+                    &Tensor::from_shape(&[cout, kh, kh, cin], &k).expect("k"),
+                    &tensor1(&b),
+                    (s, s),
+                    same,
+                    Activation::None,
+                )
+                .expect("op");
+                let mut got = vec![f32::NAN; want.len()];
+                op.compute(&x, (h, w), &mut got, kernel).expect("compute");
+                let differ = got
+                    .iter()
+                    .zip(&want)
+                    .filter(|(a, b)| a.to_bits() != b.to_bits())
+                    .count();
+                assert_eq!(differ, 0, "{kernel:?} {h}x{w}x{cin} k{kh} s{s} same {same}");
+            }
+        }
+    }
+}
