@@ -639,6 +639,26 @@ fn taps<'a, const FMA: bool, const C: usize>(
     }
 }
 
+/// The geometry of a square `k x k` kernel with stride `s` on an `h x w x c` input (tests).
+#[cfg(test)]
+fn square_geometry(h: usize, w: usize, c: usize, k: usize, s: usize, same: bool) -> Geometry {
+    let (oh, pt) = axis_geometry(h, k, s, same);
+    let (ow, pl) = axis_geometry(w, k, s, same);
+    Geometry {
+        h,
+        w,
+        c,
+        kh: k,
+        kw: k,
+        sy: s,
+        sx: s,
+        pt,
+        pl,
+        oh,
+        ow,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -775,21 +795,8 @@ mod tests {
                 .map(|i| ((i * 31 % 59) as f32 - 29.0) / 13.0)
                 .collect();
             let b: Vec<f32> = (0..c).map(|i| i as f32 * 0.37 - 3.0).collect();
-            let (oh, pt) = axis_geometry(h, kh, s, same);
-            let (ow, pl) = axis_geometry(w, kh, s, same);
-            let g = Geometry {
-                h,
-                w,
-                c,
-                kh,
-                kw: kh,
-                sy: s,
-                sx: s,
-                pt,
-                pl,
-                oh,
-                ow,
-            };
+            let g = square_geometry(h, w, c, kh, s, same);
+            let (oh, ow) = (g.oh, g.ow);
             for act in [(f32::NEG_INFINITY, f32::INFINITY), (0.0, 6.0)] {
                 let mut portable = vec![0.0; oh * ow * c];
                 // SAFETY: AVX2 and FMA were detected.
@@ -842,21 +849,8 @@ mod speed {
             (7, 7, 672, 5, 1),
         ];
         for (h, w, c, kh, s) in shapes {
-            let (oh, pt) = axis_geometry(h, kh, s, true);
-            let (ow, pl) = axis_geometry(w, kh, s, true);
-            let g = Geometry {
-                h,
-                w,
-                c,
-                kh,
-                kw: kh,
-                sy: s,
-                sx: s,
-                pt,
-                pl,
-                oh,
-                ow,
-            };
+            let g = square_geometry(h, w, c, kh, s, true);
+            let (oh, ow) = (g.oh, g.ow);
             let x = vec![0.5f32; h * w * c];
             let k = vec![0.25f32; kh * kh * c];
             let b = vec![0.1f32; c];
