@@ -5,10 +5,12 @@
 # Not part of .ci/run (it installs MediaPipe from PyPI and takes minutes). See
 # docs/performance.md.
 #
-# Usage: bench/pipeline/run.sh [--rounds N] [--frames N] [--cpus LIST]
+# Usage: bench/pipeline/run.sh [--rounds N] [--frames N] [--cpus LIST] [--codec ffv1|h264]
 #   --rounds N   alternating rounds (default 3); fps are the median over rounds
 #   --frames N   length of the video (default 300, 640x480 at 30 fps)
 #   --cpus LIST  run both tools under `taskset -c LIST` (default: no pinning, whole machine)
+#   --codec C    ffv1 (default: lossless RGB, both tools read identical pixels, but decoding
+#                takes 8.7 ms per frame) or h264 (CRF 18, as cameras write: 1.6 ms per frame)
 # Environment: PHOTO (default ../shared/data/images/pinto/hand.png beside the repo),
 #   OUT (default target/pipeline-bench), CARGO_TARGET_DIR (default target), PYTHON (the
 #   interpreter that creates the virtual environment, default python3; MediaPipe 0.10.14
@@ -16,12 +18,13 @@
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 root=$(pwd)
-rounds=3 frames=300 cpus=""
+rounds=3 frames=300 cpus="" codec=ffv1
 while [ $# -gt 0 ]; do
     case "$1" in
         --rounds) rounds=$2; shift 2 ;;
         --frames) frames=$2; shift 2 ;;
         --cpus) cpus=$2; shift 2 ;;
+        --codec) codec=$2; shift 2 ;;
         *) echo "unknown option $1 (see the header of $0)" >&2; exit 2 ;;
     esac
 done
@@ -53,10 +56,14 @@ monohand=$CARGO_TARGET_DIR/release/monohand
 "$monohand" models fetch >&2
 "$monohand" --version >&2 || true
 
-video=$OUT/moving_${frames}.mkv
+case "$codec" in
+    ffv1) video=$OUT/moving_${frames}.mkv ;;
+    h264) video=$OUT/moving_${frames}_h264.mp4 ;;
+    *) echo "unknown codec $codec (ffv1 or h264)" >&2; exit 2 ;;
+esac
 if [ ! -f "$video" ]; then
     echo "== video $video" >&2
-    "$venv/bin/python" bench/pipeline/make_video.py "$PHOTO" "$video" --frames "$frames" >&2
+    "$venv/bin/python" bench/pipeline/make_video.py "$PHOTO" "$video" --frames "$frames" --codec "$codec" >&2
 fi
 
 echo "== run ($rounds rounds)" >&2
