@@ -296,8 +296,9 @@ impl SceneRenderer {
             }
         }
         if layers.labels {
+            let mut placed = Vec::with_capacity(hands.len());
             for hand in hands {
-                draw_hand_label(frame, camera, hand, style.label_scale);
+                draw_hand_label(frame, camera, hand, style.label_scale, &mut placed);
             }
         }
         if layers.top {
@@ -482,8 +483,15 @@ impl SceneRenderer {
 }
 
 /// Draws a hand's label (`R#3 0.97 42CM`, black on the side colour) above its model, or
-/// above its keypoints without a fit.
-fn draw_hand_label(frame: &mut RgbImage, camera: &Camera, hand: &HandRecord, scale: usize) {
+/// above its keypoints without a fit, clear of the labels in `placed` (to which its box is
+/// added): two hands side by side would otherwise print one label over the other.
+fn draw_hand_label(
+    frame: &mut RgbImage,
+    camera: &Camera,
+    hand: &HandRecord,
+    scale: usize,
+    placed: &mut Vec<BBox>,
+) {
     if scale == 0 {
         return;
     }
@@ -505,16 +513,37 @@ fn draw_hand_label(frame: &mut RgbImage, camera: &Camera, hand: &HandRecord, sca
     }
     let x = pts.iter().map(|p| p[0]).fold(f64::INFINITY, f64::min);
     let y = pts.iter().map(|p| p[1]).fold(f64::INFINITY, f64::min);
-    let (_, th) = text_size("X", scale);
+    let text = hand_label_with_distance(hand);
+    let (tw, th) = text_size(&text, scale);
+    let pad = scale.max(1) as f64;
+    let size = [tw as f64 + 2.0 * pad, th as f64 + 2.0 * pad];
     let top = (y - (th + 2 * scale) as f64 - 12.0).max(0.0);
-    draw_label(
+    let origin = clear_of(placed, [x.max(0.0), top], size);
+    placed.push(draw_label(
         frame,
-        &hand_label_with_distance(hand),
-        [x.max(0.0), top],
+        &text,
+        origin,
         scale,
         [0, 0, 0],
         side_color(hand.side),
-    );
+    ));
+}
+
+/// Where a `size` box wanted at `at` goes so that it overlaps none of `placed`: at `at` if
+/// it is free, else moved up past each box it meets, or down below it once up is off the
+/// frame (at most one step per placed box, so it always ends).
+fn clear_of(placed: &[BBox], at: [f64; 2], size: [f64; 2]) -> [f64; 2] {
+    let gap = 2.0;
+    let boxed = |o: [f64; 2]| BBox::new(o[0], o[1], o[0] + size[0] - 1.0, o[1] + size[1] - 1.0);
+    let mut o = at;
+    for _ in 0..=placed.len() {
+        let Some(hit) = placed.iter().find(|b| b.intersection_area(&boxed(o)) > 0.0) else {
+            return o;
+        };
+        let up = hit.y_min - gap - size[1];
+        o[1] = if up >= 0.0 { up } else { hit.y_max + 1.0 + gap };
+    }
+    o
 }
 
 /// A round number at least `v`: 1, 1.5, 2, 2.5, 3, 5 or 7.5 times a power of ten.
@@ -893,6 +922,41 @@ mod tests {
             let p = tv.to_pixel(c.centre().x, 0.0);
             assert_eq!(f.get_pixel(p[0] as u32, p[1] as u32).0, [230, 230, 230]);
         }
+    }
+
+    #[test]
+    fn labels_of_hands_side_by_side_do_not_overlap() {
+        // Two boxes wanted at the same place: the second goes above the first, or below it
+        // when there is no room above; a third clears both.
+        let size = [120.0, 20.0];
+        let first = BBox::new(50.0, 100.0, 169.0, 119.0);
+        let second = clear_of(&[first], [80.0, 105.0], size);
+        assert_eq!(second, [80.0, 100.0 - 2.0 - 20.0]);
+        let at_top = BBox::new(50.0, 0.0, 169.0, 19.0);
+        assert_eq!(clear_of(&[at_top], [60.0, 5.0], size), [60.0, 22.0]);
+        let b2 = BBox::new(80.0, 78.0, 199.0, 97.0);
+        let third = clear_of(&[first, b2], [90.0, 100.0], size);
+        let boxed = BBox::new(third[0], third[1], third[0] + 119.0, third[1] + 19.0);
+        assert!(
+            first.intersection_area(&boxed) == 0.0 && b2.intersection_area(&boxed) == 0.0,
+            "{third:?}"
+        );
+        // Free: unchanged.
+        assert_eq!(clear_of(&[first], [400.0, 100.0], size), [400.0, 100.0]);
+
+        // Drawn: two hands side by side get two labels apart.
+        let hands = [
+            record(HandSide::Right, flat_hand(-20.0, 0.0, 420.0)),
+            record(HandSide::Left, flat_hand(20.0, 0.0, 420.0)),
+        ];
+        let camera = Camera::pinhole(500.0, 500.0, 320.0, 240.0, 640, 480).unwrap();
+        let mut frame = RgbImage::new(640, 480);
+        let mut placed = Vec::new();
+        for h in &hands {
+            draw_hand_label(&mut frame, &camera, h, 2, &mut placed);
+        }
+        assert_eq!(placed.len(), 2);
+        assert_eq!(placed[0].intersection_area(&placed[1]), 0.0, "{placed:?}");
     }
 
     #[test]
