@@ -274,6 +274,35 @@ mod avx2 {
     use super::Row;
     use std::arch::x86_64::*;
 
+    /// Channel `ch` (0, 1 or 2) of eight RGB pixels read as little-endian 4-byte words.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn channel(v: __m256i, ch: usize) -> __m256 {
+        let shifted = match ch {
+            0 => v,
+            1 => _mm256_srli_epi32::<8>(v),
+            _ => _mm256_srli_epi32::<16>(v),
+        };
+        _mm256_cvtepi32_ps(_mm256_and_si256(shifted, _mm256_set1_epi32(0xff)))
+    }
+
+    /// Writes eight pixels' sums (one vector per channel) as `sum · scale + offset`,
+    /// interleaved RGB, into `px` (24 floats).
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn store(acc: &[__m256; 3], px: &mut [f32], (scale, offset): (f32, f32)) {
+        let mut out = [[0f32; 8]; 3];
+        for (o, a) in out.iter_mut().zip(acc) {
+            // SAFETY: `o` holds 8 floats.
+            unsafe { _mm256_storeu_ps(o.as_mut_ptr(), *a) };
+        }
+        for (l, p) in px.chunks_exact_mut(3).enumerate() {
+            for c in 0..3 {
+                p[c] = out[c][l] * scale + offset;
+            }
+        }
+    }
+
     /// Output columns in groups of eight, each lane doing exactly [`Row::sum`]'s arithmetic
     /// (`sample`'s interior case; a group with a sub-sample outside the interior takes the
     /// scalar `sample` for that sub-sample). Returns how many columns it wrote.
@@ -291,7 +320,7 @@ mod avx2 {
         let lane = _mm256_setr_ps(0.0, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0);
         let one = _mm256_set1_epi32(1);
         let (wv, hv) = (_mm256_set1_epi32(r.w), _mm256_set1_epi32(r.h));
-        let (half, ff) = (_mm256_set1_ps(0.5), _mm256_set1_epi32(0xff));
+        let half = _mm256_set1_ps(0.5);
         let (lo_x, hi_x) = (_mm256_set1_ps(0.5), _mm256_set1_ps(r.w as f32 - 0.5));
         let (lo_y, hi_y) = (_mm256_set1_ps(0.5), _mm256_set1_ps(r.h as f32 - 0.5));
         let (sx, sy) = (_mm256_set1_ps(r.step.0), _mm256_set1_ps(r.step.1));
@@ -364,14 +393,7 @@ mod avx2 {
                 let br =
                     _mm256_i32gather_epi32::<1>(base, _mm256_add_epi32(ob, _mm256_set1_epi32(3)));
                 for (c, acc) in acc.iter_mut().enumerate() {
-                    let ch = |v: __m256i| {
-                        let shifted = match c {
-                            0 => v,
-                            1 => _mm256_srli_epi32::<8>(v),
-                            _ => _mm256_srli_epi32::<16>(v),
-                        };
-                        _mm256_cvtepi32_ps(_mm256_and_si256(shifted, ff))
-                    };
+                    let ch = |v| channel(v, c);
                     let (a, b, cc, d) = (ch(tl), ch(tr), ch(bl), ch(br));
                     let t = _mm256_add_ps(a, _mm256_mul_ps(_mm256_sub_ps(b, a), ax));
                     let bo = _mm256_add_ps(cc, _mm256_mul_ps(_mm256_sub_ps(d, cc), ax));
@@ -379,16 +401,7 @@ mod avx2 {
                     *acc = _mm256_add_ps(*acc, s);
                 }
             }
-            let mut out = [[0f32; 8]; 3];
-            for c in 0..3 {
-                _mm256_storeu_ps(out[c].as_mut_ptr(), acc[c]);
-            }
-            for l in 0..8 {
-                let px = &mut line[(g * 8 + l) * 3..(g * 8 + l) * 3 + 3];
-                for c in 0..3 {
-                    px[c] = out[c][l] * r.scale + r.offset;
-                }
-            }
+            store(&acc, &mut line[g * 24..(g + 1) * 24], (r.scale, r.offset));
         }
         groups * 8
     }
@@ -456,7 +469,6 @@ mod avx2 {
             return 0;
         }
         let base = raw.as_ptr() as *const i32;
-        let ff = _mm256_set1_epi32(0xff);
         for g in 0..cols.groups {
             let mut acc = [_mm256_setzero_ps(); 3];
             for ty in row_taps {
@@ -478,14 +490,7 @@ mod avx2 {
                     let c = _mm256_i32gather_epi32::<1>(base, _mm256_add_epi32(r1, i0));
                     let d = _mm256_i32gather_epi32::<1>(base, _mm256_add_epi32(r1, i1));
                     for (ch, acc) in acc.iter_mut().enumerate() {
-                        let get = |v: __m256i| {
-                            let shifted = match ch {
-                                0 => v,
-                                1 => _mm256_srli_epi32::<8>(v),
-                                _ => _mm256_srli_epi32::<16>(v),
-                            };
-                            _mm256_cvtepi32_ps(_mm256_and_si256(shifted, ff))
-                        };
+                        let get = |v| channel(v, ch);
                         let top =
                             _mm256_add_ps(_mm256_mul_ps(xw0, get(a)), _mm256_mul_ps(xw1, get(b)));
                         let bottom =
@@ -496,16 +501,7 @@ mod avx2 {
                     }
                 }
             }
-            let mut out = [[0f32; 8]; 3];
-            for c in 0..3 {
-                _mm256_storeu_ps(out[c].as_mut_ptr(), acc[c]);
-            }
-            for l in 0..8 {
-                let px = &mut line[(g * 8 + l) * 3..(g * 8 + l) * 3 + 3];
-                for c in 0..3 {
-                    px[c] = out[c][l] * scale + offset;
-                }
-            }
+            store(&acc, &mut line[g * 24..(g + 1) * 24], (scale, offset));
         }
         cols.groups * 8
     }
