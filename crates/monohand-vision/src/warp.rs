@@ -573,15 +573,19 @@ fn warp_axis_aligned(
         let o = (y * w + x) * 3;
         [raw[o] as f32, raw[o + 1] as f32, raw[o + 2] as f32]
     };
+    // The vector loop's column taps, built only when it runs.
     #[cfg(target_arch = "x86_64")]
-    let columns = avx2::ColumnTaps::new(&xs, n, out_w);
+    let columns = (simd == Simd::Avx2).then(|| avx2::ColumnTaps::new(&xs, n, out_w));
     for (row, line) in out.chunks_exact_mut(out_w * 3).take(out_h).enumerate() {
         let row_taps = &ys[row * n..(row + 1) * n];
         let done = match simd {
             #[cfg(target_arch = "x86_64")]
-            // SAFETY: `Simd::best` chose AVX2 only on a CPU that has it.
-            Simd::Avx2 => unsafe {
-                avx2::aligned_row(raw, w, row_taps, &columns, (scale, norm.offset), line)
+            Simd::Avx2 => match &columns {
+                // SAFETY: `Simd::best` chose AVX2 only on a CPU that has it.
+                Some(c) => unsafe {
+                    avx2::aligned_row(raw, w, row_taps, c, (scale, norm.offset), line)
+                },
+                None => 0,
             },
             Simd::None => 0,
         };
