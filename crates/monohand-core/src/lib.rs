@@ -30,6 +30,7 @@
 
 #![deny(missing_docs)]
 
+pub mod alignment;
 pub mod bbox;
 pub mod camera;
 pub mod error;

@@ -15,8 +15,9 @@
 //! | PCK at a threshold, its curve, and the area under it | [`pck`], [`pck_curve`], [`auc`] |
 //! | 2D keypoint error, pixels | [`keypoint_errors_px`] |
 
+use monohand_core::alignment::align;
 use monohand_core::hand_model::NUM_JOINTS;
-use nalgebra::{Matrix3, Vector3};
+use nalgebra::Vector3;
 
 /// 21 joints, mm.
 pub type Joints = [[f64; 3]; NUM_JOINTS];
@@ -103,40 +104,16 @@ pub fn zb_aligned_errors(
 /// (Umeyama 1991), applied to all 21 predicted joints. `None` if fewer than 3
 /// joints are masked in or the prediction is degenerate (all points equal).
 pub fn procrustes_align(pred: &Joints, gt: &Joints, mask: &JointMask) -> Option<Joints> {
-    let idx: Vec<usize> = (0..NUM_JOINTS).filter(|&j| mask[j]).collect();
-    if idx.len() < 3 {
-        return None;
+    let mut from = [Vector3::zeros(); NUM_JOINTS];
+    let mut to = [Vector3::zeros(); NUM_JOINTS];
+    let mut n = 0;
+    for j in (0..NUM_JOINTS).filter(|&j| mask[j]) {
+        (from[n], to[n]) = (v(&pred[j]), v(&gt[j]));
+        n += 1;
     }
-    let n = idx.len() as f64;
-    let mx = idx.iter().map(|&j| v(&pred[j])).sum::<Vector3<f64>>() / n;
-    let my = idx.iter().map(|&j| v(&gt[j])).sum::<Vector3<f64>>() / n;
-    let mut cov = Matrix3::zeros();
-    let mut var_x = 0.0;
-    for &j in &idx {
-        let xc = v(&pred[j]) - mx;
-        let yc = v(&gt[j]) - my;
-        cov += yc * xc.transpose();
-        var_x += xc.norm_squared();
-    }
-    cov /= n;
-    var_x /= n;
-    if var_x < 1e-18 {
-        return None;
-    }
-    let svd = cov.svd(true, true);
-    let (u, vt) = (svd.u?, svd.v_t?);
-    let d = if (u.determinant() * vt.determinant()) < 0.0 {
-        -1.0
-    } else {
-        1.0
-    };
-    let s_diag = Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, d));
-    let r = u * s_diag * vt;
-    let sv = svd.singular_values;
-    let scale = (sv[0] + sv[1] + d * sv[2]) / var_x;
-    let t = my - r * mx * scale;
+    let s = align(&from[..n], &to[..n], true)?;
     Some(pred.map(|p| {
-        let a = r * v(&p) * scale + t;
+        let a = s.apply(&v(&p));
         [a.x, a.y, a.z]
     }))
 }
