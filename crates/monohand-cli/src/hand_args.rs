@@ -74,6 +74,15 @@ pub(crate) struct CueArgs {
     /// joints (from the last two frames); 0 turns it off.
     #[arg(long, value_name = "W", default_value_t = FitOptions::default().temporal_weight)]
     pub temporal_weight: f64,
+    /// With one camera: move each output joint along its viewing ray this share of
+    /// the way to its depth in the network's metric 3D (placed rigidly on the fit);
+    /// 0 keeps the skeleton's depths.
+    #[arg(long, value_name = "W", default_value_t = FitOptions::default().fuse_world)]
+    pub fuse_world: f64,
+    /// The same with the network's relative depth (landmark z); the two shares sum
+    /// to at most 1.
+    #[arg(long, value_name = "W", default_value_t = FitOptions::default().fuse_depth)]
+    pub fuse_depth: f64,
 }
 
 impl CueArgs {
@@ -83,6 +92,8 @@ impl CueArgs {
             world_weight: self.world_weight,
             depth_weight: self.depth_weight,
             temporal_weight: self.temporal_weight,
+            fuse_world: self.fuse_world,
+            fuse_depth: self.fuse_depth,
             ..options
         }
     }
@@ -120,7 +131,7 @@ impl HandModelArgs {
             ..FitOptions::default()
         });
         options.validate().context(
-            "--min-confidence / --confidence-power / --world-weight / --depth-weight / --temporal-weight",
+            "--min-confidence / --confidence-power / --world-weight / --depth-weight / --temporal-weight / --fuse-world / --fuse-depth",
         )?;
         if self.hand_scale == HandScale::Auto && self.scale_frames == 0 {
             bail!("--scale-frames must be at least 1");

@@ -68,7 +68,10 @@ fn network_cues_beat_the_2d_only_fit_on_real_frames() {
     };
     // MediaPipe's own 3D: the landmark network read once per crop, as MediaPipe does.
     let single = eval(&["--no-mirror-pass"]);
+    // The posed skeleton's joints, without the network's depth fused in.
+    let unfused = eval(&["--fuse-world", "0", "--fuse-depth", "0"]);
     let (fit, paper) = (row(&with, "mono"), row(&without, "mono"));
+    let skeleton = row(&unfused, "mono");
     let network = row(&with, "network 3D (no position)");
     let mediapipe = row(&single, "network 3D (no position)");
     // The same detections feed all the rows.
@@ -77,9 +80,10 @@ fn network_cues_beat_the_2d_only_fit_on_real_frames() {
     assert!(num(&fit, 1) >= 95.0, "detected {}", num(&fit, 1));
     let (pa_fit, pa_paper, pa_mp) = (num(&fit, 7), num(&paper, 7), num(&mediapipe, 7));
     let (abs_fit, abs_paper) = (num(&fit, 2), num(&paper, 2));
-    // Measured on these 100 frames (2026-11-24, the defaults, mirror pass on): PA 8.38 mm
-    // with the cues against 18.75 for the paper's cost on the same keypoints and 8.95 for
-    // MediaPipe's own 3D (8.66 for the mean of the two passes); absolute 32.95 against
+    // Measured on these 100 frames (2026-11-24, the defaults, mirror pass on, before
+    // depth fusion): PA 8.38 mm with the cues (7.54 with fusion, 2026-11-25) against
+    // 18.75 for the paper's cost on the same keypoints and 8.95 for MediaPipe's own 3D
+    // (8.66 for the mean of the two passes); absolute 32.95 against
     // 37.17 mm (the mirror pass also improves the 2D-only fit's position: 41.59 mm
     // without it).
     assert!(pa_fit < 0.8 * pa_paper, "PA {pa_fit} vs 2D-only {pa_paper}");
@@ -87,6 +91,30 @@ fn network_cues_beat_the_2d_only_fit_on_real_frames() {
     assert!(
         abs_fit < 0.93 * abs_paper && abs_fit < 35.0,
         "absolute {abs_fit} vs {abs_paper}"
+    );
+    // Depth fusion (docs/accuracy.md; measured 2026-11-25 on these frames: PA 8.38 to
+    // 7.54 mm, centroid 10.31 to 9.47, absolute 32.95 to 32.90) improves the shape, and
+    // moves joints only along their viewing rays: the reprojection error is the same.
+    let (pa_skel, cen_fit, cen_skel) = (num(&skeleton, 7), num(&fit, 6), num(&skeleton, 6));
+    assert!(
+        pa_fit < pa_skel - 0.5,
+        "PA fused {pa_fit} vs skeleton {pa_skel}"
+    );
+    assert!(
+        cen_fit < cen_skel - 0.5,
+        "centroid fused {cen_fit} vs skeleton {cen_skel}"
+    );
+    assert!(
+        pa_fit < 0.87 * pa_mp,
+        "PA {pa_fit} vs MediaPipe's own 3D {pa_mp}"
+    );
+    assert_eq!(
+        fit[16], skeleton[16],
+        "reprojection error (px) changed by fusion"
+    );
+    assert!(
+        (num(&fit, 2) - num(&skeleton, 2)).abs() < 1.0,
+        "absolute moved"
     );
     // The network's own 3D has no position: no absolute error is claimed for it.
     assert_eq!(network[2], "-");

@@ -406,9 +406,11 @@ mod tests {
             rotation: UnitQuaternion::from_euler_angles(0.3, -0.2, 1.0),
             angles,
         };
+        let joints = std::array::from_fn(|j| Vector3::new(j as f64, 0.5, 500.0 - j as f64));
         FitResult {
             pose,
-            joints_3d: std::array::from_fn(|j| Vector3::new(j as f64, 0.5, 500.0 - j as f64)),
+            joints_3d: joints,
+            model_joints_3d: joints,
             reprojection_error_px: 1.25,
             iterations: 17,
             converged: true,

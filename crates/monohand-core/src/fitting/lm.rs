@@ -7,6 +7,7 @@
 //! freedom sitting on a bound whose step would leave the box is frozen for
 //! that step, and the step is projected onto the box.
 
+use super::fusion::fuse_network_depth;
 use super::init;
 use super::options::{FitOptions, View};
 use crate::camera::Camera;
@@ -32,8 +33,14 @@ pub(crate) type DofMask = [bool; NUM_DOF];
 pub struct FitResult {
     /// The fitted pose (wrist translation in mm, rotation, angles).
     pub pose: HandPose,
-    /// The 21 joints in the reference (first) camera frame, millimetres.
+    /// The 21 joints in the reference (first) camera frame, millimetres: the
+    /// posed skeleton's, with the network's depth fused in where
+    /// [`FitOptions::fuse_world`] / [`FitOptions::fuse_depth`] apply (one view
+    /// with the network's 3D).
     pub joints_3d: [Vector3<f64>; NUM_JOINTS],
+    /// The posed skeleton's joints (`pose` through forward kinematics), the
+    /// same as `joints_3d` without depth fusion ([`crate::fitting::fuse_network_depth`]).
+    pub model_joints_3d: [Vector3<f64>; NUM_JOINTS],
     /// Mean distance in pixels between observed and reprojected joints, over
     /// the joints used in all views (distortion applied, unweighted).
     pub reprojection_error_px: f64,
@@ -106,6 +113,9 @@ pub struct HandFitter {
     bone_lengths: [f64; NUM_BONES],
     /// Joints the temporal term pulls towards (reference frame), in tracking.
     prior: Option<[Vector3<f64>; NUM_JOINTS]>,
+    /// The network's 3D of a fit with one view, for [`FitOptions::fuse_world`]
+    /// and [`FitOptions::fuse_depth`].
+    fusion_cues: Option<NetworkCues>,
 }
 
 impl HandFitter {
@@ -121,6 +131,7 @@ impl HandFitter {
             options,
             views: Vec::with_capacity(2),
             prior: None,
+            fusion_cues: None,
         })
     }
 
@@ -285,6 +296,7 @@ impl HandFitter {
         self.views.clear();
         // Only a tracking fit sets a temporal target, after preparing.
         self.prior = None;
+        self.fusion_cues = None;
         let o = &self.options;
         let mut used = 0;
         for (vi, v) in views.iter().enumerate() {
@@ -323,6 +335,13 @@ impl HandFitter {
             .iter()
             .any(|v| v.bone_weights.iter().flatten().any(|&w| w > 0.0));
         self.posed = if has_cues { self.given } else { self.planar };
+        if let [v] = views {
+            // Each cue is fused only if the fit itself uses it.
+            self.fusion_cues = v.cues.map(|c| NetworkCues {
+                world_mm: c.world_mm.filter(|_| o.world_weight > 0.0),
+                depth_px: c.depth_px.filter(|_| o.depth_weight > 0.0),
+            });
+        }
         let with_cues = views.iter().filter(|v| v.cues.is_some()).count();
         if with_cues > 1 {
             let share = (1.0 / with_cues as f64).sqrt();
@@ -377,9 +396,15 @@ impl HandFitter {
                 }
             }
         }
+        let o = &self.options;
+        let fused = self.fusion_cues.and_then(|cues| {
+            let camera = &self.views.first()?.camera;
+            fuse_network_depth(&joints_3d, camera, &cues, [o.fuse_world, o.fuse_depth])
+        });
         FitResult {
             pose: sol.pose,
-            joints_3d,
+            joints_3d: fused.unwrap_or(joints_3d),
+            model_joints_3d: joints_3d,
             reprojection_error_px: if n > 0 { sum / n as f64 } else { f64::NAN },
             iterations: sol.iterations,
             converged: sol.converged,

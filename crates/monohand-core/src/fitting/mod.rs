@@ -10,8 +10,10 @@
 //! turns it off): the keypoint network's own relative 3D
 //! ([`crate::observation::NetworkCues`]) as bone directions, which resolves
 //! the depth ambiguity of the 2D cost with one camera, and in tracking a pull
-//! of every joint towards its constant-velocity prediction. `docs/accuracy.md`
-//! has the measurements that chose the weights.
+//! of every joint towards its constant-velocity prediction. After the fit, with
+//! one camera, the network's depth is fused into the output joints along their
+//! viewing rays ([`fuse_network_depth`]). `docs/accuracy.md` has the
+//! measurements that chose the weights.
 //!
 //! The solver ([`lm`]) is a Levenberg-Marquardt over 26 degrees of freedom:
 //! translation, a rotation increment on the unit-quaternion manifold (the
@@ -21,6 +23,7 @@
 //! start ([`init`]) solves for the rigid palm first from a closed-form
 //! weak-perspective estimate with both of its mirror solutions.
 
+mod fusion;
 pub mod init;
 pub mod lm;
 mod options;
@@ -28,6 +31,7 @@ mod proportions;
 mod scale;
 mod tracker;
 
+pub use fusion::fuse_network_depth;
 pub use lm::{FitResult, HandFitter};
 pub use options::{FitOptions, View};
 pub use proportions::{estimate_proportions, ProportionEstimate, MIN_FRAMES, SETTLED_CHANGE};

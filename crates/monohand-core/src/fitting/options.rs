@@ -74,6 +74,18 @@ pub struct FitOptions {
     /// joints (from the last two frames): every joint adds `w (X - X_predicted)`
     /// (mm). 0 turns it off.
     pub temporal_weight: f64,
+    /// With one view carrying the network's 3D, the share of each output joint's
+    /// depth taken from the metric 3D ([`NetworkCues::world_mm`], placed rigidly
+    /// on the fit): the joint moves along its viewing ray ([`fuse_network_depth`]).
+    /// The pose and [`FitResult::model_joints_3d`] stay the skeleton's. 0 turns it
+    /// off; with [`fuse_depth`](Self::fuse_depth) at most 1.
+    ///
+    /// [`fuse_network_depth`]: crate::fitting::fuse_network_depth
+    /// [`FitResult::model_joints_3d`]: crate::fitting::FitResult::model_joints_3d
+    pub fuse_world: f64,
+    /// The same for the relative depth ([`NetworkCues::depth_px`], scaled to mm at
+    /// the fit's mean depth).
+    pub fuse_depth: f64,
 }
 
 /// Angular error (RMS, degrees) of the landmark network's bone directions against
@@ -116,6 +128,8 @@ impl Default for FitOptions {
             depth_weight: 1.0,
             cue_segment_weights: cue_segment_weights_from(&CUE_BONE_ERROR_DEG),
             temporal_weight: 0.1,
+            fuse_world: 0.5,
+            fuse_depth: 0.1,
         }
     }
 }
@@ -139,6 +153,12 @@ impl FitOptions {
         if !(self.cost_tolerance >= 0.0 && self.step_tolerance >= 0.0 && self.initial_damping > 0.0)
         {
             return bad("tolerances must be >= 0 and damping > 0");
+        }
+        if !((0.0..=1.0).contains(&self.fuse_world)
+            && (0.0..=1.0).contains(&self.fuse_depth)
+            && self.fuse_world + self.fuse_depth <= 1.0)
+        {
+            return bad("fuse_world and fuse_depth must be in [0, 1], with a sum of at most 1");
         }
         for (name, w) in [
             ("world_weight", self.world_weight),

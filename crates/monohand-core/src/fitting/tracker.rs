@@ -58,7 +58,7 @@ impl HandTracker {
             None => self.fitter.fit(views)?,
         };
         self.last = Some(result.pose);
-        self.history = [self.history[1], Some(result.joints_3d)];
+        self.history = [self.history[1], Some(result.model_joints_3d)];
         Ok(result)
     }
 
