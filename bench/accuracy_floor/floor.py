@@ -7,7 +7,8 @@ script measures that floor on the hand-graph-cnn development set, next to the re
 fit, with `monohand lift` (the same fitter as `run`):
 
 - `network`: the landmark network's 2D keypoints, world landmarks and relative depth
-  (from `monohand detect`), lifted with the defaults: what `run` does;
+  (from `monohand detect`), lifted with the defaults: what `run` does (with depth
+  fusion, docs/accuracy.md), and once without depth fusion;
 - `perfect 2D`: the labels projected into the camera, no 3D cue (the paper's cost
   with ideal keypoints);
 - `floor`: the labels projected, plus the labels' own 3D as the metric cue, weight 20
@@ -128,12 +129,16 @@ def main():
     len_path = os.path.join(tmp, "subject_lengths.json")
     json.dump(lengths, open(len_path, "w"))
 
+    # The floor is the posed skeleton's: depth fusion (which would take the labels' own
+    # depths from the "true 3D" cue) is off in its rows.
+    skeleton_only = ["--fuse-world", "0", "--fuse-depth", "0"]
     runs = [
-        ("network cues, default skeleton (what `run` does)", "net", []),
-        ("network cues, subject's bone lengths", "net", ["--bone-lengths", len_path]),
+        ("network cues, default skeleton (what `run` does, depth fusion on)", "net", []),
+        ("network cues, default skeleton, no depth fusion", "net", skeleton_only),
+        ("network cues, subject's bone lengths", "net", ["--bone-lengths", len_path] + skeleton_only),
         ("perfect 2D, no 3D cue, default skeleton", "gt", ["--world-weight", "0", "--depth-weight", "0"]),
-        ("floor: perfect 2D + true 3D directions, default skeleton", "gt", ["--world-weight", "20"]),
-        ("floor with the subject's bone lengths", "gt", ["--world-weight", "20", "--bone-lengths", len_path]),
+        ("floor: perfect 2D + true 3D directions, default skeleton", "gt", ["--world-weight", "20"] + skeleton_only),
+        ("floor with the subject's bone lengths", "gt", ["--world-weight", "20", "--bone-lengths", len_path] + skeleton_only),
     ]
     print("| input and skeleton | frames | absolute | wrist-relative | centroid | PA-MPJPE |")
     print("|---|---|---|---|---|---|")
