@@ -1,9 +1,11 @@
 //! Speed of the geometry core: one residual evaluation, one analytic Jacobian,
-//! one monocular fit from scratch, one warm-started tracking fit, one stereo fit.
+//! one depth fusion, one monocular fit from scratch, one warm-started tracking
+//! fit, one stereo fit.
 //! Poses are random inside the joint limits (seeded), seen by the STB camera.
 #![allow(clippy::unwrap_used, clippy::expect_used)] // a failed test or bench is a panic
 
 use criterion::{criterion_group, criterion_main, Criterion};
+use monohand_core::fitting::fuse_network_depth;
 use monohand_core::kinematics::{forward_kinematics_with_jacobian, LOCAL_DOF};
 use monohand_core::observation::NetworkCues;
 use monohand_core::prelude::*;
@@ -82,6 +84,14 @@ fn bench(c: &mut Criterion) {
         let mut pts = [Vector3::zeros(); 21];
         let mut jac = [SMatrix::<f64, 3, LOCAL_DOF>::zeros(); 21];
         b.iter(|| forward_kinematics_with_jacobian(&sk, black_box(&poses[0]), &mut pts, &mut jac))
+    });
+    c.bench_function("fuse_network_depth", |b| {
+        let joints = forward_kinematics(&sk, &poses[0]);
+        let weights = [
+            FitOptions::default().fuse_world,
+            FitOptions::default().fuse_depth,
+        ];
+        b.iter(|| fuse_network_depth(black_box(&joints), &left, &cues[0], weights))
     });
     let mut fitter = HandFitter::new(sk, FitOptions::default()).unwrap();
     let mut i = 0;
