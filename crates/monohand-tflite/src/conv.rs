@@ -21,6 +21,11 @@ use crate::pointwise::{Activation, Kernel, PointwiseConv};
 /// product runs over it).
 const BAND_FLOATS: usize = 16 * 1024;
 
+thread_local! {
+    /// Each thread's im2col band, grown to the largest needed and reused.
+    static BAND: std::cell::RefCell<Vec<f32>> = const { std::cell::RefCell::new(Vec::new()) };
+}
+
 /// `KH x KW` convolution with strides `(sy, sx)` on `[1, H, W, Cin]` f32 tensors, TFLite's
 /// SAME (or VALID) padding, a bias per output channel and a fused activation.
 #[derive(Debug, Clone, PartialEq, Eq, Hash)]
@@ -85,19 +90,42 @@ impl NhwcConv {
         out: &mut [f32],
         kernel: Kernel,
     ) -> TractResult<()> {
-        let (oh, ow, pt, pl) = self.geometry(h, w);
-        let (cin, cout) = (self.cin, self.product.output_channels());
-        let (kh, kw, (sy, sx)) = (self.kh, self.kw, self.strides);
-        let kdim = kh * kw * cin;
+        let (oh, ow, _, _) = self.geometry(h, w);
+        let kdim = self.kh * self.kw * self.cin;
         ensure!(
-            src.len() == h * w * cin && out.len() == oh * ow * cout,
+            src.len() == h * w * self.cin && out.len() == oh * ow * self.product.output_channels(),
             "convolution: inconsistent buffer sizes"
         );
         if oh == 0 || ow == 0 {
             return Ok(());
         }
         let band = (BAND_FLOATS / (ow * kdim)).max(1);
-        let mut buf = vec![0f32; band.min(oh) * ow * kdim];
+        // The band is this thread's, kept between calls: no allocation per network call
+        // once it has grown to the largest band (64 KiB unless one output row is wider).
+        BAND.with_borrow_mut(|buf| {
+            let len = band.min(oh) * ow * kdim;
+            if buf.len() < len {
+                buf.resize(len, 0.0);
+            }
+            self.fill_and_multiply(src, (h, w), out, kernel, band, &mut buf[..len])
+        })
+    }
+
+    /// [`compute`](Self::compute)'s loop over bands of `band` output rows, gathered into
+    /// `buf` (every column is written before the product reads it).
+    fn fill_and_multiply(
+        &self,
+        src: &[f32],
+        (h, w): (usize, usize),
+        out: &mut [f32],
+        kernel: Kernel,
+        band: usize,
+        buf: &mut [f32],
+    ) -> TractResult<()> {
+        let (oh, ow, pt, pl) = self.geometry(h, w);
+        let (cin, cout) = (self.cin, self.product.output_channels());
+        let (kh, kw, (sy, sx)) = (self.kh, self.kw, self.strides);
+        let kdim = kh * kw * cin;
         let mut oy0 = 0;
         while oy0 < oh {
             let rows = band.min(oh - oy0);
