@@ -51,6 +51,16 @@ impl Default for LandmarkOptions {
     }
 }
 
+/// Writes into `dst` the left-right mirror of `src`, a `width`-pixel-wide RGB image.
+fn mirror_columns(src: &[f32], width: usize, dst: &mut [f32]) {
+    let row = 3 * width;
+    for (s, d) in src.chunks_exact(row).zip(dst.chunks_exact_mut(row)) {
+        for (sp, dp) in s.chunks_exact(3).rev().zip(d.chunks_exact_mut(3)) {
+            dp.copy_from_slice(sp);
+        }
+    }
+}
+
 /// Length of the network's landmark outputs (21 joints x 3).
 const RAW_LEN: usize = 3 * NUM_LANDMARKS;
 
@@ -204,9 +214,17 @@ impl LandmarkModel {
     /// the plain pass alone.
     pub fn estimate(&self, img: &RgbImage, roi: &RotatedRect) -> Result<HandLandmarks> {
         let raw = if self.options.mirror_pass {
-            let (plain, mirrored) =
-                rayon::join(|| self.read(img, roi, false), || self.read(img, roi, true));
-            plain?.mean(&mirrored?)
+            // The crop is warped once; the mirrored input is its columns in reverse order,
+            // the same samples as a warp through `Affine2::mirror_x` up to rounding in the
+            // composed map (every pixel centre maps onto its mirror's).
+            let (plain, mirrored) = self.net.run_pooled_pair(
+                |plain, mirrored| {
+                    self.crop_into(img, roi, false, plain);
+                    mirror_columns(plain, self.size, mirrored);
+                },
+                RawOutputs::read,
+            )?;
+            plain.mean(&mirrored.unmirrored(self.size as f64))
         } else {
             self.read(img, roi, false)?
         };
@@ -373,6 +391,60 @@ fn solve4(mut m: [[f64; 4]; 4], mut b: [[f64; 2]; 4]) -> Option<[[f64; 2]; 4]> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_mirrored_crop_is_the_crops_columns_reversed() {
+        // A textured image, and crops of it turned, scaled (supersampled when shrunk) and
+        // across its edge, as the landmark stage takes them.
+        let img = RgbImage::from_fn(320, 240, |x, y| {
+            image::Rgb([
+                ((x * 7 + y * 3) % 256) as u8,
+                ((x * x / 5 + y) % 256) as u8,
+                ((x ^ y) % 256) as u8,
+            ])
+        });
+        let size = 32;
+        for (center, side, rotation) in [
+            ([160.0, 120.0], 90.0, 0.0),
+            ([100.3, 80.7], 150.0, 0.6),
+            ([300.0, 20.0], 70.0, -2.2),
+            ([160.0, 120.0], 20.0, 1.0),
+        ] {
+            let roi = RotatedRect {
+                center,
+                width: side,
+                height: side,
+                rotation,
+            };
+            let warp = |m: &Affine2| {
+                let mut buf = vec![0f32; size * size * 3];
+                warp_into_with_border(
+                    &img,
+                    m,
+                    size,
+                    size,
+                    Normalization::UNIT,
+                    Border::Replicate,
+                    &mut buf,
+                );
+                buf
+            };
+            let m = roi.crop_to_image(size, size);
+            let plain = warp(&m);
+            let warped_mirror = warp(&m.compose(&Affine2::mirror_x(size as f64)));
+            let mut flipped = vec![f32::NAN; plain.len()];
+            mirror_columns(&plain, size, &mut flipped);
+            let worst = flipped
+                .iter()
+                .zip(&warped_mirror)
+                .map(|(a, b)| (a - b).abs())
+                .fold(0f32, f32::max);
+            // The same samples; only the rounding of the composed map differs.
+            assert!(worst < 1e-4, "{roi:?}: {worst}");
+            // And it is a mirror: a column and its partner hold the same pixel.
+            assert_eq!(flipped[..3], plain[3 * (size - 1)..3 * size]);
+        }
+    }
 
     #[test]
     fn exact_affine_projection_has_zero_residual_and_outlier_stands_out() {

@@ -159,6 +159,12 @@ impl TfliteNet {
         fill: impl FnOnce(&mut [f32]),
         read: impl FnOnce(NetOutputs<'_>) -> Result<R>,
     ) -> Result<R> {
+        self.with_input(state, fill)?;
+        self.exec(state, read)
+    }
+
+    /// Calls `f` on `state`'s own input buffer, to be written before [`exec`](Self::exec).
+    fn with_input<T>(&self, state: &mut NetState, f: impl FnOnce(&mut [f32]) -> T) -> Result<T> {
         if !Arc::ptr_eq(state.state.plan(), &self.plan) {
             return Err(VisionError::Inference(
                 "run state belongs to another network".into(),
@@ -170,10 +176,17 @@ impl TfliteNet {
         }
         let input = Arc::get_mut(&mut state.input)
             .ok_or_else(|| VisionError::Inference("input tensor is shared".into()))?;
-        {
-            let mut view = input.try_as_plain_ram_mut()?;
-            fill(view.as_slice_mut::<f32>()?);
-        }
+        let mut view = input.try_as_plain_ram_mut()?;
+        Ok(f(view.as_slice_mut::<f32>()?))
+    }
+
+    /// Runs `state` on the input [`with_input`](Self::with_input) wrote, then `read` gets
+    /// the outputs.
+    fn exec<R>(
+        &self,
+        state: &mut NetState,
+        read: impl FnOnce(NetOutputs<'_>) -> Result<R>,
+    ) -> Result<R> {
         state
             .state
             .set_input(0, TValue::from_const(Arc::clone(&state.input)))?;
@@ -199,17 +212,49 @@ impl TfliteNet {
         fill: impl FnOnce(&mut [f32]),
         read: impl FnOnce(NetOutputs<'_>) -> Result<R>,
     ) -> Result<R> {
-        let idle = self.lock_pool()?.pop();
-        let mut state = match idle {
-            Some(s) => s,
-            None => self.new_state()?,
-        };
+        let mut state = self.take_state()?;
         let out = self.run_in(&mut state, fill, read);
-        // A state whose run failed is dropped rather than reused.
-        if out.is_ok() {
+        self.give_back(state, out.is_ok())?;
+        out
+    }
+
+    /// Two runs side by side on rayon's threads, on two states of the pool: `fill` writes
+    /// both inputs at once (so that the second can be made from the first, e.g. a crop and
+    /// its mirror image), then each run's outputs go through `read`.
+    pub fn run_pooled_pair<R: Send>(
+        &self,
+        fill: impl FnOnce(&mut [f32], &mut [f32]),
+        read: impl Fn(NetOutputs<'_>) -> Result<R> + Sync,
+    ) -> Result<(R, R)> {
+        let (mut a, mut b) = (self.take_state()?, self.take_state()?);
+        let filled = self
+            .with_input(&mut a, |x| self.with_input(&mut b, |y| fill(x, y)))
+            .and_then(|inner| inner);
+        let (ra, rb) = match filled {
+            Ok(()) => rayon::join(|| self.exec(&mut a, &read), || self.exec(&mut b, &read)),
+            Err(e) => return Err(e),
+        };
+        self.give_back(a, ra.is_ok())?;
+        self.give_back(b, rb.is_ok())?;
+        Ok((ra?, rb?))
+    }
+
+    /// A state from the pool, or a new one if none is idle.
+    fn take_state(&self) -> Result<NetState> {
+        let idle = self.lock_pool()?.pop();
+        match idle {
+            Some(s) => Ok(s),
+            None => self.new_state(),
+        }
+    }
+
+    /// Returns `state` to the pool; a state whose run failed (`ok` false) is dropped
+    /// rather than reused.
+    fn give_back(&self, state: NetState, ok: bool) -> Result<()> {
+        if ok {
             self.lock_pool()?.push(state);
         }
-        out
+        Ok(())
     }
 
     fn lock_pool(&self) -> Result<std::sync::MutexGuard<'_, Vec<NetState>>> {

@@ -69,9 +69,34 @@ fn reused_state_matches_fresh_runs_across_calls() {
                     },
                 )
                 .expect("pooled run");
+            // Two runs side by side, the second on another input made from the first's.
+            let other = pseudo_random(len, seed + 10);
+            let (first, second) = net
+                .run_pooled_pair(
+                    |a, b| {
+                        a.copy_from_slice(&data);
+                        b.copy_from_slice(&other);
+                    },
+                    |out| {
+                        (0..out.len())
+                            .map(|i| out.get(i).map(bits))
+                            .collect::<Result<Vec<_>, _>>()
+                    },
+                )
+                .expect("pair of runs");
+            let fresh_other = net
+                .run(Tensor::from_shape(&shape, &other).expect("tensor"))
+                .expect("fresh run");
             let fresh: Vec<Vec<u32>> = fresh.iter().map(|o| bits(o)).collect();
+            let fresh_other: Vec<Vec<u32>> = fresh_other.iter().map(|o| bits(o)).collect();
             assert_eq!(reused, fresh, "{file:?}, input {seed}: reused state");
             assert_eq!(pooled, fresh, "{file:?}, input {seed}: pooled state");
+            assert_eq!(first, fresh, "{file:?}, input {seed}: first of a pair");
+            assert_eq!(
+                second, fresh_other,
+                "{file:?}, input {seed}: second of a pair"
+            );
+            assert_ne!(first, second, "{file:?}: the pair's inputs differ");
             // The input is written in place: one buffer for every call.
             let ptr = state.input().as_ptr::<f32>().expect("f32 input") as usize;
             assert_eq!(
