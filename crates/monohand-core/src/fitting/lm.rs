@@ -18,7 +18,7 @@ use crate::kinematics::{
     finger_of, forward_kinematics, forward_kinematics_with_jacobian, LOCAL_DOF,
 };
 use crate::observation::NetworkCues;
-use nalgebra::{Matrix2x3, Rotation3, SMatrix, SVector, UnitQuaternion, Vector2, Vector3};
+use nalgebra::{Matrix2x3, Matrix3, Rotation3, SMatrix, SVector, UnitQuaternion, Vector2, Vector3};
 
 pub(crate) type Mat26 = SMatrix<f64, NUM_DOF, NUM_DOF>;
 pub(crate) type Vec26 = SVector<f64, NUM_DOF>;
@@ -467,6 +467,8 @@ impl HandFitter {
         forward_kinematics_with_jacobian(&self.posed, pose, &mut pts, &mut jac);
         h.fill(0.0);
         g.fill(0.0);
+        let mut blocks = Blocks::new();
+        let mut forms = [JointForm::default(); NUM_JOINTS];
         let mut cost = 0.0;
         for v in &self.views {
             let r = v.camera.extrinsics.rotation.matrix();
@@ -483,29 +485,44 @@ impl HandFitter {
                     v.camera.pinhole_project_with_jacobian(&x);
                 let res = w * (uv - Vector2::new(v.targets[j][0], v.targets[j][1]));
                 cost += res.norm_squared();
-                let j2: SMatrix<f64, 2, LOCAL_DOF> = (pj * r * w) * jac[j];
-                accumulate(h, g, &j2, &res, j);
+                // The block is `M jac_j` with `M = w P R` (2x3): it adds `MᵀM` and
+                // `Mᵀ res` to joint j's 3x3 form, applied to `jac_j` once below.
+                let m: Matrix2x3<f64> = pj * r * w;
+                forms[j].add(&m.tr_mul(&m), &m.tr_mul(&res));
             }
             // Bone directions from the network's cues: the child's 10 local
             // degrees of freedom cover its parent's (same finger, or the wrist).
-            for cue in 0..NUM_CUES {
-                for (b, &(p, c)) in BONES.iter().enumerate() {
+            // Each cue's block is `w_k D` with one `D` per bone, so the cues of a
+            // bone add up to `(Σ w_k²) DᵀD` and `Dᵀ Σ w_k r_k`: one product per bone.
+            for (b, &(p, c)) in BONES.iter().enumerate() {
+                let (mut w2, mut wr) = (0.0, Vector3::zeros());
+                for cue in 0..NUM_CUES {
                     if let Some(res) = self.bone_residual(v, cue, b, &pts, mask) {
                         cost += res.norm_squared();
                         let w = v.bone_weights[cue][b];
-                        let jb: SMatrix<f64, 3, LOCAL_DOF> = (r * w) * (jac[c] - jac[p]);
-                        accumulate(h, g, &jb, &res, c);
+                        w2 += w * w;
+                        wr += w * res;
                     }
+                }
+                if w2 > 0.0 {
+                    let d: SMatrix<f64, 3, LOCAL_DOF> = r * (jac[c] - jac[p]);
+                    blocks.add_scaled(&d, w2, &wr, c);
                 }
             }
         }
-        for (j, jac_j) in jac.iter().enumerate() {
+        let wt = self.options.temporal_weight;
+        for (j, form) in forms.iter_mut().enumerate() {
             if let Some(res) = self.temporal_residual(j, &pts, mask) {
                 cost += res.norm_squared();
-                let jt: SMatrix<f64, 3, LOCAL_DOF> = jac_j * self.options.temporal_weight;
-                accumulate(h, g, &jt, &res, j);
+                form.add(&(Matrix3::identity() * (wt * wt)), &(res * wt));
             }
         }
+        for (j, (form, jac_j)) in forms.iter().zip(&jac).enumerate() {
+            if form.used {
+                blocks.add_form(jac_j, form, j);
+            }
+        }
+        blocks.scatter(h, g);
         Some(cost)
     }
 
@@ -652,24 +669,85 @@ impl HandFitter {
     }
 }
 
-/// Adds one residual block `res` with Jacobian `jb` (columns: the local
-/// degrees of freedom of `joint`) to `J^T J` and `J^T r`.
-#[inline]
-fn accumulate<const R: usize>(
-    h: &mut Mat26,
-    g: &mut Vec26,
-    jb: &SMatrix<f64, R, LOCAL_DOF>,
-    res: &SVector<f64, R>,
-    joint: usize,
-) {
-    let jtj = jb.tr_mul(jb);
-    let jtr = jb.tr_mul(res);
-    let idx = dof_index_map(joint);
-    let n = if joint == 0 { 6 } else { LOCAL_DOF };
-    for a in 0..n {
-        g[idx[a]] += jtr[a];
-        for b in 0..n {
-            h[(idx[a], idx[b])] += jtj[(a, b)];
+/// The residual blocks of one joint that are linear maps of its own Jacobian
+/// (`A_k jac_j`: its pixels in every view, its temporal pull), summed as
+/// `S = Σ A_kᵀ A_k` and `q = Σ A_kᵀ r_k`, so that `jac_j` enters `J^T J` once.
+#[derive(Clone, Copy, Default)]
+struct JointForm {
+    s: Matrix3<f64>,
+    q: Vector3<f64>,
+    used: bool,
+}
+
+impl JointForm {
+    #[inline]
+    fn add(&mut self, s: &Matrix3<f64>, q: &Vector3<f64>) {
+        self.s += s;
+        self.q += q;
+        self.used = true;
+    }
+}
+
+/// `J^T J` and `J^T r` gathered per group of joints that share their local
+/// degrees of freedom (the wrist, then each finger: the root's 6 and the
+/// finger's 4), in the 10 local columns, and added into the full 26x26 system
+/// once per group by [`Blocks::scatter`]. Gathering per group first saves
+/// scattering every residual block on its own.
+struct Blocks {
+    h: [SMatrix<f64, LOCAL_DOF, LOCAL_DOF>; 6],
+    g: [SVector<f64, LOCAL_DOF>; 6],
+}
+
+impl Blocks {
+    fn new() -> Blocks {
+        Blocks {
+            h: [SMatrix::zeros(); 6],
+            g: [SVector::zeros(); 6],
+        }
+    }
+
+    /// The group of `joint`: 0 the wrist, 1-5 its finger.
+    #[inline]
+    fn group(joint: usize) -> usize {
+        finger_of(joint).map_or(0, |f| f.index() + 1)
+    }
+
+    /// Adds `jacᵀ S jac` and `jacᵀ q` of joint `joint`'s [`JointForm`].
+    #[inline]
+    fn add_form(&mut self, jac: &SMatrix<f64, 3, LOCAL_DOF>, form: &JointForm, joint: usize) {
+        let group = Blocks::group(joint);
+        self.h[group] += jac.tr_mul(&(form.s * jac));
+        self.g[group] += jac.tr_mul(&form.q);
+    }
+
+    /// Adds `w2 DᵀD` and `Dᵀ wr`: residual blocks `w_k D` with residuals `r_k`,
+    /// `w2 = Σ w_k²`, `wr = Σ w_k r_k`.
+    #[inline]
+    fn add_scaled<const R: usize>(
+        &mut self,
+        d: &SMatrix<f64, R, LOCAL_DOF>,
+        w2: f64,
+        wr: &SVector<f64, R>,
+        joint: usize,
+    ) {
+        let group = Blocks::group(joint);
+        self.h[group] += d.tr_mul(d) * w2;
+        self.g[group] += d.tr_mul(wr);
+    }
+
+    /// Adds every group into `h` and `g` (the wrist's group over the root's 6
+    /// degrees of freedom only: its last 4 columns are zero).
+    fn scatter(&self, h: &mut Mat26, g: &mut Vec26) {
+        for (group, (hl, gl)) in self.h.iter().zip(&self.g).enumerate() {
+            let joint = if group == 0 { 0 } else { 4 * group };
+            let idx = dof_index_map(joint);
+            let n = if group == 0 { 6 } else { LOCAL_DOF };
+            for a in 0..n {
+                g[idx[a]] += gl[a];
+                for b in 0..n {
+                    h[(idx[a], idx[b])] += hl[(a, b)];
+                }
+            }
         }
     }
 }
