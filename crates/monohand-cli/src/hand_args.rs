@@ -48,6 +48,12 @@ pub(crate) struct HandModelArgs {
     /// three phalanges). Applied after --hand-scale.
     #[arg(long, value_name = "FILE.json")]
     pub bone_lengths: Option<PathBuf>,
+    /// Learn each hand's proportions (the size kept) from the keypoint network's metric 3D
+    /// over this many first frames, then fit every frame with them; `run` keeps these
+    /// frames back until then, and says whether the estimate settled. Off by default: on
+    /// real frames with 3D labels it made the 3D worse (docs/accuracy.md).
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..))]
+    pub proportion_frames: Option<u64>,
     /// Keypoints with a confidence below this are ignored (paper: 0.1).
     #[arg(long, value_name = "P", default_value_t = 0.1)]
     pub min_confidence: f64,

@@ -4,6 +4,8 @@ use crate::hand_args::HandScale;
 use crate::LiftArgs;
 use anyhow::{bail, Context, Result};
 use monohand::{FitOutcome, Lifter};
+use monohand_core::fitting::{estimate_proportions, SETTLED_CHANGE};
+use monohand_core::observation::NetworkCues;
 use monohand_core::prelude::*;
 use monohand_io::jsonl::{read_jsonl, FrameRecord, HandRecord, JsonlWriter};
 use monohand_io::openpose::{list_openpose_files, read_openpose_file};
@@ -104,6 +106,38 @@ impl ViewInput {
     }
 }
 
+/// `--proportion-frames`: each side's proportions from the network's metric 3D
+/// (`world_mm`) of its hands in the first `n` frames of the first view, applied to that
+/// side's skeleton; says what it found.
+fn learn_proportions(view: &ViewInput, n: usize, skeletons: &mut [HandSkeleton; 2]) {
+    for (skeleton, side) in skeletons.iter_mut().zip([HandSide::Left, HandSide::Right]) {
+        let cues: Vec<NetworkCues> = (0..n.min(view.len()))
+            .filter_map(|i| view.frame(i).ok())
+            .flat_map(|f| f.hands.into_iter())
+            .filter(|h| h.side == side)
+            .filter_map(|h| h.cues)
+            .collect();
+        if cues.is_empty() {
+            continue;
+        }
+        match estimate_proportions(skeleton, &cues) {
+            Ok(est) => {
+                crate::say(&format!(
+                    "--proportion-frames: {side} hand proportions from {} frames, {} (halves differ by up to {:.1}%; settled below {:.0}%)",
+                    est.frames_used,
+                    if est.settled { "settled" } else { "not settled" },
+                    100.0 * est.change,
+                    100.0 * SETTLED_CHANGE
+                ));
+                *skeleton = est.skeleton;
+            }
+            Err(e) => warn!(
+                "--proportion-frames: {side} hand proportions not learnt ({e}); keeping the model's"
+            ),
+        }
+    }
+}
+
 /// The hand of this side in a view: the one with the largest total confidence (the first
 /// of equals).
 pub(crate) fn run(args: &LiftArgs) -> Result<()> {
@@ -146,11 +180,10 @@ pub(crate) fn run(args: &LiftArgs) -> Result<()> {
             1.0
         }
     };
-    let skeletons = [
+    let mut skeletons = [
         args.hand.skeleton(HandSide::Left, scale)?,
         args.hand.skeleton(HandSide::Right, scale)?,
     ];
-    let mut lifter = Lifter::new(cameras, skeletons, options, args.track)?;
     let mut views_in = Vec::with_capacity(inputs.len());
     for (i, (flag, p)) in inputs.iter().enumerate() {
         let v = if *flag == "--jsonl" {
@@ -161,6 +194,10 @@ pub(crate) fn run(args: &LiftArgs) -> Result<()> {
         .with_context(|| format!("2D input of view {}", i + 1))?;
         views_in.push(v);
     }
+    if let Some(n) = args.hand.proportion_frames {
+        learn_proportions(&views_in[0], n as usize, &mut skeletons);
+    }
+    let mut lifter = Lifter::new(cameras, skeletons, options, args.track)?;
     let lens: Vec<usize> = views_in.iter().map(ViewInput::len).collect();
     let n_frames = lens.iter().copied().max().unwrap_or(0);
     if lens.iter().any(|&l| l != n_frames) {

@@ -5,7 +5,10 @@ use crate::association::{associate, Candidate};
 use crate::crops::{HandId, VisionFrame};
 use crate::fit::{fit_views, FitOutcome};
 use monohand_core::filtering::{OneEuroFilter, OneEuroParams};
-use monohand_core::fitting::{estimate_hand_scale, ScaleEstimate};
+use monohand_core::fitting::{
+    estimate_hand_scale, estimate_proportions, ProportionEstimate, ScaleEstimate, SETTLED_CHANGE,
+};
+use monohand_core::observation::NetworkCues;
 use monohand_core::prelude::*;
 use monohand_vision::image_io::PhotoFocal;
 use monohand_vision::DetectedHand;
@@ -32,6 +35,12 @@ pub struct FitSettings {
     /// With two or more cameras, keep this many first frames back to measure the hand's
     /// size before fitting them (`None`: keep the skeletons' size).
     pub auto_scale_frames: Option<usize>,
+    /// Keep this many first frames back to learn each side's hand proportions from the
+    /// network's metric 3D ([`estimate_proportions`]; the size stays the skeleton's), then
+    /// fit every frame with them (`None`: keep the skeletons' proportions). Off by
+    /// default: on the development set it makes the 3D worse, because the network marks
+    /// the joints in another convention than anatomical labels (docs/accuracy.md).
+    pub proportion_frames: Option<usize>,
     /// Smooth each hand's 3D joints over time with a One Euro filter.
     pub smoothing: Option<OneEuroParams>,
 }
@@ -46,6 +55,7 @@ impl Default for FitSettings {
             options: FitOptions::default(),
             tracking: true,
             auto_scale_frames: None,
+            proportion_frames: None,
             smoothing: None,
         }
     }
@@ -116,6 +126,7 @@ pub struct HandsFitter<T = ()> {
     tracks: HashMap<HandId, Track>,
     pending: Option<(usize, Vec<(VisionFrame, T)>)>,
     scale: Option<ScaleEstimate>,
+    proportions: [Option<ProportionEstimate>; 2],
     notes: Vec<String>,
 }
 
@@ -137,10 +148,16 @@ impl<T> HandsFitter<T> {
                 HandTracker::new(settings.skeletons[0], settings.options)?,
                 HandTracker::new(settings.skeletons[1], settings.options)?,
             ],
-            pending: settings.auto_scale_frames.map(|n| (n.max(1), Vec::new())),
+            pending: settings
+                .auto_scale_frames
+                .into_iter()
+                .chain(settings.proportion_frames)
+                .max()
+                .map(|n| (n.max(1), Vec::new())),
             settings,
             tracks: HashMap::new(),
             scale: None,
+            proportions: [None, None],
             notes: Vec::new(),
         })
     }
@@ -148,6 +165,12 @@ impl<T> HandsFitter<T> {
     /// The hand size measured with `auto_scale_frames`, once known.
     pub fn scale(&self) -> Option<&ScaleEstimate> {
         self.scale.as_ref()
+    }
+
+    /// The proportions learnt with `proportion_frames` for the left and the right hand,
+    /// once known.
+    pub fn proportions(&self) -> &[Option<ProportionEstimate>; 2] {
+        &self.proportions
     }
 
     /// The cameras in use (after a generic one was made for the image size).
@@ -183,7 +206,12 @@ impl<T> HandsFitter<T> {
         let Some((_, pending)) = self.pending.take() else {
             return Vec::new();
         };
-        self.measure_scale(&pending);
+        if self.settings.auto_scale_frames.is_some() {
+            self.measure_scale(&pending);
+        }
+        if let Some(n) = self.settings.proportion_frames {
+            self.learn_proportions(&pending[..n.min(pending.len())]);
+        }
         pending
             .into_iter()
             .map(|(f, p)| (self.fit_frame(f), p))
@@ -269,6 +297,50 @@ impl<T> HandsFitter<T> {
             Err(e) => self.notes.push(format!(
                 "--hand-scale auto: could not measure the hand size ({e}); keeping the default"
             )),
+        }
+    }
+
+    /// Each side's proportions from the network's metric 3D of its hands in `frames`
+    /// (the first view that sees each), applied to that side's skeleton.
+    fn learn_proportions(&mut self, frames: &[(VisionFrame, T)]) {
+        let mut cues: [Vec<NetworkCues>; 2] = [Vec::new(), Vec::new()];
+        for (frame, _) in frames {
+            for (_, side, views) in self.associate(frame) {
+                let first = views.first().and_then(|&(v, k)| detected(frame, v, k));
+                if let Some(c) = first.and_then(|d| d.cues) {
+                    cues[side_index(side)].push(c);
+                }
+            }
+        }
+        for side in [HandSide::Left, HandSide::Right] {
+            let i = side_index(side);
+            if cues[i].is_empty() {
+                continue;
+            }
+            let fitter = self.prototypes[i].fitter_mut();
+            let template = *fitter.skeleton();
+            match estimate_proportions(&template, &cues[i]) {
+                Ok(est) => {
+                    if let Err(e) = fitter.set_skeleton(est.skeleton) {
+                        self.notes.push(format!(
+                            "--proportion-frames: {side} hand proportions not applied: {e}"
+                        ));
+                        continue;
+                    }
+                    self.notes.push(format!(
+                        "--proportion-frames: {side} hand proportions from {} frames, {} \
+                         (halves differ by up to {:.1}%; settled below {:.0}%)",
+                        est.frames_used,
+                        if est.settled { "settled" } else { "not settled" },
+                        100.0 * est.change,
+                        100.0 * SETTLED_CHANGE
+                    ));
+                    self.proportions[i] = Some(est);
+                }
+                Err(e) => self.notes.push(format!(
+                    "--proportion-frames: {side} hand proportions not learnt ({e}); keeping the model's"
+                )),
+            }
         }
     }
 

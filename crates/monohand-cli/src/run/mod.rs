@@ -296,6 +296,7 @@ pub(crate) fn run(args: &RunArgs) -> Result<Outcome> {
         options,
         tracking,
         auto_scale_frames: auto_frames,
+        proportion_frames: args.hand.proportion_frames.map(|n| n as usize),
         smoothing: args.smooth.then(|| OneEuroParams {
             min_cutoff: args.smooth_min_cutoff,
             beta: args.smooth_beta,
