@@ -27,16 +27,8 @@ import cv2
 import mediapipe as mp
 import numpy as np
 
-
-def pa_errors(p, g):
-    """Per-joint distance after the similarity transform that best aligns p to g."""
-    mp_, mg = p.mean(0), g.mean(0)
-    P, Q = p - mp_, g - mg
-    U, S, Vt = np.linalg.svd(P.T @ Q)
-    D = np.diag([1.0, 1.0, np.sign(np.linalg.det(U @ Vt))])
-    R = U @ D @ Vt
-    s = (S * np.diag(D)).sum() / (P**2).sum()
-    return np.linalg.norm(s * P @ R - Q, axis=1)
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "accuracy_floor"))
+from floor import pa_errors  # noqa: E402  (the same Procrustes alignment as the floor)
 
 
 def run(dataset, frames, static):

@@ -5,7 +5,7 @@
 mod common;
 
 use monohand_vision::image_io::load_rgb;
-use monohand_vision::{ModelFile, TfliteNet};
+use monohand_vision::{ModelFile, NetOutputs, TfliteNet, VisionError};
 use tract_core::prelude::Tensor;
 
 /// A deterministic input in `[0, 1]`, different for each `seed`.
@@ -23,6 +23,11 @@ fn pseudo_random(len: usize, seed: u64) -> Vec<f32> {
 
 fn bits(v: &[f32]) -> Vec<u32> {
     v.iter().map(|x| x.to_bits()).collect()
+}
+
+/// The bits of every output of a run.
+fn all_bits(out: NetOutputs<'_>) -> Result<Vec<Vec<u32>>, VisionError> {
+    (0..out.len()).map(|i| out.get(i).map(bits)).collect()
 }
 
 #[test]
@@ -49,25 +54,10 @@ fn reused_state_matches_fresh_runs_across_calls() {
                 .run(Tensor::from_shape(&shape, &data).expect("tensor"))
                 .expect("fresh run");
             let reused = net
-                .run_in(
-                    &mut state,
-                    |buf| buf.copy_from_slice(&data),
-                    |out| {
-                        (0..out.len())
-                            .map(|i| out.get(i).map(bits))
-                            .collect::<Result<Vec<_>, _>>()
-                    },
-                )
+                .run_in(&mut state, |buf| buf.copy_from_slice(&data), all_bits)
                 .expect("reused run");
             let pooled = net
-                .run_pooled(
-                    |buf| buf.copy_from_slice(&data),
-                    |out| {
-                        (0..out.len())
-                            .map(|i| out.get(i).map(bits))
-                            .collect::<Result<Vec<_>, _>>()
-                    },
-                )
+                .run_pooled(|buf| buf.copy_from_slice(&data), all_bits)
                 .expect("pooled run");
             // Two runs side by side, the second on another input made from the first's.
             let other = pseudo_random(len, seed + 10);
@@ -77,11 +67,7 @@ fn reused_state_matches_fresh_runs_across_calls() {
                         a.copy_from_slice(&data);
                         b.copy_from_slice(&other);
                     },
-                    |out| {
-                        (0..out.len())
-                            .map(|i| out.get(i).map(bits))
-                            .collect::<Result<Vec<_>, _>>()
-                    },
+                    all_bits,
                 )
                 .expect("pair of runs");
             let fresh_other = net
