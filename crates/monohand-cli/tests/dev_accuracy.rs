@@ -81,7 +81,7 @@ fn network_cues_beat_the_2d_only_fit_on_real_frames() {
     let (pa_fit, pa_paper, pa_mp) = (num(&fit, 7), num(&paper, 7), num(&mediapipe, 7));
     let (abs_fit, abs_paper) = (num(&fit, 2), num(&paper, 2));
     // Measured on these 100 frames (2026-11-24, the defaults, mirror pass on, before
-    // depth fusion): PA 8.38 mm with the cues (7.54 with fusion, 2026-11-25) against
+    // depth fusion): PA 8.38 mm with the cues (7.54 with fusion, 2026-11-24) against
     // 18.75 for the paper's cost on the same keypoints and 8.95 for MediaPipe's own 3D
     // (8.66 for the mean of the two passes); absolute 32.95 against
     // 37.17 mm (the mirror pass also improves the 2D-only fit's position: 41.59 mm
@@ -92,7 +92,7 @@ fn network_cues_beat_the_2d_only_fit_on_real_frames() {
         abs_fit < 0.93 * abs_paper && abs_fit < 35.0,
         "absolute {abs_fit} vs {abs_paper}"
     );
-    // Depth fusion (docs/accuracy.md; measured 2026-11-25 on these frames: PA 8.38 to
+    // Depth fusion (docs/accuracy.md; measured 2026-11-24 on these frames: PA 8.38 to
     // 7.54 mm, centroid 10.31 to 9.47, absolute 32.95 to 32.90) improves the shape, and
     // moves joints only along their viewing rays: the reprojection error is the same.
     let (pa_skel, cen_fit, cen_skel) = (num(&skeleton, 7), num(&fit, 6), num(&skeleton, 6));
