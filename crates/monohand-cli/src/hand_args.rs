@@ -89,6 +89,10 @@ pub(crate) struct CueArgs {
     /// to at most 1.
     #[arg(long, value_name = "W", default_value_t = FitOptions::default().fuse_depth)]
     pub fuse_depth: f64,
+    /// With one camera: then move each output joint this share of the way towards its
+    /// 2D keypoint's viewing ray (at its depth); 0 keeps the skeleton's pixels.
+    #[arg(long, value_name = "W", default_value_t = FitOptions::default().fuse_pixels)]
+    pub fuse_pixels: f64,
 }
 
 impl CueArgs {
@@ -100,6 +104,7 @@ impl CueArgs {
             temporal_weight: self.temporal_weight,
             fuse_world: self.fuse_world,
             fuse_depth: self.fuse_depth,
+            fuse_pixels: self.fuse_pixels,
             ..options
         }
     }
@@ -137,7 +142,7 @@ impl HandModelArgs {
             ..FitOptions::default()
         });
         options.validate().context(
-            "--min-confidence / --confidence-power / --world-weight / --depth-weight / --temporal-weight / --fuse-world / --fuse-depth",
+            "--min-confidence / --confidence-power / --world-weight / --depth-weight / --temporal-weight / --fuse-world / --fuse-depth / --fuse-pixels",
         )?;
         if self.hand_scale == HandScale::Auto && self.scale_frames == 0 {
             bail!("--scale-frames must be at least 1");

@@ -95,6 +95,8 @@ fn lift_learns_the_proportions_from_world_landmarks() {
             "0",
             "--fuse-depth",
             "0",
+            "--fuse-pixels",
+            "0",
         ];
         args.extend_from_slice(extra);
         let o = monohand(&args);

@@ -1,4 +1,4 @@
-//! The network's depth fused into the fitted joints.
+//! The network's depth and pixels fused into the fitted joints.
 //!
 //! With one camera the fit's joints are a posed skeleton: its 2D agreement is
 //! what the pixels say, its depths what the skeleton and the network's bone
@@ -9,14 +9,16 @@
 //! fit's, the metric 3D's (MediaPipe's world landmarks, placed rigidly on the
 //! fit) and the relative depth's (the landmark `z`, in pixels, scaled to mm at
 //! the fit's mean depth). The reprojection stays the fit's; only depth changes.
-//! The weights were chosen on the development set (docs/accuracy.md).
+//! [`fuse_keypoints`] then does the same across the rays: the 2D keypoints are a
+//! second estimate of where each joint is seen, which the skeleton cannot always
+//! reach. The weights were chosen on the development set (docs/accuracy.md).
 
-use nalgebra::Vector3;
+use nalgebra::{Point2, Vector3};
 
 use crate::alignment::align;
 use crate::camera::Camera;
 use crate::hand_model::NUM_JOINTS;
-use crate::observation::NetworkCues;
+use crate::observation::{Keypoints2d, NetworkCues};
 
 /// Moves each of `joints` (reference frame, mm) along its viewing ray from
 /// `camera` to the depth `(1 − a − b) z_fit + a z_world + b z_rel`, with
@@ -87,6 +89,54 @@ pub fn fuse_network_depth(
             return None;
         }
         *x = centre + (*x - centre) * (zn / zf);
+    }
+    Some(out)
+}
+
+/// Moves each of `joints` (reference frame, mm) a share `weight` of the way to the
+/// point at the same depth from `camera` on the viewing ray of its keypoint, for the
+/// keypoints with a confidence above 0 and at least `min_confidence`; the others stay.
+/// With a weight of 1 the joints reproject onto their keypoints.
+///
+/// Returns `None` for a weight outside `[0, 1]` or a used joint not in front of the
+/// camera.
+///
+/// ```
+/// use monohand_core::{camera::Camera, fitting::fuse_keypoints, observation::Keypoints2d};
+/// use nalgebra::Vector3;
+///
+/// let camera = Camera::centred(500.0, 640, 480).expect("valid");
+/// let fit = [Vector3::new(0.0, 0.0, 400.0); 21];
+/// let seen = camera.project(&fit[5]).expect("in front");
+/// let mut kp = Keypoints2d::default();
+/// kp.points[5] = [seen.x + 10.0, seen.y, 0.9]; // 10 px right of where joint 5 projects
+/// let fused = fuse_keypoints(&fit, &camera, &kp, 0.1, 0.5).expect("in front");
+/// assert!((fused[5] - Vector3::new(4.0, 0.0, 400.0)).norm() < 1e-9); // 5 px = 4 mm
+/// assert_eq!(fused[6], fit[6]); // no keypoint
+/// ```
+pub fn fuse_keypoints(
+    joints: &[Vector3<f64>; NUM_JOINTS],
+    camera: &Camera,
+    keypoints: &Keypoints2d,
+    min_confidence: f64,
+    weight: f64,
+) -> Option<[Vector3<f64>; NUM_JOINTS]> {
+    if !(0.0..=1.0).contains(&weight) {
+        return None;
+    }
+    let ext = &camera.extrinsics;
+    let mut out = *joints;
+    for (x, &[u, v, p]) in out.iter_mut().zip(&keypoints.points) {
+        if weight == 0.0 || p <= 0.0 || p < min_confidence {
+            continue;
+        }
+        let z = ext.transform(x).z;
+        let ray = camera.ray(Point2::new(u, v));
+        if !(z > 0.0 && ray.z > 0.0) {
+            return None;
+        }
+        let on_ray = ext.rotation.inverse() * (ray * (z / ray.z) - ext.translation);
+        *x += (on_ray - *x) * weight;
     }
     Some(out)
 }
@@ -192,6 +242,37 @@ mod tests {
         // The absent world cue leaves its share with the fit.
         let world_only = fuse_network_depth(&fit, &camera, &cues, [0.3, 0.0]).expect("fused");
         assert_eq!(world_only, fit);
+    }
+
+    #[test]
+    fn keypoint_fusion_moves_used_joints_towards_their_rays_at_their_depth() {
+        let fit = hand();
+        let camera = side_camera();
+        // Keypoints 6 px right and 4 px down of where the joints project; joint 3 unused,
+        // joint 4 below the confidence threshold.
+        let mut kp = Keypoints2d::default();
+        for (j, x) in fit.iter().enumerate() {
+            let px = camera.project(x).expect("in front");
+            kp.points[j] = [px.x + 6.0, px.y + 4.0, if j == 4 { 0.05 } else { 0.9 }];
+        }
+        kp.points[3][2] = 0.0;
+        let depth = |p: &Vector3<f64>| camera.extrinsics.transform(p).z;
+        let full = fuse_keypoints(&fit, &camera, &kp, 0.1, 1.0).expect("fused");
+        let half = fuse_keypoints(&fit, &camera, &kp, 0.1, 0.5).expect("fused");
+        for j in 0..NUM_JOINTS {
+            if j == 3 || j == 4 {
+                assert_eq!(full[j], fit[j]);
+                continue;
+            }
+            // Weight 1: on the keypoint's ray, at the joint's depth.
+            let px = camera.project(&full[j]).expect("in front");
+            assert!((px.x - kp.points[j][0]).abs() < 1e-6 && (px.y - kp.points[j][1]).abs() < 1e-6);
+            assert!((depth(&full[j]) - depth(&fit[j])).abs() < 1e-9);
+            // Weight 0.5: halfway.
+            assert!((half[j] - (fit[j] + full[j]) * 0.5).norm() < 1e-9);
+        }
+        assert_eq!(fuse_keypoints(&fit, &camera, &kp, 0.1, 0.0), Some(fit));
+        assert!(fuse_keypoints(&fit, &camera, &kp, 0.1, 1.5).is_none());
     }
 
     #[test]

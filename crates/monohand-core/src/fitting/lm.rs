@@ -7,7 +7,7 @@
 //! freedom sitting on a bound whose step would leave the box is frozen for
 //! that step, and the step is projected onto the box.
 
-use super::fusion::fuse_network_depth;
+use super::fusion::{fuse_keypoints, fuse_network_depth};
 use super::init;
 use super::options::{FitOptions, View};
 use crate::camera::Camera;
@@ -17,7 +17,7 @@ use crate::hand_model::{HandPose, HandSkeleton, BONES, NUM_DOF, NUM_JOINTS};
 use crate::kinematics::{
     finger_of, forward_kinematics, forward_kinematics_with_jacobian, LOCAL_DOF,
 };
-use crate::observation::NetworkCues;
+use crate::observation::{Keypoints2d, NetworkCues};
 use nalgebra::{Matrix2x3, Matrix3, Rotation3, SMatrix, SVector, UnitQuaternion, Vector2, Vector3};
 
 pub(crate) type Mat26 = SMatrix<f64, NUM_DOF, NUM_DOF>;
@@ -34,12 +34,13 @@ pub struct FitResult {
     /// The fitted pose (wrist translation in mm, rotation, angles).
     pub pose: HandPose,
     /// The 21 joints in the reference (first) camera frame, millimetres: the
-    /// posed skeleton's, with the network's depth fused in where
-    /// [`FitOptions::fuse_world`] / [`FitOptions::fuse_depth`] apply (one view
-    /// with the network's 3D).
+    /// posed skeleton's, with one view moved towards the network's depth
+    /// ([`FitOptions::fuse_world`], [`FitOptions::fuse_depth`]) and pixels
+    /// ([`FitOptions::fuse_pixels`]).
     pub joints_3d: [Vector3<f64>; NUM_JOINTS],
     /// The posed skeleton's joints (`pose` through forward kinematics), the
-    /// same as `joints_3d` without depth fusion ([`crate::fitting::fuse_network_depth`]).
+    /// same as `joints_3d` without fusion ([`crate::fitting::fuse_network_depth`],
+    /// [`crate::fitting::fuse_keypoints`]).
     pub model_joints_3d: [Vector3<f64>; NUM_JOINTS],
     /// Mean distance in pixels between observed and reprojected joints, over
     /// the joints used in all views (distortion applied, unweighted).
@@ -396,11 +397,7 @@ impl HandFitter {
                 }
             }
         }
-        let o = &self.options;
-        let fused = self.fusion_cues.and_then(|cues| {
-            let camera = &self.views.first()?.camera;
-            fuse_network_depth(&joints_3d, camera, &cues, [o.fuse_world, o.fuse_depth])
-        });
+        let fused = self.fuse(&joints_3d);
         FitResult {
             pose: sol.pose,
             joints_3d: fused.unwrap_or(joints_3d),
@@ -411,6 +408,31 @@ impl HandFitter {
             cost,
             used_observations: used,
         }
+    }
+
+    /// With one view, the output joints: `joints` with the network's depth fused in
+    /// ([`fuse_network_depth`], if the view has cues the fit uses), then moved towards
+    /// their keypoints' rays ([`fuse_keypoints`]). `None` with several views, or if a
+    /// step is undefined (the fitted joints are kept then).
+    fn fuse(&self, joints: &[Vector3<f64>; NUM_JOINTS]) -> Option<[Vector3<f64>; NUM_JOINTS]> {
+        let [v] = self.views.as_slice() else {
+            return None;
+        };
+        let o = &self.options;
+        let deep = match self.fusion_cues {
+            Some(cues) => {
+                fuse_network_depth(joints, &v.camera, &cues, [o.fuse_world, o.fuse_depth])?
+            }
+            None => *joints,
+        };
+        // The keypoints the fit used (weight above 0), as given (distorted).
+        let used = Keypoints2d {
+            points: std::array::from_fn(|j| {
+                let [u, w] = v.raw[j];
+                [u, w, if v.weights[j] > 0.0 { 1.0 } else { 0.0 }]
+            }),
+        };
+        fuse_keypoints(&deep, &v.camera, &used, 1.0, o.fuse_pixels)
     }
 
     /// Cost of a pose over the masked joints; `None` if a joint is behind a camera.

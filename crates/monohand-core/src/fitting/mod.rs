@@ -12,8 +12,9 @@
 //! the depth ambiguity of the 2D cost with one camera, and in tracking a pull
 //! of every joint towards its constant-velocity prediction. After the fit, with
 //! one camera, the network's depth is fused into the output joints along their
-//! viewing rays ([`fuse_network_depth`]). `docs/accuracy.md` has the
-//! measurements that chose the weights.
+//! viewing rays ([`fuse_network_depth`]), then its keypoints across them
+//! ([`fuse_keypoints`]). `docs/accuracy.md` has the measurements that chose the
+//! weights.
 //!
 //! The solver ([`lm`]) is a Levenberg-Marquardt over 26 degrees of freedom:
 //! translation, a rotation increment on the unit-quaternion manifold (the
@@ -31,7 +32,7 @@ mod proportions;
 mod scale;
 mod tracker;
 
-pub use fusion::fuse_network_depth;
+pub use fusion::{fuse_keypoints, fuse_network_depth};
 pub use lm::{FitResult, HandFitter};
 pub use options::{FitOptions, View};
 pub use proportions::{estimate_proportions, ProportionEstimate, MIN_FRAMES, SETTLED_CHANGE};

@@ -86,6 +86,14 @@ pub struct FitOptions {
     /// The same for the relative depth ([`NetworkCues::depth_px`], scaled to mm at
     /// the fit's mean depth).
     pub fuse_depth: f64,
+    /// With one view, after the depth fusion: the share of the way each output joint
+    /// moves towards the point at its depth on its keypoint's viewing ray (the pixels
+    /// the fit used; [`fuse_keypoints`]). The skeleton cannot reach every keypoint, and
+    /// the keypoints are a second estimate of where the joints are seen. 0 keeps the
+    /// skeleton's pixels; 1 puts every used joint on its keypoint's ray.
+    ///
+    /// [`fuse_keypoints`]: crate::fitting::fuse_keypoints
+    pub fuse_pixels: f64,
 }
 
 /// Angular error (RMS, degrees) of the landmark network's bone directions against
@@ -130,6 +138,7 @@ impl Default for FitOptions {
             temporal_weight: 0.1,
             fuse_world: 0.5,
             fuse_depth: 0.1,
+            fuse_pixels: 0.5,
         }
     }
 }
@@ -159,6 +168,9 @@ impl FitOptions {
             && self.fuse_world + self.fuse_depth <= 1.0)
         {
             return bad("fuse_world and fuse_depth must be in [0, 1], with a sum of at most 1");
+        }
+        if !(0.0..=1.0).contains(&self.fuse_pixels) {
+            return bad("fuse_pixels must be in [0, 1]");
         }
         for (name, w) in [
             ("world_weight", self.world_weight),
