@@ -69,14 +69,7 @@ fn network_cues_beat_the_2d_only_fit_on_real_frames() {
     // MediaPipe's own 3D: the landmark network read once per crop, as MediaPipe does.
     let single = eval(&["--no-mirror-pass"]);
     // The posed skeleton's joints, nothing fused in; and the depth fusion alone.
-    let unfused = eval(&[
-        "--fuse-world",
-        "0",
-        "--fuse-depth",
-        "0",
-        "--fuse-pixels",
-        "0",
-    ]);
+    let unfused = eval(&NO_FUSION);
     let depth_only = eval(&["--fuse-pixels", "0"]);
     let (fit, paper) = (row(&with, "mono"), row(&without, "mono"));
     let (skeleton, deep) = (row(&unfused, "mono"), row(&depth_only, "mono"));

@@ -90,14 +90,9 @@ fn lift_learns_the_proportions_from_world_landmarks() {
             "--output",
             p(&out),
             "--track",
-            // The skeleton's own joints, so that their bone lengths are the model's.
-            "--fuse-world",
-            "0",
-            "--fuse-depth",
-            "0",
-            "--fuse-pixels",
-            "0",
         ];
+        // The skeleton's own joints, so that their bone lengths are the model's.
+        args.extend_from_slice(&NO_FUSION);
         args.extend_from_slice(extra);
         let o = monohand(&args);
         ok(&o);

@@ -57,6 +57,16 @@ pub fn write_view(dir: &Path, camera: &Camera, frames: &[[Vector3<f64>; 21]]) {
     }
 }
 
+/// Flags that turn every fusion off: the output joints are the posed skeleton's.
+pub const NO_FUSION: [&str; 6] = [
+    "--fuse-world",
+    "0",
+    "--fuse-depth",
+    "0",
+    "--fuse-pixels",
+    "0",
+];
+
 /// Runs the built `monohand` binary.
 pub fn monohand(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_monohand"))
