@@ -4,7 +4,7 @@ use crate::hand_args::HandScale;
 use crate::LiftArgs;
 use anyhow::{bail, Context, Result};
 use monohand::{FitOutcome, Lifter};
-use monohand_core::fitting::{estimate_proportions, SETTLED_CHANGE};
+use monohand_core::fitting::estimate_proportions;
 use monohand_core::observation::NetworkCues;
 use monohand_core::prelude::*;
 use monohand_io::jsonl::{read_jsonl, FrameRecord, HandRecord, JsonlWriter};
@@ -123,11 +123,7 @@ fn learn_proportions(view: &ViewInput, n: usize, skeletons: &mut [HandSkeleton; 
         match estimate_proportions(skeleton, &cues) {
             Ok(est) => {
                 crate::say(&format!(
-                    "--proportion-frames: {side} hand proportions from {} frames, {} (halves differ by up to {:.1}%; settled below {:.0}%)",
-                    est.frames_used,
-                    if est.settled { "settled" } else { "not settled" },
-                    100.0 * est.change,
-                    100.0 * SETTLED_CHANGE
+                    "--proportion-frames: {side} hand proportions {est}"
                 ));
                 *skeleton = est.skeleton;
             }

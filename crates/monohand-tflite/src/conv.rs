@@ -90,10 +90,12 @@ impl NhwcConv {
         out: &mut [f32],
         kernel: Kernel,
     ) -> TractResult<()> {
-        let (oh, ow, _, _) = self.geometry(h, w);
-        let kdim = self.kh * self.kw * self.cin;
+        let (oh, ow, pt, pl) = self.geometry(h, w);
+        let (cin, cout) = (self.cin, self.product.output_channels());
+        let (kh, kw, (sy, sx)) = (self.kh, self.kw, self.strides);
+        let kdim = kh * kw * cin;
         ensure!(
-            src.len() == h * w * self.cin && out.len() == oh * ow * self.product.output_channels(),
+            src.len() == h * w * cin && out.len() == oh * ow * cout,
             "convolution: inconsistent buffer sizes"
         );
         if oh == 0 || ow == 0 {
@@ -102,30 +104,12 @@ impl NhwcConv {
         let band = (BAND_FLOATS / (ow * kdim)).max(1);
         // The band is this thread's, kept between calls: no allocation per network call
         // once it has grown to the largest band (64 KiB unless one output row is wider).
-        BAND.with_borrow_mut(|buf| {
-            let len = band.min(oh) * ow * kdim;
-            if buf.len() < len {
-                buf.resize(len, 0.0);
-            }
-            self.fill_and_multiply(src, (h, w), out, kernel, band, &mut buf[..len])
-        })
-    }
-
-    /// [`compute`](Self::compute)'s loop over bands of `band` output rows, gathered into
-    /// `buf` (every column is written before the product reads it).
-    fn fill_and_multiply(
-        &self,
-        src: &[f32],
-        (h, w): (usize, usize),
-        out: &mut [f32],
-        kernel: Kernel,
-        band: usize,
-        buf: &mut [f32],
-    ) -> TractResult<()> {
-        let (oh, ow, pt, pl) = self.geometry(h, w);
-        let (cin, cout) = (self.cin, self.product.output_channels());
-        let (kh, kw, (sy, sx)) = (self.kh, self.kw, self.strides);
-        let kdim = kh * kw * cin;
+        // Every column is written before the product reads it. (An error below drops the
+        // buffer; the next call makes a new one.)
+        let mut buf = BAND.take();
+        if buf.len() < band.min(oh) * ow * kdim {
+            buf.resize(band.min(oh) * ow * kdim, 0.0);
+        }
         let mut oy0 = 0;
         while oy0 < oh {
             let rows = band.min(oh - oy0);
@@ -170,6 +154,7 @@ impl NhwcConv {
             self.product.compute(cols, None, o, kernel)?;
             oy0 += rows;
         }
+        BAND.set(buf);
         Ok(())
     }
 }

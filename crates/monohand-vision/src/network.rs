@@ -227,13 +227,8 @@ impl TfliteNet {
         read: impl Fn(NetOutputs<'_>) -> Result<R> + Sync,
     ) -> Result<(R, R)> {
         let (mut a, mut b) = (self.take_state()?, self.take_state()?);
-        let filled = self
-            .with_input(&mut a, |x| self.with_input(&mut b, |y| fill(x, y)))
-            .and_then(|inner| inner);
-        let (ra, rb) = match filled {
-            Ok(()) => rayon::join(|| self.exec(&mut a, &read), || self.exec(&mut b, &read)),
-            Err(e) => return Err(e),
-        };
+        self.with_input(&mut a, |x| self.with_input(&mut b, |y| fill(x, y)))??;
+        let (ra, rb) = rayon::join(|| self.exec(&mut a, &read), || self.exec(&mut b, &read));
         self.give_back(a, ra.is_ok())?;
         self.give_back(b, rb.is_ok())?;
         Ok((ra?, rb?))

@@ -6,7 +6,7 @@ use crate::crops::{HandId, VisionFrame};
 use crate::fit::{fit_views, FitOutcome};
 use monohand_core::filtering::{OneEuroFilter, OneEuroParams};
 use monohand_core::fitting::{
-    estimate_hand_scale, estimate_proportions, ProportionEstimate, ScaleEstimate, SETTLED_CHANGE,
+    estimate_hand_scale, estimate_proportions, ProportionEstimate, ScaleEstimate,
 };
 use monohand_core::observation::NetworkCues;
 use monohand_core::prelude::*;
@@ -327,14 +327,8 @@ impl<T> HandsFitter<T> {
                         ));
                         continue;
                     }
-                    self.notes.push(format!(
-                        "--proportion-frames: {side} hand proportions from {} frames, {} \
-                         (halves differ by up to {:.1}%; settled below {:.0}%)",
-                        est.frames_used,
-                        if est.settled { "settled" } else { "not settled" },
-                        100.0 * est.change,
-                        100.0 * SETTLED_CHANGE
-                    ));
+                    self.notes
+                        .push(format!("--proportion-frames: {side} hand proportions {est}"));
                     self.proportions[i] = Some(est);
                 }
                 Err(e) => self.notes.push(format!(

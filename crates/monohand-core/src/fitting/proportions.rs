@@ -41,6 +41,25 @@ pub struct ProportionEstimate {
     pub settled: bool,
 }
 
+/// "from N frames, settled (halves differ by up to x%; settled below 2%)": what the
+/// estimate rests on, for a message to the user.
+impl std::fmt::Display for ProportionEstimate {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(
+            f,
+            "from {} frames, {} (halves differ by up to {:.1}%; settled below {:.0}%)",
+            self.frames_used,
+            if self.settled {
+                "settled"
+            } else {
+                "not settled"
+            },
+            100.0 * self.change,
+            100.0 * SETTLED_CHANGE
+        )
+    }
+}
+
 /// Estimates the proportions of `template` from the network cues of many frames of one
 /// hand (frames without metric 3D are skipped).
 ///
