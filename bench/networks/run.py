@@ -1,6 +1,8 @@
 #!/usr/bin/env python3
-"""Per-network inference time, monohand (tract + its own operators, 1 thread) against LiteRT
-(ai-edge-litert, XNNPACK, 1 thread), interleaved in one session on the same input.
+"""Per-network inference time, monohand (tract + its own operators) against LiteRT
+(ai-edge-litert, XNNPACK), interleaved in one session on the same input, both on 1 thread
+unless `--threads N` (LiteRT `num_threads=N`; monohand `MONOHAND_OP_THREADS=N`, its
+operators sharing their rows between N threads).
 
 Driven by bench/networks/run.sh, which builds the Rust timer (the `net_timer` example of
 monohand-vision, which loads each model through `TfliteNet`) and prepares the venv.
@@ -39,8 +41,10 @@ def cpu_info():
 
 
 class Ours:
-    def __init__(self, binary):
-        self.p = subprocess.Popen([binary], stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+    def __init__(self, binary, threads):
+        env = dict(os.environ, MONOHAND_OP_THREADS=str(threads))
+        self.p = subprocess.Popen([binary], stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                                  text=True, env=env)
 
     def ask(self, line):
         self.p.stdin.write(line + "\n")
@@ -70,6 +74,8 @@ def main():
     ap.add_argument("--variants", default="no-pointwise",
                     help="comma-separated extra monohand variants, each a '+'-joined list of "
                          "net_timer options (e.g. no-pointwise,no-epilogue)")
+    ap.add_argument("--threads", type=int, default=1,
+                    help="threads for both runtimes (default 1)")
     a = ap.parse_args()
 
     model, flags = cpu_info()
@@ -79,7 +85,7 @@ def main():
         print(f"load average at start: {f.read().strip()}")
     variants = ["default"] + [v.replace("+", ",") for v in a.variants.split(",") if v]
 
-    ours = Ours(a.timer)
+    ours = Ours(a.timer, a.threads)
     tmp = tempfile.mkdtemp(prefix="monohand-netbench-")
     lite = {}
     for name, file, fixture in NETWORKS:
@@ -89,7 +95,7 @@ def main():
         x.astype("<f4").tofile(raw)
         for v in variants:
             assert ours.ask(f"load {name}:{v} {path} {raw} {v}") == "ok"
-        it = Interpreter(model_path=path, num_threads=1)
+        it = Interpreter(model_path=path, num_threads=a.threads)
         it.allocate_tensors()
         it.set_tensor(it.get_input_details()[0]["index"], x)
         it.invoke()
@@ -113,7 +119,8 @@ def main():
     cols = variants + ["litert"]
     head = f"{'network':<15}" + "".join(f"{('monohand ' + c if c != 'litert' else 'LiteRT 2.3'):>26}" for c in cols)
     head += "".join(f"{'ratio ' + c:>24}" for c in variants)
-    print(f"\nmedian ms per inference, 1 thread, {a.rounds} rounds x {a.runs} runs, interleaved")
+    threads = "1 thread" if a.threads == 1 else f"{a.threads} threads"
+    print(f"\nmedian ms per inference, {threads}, {a.rounds} rounds x {a.runs} runs, interleaved")
     print(head)
     for name, _, _ in NETWORKS:
         row = f"{name:<15}" + "".join(f"{med[(name, c)]:>26.2f}" for c in cols)

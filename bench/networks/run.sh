@@ -5,12 +5,14 @@
 # to tract's (`--variants`). Prints the CPU model and flags and a table of ms and ratios.
 # Not part of .ci/run (it installs ai-edge-litert from PyPI). See docs/performance.md.
 #
-# Usage: bench/networks/run.sh [--rounds N] [--runs N] [--variants LIST]
+# Usage: bench/networks/run.sh [--rounds N] [--runs N] [--threads N] [--variants LIST]
 #   --rounds N       interleaved rounds (default 5)
 #   --runs N         timed inferences per round, network and runtime (default 20)
+#   --threads N      threads for both runtimes (default 1): LiteRT's num_threads, and
+#                    monohand's operators sharing their rows (MONOHAND_OP_THREADS)
 #   --variants LIST  extra monohand variants, comma-separated, each a '+'-joined list of
 #                    no-pointwise, no-epilogue, no-depthwise, no-prelu, no-dw-act,
-#                    no-dw-blocking, no-conv
+#                    no-dw-blocking, no-conv, no-split
 #                    (default no-pointwise)
 # Environment: MODELS (default ~/.cache/monohand/models), CARGO_TARGET_DIR (default target),
 #   VENV (default /tmp/monohand-litert-venv), PYTHON (default python3).

@@ -21,7 +21,7 @@ pub(crate) struct DetectArgs {
     /// "-" for standard output.
     #[arg(short, long, value_name = "OUT.jsonl", default_value = "-")]
     pub output: PathBuf,
-    /// Worker threads (default: all cores).
+    /// Worker threads (default: all cores; 1: one core).
     #[arg(long, value_name = "N")]
     pub threads: Option<usize>,
     #[command(flatten)]

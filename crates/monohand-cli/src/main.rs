@@ -205,14 +205,17 @@ pub(crate) fn say(msg: &str) {
     }
 }
 
-/// A thread pool of `threads` workers (all cores when `None`).
+/// A thread pool of `threads` workers (all cores when `None`). With one worker, the
+/// networks it runs do not share their operators with the other cores either.
 pub(crate) fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
     let mut builder = rayon::ThreadPoolBuilder::new();
     if let Some(n) = threads {
         if n == 0 {
             anyhow::bail!("--threads must be at least 1");
         }
-        builder = builder.num_threads(n);
+        builder = builder
+            .num_threads(n)
+            .start_handler(move |_| monohand_vision::tflite_import::allow_split_here(n > 1));
     }
     builder.build().context("could not start worker threads")
 }

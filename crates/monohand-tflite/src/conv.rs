@@ -37,6 +37,8 @@ pub struct NhwcConv {
     same: bool,
     /// The product `[pixels, KH·KW·Cin] x [KH·KW·Cin, Cout]` with the epilogue.
     product: PointwiseConv,
+    /// Share large outputs between the cores ([`crate::split`]).
+    split: bool,
 }
 
 impl NhwcConv {
@@ -72,7 +74,15 @@ impl NhwcConv {
             strides,
             same,
             product: PointwiseConv::new(&flat, bias, activation)?,
+            split: true,
         })
+    }
+
+    /// Whether large outputs are shared between the cores when the network runs alone
+    /// (default: true; see `ImportOptions::split_rows`). The results are the same bits.
+    pub fn with_split(mut self, split: bool) -> Self {
+        self.split = split;
+        self
     }
 
     /// Output height, width and leading padding (top, left) for an `h x w` input.
@@ -90,10 +100,9 @@ impl NhwcConv {
         out: &mut [f32],
         kernel: Kernel,
     ) -> TractResult<()> {
-        let (oh, ow, pt, pl) = self.geometry(h, w);
+        let (oh, ow, _, _) = self.geometry(h, w);
         let (cin, cout) = (self.cin, self.product.output_channels());
-        let (kh, kw, (sy, sx)) = (self.kh, self.kw, self.strides);
-        let kdim = kh * kw * cin;
+        let kdim = self.kh * self.kw * cin;
         ensure!(
             src.len() == h * w * cin && out.len() == oh * ow * cout,
             "convolution: inconsistent buffer sizes"
@@ -101,6 +110,27 @@ impl NhwcConv {
         if oh == 0 || ow == 0 {
             return Ok(());
         }
+        let work = out.len() * kdim;
+        crate::split::team().rows(out, ow * cout, 1, work, self.split, &|first, o| {
+            self.compute_rows(src, (h, w), first, o, kernel)
+        })
+    }
+
+    /// Output rows `first ..` of the convolution (as many as `out` holds), sizes checked by
+    /// [`compute`](Self::compute).
+    fn compute_rows(
+        &self,
+        src: &[f32],
+        (h, w): (usize, usize),
+        first: usize,
+        out: &mut [f32],
+        kernel: Kernel,
+    ) -> TractResult<()> {
+        let (_, ow, pt, pl) = self.geometry(h, w);
+        let (cin, cout) = (self.cin, self.product.output_channels());
+        let (kh, kw, (sy, sx)) = (self.kh, self.kw, self.strides);
+        let kdim = kh * kw * cin;
+        let oh = out.len() / (ow * cout);
         let band = (BAND_FLOATS / (ow * kdim)).max(1);
         // The band is this thread's, kept between calls: no allocation per network call
         // once it has grown to the largest band (64 KiB unless one output row is wider).
@@ -115,13 +145,25 @@ impl NhwcConv {
             let rows = band.min(oh - oy0);
             let cols = &mut buf[..rows * ow * kdim];
             for (p, col) in cols.chunks_exact_mut(kdim).enumerate() {
-                let (oy, ox) = (oy0 + p / ow, p % ow);
+                let (oy, ox) = (first + oy0 + p / ow, p % ow);
                 let iy0 = (oy * sy) as isize - pt as isize;
                 let ix0 = (ox * sx) as isize - pl as isize;
                 // Column (c, ky, kx) at (c·KH + ky)·KW + kx.
                 if iy0 >= 0 && ix0 >= 0 && iy0 as usize + kh <= h && ix0 as usize + kw <= w {
                     // The whole window is inside the image.
                     let window = &src[(iy0 as usize * w + ix0 as usize) * cin..];
+                    match (cin, kh, kw) {
+                        // The landmark networks' stem, with the sizes known to the compiler.
+                        (3, 3, 3) => {
+                            gather_inside::<3, 3, 3>(window, w * cin, col);
+                            continue;
+                        }
+                        (3, 5, 5) => {
+                            gather_inside::<3, 5, 5>(window, w * cin, col);
+                            continue;
+                        }
+                        _ => {}
+                    }
                     let mut taps = col.iter_mut();
                     for c in 0..cin {
                         for ky in 0..kh {
@@ -151,7 +193,7 @@ impl NhwcConv {
                 }
             }
             let o = &mut out[oy0 * ow * cout..(oy0 + rows) * ow * cout];
-            self.product.compute(cols, None, o, kernel)?;
+            self.product.compute(cols, None, o, kernel, false)?;
             oy0 += rows;
         }
         BAND.set(buf);
@@ -230,6 +272,26 @@ impl TypedOp for NhwcConv {
             ow,
             self.product.output_channels()
         ])))
+    }
+}
+
+/// The im2col columns of a window inside the image (`window` starts at its top left tap,
+/// rows `stride` floats apart), in (channel, kernel row, column) order, for sizes known at
+/// compile time: the same values as the general loop.
+#[inline(always)]
+fn gather_inside<const C: usize, const KH: usize, const KW: usize>(
+    window: &[f32],
+    stride: usize,
+    col: &mut [f32],
+) {
+    let window = &window[..(KH - 1) * stride + KW * C];
+    let col = &mut col[..C * KH * KW];
+    for c in 0..C {
+        for ky in 0..KH {
+            for kx in 0..KW {
+                col[(c * KH + ky) * KW + kx] = window[ky * stride + kx * C + c];
+            }
+        }
     }
 }
 
@@ -326,6 +388,34 @@ mod tests {
                     }
                 }
             }
+        }
+    }
+
+    #[test]
+    fn shared_between_threads_gives_the_same_bits() {
+        // The landmark networks' stem (224x224x3, 3x3 stride 2, 24 channels) and a 5x5 one.
+        for (h, k, cout) in [(224, 3, 24), (96, 5, 32)] {
+            let cin = 3;
+            let x: Vec<f32> = (0..h * h * cin)
+                .map(|i| ((i * 37 % 255) as f32) / 255.0)
+                .collect();
+            let kv: Vec<f32> = (0..cout * k * k * cin)
+                .map(|i| ((i * 13 % 17) as f32 - 8.0) / 8.0)
+                .collect();
+            let b: Vec<f32> = (0..cout).map(|i| i as f32 * 0.1 - 1.0).collect();
+            let op = |split| {
+                NhwcConv::new(
+                    &Tensor::from_shape(&[cout, k, k, cin], &kv).expect("k"),
+                    &tensor1(&b),
+                    (2, 2),
+                    true,
+                    Activation::Relu6,
+                )
+                .expect("op")
+                .with_split(split)
+            };
+            let input = Tensor::from_shape(&[1, h, h, cin], &x).expect("x");
+            crate::split::testing::same_bits_split(&op(true), &op(false), &[input]);
         }
     }
 

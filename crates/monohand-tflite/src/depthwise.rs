@@ -32,6 +32,9 @@ pub struct NhwcDepthwise {
     /// Use the register-blocked AVX-512 or AVX2 + FMA kernel where the CPU has those
     /// features (the same results, bit for bit); false keeps the portable loop, to compare.
     pub register_blocked: bool,
+    /// Share large outputs between the cores when the network runs alone (the same
+    /// results, bit for bit; see `ImportOptions::split_rows`).
+    pub split: bool,
 }
 
 /// Output size and leading padding of one axis under TFLite's rules.
@@ -104,16 +107,27 @@ impl EvalOp for NhwcDepthwise {
                 pl,
                 oh,
                 ow,
+                rows: (0, oh),
             };
-            run(
-                &g,
-                src,
-                k,
-                b,
-                dst,
-                self.activation.bounds(),
-                self.register_blocked,
-            );
+            if ow > 0 && c > 0 {
+                let work = oh * ow * c * kh * kw;
+                crate::split::team().rows(dst, ow * c, 1, work, self.split, &|first, dst| {
+                    let g = Geometry {
+                        rows: (first, first + dst.len() / (ow * c)),
+                        ..g
+                    };
+                    run(
+                        &g,
+                        src,
+                        k,
+                        b,
+                        dst,
+                        self.activation.bounds(),
+                        self.register_blocked,
+                    );
+                    Ok(())
+                })?;
+            }
         }
         Ok(tvec!(output.into_tvalue()))
     }
@@ -134,6 +148,7 @@ impl TypedOp for NhwcDepthwise {
 }
 
 /// Sizes of one evaluation.
+#[derive(Clone, Copy)]
 struct Geometry {
     h: usize,
     w: usize,
@@ -146,6 +161,9 @@ struct Geometry {
     pl: usize,
     oh: usize,
     ow: usize,
+    /// The output rows `[first, end)` computed, which the output slice holds (all
+    /// `(0, oh)`, or one piece of them).
+    rows: (usize, usize),
 }
 
 /// Clamp bounds of the activation, `(low, high)`.
@@ -168,7 +186,9 @@ fn run(
             let sized = src.len() >= g.h * g.w * g.c
                 && k.len() >= g.kh * g.kw * g.c
                 && b.len() >= g.c
-                && dst.len() >= g.oh * g.ow * g.c;
+                && g.rows.0 <= g.rows.1
+                && g.rows.1 <= g.oh
+                && dst.len() >= (g.rows.1 - g.rows.0) * g.ow * g.c;
             match kernel {
                 // SAFETY: `Kernel::best` only returns kernels whose features the CPU has, and
                 // the slices hold the sizes the geometry says (`sized`).
@@ -220,14 +240,14 @@ impl Window {
 /// Calls `f` with each output pixel's window, row by row.
 #[inline(always)]
 fn each_window(g: &Geometry, mut f: impl FnMut(Window)) {
-    for oy in 0..g.oh {
+    for oy in g.rows.0..g.rows.1 {
         let y0 = (oy * g.sy) as isize - g.pt as isize;
         let ky = valid(y0, g.h, g.kh);
         for ox in 0..g.ow {
             let x0 = (ox * g.sx) as isize - g.pl as isize;
             let kx = valid(x0, g.w, g.kw);
             f(Window {
-                pixel: oy * g.ow + ox,
+                pixel: (oy - g.rows.0) * g.ow + ox,
                 y0,
                 x0,
                 ky,
@@ -566,7 +586,8 @@ fn kernel<const FMA: bool>(
     let c = g.c;
     let row_in = g.w * c;
     let row_out = g.ow * c;
-    for (oy, orow) in dst.chunks_exact_mut(row_out).take(g.oh).enumerate() {
+    let rows = g.rows.0..g.rows.1.min(g.oh);
+    for (oy, orow) in rows.zip(dst.chunks_exact_mut(row_out)) {
         for o in orow.chunks_exact_mut(c) {
             o.copy_from_slice(&b[..c]);
         }
@@ -656,6 +677,7 @@ fn square_geometry(h: usize, w: usize, c: usize, k: usize, s: usize, same: bool)
         pl,
         oh,
         ow,
+        rows: (0, oh),
     }
 }
 
@@ -705,6 +727,44 @@ mod tests {
         }
     }
 
+    /// Fixed inputs (`n` values), weights (`nk`) and biases (`c`) for the kernels' tests.
+    fn data(n: usize, nk: usize, c: usize) -> (Vec<f32>, Vec<f32>, Vec<f32>) {
+        let x = (0..n)
+            .map(|i| ((i * 7919 % 1009) as f32 - 504.0) / 97.0)
+            .collect();
+        let k = (0..nk)
+            .map(|i| ((i * 31 % 59) as f32 - 29.0) / 13.0)
+            .collect();
+        let b = (0..c).map(|i| i as f32 * 0.37 - 3.0).collect();
+        (x, k, b)
+    }
+
+    #[test]
+    fn shared_between_threads_gives_the_same_bits() {
+        // The landmark networks' 112x112x24 3x3 layer, a 5x5 stride-2 one, and the portable
+        // loop (not register-blocked).
+        for (h, c, k, s, blocked) in [
+            (112, 24, 3, 1, true),
+            (56, 64, 5, 2, true),
+            (56, 40, 3, 1, false),
+        ] {
+            let (x, kv, b) = data(h * h * c, k * k * c, c);
+            let op = |split| NhwcDepthwise {
+                kernel: Tensor::from_shape(&[k, k, c], &kv)
+                    .expect("k")
+                    .into_arc_tensor(),
+                bias: tensor1(&b).into_arc_tensor(),
+                strides: (s, s),
+                same: true,
+                activation: Activation::Relu6,
+                register_blocked: blocked,
+                split,
+            };
+            let input = Tensor::from_shape(&[1, h, h, c], &x).expect("x");
+            crate::split::testing::same_bits_split(&op(true), &op(false), &[input]);
+        }
+    }
+
     fn matches_naive_reference_with_channels(c: usize) {
         let (h, w) = (7, 6);
         let x: Vec<f32> = (0..h * w * c)
@@ -733,6 +793,7 @@ mod tests {
                 same,
                 activation,
                 register_blocked: true,
+                split: true,
             };
             let input = Tensor::from_shape(&[1, h, w, c], &x).expect("x");
             let out = op
@@ -788,13 +849,7 @@ mod tests {
             (7, 6, 56, 3, 1, true),
             (6, 7, 120, 5, 2, true),
         ] {
-            let x: Vec<f32> = (0..h * w * c)
-                .map(|i| ((i * 7919 % 1009) as f32 - 504.0) / 97.0)
-                .collect();
-            let k: Vec<f32> = (0..kh * kh * c)
-                .map(|i| ((i * 31 % 59) as f32 - 29.0) / 13.0)
-                .collect();
-            let b: Vec<f32> = (0..c).map(|i| i as f32 * 0.37 - 3.0).collect();
+            let (x, k, b) = data(h * w * c, kh * kh * c, c);
             let g = square_geometry(h, w, c, kh, s, same);
             let (oh, ow) = (g.oh, g.ow);
             for act in [(f32::NEG_INFINITY, f32::INFINITY), (0.0, 6.0)] {

@@ -24,6 +24,10 @@
 //! channels, i.e. the stems: im2col rows gathered a few output rows at a time, padding
 //! included, and multiplied with [`PointwiseConv`]'s kernels). [`ImportOptions`] switches
 //! back to tract's built-in operators.
+//!
+//! When one network runs alone, [`NhwcDepthwise`], [`PointwiseConv`] and [`NhwcConv`] share
+//! a large output between the cores, with the same results bit for bit (see [`Running`] and
+//! [`allow_split_here`]; `MONOHAND_OP_THREADS` sets how many threads, `1` none).
 
 #![deny(missing_docs)]
 
@@ -32,12 +36,14 @@ mod depthwise;
 mod ops;
 mod pointwise;
 mod prelu;
+mod split;
 mod tensors;
 
 pub use conv::NhwcConv;
 pub use depthwise::NhwcDepthwise;
 pub use pointwise::{Activation, PointwiseConv};
 pub use prelu::ChannelPrelu;
+pub use split::{allow_split_here, shared_operators, team_size, Running};
 
 use std::collections::HashMap;
 
@@ -119,6 +125,12 @@ pub struct ImportOptions {
     /// instead of tract's `Pad`, im2col product and activation nodes, where
     /// [`PointwiseConv::fast_kernel_available`]. Default: true.
     pub fast_conv: bool,
+    /// Let [`NhwcDepthwise`], [`PointwiseConv`] and [`NhwcConv`] share a large output
+    /// between the cores when the network runs alone: its pieces are computed side by side
+    /// by the calling thread and a small process-wide team of helpers (the same results,
+    /// bit for bit; see [`Running`], [`allow_split_here`] and `MONOHAND_OP_THREADS` in
+    /// docs/pipeline.md). Default: true.
+    pub split_rows: bool,
 }
 
 impl Default for ImportOptions {
@@ -131,6 +143,7 @@ impl Default for ImportOptions {
             fused_depthwise_activation: true,
             register_blocked_depthwise: true,
             fast_conv: true,
+            split_rows: true,
         }
     }
 }

@@ -479,6 +479,7 @@ fn conv(cx: &mut Ctx, depthwise: bool) -> Result<OutletId, ImportError> {
             same: pad == Padding::SAME,
             activation: fused.unwrap_or_default(),
             register_blocked: cx.options.register_blocked_depthwise,
+            split: cx.options.split_rows,
         };
         let y = cx.node("depthwise", op, &[x])?;
         return match fused {
@@ -501,7 +502,7 @@ fn conv(cx: &mut Ctx, depthwise: bool) -> Result<OutletId, ImportError> {
             _ => None,
         };
         if let Some(act) = act {
-            let op = PointwiseConv::new(&kernel, &bias, act)?;
+            let op = PointwiseConv::new(&kernel, &bias, act)?.with_split(cx.options.split_rows);
             return cx.node("pointwise", op, &[x]);
         }
     }
@@ -525,7 +526,8 @@ fn conv(cx: &mut Ctx, depthwise: bool) -> Result<OutletId, ImportError> {
             (strides[0], strides[1]),
             pad == Padding::SAME,
             act,
-        )?;
+        )?
+        .with_split(cx.options.split_rows);
         return cx.node("conv", op, &[x]);
     }
     // tract's OHWI carries the group on I: a depthwise kernel 1xHxWxC with group C is

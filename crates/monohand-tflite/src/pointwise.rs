@@ -39,6 +39,9 @@ const MR512: usize = 8;
 /// over it.
 const ROW_BLOCK_BYTES: usize = 128 * 1024;
 
+/// Rows from which a product shared between the cores is cut by rows (fewer: by channels).
+const ROWS_TO_SPLIT: usize = 256;
+
 /// An activation clamped into the result of a [`PointwiseConv`] (TFLite's fused activations).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash)]
 pub enum Activation {
@@ -82,6 +85,8 @@ pub struct PointwiseConv {
     residual: Option<Activation>,
     /// Slopes padded like the bias.
     prelu: Option<Arc<Tensor>>,
+    /// Share large outputs between the cores ([`crate::split`]).
+    split: bool,
 }
 
 /// `values` (length `n`) zero padded to a whole number of panels.
@@ -125,7 +130,15 @@ impl PointwiseConv {
             activation,
             residual: None,
             prelu: None,
+            split: true,
         })
+    }
+
+    /// Whether large products are shared between the cores when the network runs alone
+    /// (default: true; see `ImportOptions::split_rows`). The results are the same bits.
+    pub fn with_split(mut self, split: bool) -> Self {
+        self.split = split;
+        self
     }
 
     /// Adds a second input of the output's shape after the activation, then applies
@@ -179,15 +192,13 @@ impl PointwiseConv {
         self.prelu.is_some()
     }
 
-    /// The product of `x` (rows of `Cin`) into `out` (rows of `Cout`), with `residual` (the
-    /// output's shape) where the operator has one.
-    pub(crate) fn compute(
+    /// Calls `f` with the evaluation of `x` (rows of `Cin`) with `residual`.
+    fn with_job<R>(
         &self,
         x: &[f32],
         residual: Option<&[f32]>,
-        out: &mut [f32],
-        kernel: Kernel,
-    ) -> TractResult<()> {
+        f: impl FnOnce(&Job<'_>) -> TractResult<R>,
+    ) -> TractResult<R> {
         let packed = self.packed.try_as_plain_ram()?;
         let bias = self.bias.try_as_plain_ram()?;
         let prelu = self
@@ -195,7 +206,7 @@ impl PointwiseConv {
             .as_ref()
             .map(|a| a.try_as_plain_ram())
             .transpose()?;
-        let job = Job {
+        f(&Job {
             x,
             rows: x.len() / self.cin,
             cin: self.cin,
@@ -206,8 +217,24 @@ impl PointwiseConv {
             residual,
             act: self.activation.bounds(),
             residual_act: self.residual.unwrap_or_default().bounds(),
-        };
-        job.run(out, kernel)
+        })
+    }
+
+    /// The product of `x` (rows of `Cin`) into `out` (rows of `Cout`), with `residual` (the
+    /// output's shape) where the operator has one. With `split`, a large product is shared
+    /// between the cores ([`crate::split`]): by rows where there are many, else by channels
+    /// (the deep 14x14 and 7x7 layers, where each piece would otherwise stream all the
+    /// weights for a few rows). Pieces are whole tiles of the kernel, so every value is
+    /// computed as in one piece.
+    pub(crate) fn compute(
+        &self,
+        x: &[f32],
+        residual: Option<&[f32]>,
+        out: &mut [f32],
+        kernel: Kernel,
+        split: bool,
+    ) -> TractResult<()> {
+        self.with_job(x, residual, |job| job.run(out, kernel, split))
     }
 }
 
@@ -267,6 +294,7 @@ impl EvalOp for PointwiseConv {
                 rr.as_ref().map(|r| r.as_slice::<f32>()).transpose()?,
                 o.as_slice_mut::<f32>()?,
                 Kernel::best(),
+                self.split,
             )?;
         }
         Ok(tvec!(output.into_tvalue()))
@@ -436,25 +464,66 @@ struct Job<'a> {
 }
 
 impl Job<'_> {
-    fn run(&self, out: &mut [f32], kernel: Kernel) -> TractResult<()> {
+    /// Checks the slices against each other and against an output of `out_len` values.
+    fn check(&self, out_len: usize) -> TractResult<()> {
         let panels = self.cout.div_ceil(NR);
         ensure!(
             self.x.len() == self.rows * self.cin
-                && out.len() == self.rows * self.cout
+                && out_len == self.rows * self.cout
                 && self.packed.len() == panels * self.cin * NR
                 && self.bias.len() == panels * NR
                 && self.alpha.is_none_or(|a| a.len() == panels * NR)
-                && self.residual.is_none_or(|r| r.len() == out.len()),
+                && self.residual.is_none_or(|r| r.len() == out_len),
             "pointwise convolution: inconsistent buffer sizes"
         );
+        Ok(())
+    }
+
+    /// The whole output, shared between the cores with `split` (see
+    /// [`PointwiseConv::compute`]).
+    fn run(&self, out: &mut [f32], kernel: Kernel, split: bool) -> TractResult<()> {
+        self.check(out.len())?;
+        let (mr, step) = (kernel.rows(), kernel.panels());
+        let panels = self.cout.div_ceil(NR);
+        let work = self.x.len() * self.cout;
+        let base = crate::split::Out(out.as_mut_ptr());
+        let team = crate::split::team();
+        if self.rows >= ROWS_TO_SPLIT {
+            team.pieces(self.rows, mr, work, split, &|rows| {
+                // SAFETY: `out` holds the output (checked) and is borrowed mutably here; the
+                // pieces' rows do not overlap.
+                unsafe { self.run_part(base.ptr(), kernel, rows, 0..panels) };
+                Ok(())
+            })
+        } else {
+            team.pieces(panels, step, work, split, &|p| {
+                // SAFETY: as above; the pieces' channels do not overlap.
+                unsafe { self.run_part(base.ptr(), kernel, 0..self.rows, p) };
+                Ok(())
+            })
+        }
+    }
+
+    /// Rows `rows` and weight panels `panels` (channels `NR·panels`) of the output at `out`.
+    ///
+    /// # Safety
+    /// [`check`](Self::check) passed for the output at `out`, `rows` and `panels` are within
+    /// the output, and nothing else reads or writes that part of it meanwhile.
+    unsafe fn run_part(
+        &self,
+        out: *mut f32,
+        kernel: Kernel,
+        rows: std::ops::Range<usize>,
+        panels: std::ops::Range<usize>,
+    ) {
         let (mr, step) = (kernel.rows(), kernel.panels());
         let block = (ROW_BLOCK_BYTES / (4 * self.cin)).max(mr) / mr * mr;
-        let mut r0 = 0;
-        while r0 < self.rows {
-            let r1 = (r0 + block).min(self.rows);
-            for p in (0..panels).step_by(step) {
+        let mut r0 = rows.start;
+        while r0 < rows.end {
+            let r1 = (r0 + block).min(rows.end);
+            for p in panels.clone().step_by(step) {
                 let c0 = p * NR;
-                let width = (step * NR).min(self.cout - c0);
+                let width = (step.min(panels.end - p) * NR).min(self.cout - c0);
                 let mut r = r0;
                 while r < r1 {
                     // Rather than a last tile of at most half the height (which streams the
@@ -467,12 +536,12 @@ impl Job<'_> {
                     };
                     let t = Tile {
                         // SAFETY (all pointers): r + m <= rows and c0 + width <= cout, and the
-                        // lengths were checked above.
+                        // lengths were checked.
                         a: unsafe { self.x.as_ptr().add(r * self.cin) },
                         lda: self.cin,
                         k: self.cin,
                         b: unsafe { self.packed.as_ptr().add(p * self.cin * NR) },
-                        out: unsafe { out.as_mut_ptr().add(r * self.cout + c0) },
+                        out: unsafe { out.add(r * self.cout + c0) },
                         res: self.residual.map_or(std::ptr::null(), |v| unsafe {
                             v.as_ptr().add(r * self.cout + c0)
                         }),
@@ -494,7 +563,6 @@ impl Job<'_> {
             }
             r0 = r1;
         }
-        Ok(())
     }
 }
 
@@ -868,7 +936,7 @@ mod tests {
                                 op = op.with_prelu(&tensor1(&alpha)).expect("prelu");
                             }
                             let mut got = vec![f32::NAN; rows * cout];
-                            op.compute(&x, ract.map(|_| &r[..]), &mut got, kernel)
+                            op.compute(&x, ract.map(|_| &r[..]), &mut got, kernel, false)
                                 .expect("compute");
                             let want = reference(
                                 &x,
@@ -890,6 +958,41 @@ mod tests {
                     }
                 }
             }
+        }
+    }
+
+    #[test]
+    fn shared_between_threads_by_rows_or_channels_gives_the_same_bits() {
+        let mut g = Lcg(5);
+        // (rows, cin, cout): by rows (56x56x24 to 144, with a residual and PRELU), by
+        // channels (7x7x192 to 1152, 14x14x112 to 672).
+        for (rows, cin, cout, residual) in [
+            (3136, 24, 144, true),
+            (49, 192, 1152, false),
+            (196, 112, 672, true),
+        ] {
+            let wt = Tensor::from_shape(&[cout, cin], &g.vec(cout * cin, 0.5)).expect("w");
+            let (bias, alpha) = (tensor1(&g.vec(cout, 1.0)), tensor1(&g.vec(cout, 1.0)));
+            let make = |split| {
+                let op = PointwiseConv::new(&wt, &bias, Activation::Relu6)
+                    .expect("op")
+                    .with_split(split);
+                match residual {
+                    true => op
+                        .with_residual(Activation::None)
+                        .with_prelu(&alpha)
+                        .expect("prelu"),
+                    false => op,
+                }
+            };
+            let mut inputs =
+                vec![Tensor::from_shape(&[1, rows, 1, cin], &g.vec(rows * cin, 2.0)).expect("x")];
+            if residual {
+                inputs.push(
+                    Tensor::from_shape(&[1, rows, 1, cout], &g.vec(rows * cout, 2.0)).expect("r"),
+                );
+            }
+            crate::split::testing::same_bits_split(&make(true), &make(false), &inputs);
         }
     }
 
@@ -979,7 +1082,7 @@ mod speed {
             for _ in 0..7 {
                 let t = std::time::Instant::now();
                 for _ in 0..n {
-                    op.compute(&x, None, &mut out, kernel).expect("run");
+                    op.compute(&x, None, &mut out, kernel, false).expect("run");
                 }
                 best = best.min(t.elapsed().as_secs_f64() / n as f64);
             }

@@ -1,11 +1,13 @@
-//! Times networks loaded through [`TfliteNet`] (1 thread), driven line by line on stdin so
-//! that `bench/networks/run.py` can interleave it with LiteRT in the same session.
+//! Times networks loaded through [`TfliteNet`], driven line by line on stdin so that
+//! `bench/networks/run.py` can interleave it with LiteRT in the same session. The operators
+//! share their rows between `MONOHAND_OP_THREADS` threads (`run.py` sets it: 1 unless
+//! `--threads`).
 //!
 //! Commands (one per line, one answer line each):
 //! * `load NAME MODEL.tflite INPUT.f32 OPTIONS`: imports the model; `INPUT.f32` holds the
 //!   input as raw little-endian f32 (NHWC); `OPTIONS` is `default` or a comma-separated
 //!   list among `no-pointwise`, `no-epilogue`, `no-depthwise`, `no-prelu`, `no-dw-act`, `no-dw-blocking`,
-//!   `no-conv`
+//!   `no-conv`, `no-split`
 //!   (switching monohand's own operators back to tract's). Answers `ok`.
 //! * `time NAME RUNS`: runs the network `RUNS` times on a reused run state, as the pipeline
 //!   does (the input is copied into the state's buffer before each timed run, like LiteRT's
@@ -43,6 +45,7 @@ fn main() {
                         "no-dw-act" => o.fused_depthwise_activation = false,
                         "no-dw-blocking" => o.register_blocked_depthwise = false,
                         "no-conv" => o.fast_conv = false,
+                        "no-split" => o.split_rows = false,
                         other => panic!("unknown option {other}"),
                     }
                 }

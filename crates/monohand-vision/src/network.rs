@@ -187,6 +187,8 @@ impl TfliteNet {
         state: &mut NetState,
         read: impl FnOnce(NetOutputs<'_>) -> Result<R>,
     ) -> Result<R> {
+        // Counted while it runs: alone, its operators share their rows between the cores.
+        let _running = monohand_tflite::Running::start();
         state
             .state
             .set_input(0, TValue::from_const(Arc::clone(&state.input)))?;
@@ -268,6 +270,7 @@ impl TfliteNet {
                 self.input_shape
             )));
         }
+        let _running = monohand_tflite::Running::start();
         let outputs = self.plan.run(tvec!(input.into_tvalue()))?;
         outputs
             .iter()

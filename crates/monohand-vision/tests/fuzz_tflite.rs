@@ -97,6 +97,7 @@ fn fuzz_tflite_import() {
                 fused_depthwise_activation: input.len() % 11 != 0,
                 register_blocked_depthwise: input.len() % 13 != 0,
                 fast_conv: input.len() % 17 != 0,
+                split_rows: input.len() % 19 != 0,
             };
             import(input)?;
             import_with(input, options).map(|m| m.nodes().len())

@@ -23,11 +23,12 @@ use input::{FrameSource, InputKind};
 use monohand::{CropTracker, FitSettings, HandsFitter, VisionFrame};
 use monohand_core::filtering::OneEuroParams;
 use monohand_core::prelude::*;
+use monohand_vision::tflite_import::allow_split_here;
 use monohand_vision::RgbImage;
 use output::{OutputFormat, Outputs};
 use rayon::prelude::*;
 use std::path::PathBuf;
-use std::sync::mpsc::{sync_channel, Receiver};
+use std::sync::mpsc::{sync_channel, Receiver, TryRecvError};
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -114,7 +115,7 @@ pub(crate) struct RunArgs {
     /// it is closed, the outputs are finished and the run exits with status 3.
     #[arg(long, value_name = "SECS", default_value_t = monohand_media::video::DEFAULT_STALL_TIMEOUT.as_secs_f64())]
     pub stall_timeout: f64,
-    /// Worker threads for independent images (default: all cores).
+    /// Worker threads for independent images (default: all cores; 1: one core).
     #[arg(long, value_name = "N")]
     pub threads: Option<usize>,
     #[command(flatten)]
@@ -331,7 +332,24 @@ pub(crate) fn run(args: &RunArgs) -> Result<Outcome> {
         let panic_at = injected_network_panic();
         let vision = std::thread::spawn(move || {
             let mut stage = CropTracker::new(pipe, n_views, tracking, detect_every);
-            for raw in raw_rx {
+            loop {
+                // A network alone shares its operators with the other cores only while
+                // frames are waiting: while this thread waits for the decoder, that core is
+                // better left to it (docs/performance.md).
+                let raw = match raw_rx.try_recv() {
+                    Ok(raw) => {
+                        allow_split_here(true);
+                        raw
+                    }
+                    Err(TryRecvError::Empty) => {
+                        allow_split_here(false);
+                        match raw_rx.recv() {
+                            Ok(raw) => raw,
+                            Err(_) => break,
+                        }
+                    }
+                    Err(TryRecvError::Disconnected) => break,
+                };
                 if panic_at == Some(raw.index) {
                     panic!(
                         "injected fault: network thread panics at frame {}",
