@@ -67,7 +67,8 @@ def main():
     enc.stdin.close()
     if enc.wait() != 0:
         raise SystemExit("ffmpeg failed to encode the video")
-    print(f"{a.out}: {n} frames {w}x{h}, FFV1 lossless RGB")
+    kind = "FFV1 lossless RGB" if a.codec == "ffv1" else "H.264 CRF 18, yuv420p"
+    print(f"{a.out}: {n} frames {w}x{h}, {kind}")
 
 
 if __name__ == "__main__":
