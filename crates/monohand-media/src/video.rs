@@ -97,62 +97,71 @@ impl FfmpegTools {
             .is_ok_and(|s| s.success())
     }
 
-    /// Whether `ffmpeg` has this encoder, as listed by `ffmpeg -encoders`
-    /// (asked once per process and executable, then remembered).
-    pub fn has_encoder(&self, name: &str) -> bool {
-        static LISTS: OnceLock<Mutex<HashMap<PathBuf, String>>> = OnceLock::new();
-        let lists = LISTS.get_or_init(|| Mutex::new(HashMap::new()));
-        let cached = lists.lock().ok().and_then(|m| m.get(&self.ffmpeg).cloned());
-        let list = match cached {
-            Some(l) => l,
-            None => {
-                let Ok(out) = Command::new(&self.ffmpeg)
-                    .args(["-hide_banner", "-encoders"])
-                    .stdin(Stdio::null())
-                    .stderr(Stdio::null())
-                    .output()
-                else {
-                    return false;
-                };
-                let l = String::from_utf8_lossy(&out.stdout).to_string();
-                if let Ok(mut m) = lists.lock() {
-                    m.insert(self.ffmpeg.clone(), l.clone());
-                }
-                l
-            }
-        };
-        list.lines()
-            .any(|l| l.split_whitespace().nth(1) == Some(name))
-    }
-    /// Whether `ffmpeg`'s `showinfo` filter can leave out its per-frame checksums
-    /// (`showinfo=checksum=0`, FFmpeg 5.0 on; asked once per process and executable). The
-    /// checksums cost about 1 ms of ffmpeg's time per 640x480 frame, and the reader only
-    /// wants the timestamps.
-    pub fn showinfo_has_checksum_option(&self) -> bool {
-        static ANSWERS: OnceLock<Mutex<HashMap<PathBuf, bool>>> = OnceLock::new();
+    /// What `ffmpeg` prints for `args` (`-encoders`, `-h ...`) on standard output, asked once
+    /// per process, executable and question, then remembered; `None` if it cannot be run.
+    fn answer(&self, args: &[&str]) -> Option<String> {
+        type Answers = HashMap<(PathBuf, Vec<String>), String>;
+        static ANSWERS: OnceLock<Mutex<Answers>> = OnceLock::new();
         let answers = ANSWERS.get_or_init(|| Mutex::new(HashMap::new()));
-        if let Some(a) = answers
-            .lock()
-            .ok()
-            .and_then(|m| m.get(&self.ffmpeg).copied())
-        {
-            return a;
+        let key = (
+            self.ffmpeg.clone(),
+            args.iter().map(|a| a.to_string()).collect(),
+        );
+        if let Some(a) = answers.lock().ok().and_then(|m| m.get(&key).cloned()) {
+            return Some(a);
         }
-        let answer = Command::new(&self.ffmpeg)
-            .args(["-hide_banner", "-h", "filter=showinfo"])
+        let out = Command::new(&self.ffmpeg)
+            .arg("-hide_banner")
+            .args(args)
             .stdin(Stdio::null())
             .stderr(Stdio::null())
             .output()
-            .is_ok_and(|out| {
-                String::from_utf8_lossy(&out.stdout)
-                    .lines()
-                    .any(|l| l.split_whitespace().next() == Some("checksum"))
-            });
+            .ok()?;
+        let text = String::from_utf8_lossy(&out.stdout).to_string();
         if let Ok(mut m) = answers.lock() {
-            m.insert(self.ffmpeg.clone(), answer);
+            m.insert(key, text.clone());
         }
-        answer
+        Some(text)
     }
+
+    /// Whether one of the lines `ffmpeg` prints for `args` has `word` in column `column`
+    /// (words split at white space; a word's `[...]` suffix, as in
+    /// `-fps_mode[:<stream_spec>]`, left out).
+    fn lists(&self, args: &[&str], column: usize, word: &str) -> bool {
+        self.answer(args).is_some_and(|text| {
+            text.lines().any(|l| {
+                l.split_whitespace()
+                    .nth(column)
+                    .and_then(|w| w.split('[').next())
+                    == Some(word)
+            })
+        })
+    }
+
+    /// Whether `ffmpeg` has this encoder, as listed by `ffmpeg -encoders`.
+    pub fn has_encoder(&self, name: &str) -> bool {
+        self.lists(&["-encoders"], 1, name)
+    }
+
+    /// What this `ffmpeg` supports among the options [`reader_args`] would like to use.
+    pub fn features(&self) -> FfmpegFeatures {
+        FfmpegFeatures {
+            showinfo_checksum_option: self.lists(&["-h", "filter=showinfo"], 0, "checksum"),
+            fps_mode: self.lists(&["-h", "long"], 0, "-fps_mode"),
+        }
+    }
+}
+
+/// What an `ffmpeg` executable supports among the options [`VideoReader`] would like
+/// ([`FfmpegTools::features`]): it then uses them, else their older forms.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct FfmpegFeatures {
+    /// The `showinfo` filter can leave out its per-frame checksums (`showinfo=checksum=0`,
+    /// FFmpeg 5.0 on). They cost about 1 ms of ffmpeg's time per 640x480 frame, and the
+    /// reader only wants the timestamps.
+    pub showinfo_checksum_option: bool,
+    /// `-fps_mode` (FFmpeg 5.1 on). It replaces `-vsync`, which FFmpeg 7.0 removed.
+    pub fps_mode: bool,
 }
 
 /// The error for a tool that could not be started.
@@ -558,7 +567,7 @@ impl VideoReader {
     /// [`VideoReader::open`] with explicit tool paths.
     pub fn open_with(tools: &FfmpegTools, input: &VideoInput) -> IoResult<VideoReader> {
         let info = probe_with(tools, input)?;
-        let args = reader_args(input, tools.showinfo_has_checksum_option());
+        let args = reader_args(input, tools.features());
         let mut child = own_process_group(Command::new(&tools.ffmpeg).args(&args))
             .stdin(Stdio::null())
             .stdout(Stdio::piped())
@@ -754,12 +763,12 @@ impl Drop for VideoReader {
 }
 
 /// The ffmpeg arguments that decode `input` to packed RGB on standard output: every
-/// decoded frame once (`-vsync passthrough`: no frame duplicated or dropped to make a
-/// variable frame rate constant), each frame's presentation time logged by the
-/// `showinfo` filter (`-v level+info`; [`VideoReader`] reads it and keeps only the
-/// error lines for messages). `no_checksums`: the filter is told not to compute its
-/// per-frame checksums ([`FfmpegTools::showinfo_has_checksum_option`]).
-pub fn reader_args(input: &VideoInput, no_checksums: bool) -> Vec<String> {
+/// decoded frame once (`-fps_mode passthrough`, or `-vsync passthrough` for an ffmpeg
+/// before 5.1: no frame duplicated or dropped to make a variable frame rate constant),
+/// each frame's presentation time logged by the `showinfo` filter (`-v level+info`;
+/// [`VideoReader`] reads it and keeps only the error lines for messages), without the
+/// filter's per-frame checksums where `features` allows.
+pub fn reader_args(input: &VideoInput, features: FfmpegFeatures) -> Vec<String> {
     let mut args: Vec<String> = ["-hide_banner", "-nostdin", "-nostats", "-v", "level+info"]
         .map(String::from)
         .to_vec();
@@ -771,12 +780,16 @@ pub fn reader_args(input: &VideoInput, no_checksums: bool) -> Vec<String> {
             "-an",
             "-sn",
             "-vf",
-            if no_checksums {
+            if features.showinfo_checksum_option {
                 "showinfo=checksum=0"
             } else {
                 "showinfo"
             },
-            "-vsync",
+            if features.fps_mode {
+                "-fps_mode"
+            } else {
+                "-vsync"
+            },
             "passthrough",
             "-f",
             "rawvideo",
@@ -1031,14 +1044,23 @@ mod tests {
             VideoInput::parse("webcam:x.mp4"),
             VideoInput::File(PathBuf::from("webcam:x.mp4"))
         );
-        let args = reader_args(&VideoInput::parse("a b.mp4"), false);
+        let old = FfmpegFeatures::default();
+        let args = reader_args(&VideoInput::parse("a b.mp4"), old);
         let i = args.iter().position(|a| a == "-i").unwrap();
         assert_eq!(args[i + 1], "a b.mp4");
         assert!(args.ends_with(&["rgb24".to_string(), "-".to_string()]));
         assert!(args.contains(&"-nostdin".to_string()));
         assert!(args.contains(&"showinfo".to_string()));
-        let quick = reader_args(&VideoInput::parse("a b.mp4"), true);
-        assert!(quick.contains(&"showinfo=checksum=0".to_string()));
+        assert!(args.contains(&"-vsync".to_string()));
+        let new = FfmpegFeatures {
+            showinfo_checksum_option: true,
+            fps_mode: true,
+        };
+        let args = reader_args(&VideoInput::parse("a b.mp4"), new);
+        assert!(args.contains(&"showinfo=checksum=0".to_string()));
+        let mode = args.iter().position(|a| a == "-fps_mode").unwrap();
+        assert_eq!(args[mode + 1], "passthrough");
+        assert!(!args.contains(&"-vsync".to_string()));
     }
 
     #[test]
