@@ -7,10 +7,13 @@ theta = 25 deg t, d = (-40 t, 30 t). Here t goes 0 -> 1 -> 0 over the frames (th
 so the hand stays in view for any length. Frames are warped with OpenCV (bilinear, black
 border) and encoded losslessly in RGB (FFV1, gbrp, in Matroska), so every decoder (ffmpeg's
 rgb24 output for monohand, OpenCV's VideoCapture for MediaPipe) reads identical pixels.
+FFV1 is written as archivists write it, version 3 with 4 slices (`-level 3 -slices 4`), so
+that a decoder can use more than one core (FFmpeg's FFV1 decoder has slice threads only);
+`--codec ffv1-1slice` writes the single-slice file of the earlier measurements (the same
+pixels; its decoding takes one core, 7.6-8.7 ms per frame on the benchmark machines).
 `--codec h264` writes H.264 instead (libx264, CRF 18, yuv420p), as cameras and phones do:
-about 1.6 ms per 640x480 frame to decode on the benchmark machine against FFV1's 8.7 ms,
-so the tools' own speed shows more than the decoder's (the pixels then differ by the two
-decoders' YUV-to-RGB conversions).
+about 1.6 ms per 640x480 frame to decode, so the tools' own speed shows more than the
+decoder's (the pixels then differ by the two decoders' YUV-to-RGB conversions).
 """
 import argparse
 import math
@@ -18,6 +21,14 @@ import subprocess
 
 import cv2
 import numpy as np
+
+# ffmpeg's encoding arguments and a description, per --codec.
+CODECS = {
+    "ffv1": (["-c:v", "ffv1", "-level", "3", "-slices", "4", "-pix_fmt", "gbrp"],
+             "FFV1 version 3, 4 slices, lossless RGB"),
+    "ffv1-1slice": (["-c:v", "ffv1", "-pix_fmt", "gbrp"], "FFV1, one slice, lossless RGB"),
+    "h264": (["-c:v", "libx264", "-crf", "18", "-pix_fmt", "yuv420p"], "H.264 CRF 18, yuv420p"),
+}
 
 
 def motion_matrix(t, c):
@@ -41,7 +52,7 @@ def main():
     ap.add_argument("out", help="output video (.mkv)")
     ap.add_argument("--frames", type=int, default=300)
     ap.add_argument("--fps", type=int, default=30)
-    ap.add_argument("--codec", choices=["ffv1", "h264"], default="ffv1")
+    ap.add_argument("--codec", choices=list(CODECS), default="ffv1")
     a = ap.parse_args()
     img = cv2.imread(a.photo, cv2.IMREAD_COLOR)
     if img is None:
@@ -53,8 +64,7 @@ def main():
     enc = subprocess.Popen(
         ["ffmpeg", "-v", "error", "-y", "-f", "rawvideo", "-pix_fmt", "bgr24",
          "-s", f"{w}x{h}", "-r", str(a.fps), "-i", "-",
-         *(["-c:v", "ffv1", "-pix_fmt", "gbrp"] if a.codec == "ffv1"
-           else ["-c:v", "libx264", "-crf", "18", "-pix_fmt", "yuv420p"]),
+         *CODECS[a.codec][0],
          a.out],
         stdin=subprocess.PIPE,
     )
@@ -67,8 +77,7 @@ def main():
     enc.stdin.close()
     if enc.wait() != 0:
         raise SystemExit("ffmpeg failed to encode the video")
-    kind = "FFV1 lossless RGB" if a.codec == "ffv1" else "H.264 CRF 18, yuv420p"
-    print(f"{a.out}: {n} frames {w}x{h}, {kind}")
+    print(f"{a.out}: {n} frames {w}x{h}, {CODECS[a.codec][1]}")
 
 
 if __name__ == "__main__":

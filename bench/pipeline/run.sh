@@ -5,12 +5,14 @@
 # Not part of .ci/run (it installs MediaPipe from PyPI and takes minutes). See
 # docs/performance.md.
 #
-# Usage: bench/pipeline/run.sh [--rounds N] [--frames N] [--cpus LIST] [--codec ffv1|h264]
+# Usage: bench/pipeline/run.sh [--rounds N] [--frames N] [--cpus LIST] [--codec C]
 #   --rounds N   alternating rounds (default 3); fps are the median over rounds
 #   --frames N   length of the video (default 300, 640x480 at 30 fps)
 #   --cpus LIST  run both tools under `taskset -c LIST` (default: no pinning, whole machine)
-#   --codec C    ffv1 (default: lossless RGB, both tools read identical pixels, but decoding
-#                takes 8.7 ms per frame) or h264 (CRF 18, as cameras write: 1.6 ms per frame)
+#   --codec C    ffv1 (default: lossless RGB, both tools read identical pixels; version 3
+#                with 4 slices, so the decoder can use both cores), ffv1-1slice (the same
+#                pixels in one slice, as measured until 2026-11-24: its decoding takes one
+#                core, 7.6-8.7 ms per frame) or h264 (CRF 18, as cameras write: 1.6 ms per frame)
 # Environment: PHOTO (default ../shared/data/images/pinto/hand.png beside the repo),
 #   OUT (default target/pipeline-bench), CARGO_TARGET_DIR (default target), PYTHON (the
 #   interpreter that creates the virtual environment, default python3; MediaPipe 0.10.14
@@ -57,9 +59,10 @@ monohand=$CARGO_TARGET_DIR/release/monohand
 "$monohand" --version >&2 || true
 
 case "$codec" in
-    ffv1) video=$OUT/moving_${frames}.mkv ;;
+    ffv1) video=$OUT/moving_${frames}_ffv1_4slices.mkv ;;
+    ffv1-1slice) video=$OUT/moving_${frames}.mkv ;;
     h264) video=$OUT/moving_${frames}_h264.mp4 ;;
-    *) echo "unknown codec $codec (ffv1 or h264)" >&2; exit 2 ;;
+    *) echo "unknown codec $codec (ffv1, ffv1-1slice or h264)" >&2; exit 2 ;;
 esac
 if [ ! -f "$video" ]; then
     echo "== video $video" >&2
