@@ -125,16 +125,11 @@ impl FfmpegTools {
     }
 
     /// Whether one of the lines `ffmpeg` prints for `args` has `word` in column `column`
-    /// (words split at white space; a word's `[...]` suffix, as in
-    /// `-fps_mode[:<stream_spec>]`, left out).
+    /// (words split at white space).
     fn lists(&self, args: &[&str], column: usize, word: &str) -> bool {
         self.answer(args).is_some_and(|text| {
-            text.lines().any(|l| {
-                l.split_whitespace()
-                    .nth(column)
-                    .and_then(|w| w.split('[').next())
-                    == Some(word)
-            })
+            text.lines()
+                .any(|l| l.split_whitespace().nth(column) == Some(word))
         })
     }
 
@@ -143,12 +138,13 @@ impl FfmpegTools {
         self.lists(&["-encoders"], 1, name)
     }
 
-    /// What this `ffmpeg` supports among the options [`reader_args`] would like to use.
+    /// What this `ffmpeg` supports among the options [`reader_args`] would like to use, from
+    /// one `ffmpeg -h full` (asked once per process and executable; an ffmpeg that cannot
+    /// be run supports nothing).
     pub fn features(&self) -> FfmpegFeatures {
-        FfmpegFeatures {
-            showinfo_checksum_option: self.lists(&["-h", "filter=showinfo"], 0, "checksum"),
-            fps_mode: self.lists(&["-h", "long"], 0, "-fps_mode"),
-        }
+        self.answer(&["-h", "full"])
+            .map(|help| FfmpegFeatures::from_help(&help))
+            .unwrap_or_default()
     }
 }
 
@@ -162,6 +158,25 @@ pub struct FfmpegFeatures {
     pub showinfo_checksum_option: bool,
     /// `-fps_mode` (FFmpeg 5.1 on). It replaces `-vsync`, which FFmpeg 7.0 removed.
     pub fps_mode: bool,
+}
+
+impl FfmpegFeatures {
+    /// Reads the text of `ffmpeg -h full`: `-fps_mode` among the options (listed as
+    /// `-fps_mode` or `-fps_mode[:<stream_spec>]`), `checksum` among the options under
+    /// `showinfo AVOptions:`.
+    pub fn from_help(help: &str) -> FfmpegFeatures {
+        let mut features = FfmpegFeatures::default();
+        let mut in_showinfo = false;
+        for line in help.lines() {
+            let first = line.split_whitespace().next().unwrap_or("");
+            if !line.starts_with(char::is_whitespace) {
+                in_showinfo = line.starts_with("showinfo AVOptions:");
+            }
+            features.fps_mode |= first.split('[').next() == Some("-fps_mode");
+            features.showinfo_checksum_option |= in_showinfo && first == "checksum";
+        }
+        features
+    }
 }
 
 /// The error for a tool that could not be started.
@@ -1061,6 +1076,37 @@ mod tests {
         let mode = args.iter().position(|a| a == "-fps_mode").unwrap();
         assert_eq!(args[mode + 1], "passthrough");
         assert!(!args.contains(&"-vsync".to_string()));
+    }
+
+    #[test]
+    fn features_come_from_the_help_text() {
+        // Excerpts of `ffmpeg -h full`: FFmpeg 5.1 (Debian 12), 9.0, and 4.4 (neither).
+        let v5 = "-vsync              set video sync method globally; deprecated, use -fps_mode\n\
+                  -fps_mode           set framerate mode for matching video streams; overrides vsync\n\
+                  \n\
+                  showinfo AVOptions:\n\
+                  \x20  checksum          <boolean>    ..FV....... calculate checksums (default true)\n\
+                  \n\
+                  showpalette AVOptions:\n\
+                  \x20  s                 <int>        ..FV....... set pixel box size\n";
+        let both = FfmpegFeatures {
+            showinfo_checksum_option: true,
+            fps_mode: true,
+        };
+        assert_eq!(FfmpegFeatures::from_help(v5), both);
+        let v9 = "-fps_mode[:<stream_spec>]  set framerate mode for matching video streams\n\
+                  showinfo AVOptions:\n\
+                  \x20  checksum          <boolean>    ..FV....... calculate checksums (default true)\n\
+                  \x20  udu_sei_as_ascii  <boolean>    ..FV....... try to print user data\n";
+        assert_eq!(FfmpegFeatures::from_help(v9), both);
+        // A `checksum` of another filter or codec does not count, nor `-fps_mode` in prose.
+        let v4 = "-vsync              video sync method\n\
+                  framemd5 AVOptions:\n\
+                  \x20  checksum          <boolean>    ..FV....... calculate checksums\n\
+                  showinfo AVOptions:\n\
+                  \n\
+                  -vf filter_graph    set video filters (see -fps_mode)\n";
+        assert_eq!(FfmpegFeatures::from_help(v4), FfmpegFeatures::default());
     }
 
     #[test]
