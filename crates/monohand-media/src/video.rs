@@ -124,18 +124,12 @@ impl FfmpegTools {
         Some(text)
     }
 
-    /// Whether one of the lines `ffmpeg` prints for `args` has `word` in column `column`
-    /// (words split at white space).
-    fn lists(&self, args: &[&str], column: usize, word: &str) -> bool {
-        self.answer(args).is_some_and(|text| {
-            text.lines()
-                .any(|l| l.split_whitespace().nth(column) == Some(word))
-        })
-    }
-
     /// Whether `ffmpeg` has this encoder, as listed by `ffmpeg -encoders`.
     pub fn has_encoder(&self, name: &str) -> bool {
-        self.lists(&["-encoders"], 1, name)
+        self.answer(&["-encoders"]).is_some_and(|list| {
+            list.lines()
+                .any(|l| l.split_whitespace().nth(1) == Some(name))
+        })
     }
 
     /// What this `ffmpeg` supports among the options [`reader_args`] would like to use, from
