@@ -305,6 +305,15 @@ pub fn parse_probe_json(text: &str, name: &str) -> IoResult<VideoInfo> {
         .and_then(|n| n.parse::<u64>().ok())
         .filter(|&n| n > 0);
     let codec = str_field("codec_name").map(str::to_string);
+    if codec.as_deref() == Some("ansi") {
+        // ffmpeg's tty demuxer takes any .txt (.ans, .nfo, ...) file and draws its text.
+        return Err(IoError::Video {
+            input: name.into(),
+            message: "a text file, not a video or image (ffmpeg would draw its characters as \
+                      frames, codec ansi)"
+                .into(),
+        });
+    }
     // Rotation: newer ffprobe puts it in the display-matrix side data, older in tags.rotate.
     let side = s
         .get("side_data_list")

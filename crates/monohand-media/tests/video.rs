@@ -180,6 +180,16 @@ fn not_a_video_and_missing_files_are_clear_errors() {
         msg.contains("notes.mp4") && msg.contains("Invalid data"),
         "{msg}"
     );
+    // A text file that ffmpeg itself would read as a video of its characters (tty demuxer).
+    let notes = dir.path().join("notes.txt");
+    std::fs::write(&notes, "one line of notes\n".repeat(200)).unwrap();
+    let msg = VideoReader::open(&VideoInput::File(notes))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        msg.contains("notes.txt") && msg.contains("a text file"),
+        "{msg}"
+    );
     let empty = dir.path().join("empty.mkv");
     std::fs::write(&empty, b"").unwrap();
     let msg = VideoReader::open(&VideoInput::File(empty))
