@@ -118,6 +118,10 @@ fn variable_frame_rate_and_a_long_stretch_without_hands() {
     assert!(networks_ready());
     let dir = tempfile::tempdir().unwrap();
     let video = dir.path().join("vfr.mkv");
+    // The option's name in this ffmpeg (`-vsync` is gone from FFmpeg 7.0).
+    let sync = monohand_media::video::FfmpegTools::default()
+        .features()
+        .fps_mode_option();
     ffmpeg(&[
         "-f",
         "lavfi",
@@ -138,7 +142,7 @@ fn variable_frame_rate_and_a_long_stretch_without_hands() {
         "mpeg4",
         "-q:v",
         "2",
-        "-vsync",
+        sync,
         "vfr",
         p(&video),
     ]);

@@ -155,6 +155,16 @@ pub struct FfmpegFeatures {
 }
 
 impl FfmpegFeatures {
+    /// The option that sets how frames are timed on output: `-fps_mode`, or its older name
+    /// `-vsync` where there is no `-fps_mode` (the reader passes it `passthrough`).
+    pub fn fps_mode_option(&self) -> &'static str {
+        if self.fps_mode {
+            "-fps_mode"
+        } else {
+            "-vsync"
+        }
+    }
+
     /// Reads the text of `ffmpeg -h full`: `-fps_mode` among the options (listed as
     /// `-fps_mode` or `-fps_mode[:<stream_spec>]`), `checksum` among the options under
     /// `showinfo AVOptions:`.
@@ -803,11 +813,7 @@ pub fn reader_args(input: &VideoInput, features: FfmpegFeatures) -> Vec<String> 
             } else {
                 "showinfo"
             },
-            if features.fps_mode {
-                "-fps_mode"
-            } else {
-                "-vsync"
-            },
+            features.fps_mode_option(),
             "passthrough",
             "-f",
             "rawvideo",

@@ -289,6 +289,8 @@ fn variable_frame_rate_keeps_the_stream_clock() {
     let _ = picture();
     let dir = tempfile::tempdir().unwrap();
     let vfr = dir.path().join("vfr.mkv");
+    // The option's name in this ffmpeg (`-vsync` is gone from FFmpeg 7.0).
+    let sync = FfmpegTools::default().features().fps_mode_option();
     ffmpeg(&[
         "-loop",
         "1",
@@ -302,7 +304,7 @@ fn variable_frame_rate_keeps_the_stream_clock() {
         "8",
         "-c:v",
         "mpeg4",
-        "-vsync",
+        sync,
         "vfr",
         vfr.to_str().unwrap(),
     ]);
