@@ -97,17 +97,17 @@ impl FfmpegTools {
             .is_ok_and(|s| s.success())
     }
 
-    /// What `ffmpeg` prints for `args` (`-encoders`, `-h ...`) on standard output, asked once
-    /// per process, executable and question, then remembered; `None` if it cannot be run.
-    fn answer(&self, args: &[&str]) -> Option<String> {
-        type Answers = HashMap<(PathBuf, Vec<String>), String>;
-        static ANSWERS: OnceLock<Mutex<Answers>> = OnceLock::new();
-        let answers = ANSWERS.get_or_init(|| Mutex::new(HashMap::new()));
-        let key = (
-            self.ffmpeg.clone(),
-            args.iter().map(|a| a.to_string()).collect(),
-        );
-        if let Some(a) = answers.lock().ok().and_then(|m| m.get(&key).cloned()) {
+    /// What `read` makes of `ffmpeg`'s standard output for `args` (`-encoders`, `-h full`),
+    /// asked once per process and executable and remembered in `cache` (the caller's, one
+    /// per question; only `read`'s result is kept); `None` if ffmpeg cannot be run.
+    fn answer<T: Clone>(
+        &self,
+        cache: &OnceLock<Mutex<HashMap<PathBuf, T>>>,
+        args: &[&str],
+        read: impl FnOnce(&str) -> T,
+    ) -> Option<T> {
+        let cache = cache.get_or_init(|| Mutex::new(HashMap::new()));
+        if let Some(a) = cache.lock().ok().and_then(|m| m.get(&self.ffmpeg).cloned()) {
             return Some(a);
         }
         let out = Command::new(&self.ffmpeg)
@@ -117,27 +117,30 @@ impl FfmpegTools {
             .stderr(Stdio::null())
             .output()
             .ok()?;
-        let text = String::from_utf8_lossy(&out.stdout).to_string();
-        if let Ok(mut m) = answers.lock() {
-            m.insert(key, text.clone());
+        let answer = read(&String::from_utf8_lossy(&out.stdout));
+        if let Ok(mut m) = cache.lock() {
+            m.insert(self.ffmpeg.clone(), answer.clone());
         }
-        Some(text)
+        Some(answer)
     }
 
     /// Whether `ffmpeg` has this encoder, as listed by `ffmpeg -encoders`.
     pub fn has_encoder(&self, name: &str) -> bool {
-        self.answer(&["-encoders"]).is_some_and(|list| {
+        static ENCODERS: OnceLock<Mutex<HashMap<PathBuf, Vec<String>>>> = OnceLock::new();
+        self.answer(&ENCODERS, &["-encoders"], |list| {
             list.lines()
-                .any(|l| l.split_whitespace().nth(1) == Some(name))
+                .filter_map(|l| l.split_whitespace().nth(1).map(str::to_string))
+                .collect()
         })
+        .is_some_and(|names| names.iter().any(|n| n == name))
     }
 
     /// What this `ffmpeg` supports among the options [`reader_args`] would like to use, from
     /// one `ffmpeg -h full` (asked once per process and executable; an ffmpeg that cannot
     /// be run supports nothing).
     pub fn features(&self) -> FfmpegFeatures {
-        self.answer(&["-h", "full"])
-            .map(|help| FfmpegFeatures::from_help(&help))
+        static FEATURES: OnceLock<Mutex<HashMap<PathBuf, FfmpegFeatures>>> = OnceLock::new();
+        self.answer(&FEATURES, &["-h", "full"], FfmpegFeatures::from_help)
             .unwrap_or_default()
     }
 }
