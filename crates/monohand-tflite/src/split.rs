@@ -119,6 +119,8 @@ pub(crate) struct Team {
     /// Helpers asleep, guarded by the mutex with `epoch`'s increments.
     sleep: Mutex<usize>,
     wake: Condvar,
+    /// Jobs this team has run (see [`shared_operators`] for the process's total).
+    jobs: AtomicUsize,
 }
 
 // SAFETY: `job` is written only by the thread that holds `busy`, while `open` is false;
@@ -127,9 +129,14 @@ pub(crate) struct Team {
 // registered before it writes `job` again or returns.
 unsafe impl Sync for Team {}
 
-/// The process's team. (In this crate's unit tests: always three threads, so that the
-/// operators' tests split whatever the machine.)
+/// The process's team. (In this crate's unit tests: the team the test thread gave itself
+/// with [`testing::with_own_team`], else one of three threads, so that the operators'
+/// tests split whatever the machine.)
 pub(crate) fn team() -> &'static Team {
+    #[cfg(test)]
+    if let Some(own) = testing::OWN_TEAM.get() {
+        return own;
+    }
     static TEAM: OnceLock<&'static Team> = OnceLock::new();
     TEAM.get_or_init(|| {
         if cfg!(test) {
@@ -164,6 +171,7 @@ impl Team {
             panicked: AtomicBool::new(false),
             sleep: Mutex::new(0),
             wake: Condvar::new(),
+            jobs: AtomicUsize::new(0),
         }));
         let mut started = 1;
         for index in 1..size {
@@ -273,6 +281,7 @@ impl Team {
             }
         }
         SPLITS.fetch_add(1, Ordering::Relaxed);
+        self.jobs.fetch_add(1, Ordering::Relaxed);
         let mine = catch_unwind(AssertUnwindSafe(|| self.claim(piece, count)));
         self.open.store(false, Ordering::SeqCst);
         let mut spins = 0u32;
@@ -417,6 +426,25 @@ impl Team {
 pub(crate) mod testing {
     use super::*;
 
+    thread_local! {
+        /// The team [`team`] gives on this thread (see [`with_own_team`]).
+        pub(crate) static OWN_TEAM: std::cell::Cell<Option<&'static Team>> =
+            const { std::cell::Cell::new(None) };
+    }
+
+    /// Runs `f` with a new team of three threads as this thread's [`team`], and returns
+    /// what `f` returned with the jobs that team ran. No other test can hold that team or
+    /// count evaluations in flight on it, so whether it splits does not depend on what the
+    /// other tests run meanwhile.
+    pub(crate) fn with_own_team<R>(f: impl FnOnce() -> R) -> (R, usize) {
+        let own = Team::start(3);
+        assert_eq!(own.size(), 3, "could not start the test's helper threads");
+        let before = OWN_TEAM.replace(Some(own));
+        let r = f();
+        OWN_TEAM.set(before);
+        (r, own.jobs.load(Ordering::Relaxed))
+    }
+
     /// The bits of the first output of `op` on `inputs`, evaluated as a tract operator.
     pub(crate) fn bits(op: &dyn EvalOp, inputs: &[Tensor]) -> Vec<u32> {
         let out = op
@@ -432,13 +460,13 @@ pub(crate) mod testing {
     }
 
     /// Checks that `split` (an operator that shares its rows between the threads) gives the
-    /// bits of `whole` (the same operator in one piece) on `inputs`, and that a team ran a
-    /// job meanwhile.
+    /// bits of `whole` (the same operator in one piece) on `inputs`, and that it did share:
+    /// on a team of the test's own ([`with_own_team`]), which no other test can hold.
     pub(crate) fn same_bits_split(split: &dyn EvalOp, whole: &dyn EvalOp, inputs: &[Tensor]) {
-        let want = bits(whole, inputs);
-        let before = SPLITS.load(Ordering::Relaxed);
-        let got = bits(split, inputs);
-        assert!(SPLITS.load(Ordering::Relaxed) > before, "no split");
+        let (want, whole_jobs) = with_own_team(|| bits(whole, inputs));
+        assert_eq!(whole_jobs, 0, "the operator in one piece shared its rows");
+        let (got, jobs) = with_own_team(|| bits(split, inputs));
+        assert!(jobs > 0, "no split");
         assert_eq!(got.len(), want.len());
         let differ = got.iter().zip(&want).filter(|(g, w)| g != w).count();
         assert_eq!(differ, 0, "{differ} of {} values differ", want.len());
@@ -450,23 +478,34 @@ mod tests {
     use super::*;
 
     /// The pieces (first row, row count) `team` makes, checked to cover every row once at
-    /// multiples of `unit`, with the threads that ran them.
+    /// multiples of `unit`, with the threads that ran them. With `meet`, each piece waits
+    /// until pieces have started on two threads: the caller cannot finish the job alone, so
+    /// a helper must take a piece, however late it is scheduled (no timing involved; a
+    /// helper that never comes fails after a minute instead of hanging).
     fn pieces_and_threads(
         team: &Team,
         rows: usize,
         unit: usize,
         work: usize,
-        pause: Duration,
+        meet: bool,
     ) -> (Vec<(usize, usize)>, usize) {
         let seen = Mutex::new(Vec::new());
+        let met = Condvar::new();
         let mut out = vec![-1.0f32; rows * 3];
         team.rows(&mut out, 3, unit, work, true, &|first, o: &mut [f32]| {
             for (i, row) in o.chunks_exact_mut(3).enumerate() {
                 row.fill((first + i) as f32);
             }
-            std::thread::sleep(pause);
             let me = std::thread::current().id();
-            seen.lock().expect("lock").push((first, o.len() / 3, me));
+            let mut s = seen.lock().expect("lock");
+            s.push((first, o.len() / 3, me));
+            met.notify_all();
+            let deadline = Instant::now() + Duration::from_secs(60);
+            while meet && s.iter().all(|p| p.2 == me) {
+                let left = deadline.saturating_duration_since(Instant::now());
+                assert!(!left.is_zero(), "no other thread took a piece in a minute");
+                s = met.wait_timeout(s, left).expect("lock").0;
+            }
             Ok(())
         })
         .expect("rows");
@@ -489,7 +528,7 @@ mod tests {
     }
 
     fn pieces(team: &Team, rows: usize, unit: usize, work: usize) -> Vec<(usize, usize)> {
-        pieces_and_threads(team, rows, unit, work, Duration::ZERO).0
+        pieces_and_threads(team, rows, unit, work, false).0
     }
 
     #[test]
@@ -508,8 +547,8 @@ mod tests {
             pieces(three, 17, 8, MIN_WORK),
             vec![(0, 8), (8, 8), (16, 1)]
         );
-        // Pieces long enough for a sleeping helper to wake are shared.
-        let (p, threads) = pieces_and_threads(two, 64, 1, MIN_WORK, Duration::from_millis(3));
+        // A helper takes pieces (here the caller waits for it, so it must).
+        let (p, threads) = pieces_and_threads(two, 64, 1, MIN_WORK, true);
         assert_eq!(p.len(), 8);
         assert_eq!(threads, 2, "the helper took no piece");
         // Many jobs in a row (the helpers spin between them, then sleep, then wake).
