@@ -207,6 +207,17 @@ pub(crate) fn say(msg: &str) {
 
 /// A thread pool of `threads` workers (all cores when `None`). With one worker, the
 /// networks it runs do not share their operators with the other cores either.
+/// A note of the library, with the flag it is about in front (the library names none).
+pub(crate) fn flagged(note: &monohand::Note) -> String {
+    let flag = match note.topic {
+        monohand::NoteTopic::Camera => "no --camera: ",
+        monohand::NoteTopic::HandScale => "--hand-scale auto: ",
+        monohand::NoteTopic::Proportions => "--proportion-frames: ",
+        monohand::NoteTopic::Output => "",
+    };
+    format!("{flag}{}", note.message)
+}
+
 pub(crate) fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
     let mut builder = rayon::ThreadPoolBuilder::new();
     if let Some(n) = threads {

@@ -281,6 +281,10 @@ pub struct FrameRecord {
     /// Image size `[width, height]` of the first view, pixels, when known.
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub image_size: Option<[u32; 2]>,
+    /// The camera of each view that the hands were fitted with, in the views' order (none
+    /// when the frame was not fitted, as in `detect`'s records).
+    #[serde(skip_serializing_if = "Vec::is_empty", default)]
+    pub cameras: Vec<CameraRecord>,
     /// The hands (possibly none).
     #[serde(default)]
     pub hands: Vec<HandRecord>,
@@ -293,6 +297,53 @@ pub struct FrameRecord {
     /// Per-stage processing times, milliseconds.
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub timings_ms: Option<BTreeMap<String, f64>>,
+}
+
+/// Where a camera came from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum CameraSource {
+    /// A calibration the user gave (a file, or a camera object in Python).
+    File,
+    /// The focal length the image file states in its EXIF, principal point at the centre.
+    Exif,
+    /// The generic guess for the image size (60 degree horizontal field of view).
+    Generic,
+}
+
+/// The intrinsics of the camera a view was fitted with, and where they came from.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct CameraRecord {
+    /// Focal length along x, pixels.
+    pub fx: f64,
+    /// Focal length along y, pixels.
+    pub fy: f64,
+    /// Principal point x, pixels.
+    pub cx: f64,
+    /// Principal point y, pixels.
+    pub cy: f64,
+    /// Image width the intrinsics are for, pixels.
+    pub width: u32,
+    /// Image height the intrinsics are for, pixels.
+    pub height: u32,
+    /// Where the camera came from.
+    pub source: CameraSource,
+}
+
+impl CameraRecord {
+    /// The record of a camera's intrinsics.
+    pub fn new(camera: &monohand_core::camera::Camera, source: CameraSource) -> CameraRecord {
+        let k = &camera.intrinsics;
+        CameraRecord {
+            fx: k.fx,
+            fy: k.fy,
+            cx: k.cx,
+            cy: k.cy,
+            width: k.width,
+            height: k.height,
+            source,
+        }
+    }
 }
 
 /// Writes [`FrameRecord`]s as JSON Lines, flushing after every line.

@@ -6,6 +6,7 @@
 //! decodes, so Python threads (and Daft's workers) run side by side.
 #![deny(missing_docs)]
 
+use monohand::engine::{Engine, EngineSettings, Input, Observer, Output, RunReport, Sink};
 use monohand::records::fitted_record;
 use monohand::vision::{HandPipeline, PipelineOptions};
 use monohand::{SessionError, SessionOptions};
@@ -21,7 +22,9 @@ use pyo3::create_exception;
 use pyo3::exceptions::{PyRuntimeError, PyStopIteration, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::PyList;
-use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::{sync_channel, Receiver, SyncSender};
+use std::sync::{Arc, Mutex};
 
 create_exception!(
     _monohand,
@@ -488,7 +491,7 @@ impl PyModels {
                 HandPipeline::new(
                     &options.models,
                     PipelineOptions {
-                        refine_passes: if tracking { 0 } else { 1 },
+                        refine_passes: monohand::refine_passes(tracking),
                         ..options.pipeline
                     },
                 )
@@ -541,6 +544,8 @@ impl PyModels {
 struct PySession {
     inner: Option<monohand::Session>,
     next_time: f64,
+    /// The same pipeline, cameras and settings as the engine `track` runs.
+    engine: Arc<Engine>,
 }
 
 impl PySession {
@@ -584,7 +589,7 @@ impl PySession {
         if let Some(dir) = model_dir {
             options = options.model_dir(dir);
         }
-        let inner = match models {
+        let pipeline = match models {
             Some(m) => {
                 if (m.hands, m.tracking, m.heads, m.mirror_pass)
                     != (hands, tracking, heads, mirror_pass)
@@ -598,16 +603,64 @@ impl PySession {
                         m.__repr__()
                     )));
                 }
-                let pipeline = Arc::clone(&m.pipeline);
-                monohand::Session::with_pipeline(cameras, pipeline, options)
+                Arc::clone(&m.pipeline)
             }
             // Loading (and on first use fetching) the networks takes a while: let Python run.
-            None => py.detach(|| monohand::Session::new(cameras, options)),
-        }
-        .map_err(session_err)?;
+            None => Arc::new(
+                py.detach(|| monohand::Session::load_pipeline(&options))
+                    .map_err(session_err)?,
+            ),
+        };
+        let settings = EngineSettings {
+            fit: options.fit,
+            detect_every: options.detect_every,
+            ..EngineSettings::default()
+        };
+        let engine = Engine::new(Arc::clone(&pipeline), cameras.clone(), settings)
+            .map_err(|e| MonohandError::new_err(e.to_string()))?;
+        let inner =
+            monohand::Session::with_pipeline(cameras, pipeline, options).map_err(session_err)?;
         Ok(PySession {
             inner: Some(inner),
             next_time: 0.0,
+            engine: Arc::new(engine),
+        })
+    }
+
+    /// Tracks a whole input, `monohand run`'s way: `path` is a video file (anything ffmpeg
+    /// reads), an image, a folder of images or `webcam:N`. Decoding, the networks and the
+    /// fit run on threads of their own, without the GIL, as in `monohand run` (the same
+    /// engine). Returns an iterator over the frames, in order, each a `TrackedFrame`; at
+    /// most a few frames wait in memory. Each call starts from a fresh state (its own
+    /// tracks and ids), apart from `process`'s. An input that ends on an error raises
+    /// `MonohandError` after its good frames.
+    #[pyo3(signature = (path, max_frames=None))]
+    fn track(
+        &mut self,
+        py: Python<'_>,
+        path: String,
+        max_frames: Option<u64>,
+    ) -> PyResult<PyFrameStream> {
+        self.session()?;
+        let engine = (*self.engine).clone().with_max_frames(max_frames);
+        let source = py
+            .detach(|| Input::parse(&path).and_then(|i| i.open(monohand::engine::DEFAULT_STALL_TIMEOUT)))
+            .map_err(|e| MonohandError::new_err(e.to_string()))?;
+        let (tx, rx) = sync_channel::<FrameRecord>(8);
+        let watch = Arc::new(Watch::default());
+        let observer = Arc::clone(&watch);
+        let worker = std::thread::Builder::new()
+            .name("monohand-track".into())
+            .spawn(move || {
+                let mut sinks: Vec<Box<dyn Sink>> = vec![Box::new(ChannelSink(tx))];
+                engine.run(vec![source], &mut sinks, &*observer)
+            })
+            .map_err(|e| MonohandError::new_err(format!("could not start a thread: {e}")))?;
+        Ok(PyFrameStream {
+            rx: Some(rx),
+            worker: Some(worker),
+            watch,
+            report: None,
         })
     }
 
@@ -707,6 +760,188 @@ impl PySession {
             return Err(MonohandError::new_err(e));
         }
         Ok(record)
+    }
+}
+
+/// The engine's side of a `track` call: Python's wish to stop, and the notes for the user.
+#[derive(Default)]
+struct Watch {
+    stop: AtomicBool,
+    notes: Mutex<Vec<String>>,
+}
+
+impl Observer for Watch {
+    fn cancelled(&self) -> bool {
+        self.stop.load(Ordering::Relaxed)
+    }
+
+    fn note(&self, note: &monohand::Note) {
+        if let Ok(mut n) = self.notes.lock() {
+            n.push(note.message.clone());
+        }
+    }
+}
+
+/// Hands each record to Python's iterator; a full queue makes the engine wait.
+struct ChannelSink(SyncSender<FrameRecord>);
+
+impl Sink for ChannelSink {
+    fn write(&mut self, frame: &Output<'_>) -> Result<(), monohand::engine::SinkError> {
+        self.0
+            .send(frame.record.clone())
+            .map_err(|_| "the iterator over the frames was closed".into())
+    }
+}
+
+/// One frame of `Session.track`: `index`, `time_s` (for videos), `hands`, `error` (why
+/// the frame could not be read, else `None`), `cameras` (the camera of each view the
+/// hands were fitted with, as dicts) and `to_dict()`, the whole record as `monohand run`
+/// writes it.
+#[pyclass(module = "monohand._monohand", name = "TrackedFrame", frozen)]
+struct PyTrackedFrame {
+    record: FrameRecord,
+}
+
+#[pymethods]
+impl PyTrackedFrame {
+    /// Frame index, from 0.
+    #[getter]
+    fn index(&self) -> u64 {
+        self.record.frame
+    }
+    /// Time of the frame in the video, seconds (`None` for independent images).
+    #[getter]
+    fn time_s(&self) -> Option<f64> {
+        self.record.time_s
+    }
+    /// The frame's hands.
+    #[getter]
+    fn hands(&self) -> Vec<PyHand> {
+        self.record
+            .hands
+            .iter()
+            .map(|h| PyHand { inner: h.clone() })
+            .collect()
+    }
+    /// Why the frame has no result, else `None`.
+    #[getter]
+    fn error(&self) -> Option<String> {
+        self.record.error.clone()
+    }
+    /// The camera of each view the frame was fitted with (`fx, fy, cx, cy, width, height,
+    /// source`), as dicts.
+    #[getter]
+    fn cameras<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        as_python(py, &self.record.cameras)
+    }
+    /// The whole record, as `monohand run` writes it (docs/output-format.md).
+    fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        as_python(py, &self.record)
+    }
+    fn __repr__(&self) -> String {
+        format!(
+            "TrackedFrame(index={}, hands={})",
+            self.record.frame,
+            self.record.hands.len()
+        )
+    }
+}
+
+/// The frames of a `Session.track` call, in order, as they are done.
+#[pyclass(module = "monohand._monohand", name = "FrameStream")]
+struct PyFrameStream {
+    rx: Option<Receiver<FrameRecord>>,
+    worker: Option<std::thread::JoinHandle<monohand::engine::EngineResult<RunReport>>>,
+    watch: Arc<Watch>,
+    report: Option<RunReport>,
+}
+
+impl PyFrameStream {
+    /// Waits for the engine to end and keeps its report; its error, if any.
+    fn join(&mut self, py: Python<'_>) -> PyResult<()> {
+        self.rx = None;
+        let Some(worker) = self.worker.take() else {
+            return Ok(());
+        };
+        let result = py
+            .detach(|| worker.join())
+            .map_err(|_| MonohandError::new_err("the engine's thread failed"))?;
+        let report = result.map_err(|e| MonohandError::new_err(e.to_string()))?;
+        let input_error = report.input_error.clone();
+        self.report = Some(report);
+        match input_error {
+            Some(e) => Err(MonohandError::new_err(e)),
+            None => Ok(()),
+        }
+    }
+}
+
+#[pymethods]
+impl PyFrameStream {
+    fn __iter__(slf: Py<Self>) -> Py<Self> {
+        slf
+    }
+
+    fn __next__(&mut self, py: Python<'_>) -> PyResult<PyTrackedFrame> {
+        let Some(rx) = self.rx.as_ref() else {
+            return Err(PyStopIteration::new_err(()));
+        };
+        match py.detach(|| rx.recv()) {
+            Ok(record) => Ok(PyTrackedFrame { record }),
+            Err(_) => {
+                self.join(py)?;
+                Err(PyStopIteration::new_err(()))
+            }
+        }
+    }
+
+    /// Messages for the user so far (assumptions made, hand size found).
+    fn notes(&self) -> Vec<String> {
+        self.watch.notes.lock().map(|n| n.clone()).unwrap_or_default()
+    }
+
+    /// Totals once the stream has ended (`frames`, `frames_with_hands`, `hands`,
+    /// `hands_3d`, `mean_reprojection_px`, `unreadable`, `seconds`, `fps`), else `None`.
+    #[getter]
+    fn summary<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyAny>>> {
+        let Some(r) = &self.report else {
+            return Ok(None);
+        };
+        let json = serde_json::json!({
+            "frames": r.frames,
+            "frames_with_hands": r.frames_with_hands,
+            "hands": r.hands,
+            "hands_3d": r.hands_3d,
+            "mean_reprojection_px": r.mean_reprojection_px(),
+            "unreadable": r.unreadable,
+            "seconds": r.seconds,
+            "fps": r.frames as f64 / r.seconds.max(1e-9),
+        });
+        as_python(py, &json).map(Some)
+    }
+
+    /// Stops the engine (the frame in flight is finished) and waits for it.
+    fn close(&mut self, py: Python<'_>) {
+        self.watch.stop.store(true, Ordering::Relaxed);
+        self.rx = None;
+        let _ = self.join(py);
+    }
+
+    fn __enter__(slf: Py<Self>) -> Py<Self> {
+        slf
+    }
+
+    #[pyo3(signature = (*_args))]
+    fn __exit__(&mut self, py: Python<'_>, _args: &Bound<'_, pyo3::types::PyTuple>) -> bool {
+        self.close(py);
+        false
+    }
+}
+
+impl Drop for PyFrameStream {
+    fn drop(&mut self) {
+        // The engine stops at its next frame: its sink fails once the queue is gone.
+        self.watch.stop.store(true, Ordering::Relaxed);
     }
 }
 
@@ -904,6 +1139,8 @@ fn _monohand(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PySession>()?;
     m.add_class::<PyLifter>()?;
     m.add_class::<PyFrame>()?;
+    m.add_class::<PyTrackedFrame>()?;
+    m.add_class::<PyFrameStream>()?;
     m.add_class::<PyVideoReader>()?;
     m.add_function(wrap_pyfunction!(fetch_models, m)?)?;
     m.add("MonohandError", m.py().get_type::<MonohandError>())?;

@@ -1,5 +1,8 @@
 //! One hand's fit over its views, shared by the video session and the 2D-only lifter.
 
+use crate::notes::{Note, NoteTopic};
+use monohand_core::fitting::{estimate_proportions, ProportionEstimate};
+use monohand_core::observation::NetworkCues;
 use monohand_core::prelude::*;
 
 /// How one fit ended.
@@ -34,3 +37,27 @@ pub fn fit_views(tracker: &mut HandTracker, views: &[View]) -> FitOutcome {
         Err(e) => FitOutcome::Failed(e),
     }
 }
+
+/// Each side's proportions, the size kept, from the network's metric 3D `cues` of that
+/// side ([`estimate_proportions`]): the skeleton to fit with, and what to tell the user.
+/// The one policy of the engine, the session and the lifting job.
+pub fn learn_proportions(
+    template: &HandSkeleton,
+    side: HandSide,
+    cues: &[NetworkCues],
+) -> (Option<ProportionEstimate>, Note) {
+    match estimate_proportions(template, cues) {
+        Ok(est) => {
+            let note = Note::new(NoteTopic::Proportions, format!("{side} hand proportions {est}"));
+            (Some(est), note)
+        }
+        Err(e) => (
+            None,
+            Note::new(
+                NoteTopic::Proportions,
+                format!("{side} hand proportions not learnt ({e}); keeping the model's"),
+            ),
+        ),
+    }
+}
+

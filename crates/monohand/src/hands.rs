@@ -3,13 +3,15 @@
 
 use crate::association::{associate, Candidate};
 use crate::crops::{HandId, VisionFrame};
-use crate::fit::{fit_views, FitOutcome};
+use crate::fit::{fit_views, learn_proportions, FitOutcome};
+use crate::notes::{Note, NoteTopic};
 use monohand_core::filtering::{OneEuroFilter, OneEuroParams};
 use monohand_core::fitting::{
-    estimate_hand_scale, estimate_proportions, ProportionEstimate, ScaleEstimate,
+    estimate_hand_scale, ProportionEstimate, ScaleEstimate,
 };
 use monohand_core::observation::NetworkCues;
 use monohand_core::prelude::*;
+use monohand_io::jsonl::CameraSource;
 use monohand_vision::image_io::PhotoFocal;
 use monohand_vision::DetectedHand;
 use nalgebra::Vector3;
@@ -36,7 +38,7 @@ pub struct FitSettings {
     /// size before fitting them (`None`: keep the skeletons' size).
     pub auto_scale_frames: Option<usize>,
     /// Keep this many first frames back to learn each side's hand proportions from the
-    /// network's metric 3D ([`estimate_proportions`]; the size stays the skeleton's), then
+    /// network's metric 3D ([`learn_proportions`]; the size stays the skeleton's), then
     /// fit every frame with them (`None`: keep the skeletons' proportions). Off by
     /// default: on the development set it makes the 3D worse, because the network marks
     /// the joints in another convention than anatomical labels (docs/accuracy.md).
@@ -88,6 +90,11 @@ pub struct FittedFrame {
     pub error: Option<String>,
     /// Time the fits took, ms.
     pub fit_ms: f64,
+    /// The camera of each view the frame was fitted with (empty when it was not fitted),
+    /// and where they came from. Every drawing of the frame uses these.
+    pub cameras: Vec<Camera>,
+    /// Where [`FittedFrame::cameras`] came from.
+    pub camera_source: CameraSource,
 }
 
 /// One hand followed over the frames.
@@ -118,6 +125,8 @@ fn side_index(side: HandSide) -> usize {
 /// they went in.
 pub struct HandsFitter<T = ()> {
     cameras: Vec<Camera>,
+    /// Where `cameras` came from (for a generic or EXIF camera: the last frame's).
+    camera_source: CameraSource,
     generic: bool,
     /// Whether the generic guess and an EXIF focal length were announced.
     said: [bool; 2],
@@ -127,7 +136,7 @@ pub struct HandsFitter<T = ()> {
     pending: Option<(usize, Vec<(VisionFrame, T)>)>,
     scale: Option<ScaleEstimate>,
     proportions: [Option<ProportionEstimate>; 2],
-    notes: Vec<String>,
+    notes: Vec<Note>,
 }
 
 impl<T> HandsFitter<T> {
@@ -142,6 +151,11 @@ impl<T> HandsFitter<T> {
         settings.options.validate()?;
         Ok(HandsFitter {
             generic: cameras.is_empty(),
+            camera_source: if cameras.is_empty() {
+                CameraSource::Generic
+            } else {
+                CameraSource::File
+            },
             said: [false; 2],
             cameras,
             prototypes: [
@@ -179,7 +193,7 @@ impl<T> HandsFitter<T> {
     }
 
     /// Messages for the user since the last call (assumptions made, hand size found).
-    pub fn take_notes(&mut self) -> Vec<String> {
+    pub fn take_notes(&mut self) -> Vec<Note> {
         std::mem::take(&mut self.notes)
     }
 
@@ -221,11 +235,11 @@ impl<T> HandsFitter<T> {
     /// The hand size from the hand seen by two views in most of the kept frames.
     fn measure_scale(&mut self, frames: &[(VisionFrame, T)]) {
         if self.cameras.len() < 2 {
-            self.notes.push(
-                "--hand-scale auto: with one camera the hand size is not observable (a larger hand \
-                 further away projects the same); keeping the default size (see docs/accuracy.md)"
-                    .into(),
-            );
+            self.notes.push(Note::new(
+                NoteTopic::HandScale,
+                "with one camera the hand size is not observable (a larger hand further away \
+                 projects the same); keeping the default size (see docs/accuracy.md)",
+            ));
             return;
         }
         let mut counts: HashMap<HandId, usize> = HashMap::new();
@@ -241,11 +255,10 @@ impl<T> HandsFitter<T> {
             .iter()
             .max_by_key(|(id, c)| (**c, std::cmp::Reverse(**id)))
         else {
-            self.notes.push(
-                "--hand-scale auto: no hand was seen by two views in the first frames; keeping \
-                 the default size"
-                    .into(),
-            );
+            self.notes.push(Note::new(
+                NoteTopic::HandScale,
+                "no hand was seen by two views in the first frames; keeping the default size",
+            ));
             return;
         };
         let mut side = HandSide::Right;
@@ -275,12 +288,12 @@ impl<T> HandsFitter<T> {
         let (lo, hi) = SCALE_RANGE;
         match estimate_hand_scale(&template, &self.settings.options, &views, lo, hi) {
             Ok(est) if est.observable => {
-                self.notes.push(format!(
-                    "--hand-scale auto: hand size {:.3} x the current model, from {} frames (hand length {:.0} mm)",
+                self.notes.push(Note::new(NoteTopic::HandScale, format!(
+                    "hand size {:.3} x the current model, from {} frames (hand length {:.0} mm)",
                     est.scale,
                     est.frames_used,
                     template.hand_length() * est.scale
-                ));
+                )));
                 for proto in &mut self.prototypes {
                     let fitter = proto.fitter_mut();
                     let scaled = fitter.skeleton().scaled(est.scale);
@@ -290,13 +303,13 @@ impl<T> HandsFitter<T> {
                 }
                 self.scale = Some(est);
             }
-            Ok(est) => self.notes.push(format!(
-                "--hand-scale auto: the first frames do not tell the hand size (cost contrast {:.3}); keeping the default",
+            Ok(est) => self.notes.push(Note::new(NoteTopic::HandScale, format!(
+                "the first frames do not tell the hand size (cost contrast {:.3}); keeping the default",
                 est.cost_contrast
-            )),
-            Err(e) => self.notes.push(format!(
-                "--hand-scale auto: could not measure the hand size ({e}); keeping the default"
-            )),
+            ))),
+            Err(e) => self.notes.push(Note::new(NoteTopic::HandScale, format!(
+                "could not measure the hand size ({e}); keeping the default"
+            ))),
         }
     }
 
@@ -319,21 +332,19 @@ impl<T> HandsFitter<T> {
             }
             let fitter = self.prototypes[i].fitter_mut();
             let template = *fitter.skeleton();
-            match estimate_proportions(&template, &cues[i]) {
-                Ok(est) => {
-                    if let Err(e) = fitter.set_skeleton(est.skeleton) {
-                        self.notes.push(format!(
-                            "--proportion-frames: {side} hand proportions not applied: {e}"
-                        ));
-                        continue;
+            let (learnt, note) = learn_proportions(&template, side, &cues[i]);
+            match learnt {
+                Some(est) => match fitter.set_skeleton(est.skeleton) {
+                    Err(e) => self.notes.push(Note::new(
+                        NoteTopic::Proportions,
+                        format!("{side} hand proportions not applied: {e}"),
+                    )),
+                    Ok(()) => {
+                        self.notes.push(note);
+                        self.proportions[i] = Some(est);
                     }
-                    self.notes
-                        .push(format!("--proportion-frames: {side} hand proportions {est}"));
-                    self.proportions[i] = Some(est);
-                }
-                Err(e) => self.notes.push(format!(
-                    "--proportion-frames: {side} hand proportions not learnt ({e}); keeping the model's"
-                )),
+                },
+                None => self.notes.push(note),
             }
         }
     }
@@ -385,9 +396,9 @@ impl<T> HandsFitter<T> {
                 let kind = usize::from(focal.is_some());
                 if !self.said[kind] {
                     self.said[kind] = true;
-                    self.notes.push(match focal {
+                    let message = match focal {
                         Some(f) => format!(
-                            "no --camera: the camera comes from the photo's {}: fx = fy = {:.1} \
+                            "the camera comes from the photo's {}: fx = fy = {:.1} \
                              px for {w}x{h} ({:.1} degree horizontal field of view; photos \
                              without it get the generic 60 degree guess)",
                             f.source,
@@ -395,14 +406,20 @@ impl<T> HandsFitter<T> {
                             2.0 * (0.5 * w as f64 / f.px).atan().to_degrees()
                         ),
                         None => format!(
-                            "no --camera: assuming a generic camera for {w}x{h} (60 degree \
-                             horizontal field of view); absolute depth is only as right as \
-                             this guess (docs/calibration.md)"
+                            "assuming a generic camera for {w}x{h} (60 degree horizontal field \
+                             of view); absolute depth is only as right as this guess \
+                             (docs/calibration.md)"
                         ),
-                    });
+                    };
+                    self.notes.push(Note::new(NoteTopic::Camera, message));
                 }
                 self.cameras = vec![cam];
             }
+            self.camera_source = if focal.is_some() {
+                CameraSource::Exif
+            } else {
+                CameraSource::Generic
+            };
             return Ok(());
         }
         match self.cameras.first() {
@@ -421,6 +438,8 @@ impl<T> HandsFitter<T> {
             error: None,
             fit_ms: 0.0,
             vision: frame,
+            cameras: Vec::new(),
+            camera_source: self.camera_source,
         };
         for (v, view) in out.vision.views.iter().enumerate().skip(1) {
             if let Err(e) = view {
@@ -440,6 +459,8 @@ impl<T> HandsFitter<T> {
             out.error = Some(e);
             return out;
         }
+        out.cameras.clone_from(&self.cameras);
+        out.camera_source = self.camera_source;
         let index = out.vision.index;
         for view in out.vision.views.iter().flatten() {
             for (hand, &id) in view.detections.hands.iter().zip(&view.ids) {

@@ -7,6 +7,10 @@
 //! between: crop tracking, hand identities, a left/right vote, the association of views,
 //! a tracker per hand, smoothing and the hand's size.
 //!
+//! - [`engine::Engine`]: the whole pipeline, sources of frames in (images, folders,
+//!   videos, webcams, a caller's frames), sinks of records out (JSON Lines, CSV, OpenPose,
+//!   overlays, glTF, or the caller's own), with decoding, networks and fit on threads of
+//!   their own. `monohand run` is this engine.
 //! - [`Session`]: images in, [`FittedFrame`]s out, on the calling thread.
 //! - [`CropTracker`] and [`HandsFitter`]: the session's two stages, to run on threads of
 //!   their own (as `monohand run` does).
@@ -20,19 +24,22 @@
 
 pub mod association;
 mod crops;
+pub mod engine;
 mod error;
 mod fit;
 mod hands;
 mod lifter;
+mod notes;
 pub mod records;
 mod session;
 
 pub use crops::{CropTracker, HandId, ViewHands, VisionFrame};
 pub use error::{SessionError, SessionResult};
-pub use fit::{fit_views, is_finite, FitOutcome};
+pub use fit::{fit_views, is_finite, learn_proportions, FitOutcome};
 pub use hands::{FitSettings, FittedFrame, HandsFitter, TrackedHand, FORGET_AFTER_FRAMES};
 pub use lifter::{LiftedHand, Lifter};
-pub use session::{Session, SessionOptions};
+pub use notes::{Note, NoteTopic};
+pub use session::{refine_passes, Session, SessionOptions};
 
 /// The geometry core (usable without networks).
 pub use monohand_core as core;

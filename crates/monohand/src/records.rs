@@ -4,7 +4,9 @@
 
 use crate::hands::FittedFrame;
 use monohand_core::observation::Keypoints2d;
-use monohand_io::jsonl::{FrameRecord, HandRecord, HeadRecord, OrientedBox, PoseRecord};
+use monohand_io::jsonl::{
+    CameraRecord, FrameRecord, HandRecord, HeadRecord, OrientedBox, PoseRecord,
+};
 use monohand_vision::{DetectedHand, Detections};
 
 /// The record of one detected hand: its keypoints, boxes, scores and the network's 3D cues.
@@ -62,6 +64,11 @@ pub fn fitted_record(done: &FittedFrame, source: Option<String>) -> FrameRecord 
     if let Some(e) = &done.error {
         record.error = Some(e.clone());
     }
+    record.cameras = done
+        .cameras
+        .iter()
+        .map(|c| CameraRecord::new(c, done.camera_source))
+        .collect();
     for hand in &done.hands {
         match hand.views.first() {
             // A hand of the first view: its record is the detection's, with the 3D added.

@@ -107,6 +107,17 @@ impl SessionOptions {
     }
 }
 
+/// The landmark network's refine passes: none when tracking (MediaPipe's single pass: the
+/// next frame's crop comes from this one's keypoints), one for independent images (the
+/// crop re-centred on the first pass's keypoints). The one place this policy is set.
+pub fn refine_passes(tracking: bool) -> usize {
+    if tracking {
+        0
+    } else {
+        1
+    }
+}
+
 /// Frames in, tracked absolute 3D hands out, on the calling thread.
 ///
 /// One [`Session::process`] call per frame, with one image per camera (in the cameras'
@@ -143,15 +154,22 @@ impl Session {
     /// the image size). Loads the networks, fetching the weights with pip if they are not
     /// cached yet.
     pub fn new(cameras: Vec<Camera>, options: SessionOptions) -> SessionResult<Session> {
+        let pipeline = Session::load_pipeline(&options)?;
+        Session::with_pipeline(cameras, Arc::new(pipeline), options)
+    }
+
+    /// The networks `options` ask for, loaded (fetching the weights with pip if they are
+    /// not cached yet), with the refine policy of the session: no refine pass when tracking
+    /// (MediaPipe's single pass), one for independent images.
+    pub fn load_pipeline(options: &SessionOptions) -> SessionResult<HandPipeline> {
         options.checked()?;
-        let pipeline = HandPipeline::new(
+        Ok(HandPipeline::new(
             &options.models,
             PipelineOptions {
-                refine_passes: if options.fit.tracking { 0 } else { 1 },
+                refine_passes: refine_passes(options.fit.tracking),
                 ..options.pipeline
             },
-        )?;
-        Session::with_pipeline(cameras, Arc::new(pipeline), options)
+        )?)
     }
 
     /// A session over networks already loaded (they can be shared between sessions).
@@ -230,7 +248,11 @@ impl Session {
 
     /// Messages for the user since the last call (assumptions made, hand size found).
     pub fn take_notes(&mut self) -> Vec<String> {
-        self.fitter.take_notes()
+        self.fitter
+            .take_notes()
+            .into_iter()
+            .map(|n| n.message)
+            .collect()
     }
 
     /// The cameras in use (a generic one, once the first image told its size, if none was

@@ -28,12 +28,14 @@ from ._monohand import (
     NUM_JOINTS,
     Camera,
     Frame,
+    FrameStream,
     Hand,
     Lifter,
     Models,
     MonohandError,
     Pose,
     Session,
+    TrackedFrame,
     VideoReader,
     __version__,
     fetch_models,
@@ -44,12 +46,14 @@ __all__ = [
     "NUM_JOINTS",
     "Camera",
     "Frame",
+    "FrameStream",
     "Hand",
     "Lifter",
     "Models",
     "MonohandError",
     "Pose",
     "Session",
+    "TrackedFrame",
     "VideoReader",
     "__version__",
     "fetch_models",
@@ -126,23 +130,22 @@ def video_rows(
 ) -> Iterator[dict]:
     """Tracks a whole video and yields plain rows: one per frame per hand, plus (with
     ``empty_frames``) one row with ``hand_id=None`` for each frame without hands, so that
-    every frame appears. Raises `MonohandError` if the video cannot be read."""
-    with read_video(path) as frames, Session(
+    every frame appears. Raises `MonohandError` if the video cannot be read. The video runs
+    through the same engine as ``monohand run`` (`Session.track`)."""
+    with Session(
         camera,
         hands=hands,
         model_dir=model_dir,
         smoothing=smoothing,
         models=models,
         mirror_pass=mirror_pass,
-    ) as session:
+    ) as session, session.track(str(path), max_frames=max_frames) as frames:
         for frame in frames:
-            if max_frames is not None and frame.index >= max_frames:
-                break
-            found = session.process(frame.image, frame.time_s)
+            found = frame.hands
             if not found and empty_frames:
-                yield _row(frame.index, frame.time_s, None, None)
+                yield _row(frame.index, frame.time_s, None, frame.error)
             for hand in found:
-                yield _row(frame.index, frame.time_s, hand, None)
+                yield _row(frame.index, frame.time_s, hand, frame.error)
 
 
 def track_video(

@@ -145,17 +145,16 @@ class _VideoTracker:
         frames: List[Dict[str, Any]] = []
         try:
             camera = _camera(intrinsics)
-            with monohand.read_video(path) as video, monohand.Session(
+            with monohand.Session(
                 camera, hands=self.hands, smoothing=self.smoothing, models=self.models
-            ) as session:
+            ) as session, session.track(path) as video:
                 for frame in video:
-                    hands = session.process(frame.image, frame.time_s)
                     frames.append(
                         {
                             "frame": frame.index,
                             "time_s": frame.time_s,
-                            "hands": [hand_struct(h) for h in hands],
-                            "error": None,
+                            "hands": [hand_struct(h) for h in frame.hands],
+                            "error": frame.error,
                         }
                     )
         except (monohand.MonohandError, ValueError, OSError) as e:

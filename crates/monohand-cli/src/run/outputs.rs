@@ -1,0 +1,144 @@
+//! Which sinks `monohand run` writes to, from its arguments: the poses (JSON Lines, CSV or
+//! OpenPose JSON), the overlay, the glTF and the live window.
+
+use super::RunArgs;
+use anyhow::{anyhow, Result};
+use clap::ValueEnum;
+use monohand::engine::{
+    CsvSink, GltfSink, JsonlSink, OpenPoseSink, Output, OverlaySink, Sink, SinkError,
+};
+use monohand_core::camera::Camera;
+use monohand_io::export::GltfHand;
+use monohand_io::jsonl::FrameRecord;
+use monohand_media::scene::Layers;
+use monohand_vision::RgbImage;
+use std::path::Path;
+
+/// Format of the poses file.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub(crate) enum OutputFormat {
+    /// JSON Lines, one record per frame (docs/output-format.md).
+    Jsonl,
+    /// CSV, one row per hand per frame, with a header.
+    Csv,
+    /// OpenPose JSON, one `{stem}_{frame:012}_keypoints.json` per frame in the --output
+    /// folder, with `hand_*_keypoints_2d` and `hand_*_keypoints_3d`.
+    Openpose,
+}
+
+/// How the glTF draws each hand.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub(crate) enum GltfStyle {
+    /// A real hand mesh (the WebXR generic hand) skinned to the fitted joints.
+    Skinned,
+    /// The 21 joints and 20 bones as small solids.
+    Joints,
+}
+
+/// The sinks of a run, in the order they are written: poses, glTF, window, overlay
+/// (nothing is created if an argument is wrong). `single_image`: the input is one image
+/// (the only case an image-file overlay takes, and a window then stays open at the end).
+pub(crate) fn create(
+    args: &RunArgs,
+    fps: Option<f64>,
+    single_image: bool,
+) -> Result<Vec<Box<dyn Sink>>> {
+    let show = match args.show {
+        true => Some(super::show::Show::new(Layers::only(&args.layers))?),
+        false => None,
+    };
+    let overlay = match &args.overlay {
+        None => None,
+        Some(p) => Some(
+            OverlaySink::create(
+                p,
+                fps.unwrap_or(30.0),
+                single_image,
+                Layers::only(&args.layers),
+            )
+            .map_err(|e| anyhow!("--overlay {e}"))?,
+        ),
+    };
+    let stdout = args.output.as_os_str() == "-";
+    let poses: Box<dyn Sink> = match args.format {
+        OutputFormat::Jsonl if stdout => Box::new(JsonlSink::stdout()),
+        OutputFormat::Jsonl => Box::new(JsonlSink::create(&args.output)?),
+        OutputFormat::Csv if stdout => Box::new(CsvSink::stdout()?),
+        OutputFormat::Csv => Box::new(CsvSink::create(&args.output)?),
+        OutputFormat::Openpose => {
+            if stdout {
+                anyhow::bail!(
+                    "--format openpose writes one file per frame: give a folder as --output"
+                );
+            }
+            let stem = args
+                .input
+                .as_deref()
+                .or(args.views.first().map(String::as_str))
+                .and_then(|i| Path::new(i).file_stem())
+                .map(|s| s.to_string_lossy().into_owned())
+                .unwrap_or_else(|| "monohand".into());
+            Box::new(
+                OpenPoseSink::create(&args.output, &stem)
+                    .map_err(|e| anyhow!("--output {e}"))?,
+            )
+        }
+    };
+    let mut sinks = vec![poses];
+    if let Some(p) = &args.gltf {
+        let hand = match args.gltf_hand {
+            GltfStyle::Skinned => GltfHand::Skinned,
+            GltfStyle::Joints => GltfHand::Joints,
+        };
+        let gltf = GltfSink::create(p, hand).map_err(|e| anyhow!("--gltf {}: {e}", p.display()))?;
+        sinks.push(Box::new(gltf));
+    }
+    if let Some(show) = show {
+        sinks.push(Box::new(Window {
+            show,
+            single_image,
+            last: None,
+        }));
+    }
+    if let Some(o) = overlay {
+        sinks.push(Box::new(o));
+    }
+    Ok(sinks)
+}
+
+/// The live window (`--show`) as a sink: quitting it cancels the run like Ctrl-C.
+struct Window {
+    show: super::show::Show,
+    /// The input is one image: the window keeps it on screen at the end.
+    single_image: bool,
+    /// The last frame shown, for that.
+    last: Option<(RgbImage, FrameRecord, Vec<Camera>)>,
+}
+
+impl Sink for Window {
+    fn wants_images(&self) -> bool {
+        true
+    }
+
+    fn write(&mut self, frame: &Output<'_>) -> Result<(), SinkError> {
+        let Some(image) = frame.image else {
+            return Ok(());
+        };
+        if !self.show.frame(image, frame.record, frame.cameras)? {
+            crate::interrupt();
+        }
+        if self.single_image {
+            self.last = Some((image.clone(), frame.record.clone(), frame.cameras.to_vec()));
+        }
+        Ok(())
+    }
+
+    fn finish(&mut self) -> Result<(), SinkError> {
+        if let Some((image, record, cameras)) = &self.last {
+            if !crate::interrupted() {
+                self.show.hold(image, record, cameras)?;
+            }
+        }
+        Ok(())
+    }
+}

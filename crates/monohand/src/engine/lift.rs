@@ -1,0 +1,290 @@
+//! The lifting job: 2D keypoint files made elsewhere (OpenPose folders, the project's JSON
+//! Lines) of one or several calibrated views in, 3D hands out to the engine's sinks.
+
+use super::{EngineError, EngineResult, Observer, Output, RunReport, Sink};
+use crate::fit::{learn_proportions, FitOutcome};
+use crate::lifter::Lifter;
+use monohand_core::observation::NetworkCues;
+use monohand_core::prelude::*;
+use monohand_io::jsonl::{read_jsonl, FrameRecord, HandRecord};
+use monohand_io::openpose::{list_openpose_files, read_openpose_file};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+use tracing::{debug, warn};
+
+/// The 2D keypoints of one view, frame by frame.
+#[derive(Debug)]
+pub enum KeypointInput {
+    /// OpenPose JSON files, one per frame (file-name order).
+    OpenPose(Vec<PathBuf>),
+    /// The project's JSON Lines (`monohand detect` or `run` output), by frame index.
+    Jsonl {
+        /// The file, for messages.
+        path: PathBuf,
+        /// Its records by frame index.
+        frames: BTreeMap<u64, FrameRecord>,
+    },
+}
+
+impl KeypointInput {
+    /// An OpenPose folder (or one file).
+    pub fn open_openpose(path: &Path) -> EngineResult<KeypointInput> {
+        let files = list_openpose_files(path).map_err(|e| EngineError::Input(e.to_string()))?;
+        Ok(KeypointInput::OpenPose(files))
+    }
+
+    /// A JSON Lines file; a frame index that appears twice is refused.
+    pub fn open_jsonl(path: &Path) -> EngineResult<KeypointInput> {
+        let mut frames = BTreeMap::new();
+        for rec in read_jsonl(path).map_err(|e| EngineError::Input(e.to_string()))? {
+            let i = rec.frame;
+            if frames.insert(i, rec).is_some() {
+                return Err(EngineError::Input(format!(
+                    "{}: frame {i} appears more than once",
+                    path.display()
+                )));
+            }
+        }
+        Ok(KeypointInput::Jsonl {
+            path: path.to_path_buf(),
+            frames,
+        })
+    }
+
+    /// Frames: files, or the last frame index + 1.
+    pub fn len(&self) -> usize {
+        match self {
+            KeypointInput::OpenPose(files) => files.len(),
+            KeypointInput::Jsonl { frames, .. } => frames
+                .keys()
+                .next_back()
+                .map_or(0, |&last| last as usize + 1),
+        }
+    }
+
+    /// Whether there is no frame.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+
+    fn source_name(&self, i: usize) -> Option<String> {
+        match self {
+            KeypointInput::OpenPose(files) => files
+                .get(i)
+                .and_then(|p| p.file_name())
+                .map(|n| n.to_string_lossy().to_string()),
+            KeypointInput::Jsonl { frames, .. } => {
+                frames.get(&(i as u64)).and_then(|r| r.source.clone())
+            }
+        }
+    }
+
+    /// The hands of frame `i` (none for a frame the input lacks), or why it is unreadable.
+    pub fn frame(&self, i: usize) -> Result<Vec<HandObservation>, String> {
+        match self {
+            KeypointInput::OpenPose(files) => match files.get(i) {
+                None => Ok(Vec::new()),
+                Some(p) => read_openpose_file(p)
+                    .map(|f| f.hands)
+                    .map_err(|e| e.to_string()),
+            },
+            KeypointInput::Jsonl { path, frames } => {
+                let Some(rec) = frames.get(&(i as u64)) else {
+                    return Ok(Vec::new());
+                };
+                let mut hands = Vec::new();
+                for (h, hand) in rec.hands.iter().enumerate() {
+                    let keypoints = hand.keypoints().map_err(|e| {
+                        format!("{}: frame {i} hands[{h}].keypoints_2d: {e}", path.display())
+                    })?;
+                    let cues = hand
+                        .cues()
+                        .map_err(|e| format!("{}: frame {i} hands[{h}]: {e}", path.display()))?;
+                    if !keypoints.is_empty() {
+                        hands.push(HandObservation {
+                            side: hand.side,
+                            keypoints,
+                            cues,
+                        });
+                    }
+                }
+                Ok(hands)
+            }
+        }
+    }
+}
+
+/// How the lifting job fits.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LiftSettings {
+    /// The hand models, left then right.
+    pub skeletons: [HandSkeleton; 2],
+    /// The fitter's settings.
+    pub options: FitOptions,
+    /// Each side's fit starts from its previous one.
+    pub tracking: bool,
+    /// Learn each side's proportions from the network's metric 3D of this many first
+    /// frames of the first view ([`crate::learn_proportions`]).
+    pub proportion_frames: Option<usize>,
+}
+
+/// Lifts every frame of `inputs` (one per view, matched by index) with `cameras` (one per
+/// view, the first the reference) into `sinks`, and closes them. Frames a view cannot read
+/// are written without hands ([`RunReport::unreadable`]); hands that cannot be fitted are
+/// left out, with a warning.
+pub fn lift_keypoints(
+    inputs: &[KeypointInput],
+    cameras: Vec<Camera>,
+    settings: LiftSettings,
+    sinks: &mut [Box<dyn Sink>],
+    observer: &dyn Observer,
+) -> EngineResult<RunReport> {
+    let start = Instant::now();
+    if inputs.is_empty() || inputs.len() != cameras.len() {
+        return Err(EngineError::Input(format!(
+            "{} camera(s) for {} view(s) of keypoints: give one camera per view",
+            cameras.len(),
+            inputs.len()
+        )));
+    }
+    let mut skeletons = settings.skeletons;
+    if let Some(n) = settings.proportion_frames {
+        for (skeleton, side) in skeletons.iter_mut().zip([HandSide::Left, HandSide::Right]) {
+            let cues: Vec<NetworkCues> = (0..n.min(inputs[0].len()))
+                .filter_map(|i| inputs[0].frame(i).ok())
+                .flatten()
+                .filter(|h| h.side == side)
+                .filter_map(|h| h.cues)
+                .collect();
+            if cues.is_empty() {
+                continue;
+            }
+            let (learnt, note) = learn_proportions(skeleton, side, &cues);
+            observer.note(&note);
+            if let Some(est) = learnt {
+                *skeleton = est.skeleton;
+            }
+        }
+    }
+    let mut lifter = Lifter::new(cameras, skeletons, settings.options, settings.tracking)
+        .map_err(crate::SessionError::from)?;
+    let lens: Vec<usize> = inputs.iter().map(KeypointInput::len).collect();
+    let n_frames = lens.iter().copied().max().unwrap_or(0);
+    if lens.iter().any(|&l| l != n_frames) {
+        warn!(
+            "views have different frame counts {lens:?}; frames are matched by index and a view without frame i contributes nothing to it"
+        );
+    }
+    let mut report = RunReport::default();
+    let mut warned_multi = false;
+    let mut write = |record: &FrameRecord, report: &mut RunReport| -> EngineResult<()> {
+        let out = Output {
+            record,
+            image: None,
+            cameras: &[],
+        };
+        for sink in sinks.iter_mut() {
+            sink.write(&out).map_err(|source| EngineError::Output {
+                frames: report.frames,
+                source,
+            })?;
+        }
+        report.add(record);
+        observer.frame_written(report);
+        Ok(())
+    };
+    let mut result = Ok(());
+    for i in 0..n_frames {
+        if observer.cancelled() {
+            break;
+        }
+        let mut per_view = Vec::with_capacity(inputs.len());
+        let mut failed = None;
+        for (v, input) in inputs.iter().enumerate() {
+            match input.frame(i) {
+                Ok(f) => per_view.push(f),
+                Err(msg) => {
+                    warn!(
+                        "frame {i}: view {} unreadable, frame written with no hands: {msg}",
+                        v + 1
+                    );
+                    failed = Some(msg);
+                }
+            }
+        }
+        let mut record = FrameRecord {
+            frame: i as u64,
+            source: inputs[0].source_name(i),
+            ..FrameRecord::default()
+        };
+        if failed.is_some() {
+            report.unreadable += 1;
+        } else {
+            let hands: Vec<&[HandObservation]> = per_view.iter().map(Vec::as_slice).collect();
+            for lifted in lifter.lift(&hands) {
+                let side = lifted.side;
+                if let Some(&(v, count)) = lifted.crowded_views.first().filter(|_| !warned_multi)
+                {
+                    warn!(
+                        "frame {i}: view {} has {count} {side} hands; using the most confident one per view (several people are not supported; further such warnings suppressed)",
+                        v + 1
+                    );
+                    warned_multi = true;
+                }
+                // The first view's keypoints (all zero when only other views see the hand).
+                let first_view_kp = lifted
+                    .views
+                    .iter()
+                    .find(|&&(v, _)| v == 0)
+                    .and_then(|&(_, k)| hands.first()?.get(k))
+                    .map(|h| h.keypoints)
+                    .unwrap_or_default();
+                match lifted.outcome {
+                    FitOutcome::Fitted(fit) => {
+                        debug!(
+                            "frame {i}: {side} hand in {} view(s), {:.2} px, {} iterations",
+                            lifted.views.len(),
+                            fit.reprojection_error_px,
+                            fit.iterations
+                        );
+                        record
+                            .hands
+                            .push(HandRecord::from_fit(side, &first_view_kp, &fit));
+                    }
+                    FitOutcome::Diverged => {
+                        warn!("frame {i}: {side} hand: the fit diverged (non-finite result), skipped");
+                    }
+                    FitOutcome::Failed(CoreError::TooFewJoints {
+                        usable,
+                        threshold,
+                        needed,
+                    }) => warn!(
+                        "frame {i}: {side} hand skipped: {usable} usable joint observation(s) with confidence >= {threshold}, need at least {needed}"
+                    ),
+                    FitOutcome::Failed(e) => warn!("frame {i}: {side} hand skipped: {e}"),
+                }
+            }
+        }
+        if let Err(e) = write(&record, &mut report) {
+            result = Err(e);
+            break;
+        }
+    }
+    let mut closed = Ok(());
+    for sink in sinks.iter_mut() {
+        if let Err(source) = sink.finish() {
+            if closed.is_ok() {
+                closed = Err(EngineError::Output {
+                    frames: report.frames,
+                    source,
+                });
+            }
+        }
+    }
+    result?;
+    closed?;
+    report.cancelled = observer.cancelled();
+    report.seconds = start.elapsed().as_secs_f64();
+    Ok(report)
+}

@@ -1,0 +1,686 @@
+//! The engine: the whole frames-to-3D pipeline, from sources of frames to sinks of
+//! records, with its stages on threads of their own.
+//!
+//! ```text
+//! FrameSource(s) ─ reader thread ─▶ networks thread (CropTracker) ─▶ fit (HandsFitter),
+//!                  decode ahead     detection, crops, keypoints        on the calling
+//!                                                                       thread ─▶ Sinks
+//! ```
+//!
+//! - Frames stay in order. Each queue holds a few frames: a full queue makes the stage
+//!   before it wait, so a long video never sits in memory.
+//! - Independent images (no tracking, one view) run the networks on all cores instead, a
+//!   chunk of frames at a time, still written in order.
+//! - An [`Observer`] can cancel the run (the frame in flight is finished and every sink
+//!   closed), and hears of every frame written and every note for the user.
+//! - A failing sink stops the run; the others are closed so that each holds whole frames.
+//!
+//! `monohand run`, the Python package and `monohand eval --stage full` all run this.
+
+pub mod lift;
+mod sinks;
+mod source;
+
+pub use sinks::{
+    CsvSink, GltfSink, JsonlSink, OpenPoseSink, Output, OverlaySink, Sink, SinkError,
+};
+pub use source::{CallerFrames, FrameSource, ImageFiles, Input, SourceFrame, VideoSource};
+
+/// Overlay file-name conventions (which names are videos, which one image).
+pub mod overlay_paths {
+    pub use super::sinks::{has_extension, IMAGE_EXTENSIONS, VIDEO_EXTENSIONS};
+}
+
+use crate::crops::{CropTracker, VisionFrame};
+use crate::hands::{FitSettings, FittedFrame, HandsFitter};
+use crate::notes::{Note, NoteTopic};
+use monohand_core::camera::Camera;
+use monohand_io::jsonl::FrameRecord;
+use monohand_vision::tflite_import::allow_split_here;
+use monohand_vision::{HandPipeline, RgbImage};
+use std::sync::mpsc::{sync_channel, Receiver, TryRecvError};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+/// What can stop the engine.
+#[derive(Debug, thiserror::Error)]
+pub enum EngineError {
+    /// An input could not be opened, or the settings do not fit it.
+    #[error("{0}")]
+    Input(String),
+    /// The settings are inconsistent.
+    #[error(transparent)]
+    Session(#[from] crate::SessionError),
+    /// A sink could not write; the others were closed and hold `frames` whole frames.
+    #[error("{source}")]
+    Output {
+        /// Frames every sink holds in full.
+        frames: u64,
+        /// The sink's error.
+        source: SinkError,
+    },
+    /// A stage's thread failed (a panic); the sinks were closed and hold `frames` frames.
+    #[error("the {stage} thread failed after {frames} frames; the output is complete up to there")]
+    ThreadFailed {
+        /// `network` or `reader`.
+        stage: &'static str,
+        /// Frames every sink holds in full.
+        frames: u64,
+    },
+}
+
+/// Result type of the engine.
+pub type EngineResult<T> = std::result::Result<T, EngineError>;
+
+/// How the engine runs (the networks and cameras are given apart: [`Engine::new`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct EngineSettings {
+    /// The 3D stage, tracking included ([`FitSettings::tracking`]: each fit and each crop
+    /// starts from the last frame's).
+    pub fit: FitSettings,
+    /// While tracking, look for new hands every this many frames.
+    pub detect_every: usize,
+    /// Stop after this many frames.
+    pub max_frames: Option<u64>,
+    /// Worker threads for independent images (`None`: all cores; 1: one core).
+    pub threads: Option<usize>,
+}
+
+impl Default for EngineSettings {
+    fn default() -> EngineSettings {
+        EngineSettings {
+            fit: FitSettings::default(),
+            detect_every: 10,
+            max_frames: None,
+            threads: None,
+        }
+    }
+}
+
+/// Hears from a run: whether to stop, each frame written, and notes for the user.
+/// Every method has a default that does nothing.
+pub trait Observer: Sync {
+    /// Whether the run should stop now (checked before each frame is read).
+    fn cancelled(&self) -> bool {
+        false
+    }
+    /// A frame was written to every sink; `report` holds the totals so far.
+    fn frame_written(&self, report: &RunReport) {
+        let _ = report;
+    }
+    /// A message for the user: an assumption made (a generic camera), a hand size found.
+    fn note(&self, note: &Note) {
+        let _ = note;
+    }
+}
+
+/// An observer that hears nothing and never cancels.
+#[derive(Debug, Default, Clone, Copy)]
+pub struct Quiet;
+
+impl Observer for Quiet {}
+
+/// What a run did.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct RunReport {
+    /// Frames written.
+    pub frames: u64,
+    /// Frames with at least one hand.
+    pub frames_with_hands: u64,
+    /// Hands written.
+    pub hands: u64,
+    /// Hands with 3D.
+    pub hands_3d: u64,
+    /// Sum of the hands' mean reprojection errors, pixels.
+    pub reprojection_sum_px: f64,
+    /// Frames that could not be read (their records carry the error).
+    pub unreadable: u64,
+    /// The error that ended the input early, after `frames` good frames.
+    pub input_error: Option<String>,
+    /// The observer cancelled the run.
+    pub cancelled: bool,
+    /// Wall-clock seconds of the run.
+    pub seconds: f64,
+}
+
+impl RunReport {
+    fn add(&mut self, rec: &FrameRecord) {
+        self.frames += 1;
+        if rec.error.is_some() {
+            self.unreadable += 1;
+        }
+        if !rec.hands.is_empty() {
+            self.frames_with_hands += 1;
+        }
+        for h in &rec.hands {
+            self.hands += 1;
+            if let Some(e) = h.reprojection_error_px {
+                self.hands_3d += 1;
+                self.reprojection_sum_px += e;
+            }
+        }
+    }
+
+    /// The mean reprojection error of the hands with 3D, pixels.
+    pub fn mean_reprojection_px(&self) -> Option<f64> {
+        (self.hands_3d > 0).then(|| self.reprojection_sum_px / self.hands_3d as f64)
+    }
+}
+
+/// The pipeline over networks already loaded and the cameras of every view (none: a camera
+/// per image from its EXIF focal length, else the generic guess).
+///
+/// ```no_run
+/// use monohand::engine::{Engine, EngineSettings, Input, JsonlSink, Quiet, Sink};
+/// use monohand::{HandPipeline, vision::{ModelOptions, PipelineOptions}};
+/// use std::sync::Arc;
+///
+/// let pipeline = Arc::new(HandPipeline::new(&ModelOptions::default(), PipelineOptions::default())?);
+/// let engine = Engine::new(pipeline, vec![], EngineSettings::default())?;
+/// let source = Input::parse("clip.mp4")?.open(std::time::Duration::from_secs(10))?;
+/// let mut sinks: Vec<Box<dyn Sink>> = vec![Box::new(JsonlSink::create("hands.jsonl".as_ref())?)];
+/// let report = engine.run(vec![source], &mut sinks, &Quiet)?;
+/// println!("{} frames, {} hands", report.frames, report.hands);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
+#[derive(Clone)]
+pub struct Engine {
+    pipeline: Arc<HandPipeline>,
+    cameras: Vec<Camera>,
+    settings: EngineSettings,
+}
+
+impl std::fmt::Debug for Engine {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Engine")
+            .field("cameras", &self.cameras)
+            .field("settings", &self.settings)
+            .finish()
+    }
+}
+
+/// One frame of all views before the networks run.
+struct RawFrame {
+    index: u64,
+    source: Option<String>,
+    timestamp_s: f64,
+    images: Vec<Result<RgbImage, String>>,
+    decode_ms: f64,
+    /// The EXIF focal length of the first view's image file.
+    focal: Option<monohand_vision::image_io::PhotoFocal>,
+}
+
+/// What the engine carries beside each frame through the fit.
+struct Extra {
+    source: Option<String>,
+    is_video: bool,
+    image: Option<RgbImage>,
+    decode_ms: f64,
+}
+
+impl Engine {
+    /// An engine over `pipeline` with one camera per view (none: one view, its camera from
+    /// each image). The cameras and settings are checked here.
+    pub fn new(
+        pipeline: Arc<HandPipeline>,
+        cameras: Vec<Camera>,
+        settings: EngineSettings,
+    ) -> EngineResult<Engine> {
+        if settings.detect_every == 0 {
+            return Err(EngineError::Input(
+                "detect_every must be at least 1".into(),
+            ));
+        }
+        if settings.threads == Some(0) {
+            return Err(EngineError::Input("threads must be at least 1".into()));
+        }
+        // The fitter checks the cameras and the fit options.
+        HandsFitter::<()>::new(cameras.clone(), settings.fit).map_err(crate::SessionError::from)?;
+        Ok(Engine {
+            pipeline,
+            cameras,
+            settings,
+        })
+    }
+
+    /// The networks.
+    pub fn pipeline(&self) -> &Arc<HandPipeline> {
+        &self.pipeline
+    }
+
+    /// The settings.
+    pub fn settings(&self) -> &EngineSettings {
+        &self.settings
+    }
+
+    /// The same engine, stopping after `max_frames` frames (`None`: at the input's end).
+    pub fn with_max_frames(mut self, max_frames: Option<u64>) -> Engine {
+        self.settings.max_frames = max_frames;
+        self
+    }
+
+    /// Checks that the calibrated cameras fit the sources' frames (one source per view).
+    pub fn check_sources(&self, sources: &[Box<dyn FrameSource>]) -> EngineResult<()> {
+        if !self.cameras.is_empty() && self.cameras.len() != sources.len() {
+            return Err(EngineError::Input(format!(
+                "{} camera(s) for {} view(s): give one calibration per view, in the same order",
+                self.cameras.len(),
+                sources.len()
+            )));
+        }
+        if sources.len() > 1 && self.cameras.is_empty() {
+            return Err(EngineError::Input(
+                "several views need their calibrations, one per view (docs/calibration.md)".into(),
+            ));
+        }
+        for (v, (s, cam)) in sources.iter().zip(&self.cameras).enumerate() {
+            let Some((w, h)) = s.video_size() else {
+                continue;
+            };
+            let k = &cam.intrinsics;
+            let quarter_turn = s.rotation_deg().rem_euclid(180) == 90;
+            if quarter_turn && (k.width, k.height) == (h, w) {
+                return Err(EngineError::Input(format!(
+                    "view {}: the video is stored {h}x{w} and carries rotation metadata of {} \
+                     degrees (a phone held upright), so its frames are decoded upright at \
+                     {w}x{h}; the calibration is for the stored {h}x{w} frames. Give a \
+                     calibration of the upright frames (fx and fy swapped, the principal point \
+                     turned with the image), or strip the rotation from the file (ffmpeg -i IN \
+                     -c copy -metadata:s:v:0 rotate=0 OUT)",
+                    v + 1,
+                    s.rotation_deg()
+                )));
+            }
+            if (k.width, k.height) != (w, h) {
+                return Err(EngineError::Input(format!(
+                    "view {}: the video is {w}x{h} but its calibration is for {}x{}; calibrate \
+                     at the video's resolution (or scale fx, fy, cx, cy with the image)",
+                    v + 1,
+                    k.width,
+                    k.height
+                )));
+            }
+        }
+        Ok(())
+    }
+
+    /// Runs every frame of `sources` (one per view, frames matched by index) through the
+    /// pipeline into `sinks`, in order, and closes the sinks. The input ending on an error
+    /// after good frames is not an error of the run: [`RunReport::input_error`] says it.
+    pub fn run(
+        &self,
+        mut sources: Vec<Box<dyn FrameSource>>,
+        sinks: &mut [Box<dyn Sink>],
+        observer: &dyn Observer,
+    ) -> EngineResult<RunReport> {
+        self.check_sources(&sources)?;
+        if sources.is_empty() {
+            return Err(EngineError::Input("no input".into()));
+        }
+        let start = Instant::now();
+        let tracking = self.settings.fit.tracking;
+        let mut fit = HandsFitter::new(self.cameras.clone(), self.settings.fit)
+            .map_err(crate::SessionError::from)?;
+        let keep_image = sinks.iter().any(|s| s.wants_images());
+        let mut out = Writer {
+            sinks,
+            report: RunReport::default(),
+            observer,
+        };
+        let result = if tracking || sources.len() > 1 {
+            self.run_threaded(sources, &mut fit, &mut out, keep_image)
+        } else {
+            let source = sources.swap_remove(0);
+            self.run_independent(source, &mut fit, &mut out, keep_image)
+        };
+        match result {
+            Ok(()) => out.finish()?,
+            Err(e) => {
+                out.close_after_failure();
+                return Err(e);
+            }
+        }
+        let mut report = out.report;
+        report.cancelled = observer.cancelled();
+        report.seconds = start.elapsed().as_secs_f64();
+        Ok(report)
+    }
+
+    /// Decode → networks → fit on three threads, in order.
+    fn run_threaded(
+        &self,
+        sources: Vec<Box<dyn FrameSource>>,
+        fit: &mut HandsFitter<Extra>,
+        out: &mut Writer<'_, '_>,
+        keep_image: bool,
+    ) -> EngineResult<()> {
+        let max_frames = self.settings.max_frames;
+        let tracking = self.settings.fit.tracking;
+        let n_views = sources.len();
+        let detect_every = self.settings.detect_every;
+        let observer = out.observer;
+        let panic_at = injected_network_panic();
+        std::thread::scope(|scope| {
+            let (raw_tx, raw_rx) = sync_channel::<RawFrame>(4);
+            let (vis_tx, vis_rx) = sync_channel::<(VisionFrame, Extra)>(4);
+            let reader = scope.spawn(move || {
+                let mut sources = sources;
+                read_all(&mut sources, max_frames, observer, |f| raw_tx.send(f).is_ok())
+            });
+            let pipe = Arc::clone(&self.pipeline);
+            let vision = scope.spawn(move || {
+                let mut stage = CropTracker::new(pipe, n_views, tracking, detect_every);
+                loop {
+                    // A network alone shares its operators with the other cores only while
+                    // frames are waiting: while this thread waits for the decoder, that core
+                    // is better left to it (docs/performance.md).
+                    let raw = match raw_rx.try_recv() {
+                        Ok(raw) => {
+                            allow_split_here(true);
+                            raw
+                        }
+                        Err(TryRecvError::Empty) => {
+                            allow_split_here(false);
+                            match raw_rx.recv() {
+                                Ok(raw) => raw,
+                                Err(_) => break,
+                            }
+                        }
+                        Err(TryRecvError::Disconnected) => break,
+                    };
+                    if panic_at == Some(raw.index) {
+                        panic!(
+                            "injected fault: network thread panics at frame {}",
+                            raw.index
+                        );
+                    }
+                    let images: Vec<Result<&RgbImage, String>> = raw
+                        .images
+                        .iter()
+                        .map(|i| i.as_ref().map_err(Clone::clone))
+                        .collect();
+                    let mut f = stage.process(raw.index, raw.timestamp_s, &images);
+                    f.focal = raw.focal;
+                    let extra = Extra {
+                        source: raw.source,
+                        is_video: tracking,
+                        image: if keep_image {
+                            raw.images.into_iter().next().and_then(Result::ok)
+                        } else {
+                            None
+                        },
+                        decode_ms: raw.decode_ms,
+                    };
+                    if vis_tx.send((f, extra)).is_err() {
+                        break;
+                    }
+                }
+            });
+            let result = fit_all(&vis_rx, fit, out);
+            drop(vis_rx);
+            let vision_panicked = vision.join().is_err();
+            let reader = reader.join();
+            let reader_panicked = reader.is_err();
+            out.report.input_error = reader.unwrap_or(None);
+            result?;
+            if vision_panicked || reader_panicked {
+                return Err(EngineError::ThreadFailed {
+                    stage: if vision_panicked { "network" } else { "reader" },
+                    frames: out.report.frames,
+                });
+            }
+            Ok(())
+        })
+    }
+
+    /// Independent images: the networks on all cores, a chunk at a time, in order.
+    fn run_independent(
+        &self,
+        mut source: Box<dyn FrameSource>,
+        fit: &mut HandsFitter<Extra>,
+        out: &mut Writer<'_, '_>,
+        keep_image: bool,
+    ) -> EngineResult<()> {
+        use rayon::prelude::*;
+        let pool = thread_pool(self.settings.threads)?;
+        let chunk = 2 * pool.current_num_threads();
+        let mut stage = CropTracker::new(Arc::clone(&self.pipeline), 1, false, 1);
+        let mut batch: Vec<RawFrame> = Vec::with_capacity(chunk);
+        let mut done = false;
+        while !done {
+            batch.clear();
+            while batch.len() < chunk {
+                if out.observer.cancelled()
+                    || self
+                        .settings
+                        .max_frames
+                        .is_some_and(|m| out.report.frames + batch.len() as u64 >= m)
+                {
+                    done = true;
+                    break;
+                }
+                match next_raw(std::slice::from_mut(&mut source)) {
+                    Ok(Some(f)) => batch.push(f),
+                    Ok(None) => {
+                        done = true;
+                        break;
+                    }
+                    Err(e) => {
+                        out.report.input_error = Some(e);
+                        done = true;
+                        break;
+                    }
+                }
+            }
+            let pipeline = &self.pipeline;
+            let detected: Vec<_> = pool.install(|| {
+                batch
+                    .par_iter()
+                    .map(|raw| {
+                        let t = Instant::now();
+                        let d = match &raw.images[0] {
+                            Ok(img) => pipeline.detect(img).map_err(|e| e.to_string()),
+                            Err(e) => Err(e.clone()),
+                        };
+                        (d, t.elapsed().as_secs_f64() * 1e3)
+                    })
+                    .collect()
+            });
+            for (raw, (d, ms)) in batch.drain(..).zip(detected) {
+                let image = raw.images.into_iter().next().and_then(Result::ok);
+                let mut f = stage.assign(raw.index, raw.timestamp_s, d, ms);
+                f.focal = raw.focal;
+                let extra = Extra {
+                    source: raw.source,
+                    is_video: false,
+                    image: image.filter(|_| keep_image),
+                    decode_ms: raw.decode_ms,
+                };
+                let done = fit.push(f, extra);
+                out.emit(fit, done)?;
+            }
+        }
+        let done = fit.flush();
+        out.emit(fit, done)
+    }
+}
+
+/// The sinks of a run, with the totals written so far.
+struct Writer<'s, 'o> {
+    sinks: &'s mut [Box<dyn Sink>],
+    report: RunReport,
+    observer: &'o dyn Observer,
+}
+
+impl Writer<'_, '_> {
+    /// Writes the fitted frames (in order) to every sink, and passes on the fitter's notes.
+    fn emit(
+        &mut self,
+        fit: &mut HandsFitter<Extra>,
+        done: Vec<(FittedFrame, Extra)>,
+    ) -> EngineResult<()> {
+        for note in fit.take_notes() {
+            self.observer.note(&note);
+        }
+        for (f, extra) in done {
+            let record = record(&f, &extra);
+            let frame = Output {
+                record: &record,
+                image: extra.image.as_ref(),
+                cameras: &f.cameras,
+            };
+            for sink in self.sinks.iter_mut() {
+                sink.write(&frame).map_err(|source| EngineError::Output {
+                    frames: self.report.frames,
+                    source,
+                })?;
+            }
+            self.report.add(&record);
+            self.observer.frame_written(&self.report);
+        }
+        Ok(())
+    }
+
+    /// Closes every sink; the first failure is returned after all were tried.
+    fn finish(&mut self) -> EngineResult<()> {
+        let mut first = None;
+        for sink in self.sinks.iter_mut() {
+            if let Err(source) = sink.finish() {
+                first.get_or_insert(source);
+            }
+        }
+        match first {
+            Some(source) => Err(EngineError::Output {
+                frames: self.report.frames,
+                source,
+            }),
+            None => Ok(()),
+        }
+    }
+
+    /// After a failure: closes the others (an overlay video finalised, a glTF written),
+    /// saying so if that fails too.
+    fn close_after_failure(&mut self) {
+        if let Err(more) = self.finish() {
+            self.observer.note(&Note::new(
+                NoteTopic::Output,
+                format!("closing the other outputs failed too: {more}"),
+            ));
+        }
+    }
+}
+
+/// The output record of a fitted frame, with its time (video) and stage timings.
+fn record(done: &FittedFrame, extra: &Extra) -> FrameRecord {
+    let vision = &done.vision;
+    let mut record = crate::records::fitted_record(done, extra.source.clone());
+    if extra.is_video {
+        record.time_s = Some(vision.time_s);
+    }
+    record.timings_ms = Some(
+        [
+            ("decode".to_string(), extra.decode_ms),
+            ("vision".to_string(), vision.vision_ms),
+            ("fit".to_string(), done.fit_ms),
+        ]
+        .into_iter()
+        .collect(),
+    );
+    record
+}
+
+/// Fits and writes every frame that comes out of the networks.
+fn fit_all(
+    rx: &Receiver<(VisionFrame, Extra)>,
+    fit: &mut HandsFitter<Extra>,
+    out: &mut Writer<'_, '_>,
+) -> EngineResult<()> {
+    for (f, extra) in rx {
+        let done = fit.push(f, extra);
+        out.emit(fit, done)?;
+    }
+    let done = fit.flush();
+    out.emit(fit, done)
+}
+
+/// A thread pool of `threads` (all cores when `None`); with one thread the networks do
+/// not share their operators with other cores either.
+fn thread_pool(threads: Option<usize>) -> EngineResult<rayon::ThreadPool> {
+    let mut builder = rayon::ThreadPoolBuilder::new();
+    if let Some(n) = threads {
+        builder = builder
+            .num_threads(n)
+            .start_handler(move |_| allow_split_here(n > 1));
+    }
+    builder
+        .build()
+        .map_err(|e| EngineError::Input(format!("could not start worker threads: {e}")))
+}
+
+/// Fault injection for the tests of a failing run: `MONOHAND_FAULT=network-panic:N` makes
+/// the network thread panic on frame `N` (docs/pipeline.md).
+fn injected_network_panic() -> Option<u64> {
+    let spec = std::env::var("MONOHAND_FAULT").ok()?;
+    spec.strip_prefix("network-panic:")?.parse().ok()
+}
+
+/// The next frame of every view; `Ok(None)` when the first view ended.
+fn next_raw(sources: &mut [Box<dyn FrameSource>]) -> Result<Option<RawFrame>, String> {
+    let Some((first, others)) = sources.split_first_mut() else {
+        return Ok(None);
+    };
+    let Some(f) = first.next_frame()? else {
+        return Ok(None);
+    };
+    let mut decode_ms = f.decode_ms;
+    let mut images = Vec::with_capacity(1 + others.len());
+    images.push(f.image);
+    for (k, s) in others.iter_mut().enumerate() {
+        let view = k + 2;
+        images.push(match s.next_frame() {
+            Ok(Some(g)) => {
+                decode_ms += g.decode_ms;
+                g.image
+            }
+            Ok(None) => Err(format!("view {view} has no more frames")),
+            Err(e) => Err(format!("view {view}: {e}")),
+        });
+    }
+    Ok(Some(RawFrame {
+        index: f.index,
+        source: f.source,
+        timestamp_s: f.timestamp_s,
+        images,
+        decode_ms,
+        focal: f.focal,
+    }))
+}
+
+/// Reads frames until the end, cancellation, `max_frames` or `send` refusing; returns the
+/// error that ended the input early, if any.
+fn read_all(
+    sources: &mut [Box<dyn FrameSource>],
+    max_frames: Option<u64>,
+    observer: &dyn Observer,
+    mut send: impl FnMut(RawFrame) -> bool,
+) -> Option<String> {
+    let mut n = 0u64;
+    loop {
+        if observer.cancelled() || max_frames.is_some_and(|m| n >= m) {
+            return None;
+        }
+        match next_raw(sources) {
+            Ok(Some(f)) => {
+                if !send(f) {
+                    return None;
+                }
+                n += 1;
+            }
+            Ok(None) => return None,
+            Err(e) => return Some(e),
+        }
+    }
+}
+
+/// The default stall timeout of video sources.
+pub const DEFAULT_STALL_TIMEOUT: Duration = monohand_media::video::DEFAULT_STALL_TIMEOUT;

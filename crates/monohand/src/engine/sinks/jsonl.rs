@@ -1,0 +1,28 @@
+//! JSON Lines, one record per frame (docs/output-format.md).
+
+use super::{Output, Sink, SinkError};
+use monohand_io::jsonl::JsonlWriter;
+use monohand_io::IoResult;
+use std::path::Path;
+
+/// Writes each frame's record as one JSON line, flushed as it goes.
+#[derive(Debug)]
+pub struct JsonlSink(JsonlWriter);
+
+impl JsonlSink {
+    /// Creates (or truncates) a file.
+    pub fn create(path: &Path) -> IoResult<JsonlSink> {
+        Ok(JsonlSink(JsonlWriter::create(path)?))
+    }
+
+    /// Writes to standard output.
+    pub fn stdout() -> JsonlSink {
+        JsonlSink(JsonlWriter::stdout())
+    }
+}
+
+impl Sink for JsonlSink {
+    fn write(&mut self, frame: &Output<'_>) -> Result<(), SinkError> {
+        Ok(self.0.write_frame(frame.record)?)
+    }
+}

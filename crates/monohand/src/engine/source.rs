@@ -1,0 +1,298 @@
+//! Where the engine's frames come from: image files, a folder, a video file or a webcam
+//! (through [`monohand_media::video`]), or a caller's own frames.
+
+use super::{EngineError, EngineResult};
+use monohand_media::video::{VideoInput, VideoReader};
+use monohand_vision::image_io::{images_in_folder, load_photo, PhotoFocal, IMAGE_EXTENSIONS};
+use monohand_vision::RgbImage;
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+/// One frame of one view, as a source delivers it.
+#[derive(Debug)]
+pub struct SourceFrame {
+    /// Index from 0.
+    pub index: u64,
+    /// File name of the image, if it came from one.
+    pub source: Option<String>,
+    /// Time of the frame, seconds (the video's clock; `index / 30` for images).
+    pub timestamp_s: f64,
+    /// The pixels, or why they could not be read (the run goes on with the next frame).
+    pub image: Result<RgbImage, String>,
+    /// Milliseconds spent reading and decoding it.
+    pub decode_ms: f64,
+    /// The focal length the image file states in its EXIF (photos only).
+    pub focal: Option<PhotoFocal>,
+}
+
+/// Frames of one view, in order.
+pub trait FrameSource: Send {
+    /// The next frame; `Ok(None)` at the end; `Err` when the input stops on an error (the
+    /// frames before it were good).
+    fn next_frame(&mut self) -> Result<Option<SourceFrame>, String>;
+    /// Whether consecutive frames show one scene (a video), so that tracking makes sense.
+    fn is_video(&self) -> bool;
+    /// Number of frames, when known up front.
+    fn len_hint(&self) -> Option<u64> {
+        None
+    }
+    /// Frame rate, when known (videos).
+    fn fps(&self) -> Option<f64> {
+        None
+    }
+    /// Frame size `(width, height)`, when known before the first frame (videos).
+    fn video_size(&self) -> Option<(u32, u32)> {
+        None
+    }
+    /// The display rotation of a video (phone metadata, degrees; its frames come upright).
+    fn rotation_deg(&self) -> i32 {
+        0
+    }
+}
+
+/// The kind of an input, decided from its name.
+#[derive(Debug, Clone)]
+pub enum Input {
+    /// Image files, one frame each, in this order.
+    Images(Vec<PathBuf>),
+    /// A video file or a webcam.
+    Video(VideoInput),
+}
+
+impl Input {
+    /// `webcam:N`, a folder of images (file-name order), an image file, or else a video
+    /// file (anything ffmpeg reads, a named pipe included).
+    pub fn parse(s: &str) -> EngineResult<Input> {
+        if s.starts_with("webcam:") {
+            return match VideoInput::parse(s) {
+                v @ VideoInput::Webcam(_) => Ok(Input::Video(v)),
+                VideoInput::File(_) => Err(EngineError::Input(format!(
+                    "{s:?}: a webcam is written webcam:N, e.g. webcam:0"
+                ))),
+            };
+        }
+        let path = Path::new(s);
+        if path.is_dir() {
+            let files = images_in_folder(path).map_err(|e| EngineError::Input(chain(&e)))?;
+            if files.is_empty() {
+                return Err(EngineError::Input(format!(
+                    "{s}: no images in this folder (looked for {})",
+                    IMAGE_EXTENSIONS.join(", ")
+                )));
+            }
+            return Ok(Input::Images(files));
+        }
+        // A regular file, or a named pipe or device that a stream comes through.
+        if std::fs::metadata(path).is_err() {
+            return Err(EngineError::Input(format!("{s}: no such file or folder")));
+        }
+        let is_image = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .is_some_and(|e| IMAGE_EXTENSIONS.contains(&e.to_ascii_lowercase().as_str()));
+        Ok(if is_image {
+            Input::Images(vec![path.to_path_buf()])
+        } else {
+            Input::Video(VideoInput::File(path.to_path_buf()))
+        })
+    }
+
+    /// Whether consecutive frames show the same scene (video), so tracking makes sense.
+    pub fn is_video(&self) -> bool {
+        matches!(self, Input::Video(_))
+    }
+
+    /// Whether the input is one image file.
+    pub fn is_single_image(&self) -> bool {
+        matches!(self, Input::Images(files) if files.len() == 1)
+    }
+
+    /// Opens the input: starts ffmpeg for a video, which counts as stalled after `stall`
+    /// without a frame.
+    pub fn open(&self, stall: Duration) -> EngineResult<Box<dyn FrameSource>> {
+        Ok(match self {
+            Input::Images(files) => Box::new(ImageFiles::new(files.clone())),
+            Input::Video(v) => Box::new(VideoSource::open(v, stall)?),
+        })
+    }
+}
+
+/// Image files, one frame each (their EXIF orientation applied, their EXIF focal length
+/// read).
+#[derive(Debug)]
+pub struct ImageFiles {
+    files: Vec<PathBuf>,
+    next: usize,
+}
+
+impl ImageFiles {
+    /// These files, in this order.
+    pub fn new(files: Vec<PathBuf>) -> ImageFiles {
+        ImageFiles { files, next: 0 }
+    }
+}
+
+impl FrameSource for ImageFiles {
+    fn next_frame(&mut self) -> Result<Option<SourceFrame>, String> {
+        let t = Instant::now();
+        let Some(path) = self.files.get(self.next) else {
+            return Ok(None);
+        };
+        let index = self.next as u64;
+        self.next += 1;
+        let (image, focal) = match load_photo(path) {
+            Ok(p) => (Ok(p.image), p.focal),
+            Err(e) => (Err(e.to_string()), None),
+        };
+        Ok(Some(SourceFrame {
+            index,
+            source: path.file_name().map(|n| n.to_string_lossy().into_owned()),
+            timestamp_s: index as f64 / 30.0,
+            image,
+            decode_ms: t.elapsed().as_secs_f64() * 1e3,
+            focal,
+        }))
+    }
+
+    fn is_video(&self) -> bool {
+        false
+    }
+
+    fn len_hint(&self) -> Option<u64> {
+        Some(self.files.len() as u64)
+    }
+}
+
+/// A video file or webcam decoded by ffmpeg.
+pub struct VideoSource {
+    /// `None` once finished.
+    reader: Option<Box<VideoReader>>,
+}
+
+impl std::fmt::Debug for VideoSource {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("VideoSource")
+            .field("open", &self.reader.is_some())
+            .finish()
+    }
+}
+
+impl VideoSource {
+    /// Starts ffmpeg on `input`; a source that delivers no frame for `stall` counts as
+    /// stalled and ends with an error.
+    pub fn open(input: &VideoInput, stall: Duration) -> EngineResult<VideoSource> {
+        let mut reader = VideoReader::open(input).map_err(|e| EngineError::Input(chain(&e)))?;
+        reader.set_stall_timeout(stall);
+        Ok(VideoSource {
+            reader: Some(Box::new(reader)),
+        })
+    }
+}
+
+impl FrameSource for VideoSource {
+    fn next_frame(&mut self) -> Result<Option<SourceFrame>, String> {
+        let t = Instant::now();
+        let Some(r) = self.reader.as_mut() else {
+            return Ok(None);
+        };
+        match r.next_frame() {
+            Ok(Some(f)) => Ok(Some(SourceFrame {
+                index: f.index,
+                source: None,
+                timestamp_s: f.timestamp_s,
+                image: Ok(f.image),
+                decode_ms: t.elapsed().as_secs_f64() * 1e3,
+                focal: None,
+            })),
+            Ok(None) => {
+                self.reader = None;
+                Ok(None)
+            }
+            Err(e) => {
+                self.reader = None;
+                Err(chain(&e))
+            }
+        }
+    }
+
+    fn is_video(&self) -> bool {
+        true
+    }
+
+    fn len_hint(&self) -> Option<u64> {
+        self.reader.as_ref().and_then(|r| r.info().frame_count)
+    }
+
+    fn fps(&self) -> Option<f64> {
+        self.reader.as_ref().and_then(|r| r.info().fps)
+    }
+
+    fn video_size(&self) -> Option<(u32, u32)> {
+        self.reader
+            .as_ref()
+            .map(|r| (r.info().width as u32, r.info().height as u32))
+    }
+
+    fn rotation_deg(&self) -> i32 {
+        self.reader.as_ref().map_or(0, |r| r.info().rotation_deg)
+    }
+}
+
+/// A caller's own frames: `(image, time in seconds)` pairs, as from a camera SDK or
+/// another decoder. `video` says whether they are consecutive frames of one scene.
+pub struct CallerFrames<I> {
+    frames: I,
+    next: u64,
+    video: bool,
+}
+
+impl<I> CallerFrames<I> {
+    /// Frames from `frames`, numbered from 0.
+    pub fn new(frames: I, video: bool) -> CallerFrames<I> {
+        CallerFrames {
+            frames,
+            next: 0,
+            video,
+        }
+    }
+}
+
+impl<I> FrameSource for CallerFrames<I>
+where
+    I: Iterator<Item = (RgbImage, f64)> + Send,
+{
+    fn next_frame(&mut self) -> Result<Option<SourceFrame>, String> {
+        let Some((image, timestamp_s)) = self.frames.next() else {
+            return Ok(None);
+        };
+        let index = self.next;
+        self.next += 1;
+        Ok(Some(SourceFrame {
+            index,
+            source: None,
+            timestamp_s,
+            image: Ok(image),
+            decode_ms: 0.0,
+            focal: None,
+        }))
+    }
+
+    fn is_video(&self) -> bool {
+        self.video
+    }
+}
+
+/// An error and its causes, `outer: inner: ...`.
+pub(crate) fn chain(e: &dyn std::error::Error) -> String {
+    let mut s = e.to_string();
+    let mut cause = e.source();
+    while let Some(c) = cause {
+        let text = c.to_string();
+        if !s.contains(&text) {
+            s.push_str(": ");
+            s.push_str(&text);
+        }
+        cause = c.source();
+    }
+    s
+}
