@@ -236,7 +236,10 @@ impl EvalOp for NhwcConv {
         let (h, w) = (shape[1], shape[2]);
         let (oh, ow, _, _) = self.geometry(h, w);
         let cout = self.product.output_channels();
-        // Every element is written by the product's epilogue before anything reads it.
+        // SAFETY: the tensor's values are left unwritten, and nothing reads one before it is
+        // written: `compute` has the product's epilogue store every output value (every row
+        // goes to exactly one piece, and the product writes all of its rows and channels),
+        // and an error drops the tensor without reading it (f32 has no drop).
         let mut output = unsafe { Tensor::uninitialized::<f32>(&[1, oh, ow, cout])? };
         {
             let src = input.try_as_plain_ram()?;

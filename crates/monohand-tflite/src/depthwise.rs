@@ -84,7 +84,11 @@ impl EvalOp for NhwcDepthwise {
         let (kh, kw, kc) = self.dims();
         ensure!(kc == c, "depthwise kernel has {kc} channels, input {c}");
         let (oh, ow, pt, pl) = self.output_shape(h, w);
-        // Every element is set to its bias before any accumulation reads it.
+        // SAFETY: the tensor's values are left unwritten, and nothing reads one before it is
+        // written: `run` writes every output value (the portable loop sets each to its bias
+        // before accumulating into it; the SIMD kernels only store), over all the rows
+        // (`rows` gives every row to exactly one piece), and when `ow` or `c` is 0 the tensor
+        // has no values. An error drops the tensor without reading it (f32 has no drop).
         let mut output = unsafe { Tensor::uninitialized::<f32>(&[1, oh, ow, c])? };
         {
             let src = input.try_as_plain_ram()?;
@@ -190,14 +194,19 @@ fn run(
                 && g.rows.1 <= g.oh
                 && dst.len() >= (g.rows.1 - g.rows.0) * g.ow * g.c;
             match kernel {
-                // SAFETY: `Kernel::best` only returns kernels whose features the CPU has, and
-                // the slices hold the sizes the geometry says (`sized`).
+                // SAFETY: `Kernel::best` returns `Avx512` only on a CPU with AVX-512F (and
+                // VL), which is what `avx512::run` is compiled for, and `sized` checked the
+                // slices against the geometry as its contract asks.
                 Kernel::Avx512 if blocked && sized => unsafe {
                     avx512::run(g, src, k, b, dst, act)
                 },
-                // SAFETY: as above (AVX-512 CPUs have AVX2 and FMA).
+                // SAFETY: the kernel is `Avx2Fma` here (`Portable` returned above, `Avx512`
+                // took the arm above), which `Kernel::best` returns only on a CPU with AVX2
+                // and FMA; the slices are `sized` as above.
                 _ if blocked && sized => unsafe { avx2::run(g, src, k, b, dst, act) },
-                // SAFETY: the CPU supports the features the function is compiled for.
+                // SAFETY: `run_avx2_fma` needs AVX2 and FMA only. The kernel is `Avx2Fma`
+                // (detected with AVX2 and FMA) or `Avx512`, detected with AVX-512F, which
+                // implies AVX2 and FMA (as Rust's `avx512f` target feature does).
                 _ => unsafe { run_avx2_fma(g, src, k, b, dst, act) },
             }
             return;
@@ -259,6 +268,10 @@ fn each_window(g: &Geometry, mut f: impl FnMut(Window)) {
 
 /// The portable loop nest compiled for AVX2 + FMA (the kernel before the register-blocked
 /// one; kept to compare, and for slices shorter than the geometry, which never happen).
+///
+/// # Safety
+/// The CPU must support AVX2 and FMA. Nothing else: the loop nest indexes the slices with
+/// bounds checks (a slice shorter than the geometry panics, it is not read past its end).
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
 unsafe fn run_avx2_fma(
@@ -285,8 +298,12 @@ mod avx2 {
     use std::arch::x86_64::*;
 
     /// # Safety
-    /// The CPU must support AVX2 and FMA; `src`, `k`, `b` and `dst` must hold at least
-    /// `h·w·c`, `kh·kw·c`, `c` and `oh·ow·c` elements.
+    /// The CPU must support AVX2 and FMA. `g` must describe the slices, which are read and
+    /// written through raw pointers at offsets computed from it, without bounds checks:
+    /// `src` holds at least `h·w·c` values, `k` at least `kh·kw·c` and `b` at least `c`;
+    /// `g.rows.0 <= g.rows.1 <= g.oh`, and `dst` holds at least `(rows.1 - rows.0)·ow·c`
+    /// values (the output rows `g.rows`). The strides and padding need no check: only the
+    /// taps inside the `h x w` image are read.
     #[target_feature(enable = "avx2,fma")]
     pub(super) unsafe fn run(
         g: &Geometry,
@@ -314,7 +331,8 @@ mod avx2 {
     /// Channels `ch .. ch + 8·N` of the whole output.
     ///
     /// # Safety
-    /// As [`run`], and `ch + 8·N <= c`.
+    /// As [`run`], with `src`, `k`, `b` and `dst` pointing to the starts of its slices, and
+    /// `ch + 8·N <= c` (the 8·N channels from `ch` are read and written, at every pixel).
     #[target_feature(enable = "avx2,fma")]
     #[inline]
     unsafe fn block<const N: usize>(
@@ -331,14 +349,16 @@ mod avx2 {
         let (lo, hi) = (_mm256_set1_ps(low), _mm256_set1_ps(high));
         let mut bias = [_mm256_setzero_ps(); N];
         for (r, v) in bias.iter_mut().enumerate() {
-            // SAFETY: ch + 8·N <= c biases.
+            // SAFETY: biases ch + 8·r .. ch + 8·r + 8, and ch + 8·N <= c values of `b`.
             *v = unsafe { _mm256_loadu_ps(b.add(ch + 8 * r)) };
         }
         each_window(g, |win| {
             let mut acc = bias;
             for ky in win.ky.0..win.ky.1 {
                 for kx in win.kx.0..win.kx.1 {
-                    // SAFETY: a valid tap of the window, channels ch .. ch + 8·N < c.
+                    // SAFETY: (ky, kx) is a valid tap of the window, so its input pixel is
+                    // inside the image (`Window::input`); channels ch .. ch + 8·N <= c of that
+                    // pixel and of the tap's weights are read.
                     unsafe {
                         let i = src.add(win.input(g, ky, kx) + ch);
                         let w = k.add((ky * g.kw + kx) * c + ch);
@@ -352,7 +372,8 @@ mod avx2 {
                     }
                 }
             }
-            // SAFETY: the pixel's channels ch .. ch + 8·N.
+            // SAFETY: `win.pixel` is a pixel of the output rows `dst` holds (`each_window`);
+            // its channels ch .. ch + 8·N <= c are written below.
             let out = unsafe { dst.add(win.pixel * c + ch) };
             for (r, a) in acc.iter().enumerate() {
                 // max(x, low) then min(., high), as the portable loop.
@@ -361,7 +382,7 @@ mod avx2 {
                 } else {
                     *a
                 };
-                // SAFETY: as above.
+                // SAFETY: as above: channels ch + 8·r .. ch + 8·r + 8 <= c of the pixel.
                 unsafe { _mm256_storeu_ps(out.add(8 * r), v) };
             }
         });
@@ -370,7 +391,8 @@ mod avx2 {
     /// The last `c - ch0` (< 8) channels, one at a time.
     ///
     /// # Safety
-    /// As [`run`], and `ch0 <= c`.
+    /// As [`run`], with `src`, `k`, `b` and `dst` pointing to the starts of its slices
+    /// (channels `ch0 .. c` are read and written; none if `ch0 >= c`).
     #[target_feature(enable = "avx2,fma")]
     #[inline]
     unsafe fn tail(
@@ -415,8 +437,12 @@ mod avx512 {
     use std::arch::x86_64::*;
 
     /// # Safety
-    /// The CPU must support AVX-512F; `src`, `k`, `b` and `dst` must hold at least
-    /// `h·w·c`, `kh·kw·c`, `c` and `oh·ow·c` elements.
+    /// The CPU must support AVX-512F. `g` must describe the slices, which are read and
+    /// written through raw pointers at offsets computed from it, without bounds checks:
+    /// `src` holds at least `h·w·c` values, `k` at least `kh·kw·c` and `b` at least `c`;
+    /// `g.rows.0 <= g.rows.1 <= g.oh`, and `dst` holds at least `(rows.1 - rows.0)·ow·c`
+    /// values (the output rows `g.rows`). The strides and padding need no check: only the
+    /// taps inside the `h x w` image are read.
     #[target_feature(enable = "avx512f")]
     pub(super) unsafe fn run(
         g: &Geometry,
@@ -427,7 +453,8 @@ mod avx512 {
         act: Bounds,
     ) {
         let (src, k, b, dst) = (src.as_ptr(), k.as_ptr(), b.as_ptr(), dst.as_mut_ptr());
-        // SAFETY: the caller's contract.
+        // SAFETY: this function's contract is `sweep`'s, with the slices' pointers; `K` is 3
+        // or 5 only when the kernel is that size in both directions, else 0.
         unsafe {
             match (g.kh, g.kw) {
                 (3, 3) => sweep::<3>(g, src, k, b, dst, act),
@@ -440,7 +467,8 @@ mod avx512 {
     /// [`run`] for square `K x K` kernels (`K = 0`: any size).
     ///
     /// # Safety
-    /// As [`run`], with pointers to the slices; `K` is 0 or `kh == kw == K`.
+    /// As [`run`], with `src`, `k`, `b` and `dst` pointing to the starts of its slices; `K`
+    /// is 0 or `kh == kw == K` (the unrolled path indexes the weights with `K`).
     #[target_feature(enable = "avx512f")]
     #[inline]
     unsafe fn sweep<const K: usize>(
@@ -452,8 +480,9 @@ mod avx512 {
         act: Bounds,
     ) {
         let mut ch = 0;
-        // SAFETY (all blocks): the channels each block touches are below c.
         while ch + 64 <= g.c {
+            // SAFETY: this function's contract, and the block's 4 whole vectors are channels
+            // ch .. ch + 64 <= c.
             unsafe { block::<4, false, K>(g, src, k, b, dst, ch, 0xffff, act) };
             ch += 64;
         }
@@ -465,6 +494,9 @@ mod avx512 {
             r => (1u16 << r) - 1,
         };
         let masked = !rest.is_multiple_of(16);
+        // SAFETY: this function's contract, and the block's lanes are channels ch .. c: its
+        // `rest.div_ceil(16)` vectors cover the `rest = c - ch` channels, the last one under
+        // `mask` (its `rest % 16` first lanes) where `rest` is not a multiple of 16.
         unsafe {
             match (rest.div_ceil(16), masked) {
                 (0, _) => {}
@@ -486,7 +518,9 @@ mod avx512 {
     /// order).
     ///
     /// # Safety
-    /// As [`sweep`], and the lanes read and written are channels below `c`.
+    /// As [`sweep`] (the CPU, the slices behind the pointers, `K`), and the lanes read and
+    /// written are channels below `c`: `ch + 16·N <= c`, or with `MASKED`,
+    /// `ch + 16·(N - 1) + (the highest lane set in mask, plus 1) <= c`.
     #[target_feature(enable = "avx512f")]
     #[inline]
     #[allow(clippy::too_many_arguments)]
@@ -503,7 +537,9 @@ mod avx512 {
         let c = g.c;
         let clamp = low > f32::NEG_INFINITY || high < f32::INFINITY;
         let (lo, hi) = (_mm512_set1_ps(low), _mm512_set1_ps(high));
-        // SAFETY (loads and stores): the channels of the caller's contract.
+        // SAFETY: `load` is called only with `p` at channel `ch` of a bias, weight or input
+        // pixel row of `c` values inside its slice, and `r < N`: vector `r` (masked for the
+        // last one with `MASKED`) holds channels below `c` (this function's contract).
         let load = |p: *const f32, r: usize| unsafe {
             if MASKED && r + 1 == N {
                 _mm512_maskz_loadu_ps(mask, p.add(16 * r))
@@ -513,18 +549,20 @@ mod avx512 {
         };
         let mut bias = [_mm512_setzero_ps(); N];
         for (r, v) in bias.iter_mut().enumerate() {
-            // SAFETY: channels ch .. of the biases.
+            // SAFETY: ch <= c, the number of biases `b` holds; `load` reads channels below c.
             *v = load(unsafe { b.add(ch) }, r);
         }
         let row = g.w * c;
         each_window(g, |win| {
             let mut acc = bias;
             if K > 0 && win.ky == (0, K) && win.kx == (0, K) {
-                // SAFETY: every tap of the window is inside the image.
+                // SAFETY: the window's K x K taps are all inside the image (its valid rows and
+                // columns are (0, K)), the top-left one included.
                 let i0 = unsafe { src.add(win.input(g, 0, 0) + ch) };
                 for ky in 0..K {
                     for kx in 0..K {
-                        // SAFETY: as above; tap (ky, kx) of the K x K weights.
+                        // SAFETY: as above, tap (ky, kx) is inside the image; and of the
+                        // K x K weights (kh == kw == K).
                         let (i, w) =
                             unsafe { (i0.add(ky * row + kx * c), k.add((ky * K + kx) * c + ch)) };
                         for (r, a) in acc.iter_mut().enumerate() {
@@ -535,7 +573,8 @@ mod avx512 {
             } else {
                 for ky in win.ky.0..win.ky.1 {
                     for kx in win.kx.0..win.kx.1 {
-                        // SAFETY: a valid tap of the window.
+                        // SAFETY: (ky, kx) is a valid tap of the window, so its input pixel is
+                        // inside the image (`Window::input`), and ky < kh, kx < kw.
                         let (i, w) = unsafe {
                             (
                                 src.add(win.input(g, ky, kx) + ch),
@@ -548,7 +587,8 @@ mod avx512 {
                     }
                 }
             }
-            // SAFETY: the pixel's channels from ch.
+            // SAFETY: `win.pixel` is a pixel of the output rows `dst` holds (`each_window`);
+            // its channels from ch on, below c, are written below.
             let out = unsafe { dst.add(win.pixel * c + ch) };
             for (r, a) in acc.iter().enumerate() {
                 // max(x, low) then min(., high), as the portable loop.
@@ -557,7 +597,8 @@ mod avx512 {
                 } else {
                     *a
                 };
-                // SAFETY: as above.
+                // SAFETY: as above: vector r of the pixel's channels from ch, under `mask` for
+                // the last one with `MASKED`, holds channels below c (the contract).
                 unsafe {
                     if MASKED && r + 1 == N {
                         _mm512_mask_storeu_ps(out.add(16 * r), mask, v);
@@ -854,14 +895,14 @@ mod tests {
             let (oh, ow) = (g.oh, g.ow);
             for act in [(f32::NEG_INFINITY, f32::INFINITY), (0.0, 6.0)] {
                 let mut portable = vec![0.0; oh * ow * c];
-                // SAFETY: AVX2 and FMA were detected.
+                // SAFETY: AVX2 and FMA were detected (`Kernel::supported` has `Avx2Fma`).
                 unsafe { run_avx2_fma(&g, &x, &k, &b, &mut portable, act) };
                 for &kernel in &kernels {
                     let mut fast = vec![f32::NAN; oh * ow * c];
                     match kernel {
                         Kernel::Portable => continue,
                         // SAFETY: the CPU has the kernel's features (`supported`); the
-                        // buffers have the geometry's sizes.
+                        // buffers have the geometry's sizes, all of its rows (`square_geometry`).
                         Kernel::Avx2Fma => unsafe { avx2::run(&g, &x, &k, &b, &mut fast, act) },
                         // SAFETY: as above.
                         Kernel::Avx512 => unsafe { avx512::run(&g, &x, &k, &b, &mut fast, act) },
@@ -919,7 +960,8 @@ mod speed {
                     for _ in 0..n {
                         match kernel {
                             Kernel::Portable => continue,
-                            // SAFETY: the CPU has the kernel's features; sizes as the geometry.
+                            // SAFETY: the CPU has the kernel's features (`supported`); the
+                            // buffers have the geometry's sizes, all of its rows.
                             Kernel::Avx2Fma => unsafe {
                                 avx2::run(&g, &x, &k, &b, &mut out, (0.0, 6.0))
                             },

@@ -283,7 +283,10 @@ impl EvalOp for PointwiseConv {
                 r.shape()
             );
         }
-        // Every element is written by the epilogue before anything reads it.
+        // SAFETY: the tensor's values are left unwritten, and nothing reads one before it is
+        // written: `compute` stores every output value from its epilogue (the tiles cover
+        // all rows and channels, and only store into the output), and an error (`check`)
+        // drops the tensor without reading it (f32 has no drop).
         let mut output = unsafe { Tensor::uninitialized::<f32>(&shape)? };
         {
             let xr = x.try_as_plain_ram()?;
@@ -427,10 +430,10 @@ impl Kernel {
 
 /// One micro-tile: `m` rows of the input against one weight panel, epilogue included.
 ///
-/// Pointers are valid for: `a`: `m` rows of `lda` floats; `b`: `k` rows of [`NR`] floats
-/// (one panel), followed, when `width > NR`, by the next panel's `k` rows; `bias`, `alpha`:
-/// `NR · width.div_ceil(NR)` floats; `out`, `res`: `m` rows of stride `ldo`, `width` floats
-/// each. `alpha`, `res` may be null (absent).
+/// Pointers are valid for: `a`: `m` rows of `lda` floats, of which the first `k <= lda` are
+/// read; `b`: `k` rows of [`NR`] floats (one panel), followed, when `width > NR`, by the next
+/// panel's `k` rows; `bias`, `alpha`: `NR · width.div_ceil(NR)` floats; `out`, `res`: `m`
+/// rows of stride `ldo`, `width` floats each. `alpha`, `res` may be null (absent).
 struct Tile {
     a: *const f32,
     lda: usize,
@@ -447,6 +450,11 @@ struct Tile {
     residual_act: (f32, f32),
 }
 
+/// A micro-kernel for one tile (see [`Kernel::tile`]).
+///
+/// # Safety
+/// Call it only with a [`Tile`] that satisfies `Tile`'s contract and the `m` and `width` it
+/// was chosen for, on a CPU with the features of the kernel that gave it.
 type TileFn = unsafe fn(&Tile);
 
 /// One evaluation, its slices checked against each other by [`Job::run`].
@@ -491,13 +499,16 @@ impl Job<'_> {
         if self.rows >= ROWS_TO_SPLIT {
             team.pieces(self.rows, mr, work, split, &|rows| {
                 // SAFETY: `out` holds the output (checked) and is borrowed mutably here; the
-                // pieces' rows do not overlap.
+                // pieces' rows do not overlap and are within `0..self.rows`. The kernel is
+                // one the CPU supports: every caller of `compute` passes `Kernel::best()` or
+                // one of `Kernel::supported()`.
                 unsafe { self.run_part(base.ptr(), kernel, rows, 0..panels) };
                 Ok(())
             })
         } else {
             team.pieces(panels, step, work, split, &|p| {
-                // SAFETY: as above; the pieces' channels do not overlap.
+                // SAFETY: as above; the pieces' panels do not overlap and are within
+                // `0..panels`.
                 unsafe { self.run_part(base.ptr(), kernel, 0..self.rows, p) };
                 Ok(())
             })
@@ -507,8 +518,11 @@ impl Job<'_> {
     /// Rows `rows` and weight panels `panels` (channels `NR·panels`) of the output at `out`.
     ///
     /// # Safety
-    /// [`check`](Self::check) passed for the output at `out`, `rows` and `panels` are within
-    /// the output, and nothing else reads or writes that part of it meanwhile.
+    /// [`check`](Self::check) passed for an output of `self.rows·cout` values at `out` (valid
+    /// for writes), `rows` and `panels` are within the output (`rows.end <= self.rows`,
+    /// `panels.end <= cout.div_ceil(NR)`), nothing else reads or writes that part of it
+    /// meanwhile, and the CPU has the features of `kernel` (it is `Kernel::best()` or one of
+    /// `Kernel::supported()`).
     unsafe fn run_part(
         &self,
         out: *mut f32,
@@ -534,29 +548,40 @@ impl Job<'_> {
                     } else {
                         mr.min(left)
                     };
+                    // The pointers below stay inside their buffers: r + m <= rows.end <=
+                    // self.rows, p < panels.end <= cout.div_ceil(NR) and c0 + width <= cout,
+                    // and `check` matched the lengths to rows, cin and cout.
                     let t = Tile {
-                        // SAFETY (all pointers): r + m <= rows and c0 + width <= cout, and the
-                        // lengths were checked.
+                        // SAFETY: row r < self.rows of `x` (rows·cin values).
                         a: unsafe { self.x.as_ptr().add(r * self.cin) },
                         lda: self.cin,
                         k: self.cin,
+                        // SAFETY: panel p of `packed` (panels·cin·NR values).
                         b: unsafe { self.packed.as_ptr().add(p * self.cin * NR) },
+                        // SAFETY: row r, channel c0 < cout of the output (rows·cout values).
                         out: unsafe { out.add(r * self.cout + c0) },
+                        // SAFETY: the same place in the residual (the output's length).
                         res: self.residual.map_or(std::ptr::null(), |v| unsafe {
                             v.as_ptr().add(r * self.cout + c0)
                         }),
                         ldo: self.cout,
                         m,
                         width,
+                        // SAFETY: c0 < cout <= panels·NR biases.
                         bias: unsafe { self.bias.as_ptr().add(c0) },
                         alpha: self
                             .alpha
+                            // SAFETY: c0 < cout <= panels·NR slopes.
                             .map_or(std::ptr::null(), |v| unsafe { v.as_ptr().add(c0) }),
                         act: self.act,
                         residual_act: self.residual_act,
                     };
-                    // SAFETY: the tile's pointers satisfy `Tile`'s contract (see above), and
-                    // the kernel was chosen among those the CPU supports.
+                    // SAFETY: the tile satisfies `Tile`'s contract: its pointers are valid for
+                    // `m` rows from r and `width` channels from c0 (two panels when width >
+                    // NR: `step` is 2 only for AVX-512), bias and slopes padded to whole panels,
+                    // and this function's caller gives it those rows and channels alone;
+                    // 1 <= m <= mr and 1 <= width <= NR·step, as `Kernel::tile` asks; the CPU
+                    // has the kernel's features (this function's contract).
                     unsafe { kernel.tile(m, width)(&t) };
                     r += m;
                 }
@@ -586,13 +611,19 @@ fn epilogue_scalar(t: &Tile, acc: f32, i: usize, j: usize) -> f32 {
 
 /// Portable tile: the compiler vectorises the 16-wide inner loop with whatever the target
 /// has by default (SSE2 on x86-64).
+///
+/// # Safety
+/// `t` satisfies `Tile`'s contract (no CPU feature is needed). (Only its first [`MR`]
+/// rows and [`NR`] channels are computed: `t.m <= MR` and `t.width <= NR` for the whole
+/// tile.)
 unsafe fn tile_portable(t: &Tile) {
     let mut acc = [[0f32; NR]; MR];
     for kk in 0..t.k {
-        // SAFETY: kk < k rows of the panel.
+        // SAFETY: kk < k rows of NR values in the panel (`Tile`'s contract); an array of f32
+        // has f32's alignment.
         let b: &[f32; NR] = unsafe { &*(t.b.add(kk * NR) as *const [f32; NR]) };
         for (i, acc) in acc.iter_mut().enumerate().take(t.m) {
-            // SAFETY: i < m rows, kk < k <= lda.
+            // SAFETY: i < m rows (`take`), kk < k <= lda.
             let a = unsafe { *t.a.add(i * t.lda + kk) };
             for (acc, &b) in acc.iter_mut().zip(b) {
                 *acc += a * b;
@@ -602,7 +633,7 @@ unsafe fn tile_portable(t: &Tile) {
     for (i, acc) in acc.iter().enumerate().take(t.m) {
         for (j, &acc) in acc.iter().enumerate().take(t.width) {
             let y = epilogue_scalar(t, acc, i, j);
-            // SAFETY: i < m, j < width.
+            // SAFETY: i < m rows and j < width channels of the output (`take`).
             unsafe { *t.out.add(i * t.ldo + j) = y };
         }
     }
@@ -640,6 +671,11 @@ mod avx2 {
     /// `8·(V-1) < t.width <= 8·V`.
     #[target_feature(enable = "avx2,fma")]
     unsafe fn micro<const M: usize, const V: usize>(t: &Tile) {
+        // SAFETY: the CPU has AVX2 and FMA (the contract). The reads and writes stay in the
+        // tile (`Tile`'s contract, m == M, 8·(V-1) < width <= 8·V <= NR): `a` at rows
+        // i < M, columns < k <= lda; `b` at k rows of the panel, 8·V <= NR values each;
+        // `bias` and `alpha` at 8·V <= NR values; `res` and `out` at rows i < M, 8·V
+        // channels of which the last vector's lanes at and past `width` are masked off.
         unsafe {
             let mut acc = [[_mm256_setzero_ps(); V]; M];
             let mut a = t.a;
@@ -753,6 +789,12 @@ mod avx512 {
     /// `H <= 1`, `V + H >= 1` and `16·V + 8·H - (8 if H else 16) < t.width <= 16·V + 8·H`.
     #[target_feature(enable = "avx512f,avx512vl")]
     unsafe fn micro<const M: usize, const V: usize, const H: usize>(t: &Tile) {
+        // SAFETY: the CPU has AVX-512F and VL (the contract). The reads and writes stay in
+        // the tile (`Tile`'s contract, m == M): `a` at rows i < M, columns < k <= lda; `b` at
+        // k rows of the first panel, and of the second where 16·V + 8·H > NR (then
+        // width > NR: two panels); `bias` and `alpha` at 16·V + 8·H values, within
+        // NR·width.div_ceil(NR); `res` and `out` at rows i < M, 16·V + 8·H channels of
+        // which the last vector's lanes at and past `width` are masked off.
         unsafe {
             let mut acc = [[_mm512_setzero_ps(); V]; M];
             let mut half = [[_mm256_setzero_ps(); H]; M];

@@ -336,7 +336,10 @@ impl Out {
     /// `len` values from `offset` on.
     ///
     /// # Safety
-    /// Within the output, and no other live reference overlaps them.
+    /// `offset + len` values from the output's first are within the output, which is still
+    /// alive and valid for writes; and nothing else reads or writes those values while the
+    /// returned slice is in use (no other live reference overlaps them), which must end
+    /// before the output's own borrow does (the slice's lifetime is not tied to it).
     #[allow(clippy::mut_from_ref)]
     unsafe fn slice(&self, offset: usize, len: usize) -> &mut [f32] {
         // SAFETY: the caller's contract.

@@ -188,7 +188,9 @@ fn warp_rotated(
         };
         let done = match simd {
             #[cfg(target_arch = "x86_64")]
-            // SAFETY: `Simd::best` chose AVX2 only on a CPU that has it.
+            // SAFETY: `simd` is `Simd::best()` (`warp_into_with_border`), which is AVX2 only on
+            // a CPU that has it (the tests pass it only where `Simd::best` is AVX2); `r.raw`
+            // is the image's `w x h x 3` bytes.
             Simd::Avx2 => unsafe { avx2::row(&r, line) },
             Simd::None => 0,
         };
@@ -275,6 +277,10 @@ mod avx2 {
     use std::arch::x86_64::*;
 
     /// Channel `ch` (0, 1 or 2) of eight RGB pixels read as little-endian 4-byte words.
+    ///
+    /// # Safety
+    /// The CPU must support AVX2 (a safe `#[target_feature]` function: calling it needs
+    /// `unsafe` outside code compiled with AVX2). It reads no memory.
     #[inline]
     #[target_feature(enable = "avx2")]
     fn channel(v: __m256i, ch: usize) -> __m256 {
@@ -288,6 +294,10 @@ mod avx2 {
 
     /// Writes eight pixels' sums (one vector per channel) as `sum · scale + offset`,
     /// interleaved RGB, into `px` (24 floats).
+    ///
+    /// # Safety
+    /// The CPU must support AVX2 (a safe `#[target_feature]` function: calling it needs
+    /// `unsafe` outside code compiled with AVX2). `px` is indexed with bounds checks.
     #[inline]
     #[target_feature(enable = "avx2")]
     fn store(acc: &[__m256; 3], px: &mut [f32], (scale, offset): (f32, f32)) {
@@ -306,6 +316,14 @@ mod avx2 {
     /// Output columns in groups of eight, each lane doing exactly [`Row::sum`]'s arithmetic
     /// (`sample`'s interior case; a group with a sub-sample outside the interior takes the
     /// scalar `sample` for that sub-sample). Returns how many columns it wrote.
+    ///
+    /// # Safety
+    /// The CPU must support AVX2, and where `r.w` and `r.h` are both positive, `r.raw` must
+    /// hold at least `r.w · r.h · 3` bytes (an RGB image of `r.w x r.h` pixels; with a size
+    /// of 0 or less every sample takes the scalar path). The gathers read `raw` at byte
+    /// offsets computed in i32 lanes and checked against `raw.len()`; with such a buffer
+    /// (and `raw.len() <= i32::MAX`, checked here) the offsets of the pixels inside the
+    /// image do not wrap. `line` may have any length (the groups are within it).
     #[target_feature(enable = "avx2")]
     pub(super) unsafe fn row(r: &Row, line: &mut [f32]) -> usize {
         // Offsets are i32 lanes: images of 2 GB and more stay with the scalar loop.
@@ -450,6 +468,12 @@ mod avx2 {
     /// One output row of the axis-aligned warp, eight columns at a time, doing exactly the
     /// one-column loop's arithmetic per lane. Returns how many columns it wrote (0 where a
     /// 4-byte read of the row's last pixel would pass the end of the image).
+    ///
+    /// # Safety
+    /// The CPU must support AVX2, and every column index of `cols` (the `i0` and `i1` of
+    /// the taps it was built from) must be below `w`: the gathers read `raw` at those
+    /// columns without bounds checks. (The rows are checked here: the row taps must be
+    /// above the last whole row of `w` pixels in `raw`, else nothing is written.)
     #[target_feature(enable = "avx2")]
     pub(super) unsafe fn aligned_row(
         raw: &[u8],
@@ -581,7 +605,9 @@ fn warp_axis_aligned(
         let done = match simd {
             #[cfg(target_arch = "x86_64")]
             Simd::Avx2 => match &columns {
-                // SAFETY: `Simd::best` chose AVX2 only on a CPU that has it.
+                // SAFETY: `simd` is `Simd::best()`, AVX2 only on a CPU that has it (the tests
+                // pass it only where `Simd::best` is AVX2); `c` was built from `xs`, the taps
+                // of an axis of `w` pixels, whose indices are below `w` (`axis_taps`).
                 Some(c) => unsafe {
                     avx2::aligned_row(raw, w, row_taps, c, (scale, norm.offset), line)
                 },

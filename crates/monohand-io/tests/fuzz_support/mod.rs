@@ -42,12 +42,18 @@ thread_local! {
 /// Global allocator that remembers, per thread, the largest request of the current case.
 pub struct TrackingAlloc;
 
+// SAFETY: every allocation and deallocation is `System`'s, called with the caller's own
+// arguments (which meet `GlobalAlloc`'s requirements), so `System`'s guarantees hold; a
+// refused request returns null, which `GlobalAlloc` allows for a failed allocation. `note`
+// neither allocates nor panics (a `const`-initialised thread-local `Cell`, reached with
+// `try_with`), so the allocator never unwinds nor calls itself.
 unsafe impl GlobalAlloc for TrackingAlloc {
     unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
         note(layout.size());
         if layout.size() > ALLOC_REFUSE {
             return std::ptr::null_mut();
         }
+        // SAFETY: the caller's `layout` (non-zero size, as `GlobalAlloc::alloc` requires).
         unsafe { System.alloc(layout) }
     }
     unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
@@ -55,9 +61,12 @@ unsafe impl GlobalAlloc for TrackingAlloc {
         if layout.size() > ALLOC_REFUSE {
             return std::ptr::null_mut();
         }
+        // SAFETY: as in `alloc`.
         unsafe { System.alloc_zeroed(layout) }
     }
     unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        // SAFETY: `ptr` was allocated by this allocator, that is by `System`, with `layout`
+        // (the caller's guarantee).
         unsafe { System.dealloc(ptr, layout) }
     }
     unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
@@ -65,6 +74,8 @@ unsafe impl GlobalAlloc for TrackingAlloc {
         if new_size > ALLOC_REFUSE {
             return std::ptr::null_mut();
         }
+        // SAFETY: `ptr` was allocated by `System` with `layout`, and `new_size` is non-zero
+        // and valid for `layout`'s alignment (the caller's guarantees).
         unsafe { System.realloc(ptr, layout, new_size) }
     }
 }
