@@ -213,59 +213,16 @@ pub fn lift_keypoints(
                 }
             }
         }
-        let mut record = FrameRecord {
-            frame: i as u64,
-            source: inputs[0].source_name(i),
-            ..FrameRecord::default()
-        };
-        if failed.is_some() {
+        let record = if failed.is_some() {
             report.unreadable += 1;
-        } else {
-            let hands: Vec<&[HandObservation]> = per_view.iter().map(Vec::as_slice).collect();
-            for lifted in lifter.lift(&hands) {
-                let side = lifted.side;
-                if let Some(&(v, count)) = lifted.crowded_views.first().filter(|_| !warned_multi)
-                {
-                    warn!(
-                        "frame {i}: view {} has {count} {side} hands; using the most confident one per view (several people are not supported; further such warnings suppressed)",
-                        v + 1
-                    );
-                    warned_multi = true;
-                }
-                // The first view's keypoints (all zero when only other views see the hand).
-                let first_view_kp = lifted
-                    .views
-                    .iter()
-                    .find(|&&(v, _)| v == 0)
-                    .and_then(|&(_, k)| hands.first()?.get(k))
-                    .map(|h| h.keypoints)
-                    .unwrap_or_default();
-                match lifted.outcome {
-                    FitOutcome::Fitted(fit) => {
-                        debug!(
-                            "frame {i}: {side} hand in {} view(s), {:.2} px, {} iterations",
-                            lifted.views.len(),
-                            fit.reprojection_error_px,
-                            fit.iterations
-                        );
-                        record
-                            .hands
-                            .push(HandRecord::from_fit(side, &first_view_kp, &fit));
-                    }
-                    FitOutcome::Diverged => {
-                        warn!("frame {i}: {side} hand: the fit diverged (non-finite result), skipped");
-                    }
-                    FitOutcome::Failed(CoreError::TooFewJoints {
-                        usable,
-                        threshold,
-                        needed,
-                    }) => warn!(
-                        "frame {i}: {side} hand skipped: {usable} usable joint observation(s) with confidence >= {threshold}, need at least {needed}"
-                    ),
-                    FitOutcome::Failed(e) => warn!("frame {i}: {side} hand skipped: {e}"),
-                }
+            FrameRecord {
+                frame: i as u64,
+                source: inputs[0].source_name(i),
+                ..FrameRecord::default()
             }
-        }
+        } else {
+            lift_frame(i, inputs[0].source_name(i), &per_view, &mut lifter, &mut warned_multi)
+        };
         if let Err(e) = write(&record, &mut report) {
             result = Err(e);
             break;
@@ -287,4 +244,63 @@ pub fn lift_keypoints(
     report.cancelled = observer.cancelled();
     report.seconds = start.elapsed().as_secs_f64();
     Ok(report)
+}
+
+/// The record of frame `i`, its views' hands lifted (`per_view[v]`: view `v`'s hands).
+fn lift_frame(
+    i: usize,
+    source: Option<String>,
+    per_view: &[Vec<HandObservation>],
+    lifter: &mut Lifter,
+    warned_multi: &mut bool,
+) -> FrameRecord {
+    let mut record = FrameRecord {
+        frame: i as u64,
+        source,
+        ..FrameRecord::default()
+    };
+    let hands: Vec<&[HandObservation]> = per_view.iter().map(Vec::as_slice).collect();
+    for lifted in lifter.lift(&hands) {
+        let side = lifted.side;
+        if let Some(&(v, count)) = lifted.crowded_views.first().filter(|_| !*warned_multi) {
+            warn!(
+                "frame {i}: view {} has {count} {side} hands; using the most confident one per view (several people are not supported; further such warnings suppressed)",
+                v + 1
+            );
+            *warned_multi = true;
+        }
+        // The first view's keypoints (all zero when only other views see the hand).
+        let first_view_kp = lifted
+            .views
+            .iter()
+            .find(|&&(v, _)| v == 0)
+            .and_then(|&(_, k)| hands.first()?.get(k))
+            .map(|h| h.keypoints)
+            .unwrap_or_default();
+        match lifted.outcome {
+            FitOutcome::Fitted(fit) => {
+                debug!(
+                    "frame {i}: {side} hand in {} view(s), {:.2} px, {} iterations",
+                    lifted.views.len(),
+                    fit.reprojection_error_px,
+                    fit.iterations
+                );
+                record
+                    .hands
+                    .push(HandRecord::from_fit(side, &first_view_kp, &fit));
+            }
+            FitOutcome::Diverged => {
+                warn!("frame {i}: {side} hand: the fit diverged (non-finite result), skipped");
+            }
+            FitOutcome::Failed(CoreError::TooFewJoints {
+                usable,
+                threshold,
+                needed,
+            }) => warn!(
+                "frame {i}: {side} hand skipped: {usable} usable joint observation(s) with confidence >= {threshold}, need at least {needed}"
+            ),
+            FitOutcome::Failed(e) => warn!("frame {i}: {side} hand skipped: {e}"),
+        }
+    }
+    record
 }
