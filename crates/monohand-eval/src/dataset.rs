@@ -1,11 +1,13 @@
 //! The in-memory form every dataset is converted to: frames with cameras,
 //! image paths and ground-truth hands.
+//!
+//! The readers ([`crate::manifest`], [`crate::datasets`]) build these types; reading a
+//! dataset whatever its kind, [`Dataset::load`], is in [`crate::datasets`].
 
-use crate::error::{EvalError, EvalResult};
 use crate::metrics::Joints;
 use monohand_core::prelude::*;
 use serde::{Deserialize, Serialize};
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 /// What joint 0 of the ground truth is.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -94,36 +96,6 @@ pub struct Dataset {
 }
 
 impl Dataset {
-    /// Reads a dataset, telling the kind from the path: a `.jsonl` file (or a
-    /// folder holding `manifest.jsonl`) is a manifest ([`crate::manifest`]); a
-    /// folder with `labels/*_BB.mat` is STB ([`crate::datasets::stb`]); a folder
-    /// with hand-graph-cnn's `labels.json` is read by
-    /// [`crate::datasets::hand_graph_cnn`].
-    pub fn load(path: impl AsRef<Path>) -> EvalResult<Dataset> {
-        let path = path.as_ref();
-        if path.is_file() {
-            return crate::manifest::read_manifest(path);
-        }
-        if !path.is_dir() {
-            return Err(EvalError::dataset(path, "no such file or folder"));
-        }
-        let m = path.join("manifest.jsonl");
-        if m.is_file() {
-            return crate::manifest::read_manifest(&m);
-        }
-        if crate::datasets::stb::is_stb_folder(path) {
-            return crate::datasets::stb::load_stb(path);
-        }
-        if crate::datasets::hand_graph_cnn::is_hand_graph_cnn_folder(path) {
-            return crate::datasets::hand_graph_cnn::load_hand_graph_cnn(path);
-        }
-        Err(EvalError::dataset(
-            path,
-            "not a dataset: expected a manifest (.jsonl file, or a folder with manifest.jsonl), \
-             an STB folder (labels/*_BB.mat) or a hand-graph-cnn folder (labels.json with crop boxes)",
-        ))
-    }
-
     /// The sequence names in order of first appearance.
     pub fn sequences(&self) -> Vec<&str> {
         let mut out: Vec<&str> = Vec::new();

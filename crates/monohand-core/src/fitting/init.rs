@@ -11,21 +11,43 @@
 //! full fit. When fewer than three palm joints are seen, a small set of
 //! orientations around the camera axis is used instead.
 
-use super::lm::{DofMask, HandFitter, JointMask, PreparedView};
+use super::problem::{DofMask, JointMask, PreparedView};
 use crate::hand_model::{HandPose, HandSkeleton, NUM_DOF, NUM_JOINTS};
 use nalgebra::{Matrix2, Matrix3, Rotation3, UnitQuaternion, Vector2, Vector3};
 
 /// The rigid palm joints: wrist, thumb CMC, index, middle, ring and little MCP.
 pub const PALM_JOINTS: [usize; 6] = [0, 1, 5, 9, 13, 17];
 
+/// What the starts need of the fitter: the skeleton and views of the fit in
+/// progress, and its Levenberg-Marquardt solver to refine a root pose with.
+/// [`HandFitter`](super::HandFitter) implements it; taking it as a trait keeps
+/// this module independent of the solver's.
+pub(crate) trait StartSolver {
+    /// The skeleton the fit in progress poses.
+    fn fitted_skeleton(&self) -> &HandSkeleton;
+    /// The views of the fit in progress.
+    fn views(&self) -> &[PreparedView];
+    /// Whether every joint of `pose` is in front of every camera.
+    fn in_front(&self, pose: &HandPose) -> bool;
+    /// The pose a solve from `start` ends at, over the joints of `mask` and the
+    /// degrees of freedom of `free`, after at most `max_iter` iterations.
+    fn solve_pose(
+        &self,
+        start: HandPose,
+        mask: &JointMask,
+        free: &DofMask,
+        max_iter: usize,
+    ) -> HandPose;
+}
+
 /// Up to 8 starting root poses (translation + rotation, neutral angles).
 pub(crate) type Candidates = [Option<HandPose>; 8];
 
 /// Starting poses for a fit: closed-form palm estimates refined on the palm,
 /// or an orientation sweep when the palm is not seen.
-pub(crate) fn root_candidates(fitter: &HandFitter, observed: &JointMask) -> Candidates {
+pub(crate) fn root_candidates(fitter: &impl StartSolver, observed: &JointMask) -> Candidates {
     let sk = fitter.fitted_skeleton();
-    let views = fitter.views.as_slice();
+    let views = fitter.views();
     let mut out: Candidates = [None; 8];
     let neutral = sk.limits.neutral();
     if views.is_empty() {
@@ -233,14 +255,19 @@ pub(crate) fn weak_perspective_palm(
 
 /// Refines a root pose with the fitter's own views, first pushing it in front
 /// of every camera.
-fn refine(fitter: &HandFitter, mut p: HandPose, mask: &JointMask, free: &DofMask) -> HandPose {
+fn refine(
+    fitter: &impl StartSolver,
+    mut p: HandPose,
+    mask: &JointMask,
+    free: &DofMask,
+) -> HandPose {
     if !fitter.in_front(&p) {
         p.translation.z = p.translation.z.abs().max(200.0);
         if !fitter.in_front(&p) {
             return p;
         }
     }
-    fitter.solve(p, mask, free, 30).pose
+    fitter.solve_pose(p, mask, free, 30)
 }
 
 /// Sets each finger's angles from the rays of its observed keypoints, given the

@@ -8,9 +8,9 @@
 //! that step, and the step is projected onto the box.
 
 use super::fusion::{fuse_keypoints, fuse_network_depth};
-use super::init;
+use super::init::{self, StartSolver};
 use super::options::{FitOptions, View};
-use crate::camera::Camera;
+use super::problem::{free_dofs, DofMask, JointMask, PreparedView, NUM_BONES, NUM_CUES};
 use crate::error::{CoreError, CoreResult};
 use crate::hand_model::params::ANGLES_PER_FINGER;
 use crate::hand_model::{HandPose, HandSkeleton, BONES, NUM_DOF, NUM_JOINTS};
@@ -18,15 +18,10 @@ use crate::kinematics::{
     finger_of, forward_kinematics, forward_kinematics_with_jacobian, LOCAL_DOF,
 };
 use crate::observation::{Keypoints2d, NetworkCues};
-use nalgebra::{Matrix2x3, Matrix3, Rotation3, SMatrix, SVector, UnitQuaternion, Vector2, Vector3};
+use nalgebra::{Matrix2x3, Matrix3, SMatrix, SVector, UnitQuaternion, Vector2, Vector3};
 
 pub(crate) type Mat26 = SMatrix<f64, NUM_DOF, NUM_DOF>;
 pub(crate) type Vec26 = SVector<f64, NUM_DOF>;
-
-/// Which joints a solve uses.
-pub(crate) type JointMask = [bool; NUM_JOINTS];
-/// Which degrees of freedom a solve may change.
-pub(crate) type DofMask = [bool; NUM_DOF];
 
 /// The outcome of one fit.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -54,28 +49,6 @@ pub struct FitResult {
     /// Number of (view, joint) observations used.
     pub used_observations: usize,
 }
-
-/// One view prepared for the solver: undistorted targets and weights.
-#[derive(Debug, Clone, Copy)]
-pub(crate) struct PreparedView {
-    pub camera: Camera,
-    /// Observed pixels as given (distorted).
-    pub raw: [[f64; 2]; NUM_JOINTS],
-    /// Observed pixels mapped to the ideal pinhole image.
-    pub targets: [[f64; 2]; NUM_JOINTS],
-    /// `p^k`, or 0 for dropped joints.
-    pub weights: [f64; NUM_JOINTS],
-    /// Target unit direction of each bone in this camera's frame, from the
-    /// network's cues: `[0]` metric 3D, `[1]` relative depth.
-    pub bone_targets: [[Vector3<f64>; NUM_BONES]; NUM_CUES],
-    /// Weight of each bone residual per cue (0 where the cue is absent).
-    pub bone_weights: [[f64; NUM_BONES]; NUM_CUES],
-}
-
-/// Number of bones (one per non-wrist joint).
-const NUM_BONES: usize = BONES.len();
-/// Cues that give bone directions: the network's metric 3D and its relative depth.
-const NUM_CUES: usize = 2;
 
 /// A solver run's result before it is turned into a [`FitResult`].
 #[derive(Debug, Clone, Copy)]
@@ -301,32 +274,8 @@ impl HandFitter {
         let o = &self.options;
         let mut used = 0;
         for (vi, v) in views.iter().enumerate() {
-            v.camera.validate()?;
-            v.keypoints
-                .validate()
-                .map_err(|e| CoreError::InvalidKeypoints(format!("view {vi}: {e}")))?;
-            let mut pv = PreparedView {
-                camera: *v.camera,
-                raw: [[0.0; 2]; NUM_JOINTS],
-                targets: [[0.0; 2]; NUM_JOINTS],
-                weights: [0.0; NUM_JOINTS],
-                bone_targets: [[Vector3::zeros(); NUM_BONES]; NUM_CUES],
-                bone_weights: [[0.0; NUM_BONES]; NUM_CUES],
-            };
-            for (j, p) in v.keypoints.points.iter().enumerate() {
-                pv.raw[j] = [p[0], p[1]];
-                if p[2] > 0.0 && p[2] >= o.min_confidence {
-                    let u = v.camera.undistort_pixel(nalgebra::Point2::new(p[0], p[1]));
-                    pv.targets[j] = [u.x, u.y];
-                    pv.weights[j] = p[2].powf(o.confidence_power);
-                    used += 1;
-                }
-            }
-            if let Some(cues) = v.cues {
-                cues.validate()
-                    .map_err(|e| CoreError::InvalidKeypoints(format!("view {vi}: {e}")))?;
-                set_bone_targets(&mut pv, cues, o);
-            }
+            let (pv, n) = PreparedView::prepare(v, vi, o)?;
+            used += n;
             self.views.push(pv);
         }
         // Several views' network 3D are estimates of one shape: together they weigh as
@@ -691,6 +640,30 @@ impl HandFitter {
     }
 }
 
+impl StartSolver for HandFitter {
+    fn fitted_skeleton(&self) -> &HandSkeleton {
+        &self.posed
+    }
+
+    fn views(&self) -> &[PreparedView] {
+        &self.views
+    }
+
+    fn in_front(&self, pose: &HandPose) -> bool {
+        HandFitter::in_front(self, pose)
+    }
+
+    fn solve_pose(
+        &self,
+        start: HandPose,
+        mask: &JointMask,
+        free: &DofMask,
+        max_iter: usize,
+    ) -> HandPose {
+        self.solve(start, mask, free, max_iter).pose
+    }
+}
+
 /// The residual blocks of one joint that are linear maps of its own Jacobian
 /// (`A_k jac_j`: its pixels in every view, its temporal pull), summed as
 /// `S = Σ A_kᵀ A_k` and `q = Σ A_kᵀ r_k`, so that `jac_j` enters `J^T J` once.
@@ -774,63 +747,6 @@ impl Blocks {
     }
 }
 
-/// Sets a prepared view's bone-direction targets from the network's cues.
-///
-/// The network saw a crop centred on the hand as if it looked straight at
-/// it, so its directions are turned by the rotation that takes the optical
-/// axis to the viewing ray through the observed joints' mean. A bone's weight
-/// is the cue's weight times its segment's reliability
-/// ([`FitOptions::cue_segment_weights`]) times the smaller confidence weight of
-/// its two joints.
-fn set_bone_targets(pv: &mut PreparedView, cues: &NetworkCues, o: &FitOptions) {
-    let (su, sv, n) = (0..NUM_JOINTS)
-        .filter(|&j| pv.weights[j] > 0.0)
-        .fold((0.0, 0.0, 0.0), |(u, v, n), j| {
-            (u + pv.targets[j][0], v + pv.targets[j][1], n + 1.0)
-        });
-    if n == 0.0 {
-        return;
-    }
-    let k = &pv.camera.intrinsics;
-    let ray = Vector3::new((su / n - k.cx) / k.fx, (sv / n - k.cy) / k.fy, 1.0);
-    let turn = Rotation3::rotation_between(&Vector3::z(), &ray).unwrap_or_else(Rotation3::identity);
-    for (b, &(p, c)) in BONES.iter().enumerate() {
-        let w = pv.weights[p].min(pv.weights[c]);
-        if w <= 0.0 {
-            continue;
-        }
-        let world = cues
-            .world_mm
-            .map(|m| Vector3::from(m[c]) - Vector3::from(m[p]));
-        let depth = cues.depth_px.map(|z| {
-            Vector3::new(
-                (pv.targets[c][0] - pv.targets[p][0]) / k.fx,
-                (pv.targets[c][1] - pv.targets[p][1]) / k.fy,
-                (z[c] - z[p]) / k.fx,
-            )
-        });
-        for (cue, (d, weight)) in [(world, o.world_weight), (depth, o.depth_weight)]
-            .into_iter()
-            .enumerate()
-        {
-            if let Some(unit) = d
-                .filter(|_| weight > 0.0)
-                .and_then(|d| (turn * d).try_normalize(1e-12))
-            {
-                pv.bone_targets[cue][b] = unit;
-                pv.bone_weights[cue][b] = weight * w * o.cue_segment_weights[cue][bone_segment(b)];
-            }
-        }
-    }
-}
-
-/// The place of bone `b` in its finger: 0 wrist to base, 1 proximal, 2 middle,
-/// 3 distal ([`BONES`] runs finger by finger, base to tip, four bones each).
-#[inline]
-const fn bone_segment(b: usize) -> usize {
-    b % 4
-}
-
 /// Degrees of freedom that a joint's 10 Jacobian columns map to.
 #[inline]
 fn dof_index_map(joint: usize) -> [usize; LOCAL_DOF] {
@@ -839,23 +755,6 @@ fn dof_index_map(joint: usize) -> [usize; LOCAL_DOF] {
         None => 6,
     };
     [0, 1, 2, 3, 4, 5, base, base + 1, base + 2, base + 3]
-}
-
-/// The degrees of freedom constrained by the observed joints: the root always,
-/// an angle only if some joint it moves is observed.
-pub(crate) fn free_dofs(observed: &JointMask) -> DofMask {
-    let mut free = [false; NUM_DOF];
-    free[..6].iter_mut().for_each(|f| *f = true);
-    for f in crate::hand_model::Finger::ALL {
-        let j = f.joints();
-        let seen = |from: usize| j[from..].iter().any(|&k| observed[k]);
-        let b = 6 + f.index() * ANGLES_PER_FINGER;
-        free[b] = seen(1);
-        free[b + 1] = seen(1);
-        free[b + 2] = seen(2);
-        free[b + 3] = seen(3);
-    }
-    free
 }
 
 /// Solves `(H + lambda D) step = -g` over the free, non-blocked degrees of freedom.
@@ -942,7 +841,9 @@ fn step_between(from: &HandPose, to: &HandPose, requested: &Vec26) -> Vec26 {
 #[allow(clippy::unwrap_used, clippy::field_reassign_with_default)]
 mod tests {
     use super::*;
+    use crate::camera::Camera;
     use crate::hand_model::HandSide;
+    use nalgebra::Rotation3;
 
     /// A pose, a second camera, keypoints near (not at) the pose's projection, network
     /// cues that disagree with the pose, and a temporal prior elsewhere: every term of the
@@ -999,18 +900,6 @@ mod tests {
         fitter.prior = Some(prior);
         let mask = [true; NUM_JOINTS];
         (fitter, pose, mask)
-    }
-
-    #[test]
-    fn bone_segments_follow_the_bone_order() {
-        for (b, &(p, c)) in BONES.iter().enumerate() {
-            // Segment 0 starts at the wrist; every other bone continues the previous one.
-            assert_eq!(bone_segment(b) == 0, p == 0, "bone {b}");
-            if bone_segment(b) > 0 {
-                assert_eq!(BONES[b - 1].1, p, "bone {b}");
-            }
-            assert_eq!(finger_of(c), finger_of(BONES[b - bone_segment(b)].1));
-        }
     }
 
     #[test]

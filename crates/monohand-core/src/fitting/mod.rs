@@ -23,11 +23,16 @@
 //! set. Jacobians are analytic ([`crate::kinematics`]). The single-frame
 //! start ([`init`]) solves for the rigid palm first from a closed-form
 //! weak-perspective estimate with both of its mirror solutions.
+//! What both work on (the masks of joints and degrees of freedom, and the views
+//! prepared for the solver) is in `problem`; the starts reach the solver only
+//! through a small trait that [`HandFitter`] implements, so that `init` does not
+//! depend on `lm`.
 
 mod fusion;
 pub mod init;
 pub mod lm;
 mod options;
+mod problem;
 mod proportions;
 mod scale;
 mod tracker;
