@@ -1,5 +1,6 @@
 """Frames per second over a corpus of videos, side by side in one run on this machine:
-`monohand run` per video, the Python `Session` (one thread, then two), and `monohand.daft`
+`monohand run` per video, the Python `Session` (one thread, then two), `Session.track` (the
+engine of `run`), and `monohand.daft`
 on Daft's native runner and on a local Ray with one and two workers.
 
     target/pyvenv/bin/python bench/python/corpus_bench.py [--videos 8] [--frames 60]
@@ -47,6 +48,15 @@ def session_over(videos, models) -> int:
     return n
 
 
+def track_over(videos, models) -> int:
+    n = 0
+    for v in videos:
+        with monohand.Session(None, models=models) as s:
+            for _ in s.track(str(v)):
+                n += 1
+    return n
+
+
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("--videos", type=int, default=8)
@@ -77,6 +87,12 @@ def main() -> None:
     n = session_over(videos, models)
     assert n == total
     record("Python `Session`, 1 thread", time.perf_counter() - start, "decode then process, in turn")
+
+    start = time.perf_counter()
+    n = track_over(videos, models)
+    assert n == total
+    record("Python `Session.track`, 1 thread", time.perf_counter() - start,
+           "the engine of `run`: decode, networks and fit on 3 threads; networks loaded once")
 
     start = time.perf_counter()
     halves = [videos[0::2], videos[1::2]]

@@ -3,12 +3,10 @@
 use crate::vision::ModelArgs;
 use anyhow::{bail, Result};
 use clap::Args;
-use monohand::records::detections_record;
-use monohand_io::jsonl::{FrameRecord, JsonlWriter};
+use monohand::engine::detect::detect_images;
+use monohand::engine::{JsonlSink, Observer, Sink};
 use monohand_vision::image_io::images_in_folder;
-use rayon::prelude::*;
-use std::path::{Path, PathBuf};
-use std::time::Instant;
+use std::path::PathBuf;
 
 /// Arguments of `monohand detect`.
 #[derive(Debug, Args)]
@@ -47,74 +45,39 @@ pub(crate) fn expand_inputs(inputs: &[PathBuf]) -> Result<Vec<PathBuf>> {
     Ok(files)
 }
 
-fn source_name(path: &Path) -> String {
-    path.file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_else(|| path.display().to_string())
-}
-
 pub(crate) fn run(args: &DetectArgs) -> Result<()> {
     let files = expand_inputs(&args.inputs)?;
     if files.is_empty() {
         bail!("no images to read");
     }
-    let pipeline = args.models.pipeline(1)?;
-    let mut writer = if args.output.as_os_str() == "-" {
-        JsonlWriter::stdout()
-    } else {
-        JsonlWriter::create(&args.output)?
-    };
-    let pool = crate::thread_pool(args.threads)?;
-    let chunk = 4 * pool.current_num_threads();
-    let start = Instant::now();
-    let (mut hands, mut failed) = (0usize, 0usize);
-    for (c, paths) in files.chunks(chunk).enumerate() {
-        if crate::interrupted() {
-            tracing::warn!("interrupted: stopped after {} images", c * chunk);
-            break;
-        }
-        let records: Vec<FrameRecord> = pool.install(|| {
-            paths
-                .par_iter()
-                .enumerate()
-                .map(|(k, path)| {
-                    let frame = (c * chunk + k) as u64;
-                    let t = Instant::now();
-                    match pipeline.detect_file(path) {
-                        Ok(found) => {
-                            let mut r = detections_record(frame, Some(source_name(path)), &found);
-                            r.timings_ms = Some(
-                                [("total".to_string(), t.elapsed().as_secs_f64() * 1e3)].into(),
-                            );
-                            r
-                        }
-                        Err(e) => FrameRecord {
-                            frame,
-                            source: Some(source_name(path)),
-                            error: Some(e.to_string()),
-                            ..FrameRecord::default()
-                        },
-                    }
-                })
-                .collect()
-        });
-        for r in &records {
-            if let Some(e) = &r.error {
-                tracing::warn!("frame {}: {e}", r.frame);
-                failed += 1;
-            }
-            hands += r.hands.len();
-            writer.write_frame(r)?;
-        }
+    if args.threads == Some(0) {
+        bail!("--threads must be at least 1");
     }
-    let n = writer.frames_written();
-    let secs = start.elapsed().as_secs_f64();
+    let pipeline = args.models.pipeline(1)?;
+    let out: Box<dyn Sink> = if args.output.as_os_str() == "-" {
+        Box::new(JsonlSink::stdout())
+    } else {
+        Box::new(JsonlSink::create(&args.output)?)
+    };
+    let report = detect_images(&pipeline, &files, args.threads, &mut [out], &Terminal)?;
+    let n = report.frames;
     crate::say(&format!(
-        "{n} images, {hands} hands, {failed} unreadable, {:.1} images/s",
-        n as f64 / secs.max(1e-9)
+        "{n} images, {} hands, {} unreadable, {:.1} images/s",
+        report.hands,
+        report.unreadable,
+        n as f64 / report.seconds.max(1e-9)
     ));
-    if failed > 0 && failed == n {
+    if report.unreadable > 0 && report.unreadable == n {
         bail!("none of the {n} images could be read");
     }
     Ok(())
+}
+
+/// Ctrl-C stops the job after the images in flight.
+struct Terminal;
+
+impl Observer for Terminal {
+    fn cancelled(&self) -> bool {
+        crate::interrupted()
+    }
 }

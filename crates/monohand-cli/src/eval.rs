@@ -133,42 +133,7 @@ impl ImageDetector for VisionDetector {
 }
 
 pub(crate) fn run(args: &EvalArgs) -> Result<()> {
-    if args.step == 0 {
-        bail!("--step must be at least 1");
-    }
-    if args.noise_px.is_empty() {
-        bail!("--noise-px needs a value");
-    }
-    let mut ds = Dataset::load(&args.dataset)?;
-    ds.subsample(args.step, args.max_frames);
-    if ds.frames.is_empty() {
-        bail!("{}: no frames to evaluate", args.dataset.display());
-    }
-    if let Some(out) = &args.write_manifest {
-        monohand_eval::manifest::write_manifest(out, &ds)?;
-        tracing::info!("manifest written to {}", out.display());
-    }
-    if args.stage == Stage::Full {
-        // Only frames whose images are all on disk can be run through the networks.
-        let before = ds.frames.len();
-        ds.frames
-            .retain(|f| !f.images.is_empty() && f.images.iter().all(|p| p.is_file()));
-        if ds.frames.is_empty() {
-            bail!(
-                "{}: --stage full needs the images, and none of the {before} frames has all of its images on disk",
-                args.dataset.display()
-            );
-        }
-        if ds.frames.len() < before {
-            eprintln!(
-                "--stage full: {} of {before} frames have their images on disk; evaluating those",
-                ds.frames.len()
-            );
-        }
-        if args.noise_px.iter().any(|&n| n != 0.0) || args.drop_joints > 0 {
-            bail!("--noise-px and --drop-joints apply to --stage lift only");
-        }
-    }
+    let ds = load_dataset(args)?;
     let stereo_ok = ds.max_cameras() >= 2;
     let modes = match args.views {
         Views::Left => vec![ViewMode::Mono],
@@ -196,59 +161,7 @@ pub(crate) fn run(args: &EvalArgs) -> Result<()> {
         Stage::Full => "full (detector + keypoints + lifting on the images)",
     };
     let mut report = Report::new(&ds, stage_name, mask);
-    let seqs = ds.sequences();
-    report.settings = vec![
-        (
-            "frames".into(),
-            format!(
-                "{} frames, {} labelled hands, {} sequence(s): {}",
-                ds.frames.len(),
-                ds.num_hands(),
-                seqs.len(),
-                seqs.join(", ")
-            ),
-        ),
-        (
-            "views".into(),
-            modes
-                .iter()
-                .map(|m| m.as_str())
-                .collect::<Vec<_>>()
-                .join(", "),
-        ),
-        (
-            "2D noise (px, sigma per coordinate)".into(),
-            args.noise_px
-                .iter()
-                .map(|n| n.to_string())
-                .collect::<Vec<_>>()
-                .join(", "),
-        ),
-        (
-            "dropped joints per view".into(),
-            args.drop_joints.to_string(),
-        ),
-        ("seed".into(), args.seed.to_string()),
-        (
-            "fitting".into(),
-            if args.track {
-                "tracking (warm start from the previous frame)".into()
-            } else {
-                "every frame from scratch".into()
-            },
-        ),
-        (
-            "skeleton".into(),
-            match args.skeleton {
-                Skeleton::Subject => "subject: fitted to each sequence's ground truth".into(),
-                Skeleton::Default => format!("default adult hand x {}", args.hand_scale),
-            },
-        ),
-        (
-            "frame step / limit".into(),
-            format!("{} / {:?}", args.step, args.max_frames),
-        ),
-    ];
+    report.settings = settings_rows(args, &ds, &modes);
     eprintln!(
         "evaluating {} ({} frames) ...",
         args.dataset.display(),
@@ -304,4 +217,102 @@ pub(crate) fn run(args: &EvalArgs) -> Result<()> {
         println!("report: {}", dir.join("report.md").display());
     }
     Ok(())
+}
+
+/// The settings rows of the report.
+fn settings_rows(args: &EvalArgs, ds: &Dataset, modes: &[ViewMode]) -> Vec<(String, String)> {
+    let seqs = ds.sequences();
+    vec![
+        (
+            "frames".into(),
+            format!(
+                "{} frames, {} labelled hands, {} sequence(s): {}",
+                ds.frames.len(),
+                ds.num_hands(),
+                seqs.len(),
+                seqs.join(", ")
+            ),
+        ),
+        (
+            "views".into(),
+            modes
+                .iter()
+                .map(|m| m.as_str())
+                .collect::<Vec<_>>()
+                .join(", "),
+        ),
+        (
+            "2D noise (px, sigma per coordinate)".into(),
+            args.noise_px
+                .iter()
+                .map(|n| n.to_string())
+                .collect::<Vec<_>>()
+                .join(", "),
+        ),
+        (
+            "dropped joints per view".into(),
+            args.drop_joints.to_string(),
+        ),
+        ("seed".into(), args.seed.to_string()),
+        (
+            "fitting".into(),
+            if args.track {
+                "tracking (warm start from the previous frame)".into()
+            } else {
+                "every frame from scratch".into()
+            },
+        ),
+        (
+            "skeleton".into(),
+            match args.skeleton {
+                Skeleton::Subject => "subject: fitted to each sequence's ground truth".into(),
+                Skeleton::Default => format!("default adult hand x {}", args.hand_scale),
+            },
+        ),
+        (
+            "frame step / limit".into(),
+            format!("{} / {:?}", args.step, args.max_frames),
+        ),
+    ]
+}
+
+/// The dataset of the arguments, subsampled, with the frames `--stage full` can run.
+fn load_dataset(args: &EvalArgs) -> Result<Dataset> {
+    if args.step == 0 {
+        bail!("--step must be at least 1");
+    }
+    if args.noise_px.is_empty() {
+        bail!("--noise-px needs a value");
+    }
+    let mut ds = Dataset::load(&args.dataset)?;
+    ds.subsample(args.step, args.max_frames);
+    if ds.frames.is_empty() {
+        bail!("{}: no frames to evaluate", args.dataset.display());
+    }
+    if let Some(out) = &args.write_manifest {
+        monohand_eval::manifest::write_manifest(out, &ds)?;
+        tracing::info!("manifest written to {}", out.display());
+    }
+    if args.stage == Stage::Full {
+        // Only frames whose images are all on disk can be run through the networks.
+        let before = ds.frames.len();
+        ds.frames
+            .retain(|f| !f.images.is_empty() && f.images.iter().all(|p| p.is_file()));
+        if ds.frames.is_empty() {
+            bail!(
+                "{}: --stage full needs the images, and none of the {before} frames has all of its images on disk",
+                args.dataset.display()
+            );
+        }
+        if ds.frames.len() < before {
+            eprintln!(
+                "--stage full: {} of {before} frames have their images on disk; evaluating those",
+                ds.frames.len()
+            );
+        }
+        if args.noise_px.iter().any(|&n| n != 0.0) || args.drop_joints > 0 {
+            bail!("--noise-px and --drop-joints apply to --stage lift only");
+        }
+    }
+    Ok(ds)
 }

@@ -93,7 +93,9 @@ pub(crate) fn run(args: &LiftArgs) -> Result<()> {
     let report = match lift_keypoints(&views, cameras, settings, &mut [out], &Terminal) {
         Ok(r) => r,
         Err(EngineError::Output { frames, source }) => {
-            return Err(anyhow::Error::from_boxed(source).context(crate::run::OutputFailed { frames }))
+            return Err(
+                anyhow::Error::from_boxed(source).context(crate::run::OutputFailed { frames })
+            )
         }
         Err(e) => return Err(e.into()),
     };

@@ -205,8 +205,6 @@ pub(crate) fn say(msg: &str) {
     }
 }
 
-/// A thread pool of `threads` workers (all cores when `None`). With one worker, the
-/// networks it runs do not share their operators with the other cores either.
 /// A note of the library, with the flag it is about in front (the library names none).
 pub(crate) fn flagged(note: &monohand::Note) -> String {
     let flag = match note.topic {
@@ -216,19 +214,6 @@ pub(crate) fn flagged(note: &monohand::Note) -> String {
         monohand::NoteTopic::Output => "",
     };
     format!("{flag}{}", note.message)
-}
-
-pub(crate) fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
-    let mut builder = rayon::ThreadPoolBuilder::new();
-    if let Some(n) = threads {
-        if n == 0 {
-            anyhow::bail!("--threads must be at least 1");
-        }
-        builder = builder
-            .num_threads(n)
-            .start_handler(move |_| monohand_vision::tflite_import::allow_split_here(n > 1));
-    }
-    builder.build().context("could not start worker threads")
 }
 
 fn main() -> ExitCode {

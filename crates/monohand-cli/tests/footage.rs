@@ -281,7 +281,10 @@ fn a_photo_is_drawn_with_the_camera_it_was_fitted_with() {
     // 18 mm on the 43.27 mm diagonal of 35 mm film, for the 800 px diagonal of 640x480.
     let fx = 18.0 * 800.0 / 36f64.hypot(24.0);
     assert!((cam.fx - fx).abs() < 1e-6 && cam.fx == cam.fy, "{cam:?}");
-    assert_eq!((cam.width, cam.height, cam.cx, cam.cy), (640, 480, 320.0, 240.0));
+    assert_eq!(
+        (cam.width, cam.height, cam.cx, cam.cy),
+        (640, 480, 320.0, 240.0)
+    );
 
     let file = dir.path().join("cam.json");
     let camera = Camera::new(
@@ -300,7 +303,10 @@ fn a_photo_is_drawn_with_the_camera_it_was_fitted_with() {
     write_camera_json(&file, &camera).unwrap();
     let (given, given_overlay) = run(&["--camera", p(&file)], "file");
     assert_eq!(given.cameras.len(), 1);
-    assert_eq!(given.cameras[0].source, monohand_io::jsonl::CameraSource::File);
+    assert_eq!(
+        given.cameras[0].source,
+        monohand_io::jsonl::CameraSource::File
+    );
     assert_eq!(given.cameras[0].fx, cam.fx);
 
     assert_eq!(exif.hands.len(), 1);
@@ -321,7 +327,11 @@ fn a_photo_is_drawn_with_the_camera_it_was_fitted_with() {
         .filter(|(x, y)| x != y)
         .count();
     let share = differ as f64 / (640.0 * 480.0);
-    assert!(share < 0.005, "{differ} pixels differ ({:.2}%)", share * 100.0);
+    assert!(
+        share < 0.005,
+        "{differ} pixels differ ({:.2}%)",
+        share * 100.0
+    );
 
     // What the overlay was before: the EXIF fit drawn with the generic camera, which puts
     // the hand elsewhere. The test tells the two apart, and the renderer given the
@@ -334,7 +344,10 @@ fn a_photo_is_drawn_with_the_camera_it_was_fitted_with() {
         SceneRenderer::default().draw(&mut image, &exif.hands, cameras, &layers);
         image
     };
-    assert!(draw(&[camera]) == exif_overlay, "the overlay is not drawn with the record's camera");
+    assert!(
+        draw(&[camera]) == exif_overlay,
+        "the overlay is not drawn with the record's camera"
+    );
     let generic = draw(&[]);
     let differ = exif_overlay
         .pixels()

@@ -644,7 +644,9 @@ impl PySession {
         self.session()?;
         let engine = (*self.engine).clone().with_max_frames(max_frames);
         let source = py
-            .detach(|| Input::parse(&path).and_then(|i| i.open(monohand::engine::DEFAULT_STALL_TIMEOUT)))
+            .detach(|| {
+                Input::parse(&path).and_then(|i| i.open(monohand::engine::DEFAULT_STALL_TIMEOUT))
+            })
             .map_err(|e| MonohandError::new_err(e.to_string()))?;
         let (tx, rx) = sync_channel::<FrameRecord>(8);
         let watch = Arc::new(Watch::default());
@@ -897,7 +899,11 @@ impl PyFrameStream {
 
     /// Messages for the user so far (assumptions made, hand size found).
     fn notes(&self) -> Vec<String> {
-        self.watch.notes.lock().map(|n| n.clone()).unwrap_or_default()
+        self.watch
+            .notes
+            .lock()
+            .map(|n| n.clone())
+            .unwrap_or_default()
     }
 
     /// Totals once the stream has ended (`frames`, `frames_with_hands`, `hands`,

@@ -65,6 +65,55 @@ def test_without_the_mirror_pass_the_session_equals_the_cli_without_it(tmp_path,
     assert differs >= 30, f"the mirror pass changed the keypoints of {differs} of 40 frames"
 
 
+def test_track_runs_the_cli_engine_and_gives_its_records(tmp_path, moving_video, models):
+    """`Session.track` is `monohand run`'s engine: the same records, timings aside, with the
+    camera each frame was fitted with; it streams (frames come as they are done) and ends
+    with a summary."""
+    out = tmp_path / "cli.jsonl"
+    run_cli("run", str(moving_video), "-o", str(out), "--hands", "2")
+    cli = read_jsonl(out)
+    with monohand.Session(None, hands=2, models=models) as s:
+        stream = s.track(str(moving_video))
+        assert stream.summary is None, "no summary before the end"
+        frames = list(stream)
+        summary = stream.summary
+        notes = stream.notes()
+    assert len(frames) == len(cli) == 40
+    for f, rec in zip(frames, cli):
+        d = f.to_dict()
+        d.pop("timings_ms"), rec.pop("timings_ms")
+        assert d == rec, f.index
+        assert f.index == rec["frame"] and f.time_s == rec["time_s"]
+        assert [h.to_dict() for h in f.hands] == rec["hands"]
+    assert frames[0].cameras == [
+        {"fx": pytest.approx(320 / np.tan(np.radians(30))), "fy": pytest.approx(320 / np.tan(np.radians(30))),
+         "cx": 320.0, "cy": 240.0, "width": 640, "height": 480, "source": "generic"}
+    ]
+    assert summary["frames"] == 40 and summary["hands_3d"] >= 38 and summary["fps"] > 0
+    assert any("generic camera for 640x480" in n for n in notes), notes
+    assert not any("--" in n for n in notes), f"a library note names a CLI flag: {notes}"
+    # A given camera is said to come from the caller ("file"), and max_frames stops early.
+    cam = monohand.Camera(600.0, 600.0, 320.0, 240.0, 640, 480)
+    with monohand.Session(cam, hands=2, models=models) as s:
+        few = list(s.track(str(moving_video), max_frames=5))
+    assert [f.index for f in few] == [0, 1, 2, 3, 4]
+    assert few[0].cameras[0]["source"] == "file" and few[0].cameras[0]["fx"] == 600.0
+
+
+def test_track_raises_on_a_missing_input_and_after_a_broken_video(tmp_path, moving_video, models):
+    with monohand.Session(None, hands=2, models=models) as s:
+        with pytest.raises(monohand.MonohandError, match="no such file"):
+            s.track(str(tmp_path / "missing.mp4"))
+        cut = tmp_path / "cut.mkv"
+        data = moving_video.read_bytes()
+        cut.write_bytes(data[: len(data) // 2])
+        got = []
+        with pytest.raises(monohand.MonohandError):
+            for f in s.track(str(cut)):
+                got.append(f.index)
+        assert got == list(range(len(got))), "the good frames come first, in order"
+
+
 def test_frames_are_handed_over_without_a_copy(moving_video):
     with monohand.read_video(str(moving_video)) as video:
         frame = next(iter(video))

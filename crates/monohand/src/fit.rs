@@ -48,7 +48,10 @@ pub fn learn_proportions(
 ) -> (Option<ProportionEstimate>, Note) {
     match estimate_proportions(template, cues) {
         Ok(est) => {
-            let note = Note::new(NoteTopic::Proportions, format!("{side} hand proportions {est}"));
+            let note = Note::new(
+                NoteTopic::Proportions,
+                format!("{side} hand proportions {est}"),
+            );
             (Some(est), note)
         }
         Err(e) => (
@@ -60,4 +63,3 @@ pub fn learn_proportions(
         ),
     }
 }
-

@@ -6,9 +6,7 @@ use crate::crops::{HandId, VisionFrame};
 use crate::fit::{fit_views, learn_proportions, FitOutcome};
 use crate::notes::{Note, NoteTopic};
 use monohand_core::filtering::{OneEuroFilter, OneEuroParams};
-use monohand_core::fitting::{
-    estimate_hand_scale, ProportionEstimate, ScaleEstimate,
-};
+use monohand_core::fitting::{estimate_hand_scale, ProportionEstimate, ScaleEstimate};
 use monohand_core::observation::NetworkCues;
 use monohand_core::prelude::*;
 use monohand_io::jsonl::CameraSource;

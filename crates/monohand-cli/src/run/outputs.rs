@@ -79,8 +79,7 @@ pub(crate) fn create(
                 .map(|s| s.to_string_lossy().into_owned())
                 .unwrap_or_else(|| "monohand".into());
             Box::new(
-                OpenPoseSink::create(&args.output, &stem)
-                    .map_err(|e| anyhow!("--output {e}"))?,
+                OpenPoseSink::create(&args.output, &stem).map_err(|e| anyhow!("--output {e}"))?,
             )
         }
     };

@@ -221,26 +221,20 @@ pub fn lift_keypoints(
                 ..FrameRecord::default()
             }
         } else {
-            lift_frame(i, inputs[0].source_name(i), &per_view, &mut lifter, &mut warned_multi)
+            lift_frame(
+                i,
+                inputs[0].source_name(i),
+                &per_view,
+                &mut lifter,
+                &mut warned_multi,
+            )
         };
         if let Err(e) = write(&record, &mut report) {
             result = Err(e);
             break;
         }
     }
-    let mut closed = Ok(());
-    for sink in sinks.iter_mut() {
-        if let Err(source) = sink.finish() {
-            if closed.is_ok() {
-                closed = Err(EngineError::Output {
-                    frames: report.frames,
-                    source,
-                });
-            }
-        }
-    }
-    result?;
-    closed?;
+    super::finish_sinks(sinks, &report, result)?;
     report.cancelled = observer.cancelled();
     report.seconds = start.elapsed().as_secs_f64();
     Ok(report)

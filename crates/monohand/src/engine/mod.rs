@@ -17,13 +17,12 @@
 //!
 //! `monohand run`, the Python package and `monohand eval --stage full` all run this.
 
+pub mod detect;
 pub mod lift;
 mod sinks;
 mod source;
 
-pub use sinks::{
-    CsvSink, GltfSink, JsonlSink, OpenPoseSink, Output, OverlaySink, Sink, SinkError,
-};
+pub use sinks::{CsvSink, GltfSink, JsonlSink, OpenPoseSink, Output, OverlaySink, Sink, SinkError};
 pub use source::{CallerFrames, FrameSource, ImageFiles, Input, SourceFrame, VideoSource};
 
 /// Overlay file-name conventions (which names are videos, which one image).
@@ -227,9 +226,7 @@ impl Engine {
         settings: EngineSettings,
     ) -> EngineResult<Engine> {
         if settings.detect_every == 0 {
-            return Err(EngineError::Input(
-                "detect_every must be at least 1".into(),
-            ));
+            return Err(EngineError::Input("detect_every must be at least 1".into()));
         }
         if settings.threads == Some(0) {
             return Err(EngineError::Input("threads must be at least 1".into()));
@@ -365,7 +362,9 @@ impl Engine {
             let (vis_tx, vis_rx) = sync_channel::<(VisionFrame, Extra)>(4);
             let reader = scope.spawn(move || {
                 let mut sources = sources;
-                read_all(&mut sources, max_frames, observer, |f| raw_tx.send(f).is_ok())
+                read_all(&mut sources, max_frames, observer, |f| {
+                    raw_tx.send(f).is_ok()
+                })
             });
             let pipe = Arc::clone(&self.pipeline);
             let vision = scope.spawn(move || {
@@ -543,19 +542,7 @@ impl Writer<'_, '_> {
 
     /// Closes every sink; the first failure is returned after all were tried.
     fn finish(&mut self) -> EngineResult<()> {
-        let mut first = None;
-        for sink in self.sinks.iter_mut() {
-            if let Err(source) = sink.finish() {
-                first.get_or_insert(source);
-            }
-        }
-        match first {
-            Some(source) => Err(EngineError::Output {
-                frames: self.report.frames,
-                source,
-            }),
-            None => Ok(()),
-        }
+        finish_sinks(self.sinks, &self.report, Ok(()))
     }
 
     /// After a failure: closes the others (an overlay video finalised, a glTF written),
@@ -684,3 +671,24 @@ fn read_all(
 
 /// The default stall timeout of video sources.
 pub const DEFAULT_STALL_TIMEOUT: Duration = monohand_media::video::DEFAULT_STALL_TIMEOUT;
+
+/// Closes every sink after a job that ended with `result`: the first error, the job's or
+/// else a sink's, is returned once all were tried.
+fn finish_sinks(
+    sinks: &mut [Box<dyn Sink>],
+    report: &RunReport,
+    result: EngineResult<()>,
+) -> EngineResult<()> {
+    let mut closed = Ok(());
+    for sink in sinks.iter_mut() {
+        if let Err(source) = sink.finish() {
+            if closed.is_ok() {
+                closed = Err(EngineError::Output {
+                    frames: report.frames,
+                    source,
+                });
+            }
+        }
+    }
+    result.and(closed)
+}

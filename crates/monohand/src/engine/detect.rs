@@ -1,0 +1,90 @@
+//! The detection job: image files in, each image's hands (box, score, side, 21 keypoints,
+//! the network's 3D cues) and heads out to the engine's sinks, without 3D fitting. The
+//! images are independent, so the networks run on all cores, a chunk at a time, and the
+//! records are written in order.
+
+use super::{thread_pool, EngineError, EngineResult, Observer, Output, RunReport, Sink};
+use crate::records::detections_record;
+use monohand_io::jsonl::FrameRecord;
+use monohand_vision::HandPipeline;
+use rayon::prelude::*;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+/// Detects the hands of every image in `files` (in order) into `sinks`, and closes them.
+/// An unreadable image gets a record with its error; `threads` as in
+/// [`super::EngineSettings::threads`].
+pub fn detect_images(
+    pipeline: &HandPipeline,
+    files: &[PathBuf],
+    threads: Option<usize>,
+    sinks: &mut [Box<dyn Sink>],
+    observer: &dyn Observer,
+) -> EngineResult<RunReport> {
+    let start = Instant::now();
+    let pool = thread_pool(threads)?;
+    let chunk = 4 * pool.current_num_threads();
+    let mut report = RunReport::default();
+    let mut result = Ok(());
+    'chunks: for (c, paths) in files.chunks(chunk).enumerate() {
+        if observer.cancelled() {
+            tracing::warn!("interrupted: stopped after {} images", c * chunk);
+            break;
+        }
+        let records: Vec<FrameRecord> = pool.install(|| {
+            paths
+                .par_iter()
+                .enumerate()
+                .map(|(k, path)| detect_one(pipeline, (c * chunk + k) as u64, path))
+                .collect()
+        });
+        for record in &records {
+            if let Some(e) = &record.error {
+                tracing::warn!("frame {}: {e}", record.frame);
+            }
+            let out = Output {
+                record,
+                image: None,
+                cameras: &[],
+            };
+            for sink in sinks.iter_mut() {
+                if let Err(source) = sink.write(&out) {
+                    result = Err(EngineError::Output {
+                        frames: report.frames,
+                        source,
+                    });
+                    break 'chunks;
+                }
+            }
+            report.add(record);
+            observer.frame_written(&report);
+        }
+    }
+    super::finish_sinks(sinks, &report, result)?;
+    report.cancelled = observer.cancelled();
+    report.seconds = start.elapsed().as_secs_f64();
+    Ok(report)
+}
+
+/// The record of one image: its detections, with the time they took, or why it could not
+/// be read.
+fn detect_one(pipeline: &HandPipeline, frame: u64, path: &Path) -> FrameRecord {
+    let source = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_else(|| path.display().to_string());
+    let t = Instant::now();
+    match pipeline.detect_file(path) {
+        Ok(found) => {
+            let mut r = detections_record(frame, Some(source), &found);
+            r.timings_ms = Some([("total".to_string(), t.elapsed().as_secs_f64() * 1e3)].into());
+            r
+        }
+        Err(e) => FrameRecord {
+            frame,
+            source: Some(source),
+            error: Some(e.to_string()),
+            ..FrameRecord::default()
+        },
+    }
+}
