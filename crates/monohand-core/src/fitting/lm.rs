@@ -9,7 +9,7 @@
 
 use super::fusion::{fuse_keypoints, fuse_network_depth};
 use super::init;
-use super::options::{FitOptions, View};
+use super::options::{CostSettings, FitOptions, View};
 use crate::camera::Camera;
 use crate::error::{CoreError, CoreResult};
 use crate::hand_model::params::ANGLES_PER_FINGER;
@@ -35,8 +35,12 @@ pub struct FitResult {
     pub pose: HandPose,
     /// The 21 joints in the reference (first) camera frame, millimetres: the
     /// posed skeleton's, with one view moved towards the network's depth
-    /// ([`FitOptions::fuse_world`], [`FitOptions::fuse_depth`]) and pixels
-    /// ([`FitOptions::fuse_pixels`]).
+    /// ([`FusionSettings::fuse_world`], [`FusionSettings::fuse_depth`]) and pixels
+    /// ([`FusionSettings::fuse_pixels`]).
+    ///
+    /// [`FusionSettings::fuse_world`]: crate::fitting::FusionSettings::fuse_world
+    /// [`FusionSettings::fuse_depth`]: crate::fitting::FusionSettings::fuse_depth
+    /// [`FusionSettings::fuse_pixels`]: crate::fitting::FusionSettings::fuse_pixels
     pub joints_3d: [Vector3<f64>; NUM_JOINTS],
     /// The posed skeleton's joints (`pose` through forward kinematics), the
     /// same as `joints_3d` without fusion ([`crate::fitting::fuse_network_depth`],
@@ -114,8 +118,7 @@ pub struct HandFitter {
     bone_lengths: [f64; NUM_BONES],
     /// Joints the temporal term pulls towards (reference frame), in tracking.
     prior: Option<[Vector3<f64>; NUM_JOINTS]>,
-    /// The network's 3D of a fit with one view, for [`FitOptions::fuse_world`]
-    /// and [`FitOptions::fuse_depth`].
+    /// The network's 3D of a fit with one view, for [`FitOptions::fusion`].
     fusion_cues: Option<NetworkCues>,
 }
 
@@ -182,12 +185,13 @@ impl HandFitter {
         let mut best: Option<Solution> = None;
         let view_index = init::best_view(&self.views);
         for start in starts.iter().flatten() {
-            let mut sol = self.solve(*start, &observed, &free, self.options.max_iterations);
+            let mut sol = self.solve(*start, &observed, &free, self.options.solver.max_iterations);
             // Second pass: re-seat the fingers on the root refined by all joints.
             if sol.cost > 1e-12 * used as f64 {
                 let mut again = sol.pose;
                 init::init_fingers(&self.posed, &mut again, &self.views[view_index]);
-                let second = self.solve(again, &observed, &free, self.options.max_iterations);
+                let second =
+                    self.solve(again, &observed, &free, self.options.solver.max_iterations);
                 if second.cost < sol.cost {
                     sol = second;
                 }
@@ -209,7 +213,7 @@ impl HandFitter {
     /// are seen, each with its fingers set from the keypoint rays.
     ///
     /// `fit` runs the solver from each of these (with
-    /// [`FitOptions::max_iterations`]), re-seats the fingers on each result and
+    /// [`SolverSettings::max_iterations`]), re-seats the fingers on each result and
     /// solves once more (the second pass), and keeps the lowest cost. The
     /// first part alone is [`HandFitter::fit_from`] on each start with
     /// `max_iterations_tracking` set to `max_iterations`; benchmarks use this
@@ -217,6 +221,8 @@ impl HandFitter {
     ///
     /// Errors as [`HandFitter::fit`] for bad views or too few joints; the list
     /// is empty if no start could be placed in front of the cameras.
+    ///
+    /// [`SolverSettings::max_iterations`]: crate::fitting::SolverSettings::max_iterations
     pub fn starting_poses(&mut self, views: &[View]) -> CoreResult<Vec<HandPose>> {
         self.prepare(views)?;
         let observed = self.observed_joints();
@@ -230,8 +236,10 @@ impl HandFitter {
     /// not observed in any view keep their previous values, so those joints keep
     /// their last position relative to the hand and move with its root (the
     /// paper's rule for vanishing joints). With
-    /// [`FitOptions::temporal_weight`] above 0, every joint is also pulled
+    /// [`TrackingSettings::temporal_weight`] above 0, every joint is also pulled
     /// towards its position in `start`.
+    ///
+    /// [`TrackingSettings::temporal_weight`]: crate::fitting::TrackingSettings::temporal_weight
     pub fn fit_from(&mut self, views: &[View], start: &HandPose) -> CoreResult<FitResult> {
         self.fit_from_with(views, start, Towards::Start)
     }
@@ -278,12 +286,12 @@ impl HandFitter {
             Towards::Joints(joints) => Some(joints),
             Towards::Nothing => None,
         };
-        self.prior = towards.filter(|_| self.options.temporal_weight > 0.0);
+        self.prior = towards.filter(|_| self.options.tracking.temporal_weight > 0.0);
         let sol = self.solve(
             start,
             &observed,
             &free,
-            self.options.max_iterations_tracking,
+            self.options.solver.max_iterations_tracking,
         );
         Ok(self.finish(sol, used))
     }
@@ -315,17 +323,17 @@ impl HandFitter {
             };
             for (j, p) in v.keypoints.points.iter().enumerate() {
                 pv.raw[j] = [p[0], p[1]];
-                if p[2] > 0.0 && p[2] >= o.min_confidence {
+                if p[2] > 0.0 && p[2] >= o.cost.min_confidence {
                     let u = v.camera.undistort_pixel(nalgebra::Point2::new(p[0], p[1]));
                     pv.targets[j] = [u.x, u.y];
-                    pv.weights[j] = p[2].powf(o.confidence_power);
+                    pv.weights[j] = p[2].powf(o.cost.confidence_power);
                     used += 1;
                 }
             }
             if let Some(cues) = v.cues {
                 cues.validate()
                     .map_err(|e| CoreError::InvalidKeypoints(format!("view {vi}: {e}")))?;
-                set_bone_targets(&mut pv, cues, o);
+                set_bone_targets(&mut pv, cues, &o.cost);
             }
             self.views.push(pv);
         }
@@ -339,8 +347,8 @@ impl HandFitter {
         if let [v] = views {
             // Each cue is fused only if the fit itself uses it.
             self.fusion_cues = v.cues.map(|c| NetworkCues {
-                world_mm: c.world_mm.filter(|_| o.world_weight > 0.0),
-                depth_px: c.depth_px.filter(|_| o.depth_weight > 0.0),
+                world_mm: c.world_mm.filter(|_| o.cost.world_weight > 0.0),
+                depth_px: c.depth_px.filter(|_| o.cost.depth_weight > 0.0),
             });
         }
         let with_cues = views.iter().filter(|v| v.cues.is_some()).count();
@@ -354,11 +362,11 @@ impl HandFitter {
             }
         }
         let joints = self.observed_joints().iter().filter(|&&b| b).count();
-        if joints < o.min_joints {
+        if joints < o.cost.min_joints {
             return Err(CoreError::TooFewJoints {
                 usable: joints,
-                threshold: o.min_confidence,
-                needed: o.min_joints,
+                threshold: o.cost.min_confidence,
+                needed: o.cost.min_joints,
             });
         }
         Ok(used)
@@ -420,9 +428,12 @@ impl HandFitter {
         };
         let o = &self.options;
         let deep = match self.fusion_cues {
-            Some(cues) => {
-                fuse_network_depth(joints, &v.camera, &cues, [o.fuse_world, o.fuse_depth])?
-            }
+            Some(cues) => fuse_network_depth(
+                joints,
+                &v.camera,
+                &cues,
+                [o.fusion.fuse_world, o.fusion.fuse_depth],
+            )?,
             None => *joints,
         };
         // The keypoints the fit used (weight above 0), as given (distorted).
@@ -432,7 +443,7 @@ impl HandFitter {
                 [u, w, if v.weights[j] > 0.0 { 1.0 } else { 0.0 }]
             }),
         };
-        fuse_keypoints(&deep, &v.camera, &used, 1.0, o.fuse_pixels)
+        fuse_keypoints(&deep, &v.camera, &used, 1.0, o.fusion.fuse_pixels)
     }
 
     /// Cost of a pose over the masked joints; `None` if a joint is behind a camera.
@@ -532,7 +543,7 @@ impl HandFitter {
                 }
             }
         }
-        let wt = self.options.temporal_weight;
+        let wt = self.options.tracking.temporal_weight;
         for (j, form) in forms.iter_mut().enumerate() {
             if let Some(res) = self.temporal_residual(j, &pts, mask) {
                 cost += res.norm_squared();
@@ -577,7 +588,7 @@ impl HandFitter {
         mask: &JointMask,
     ) -> Option<Vector3<f64>> {
         let prior = self.prior.as_ref().filter(|_| mask[j])?;
-        Some(self.options.temporal_weight * (pts[j] - prior[j]))
+        Some(self.options.tracking.temporal_weight * (pts[j] - prior[j]))
     }
 
     /// Levenberg-Marquardt from `start` over the free degrees of freedom.
@@ -601,7 +612,7 @@ impl HandFitter {
                 converged: false,
             };
         };
-        let mut lambda = self.options.initial_damping;
+        let mut lambda = self.options.solver.initial_damping;
         let mut nu = 2.0;
         let mut converged = false;
         let mut iterations = 0;
@@ -627,7 +638,7 @@ impl HandFitter {
             // cost the Gauss-Newton direction is often good but too long.
             let (candidate, taken, new_cost) = match new_cost {
                 Some(nc) if nc < cost => (candidate, taken, new_cost),
-                _ if taken.amax() > self.options.step_tolerance => {
+                _ if taken.amax() > self.options.solver.step_tolerance => {
                     let slope = 2.0 * g.dot(&taken);
                     let alpha = match new_cost {
                         Some(nc) if slope < 0.0 => {
@@ -653,8 +664,8 @@ impl HandFitter {
                     } else {
                         1.0
                     };
-                    let small_decrease = cost - nc <= self.options.cost_tolerance * cost;
-                    let small_step = taken.amax() <= self.options.step_tolerance;
+                    let small_decrease = cost - nc <= self.options.solver.cost_tolerance * cost;
+                    let small_step = taken.amax() <= self.options.solver.step_tolerance;
                     pose = candidate;
                     lambda *= (1.0f64 / 3.0).max(1.0 - (2.0 * rho - 1.0).powi(3));
                     lambda = lambda.max(1e-15);
@@ -669,7 +680,7 @@ impl HandFitter {
                     }
                 }
                 _ => {
-                    if taken.amax() <= self.options.step_tolerance {
+                    if taken.amax() <= self.options.solver.step_tolerance {
                         converged = true;
                         break;
                     }
@@ -780,9 +791,9 @@ impl Blocks {
 /// it, so its directions are turned by the rotation that takes the optical
 /// axis to the viewing ray through the observed joints' mean. A bone's weight
 /// is the cue's weight times its segment's reliability
-/// ([`FitOptions::cue_segment_weights`]) times the smaller confidence weight of
+/// ([`CostSettings::cue_segment_weights`]) times the smaller confidence weight of
 /// its two joints.
-fn set_bone_targets(pv: &mut PreparedView, cues: &NetworkCues, o: &FitOptions) {
+fn set_bone_targets(pv: &mut PreparedView, cues: &NetworkCues, o: &CostSettings) {
     let (su, sv, n) = (0..NUM_JOINTS)
         .filter(|&j| pv.weights[j] > 0.0)
         .fold((0.0, 0.0, 0.0), |(u, v, n), j| {
@@ -942,6 +953,7 @@ fn step_between(from: &HandPose, to: &HandPose, requested: &Vec26) -> Vec26 {
 #[allow(clippy::unwrap_used, clippy::field_reassign_with_default)]
 mod tests {
     use super::*;
+    use crate::fitting::TrackingSettings;
     use crate::hand_model::HandSide;
 
     /// A pose, a second camera, keypoints near (not at) the pose's projection, network
@@ -981,9 +993,15 @@ mod tests {
             depth_px: Some(std::array::from_fn(|j| cue_joints[j].z - cue_joints[0].z)),
         };
         let options = FitOptions {
-            world_weight: 0.7,
-            depth_weight: 0.4,
-            temporal_weight: 0.3,
+            cost: CostSettings {
+                world_weight: 0.7,
+                depth_weight: 0.4,
+                ..CostSettings::default()
+            },
+            tracking: TrackingSettings {
+                temporal_weight: 0.3,
+                ..TrackingSettings::default()
+            },
             ..FitOptions::default()
         };
         let mut fitter = HandFitter::new(sk, options).unwrap();
@@ -1075,7 +1093,10 @@ mod tests {
             kp
         };
         let options = FitOptions {
-            temporal_weight: 1.0,
+            tracking: TrackingSettings {
+                temporal_weight: 1.0,
+                ..TrackingSettings::default()
+            },
             ..FitOptions::default()
         };
         let mut fitter = HandFitter::new(sk, options).unwrap();
