@@ -291,3 +291,34 @@ fn cue_segment_weights_from(errors: &[[f64; 4]; 2]) -> [[f64; 4]; 2] {
         .fold(f64::INFINITY, f64::min);
     errors.map(|cue| cue.map(|e| best / e))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn validate_checks_every_group() {
+        assert!(FitOptions::default().validate().is_ok());
+        type Spoil = fn(&mut FitOptions);
+        let bad: [(&str, Spoil); 7] = [
+            ("iteration caps", |o| o.solver.max_iterations_tracking = 0),
+            ("damping", |o| o.solver.initial_damping = 0.0),
+            ("min_joints", |o| o.cost.min_joints = 2),
+            ("cue_segment_weights", |o| {
+                o.cost.cue_segment_weights[1][3] = -1.0
+            }),
+            ("temporal_weight", |o| o.tracking.temporal_weight = f64::NAN),
+            ("fuse_world", |o| o.fusion.fuse_depth = 0.6),
+            ("fuse_pixels", |o| o.fusion.fuse_pixels = 1.5),
+        ];
+        for (message, spoil) in bad {
+            let mut o = FitOptions::default();
+            spoil(&mut o);
+            let e = o.validate().unwrap_err();
+            assert!(
+                matches!(e, CoreError::InvalidOptions(_)) && e.to_string().contains(message),
+                "{message}: {e}"
+            );
+        }
+    }
+}
