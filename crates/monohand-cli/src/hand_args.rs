@@ -70,43 +70,41 @@ pub(crate) struct HandModelArgs {
 pub(crate) struct CueArgs {
     /// Weight of the keypoint network's metric 3D (MediaPipe's world landmarks) as bone
     /// directions; 0 fits the 2D keypoints alone, as the paper.
-    #[arg(long, value_name = "W", default_value_t = FitOptions::default().world_weight)]
+    #[arg(long, value_name = "W", default_value_t = FitOptions::default().cost.world_weight)]
     pub world_weight: f64,
     /// Weight of the keypoint network's relative depth (MediaPipe's landmark z) as bone
     /// directions; 0 turns it off.
-    #[arg(long, value_name = "W", default_value_t = FitOptions::default().depth_weight)]
+    #[arg(long, value_name = "W", default_value_t = FitOptions::default().cost.depth_weight)]
     pub depth_weight: f64,
     /// Weight of the pull of each tracked fit towards where constant velocity puts the
     /// joints (from the last two frames); 0 turns it off.
-    #[arg(long, value_name = "W", default_value_t = FitOptions::default().temporal_weight)]
+    #[arg(long, value_name = "W", default_value_t = FitOptions::default().tracking.temporal_weight)]
     pub temporal_weight: f64,
     /// With one camera: move each output joint along its viewing ray this share of
     /// the way to its depth in the network's metric 3D (placed rigidly on the fit);
     /// 0 keeps the skeleton's depths.
-    #[arg(long, value_name = "W", default_value_t = FitOptions::default().fuse_world)]
+    #[arg(long, value_name = "W", default_value_t = FitOptions::default().fusion.fuse_world)]
     pub fuse_world: f64,
     /// The same with the network's relative depth (landmark z); the two shares sum
     /// to at most 1.
-    #[arg(long, value_name = "W", default_value_t = FitOptions::default().fuse_depth)]
+    #[arg(long, value_name = "W", default_value_t = FitOptions::default().fusion.fuse_depth)]
     pub fuse_depth: f64,
     /// With one camera: then move each output joint this share of the way towards its
     /// 2D keypoint's viewing ray (at its depth); 0 keeps the skeleton's pixels.
-    #[arg(long, value_name = "W", default_value_t = FitOptions::default().fuse_pixels)]
+    #[arg(long, value_name = "W", default_value_t = FitOptions::default().fusion.fuse_pixels)]
     pub fuse_pixels: f64,
 }
 
 impl CueArgs {
     /// `options` with these weights.
-    pub fn apply(&self, options: FitOptions) -> FitOptions {
-        FitOptions {
-            world_weight: self.world_weight,
-            depth_weight: self.depth_weight,
-            temporal_weight: self.temporal_weight,
-            fuse_world: self.fuse_world,
-            fuse_depth: self.fuse_depth,
-            fuse_pixels: self.fuse_pixels,
-            ..options
-        }
+    pub fn apply(&self, mut options: FitOptions) -> FitOptions {
+        options.cost.world_weight = self.world_weight;
+        options.cost.depth_weight = self.depth_weight;
+        options.tracking.temporal_weight = self.temporal_weight;
+        options.fusion.fuse_world = self.fuse_world;
+        options.fusion.fuse_depth = self.fuse_depth;
+        options.fusion.fuse_pixels = self.fuse_pixels;
+        options
     }
 }
 
@@ -136,11 +134,10 @@ impl HandModelArgs {
 
     /// The fitter's options, checked.
     pub fn fit_options(&self) -> Result<FitOptions> {
-        let options = self.cues.apply(FitOptions {
-            min_confidence: self.min_confidence,
-            confidence_power: self.confidence_power,
-            ..FitOptions::default()
-        });
+        let mut options = FitOptions::default();
+        options.cost.min_confidence = self.min_confidence;
+        options.cost.confidence_power = self.confidence_power;
+        let options = self.cues.apply(options);
         options.validate().context(
             "--min-confidence / --confidence-power / --world-weight / --depth-weight / --temporal-weight / --fuse-world / --fuse-depth / --fuse-pixels",
         )?;

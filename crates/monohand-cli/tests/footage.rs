@@ -281,9 +281,10 @@ fn a_photo_is_drawn_with_the_camera_it_was_fitted_with() {
     // 18 mm on the 43.27 mm diagonal of 35 mm film, for the 800 px diagonal of 640x480.
     let fx = 18.0 * 800.0 / 36f64.hypot(24.0);
     assert!((cam.fx - fx).abs() < 1e-6 && cam.fx == cam.fy, "{cam:?}");
+    // The principal point at the image centre, in the pixel-centre convention.
     assert_eq!(
         (cam.width, cam.height, cam.cx, cam.cy),
-        (640, 480, 320.0, 240.0)
+        (640, 480, 319.5, 239.5)
     );
 
     let file = dir.path().join("cam.json");

@@ -88,8 +88,8 @@ fn bench(c: &mut Criterion) {
     c.bench_function("fuse_network_depth", |b| {
         let joints = forward_kinematics(&sk, &poses[0]);
         let weights = [
-            FitOptions::default().fuse_world,
-            FitOptions::default().fuse_depth,
+            FitOptions::default().fusion.fuse_world,
+            FitOptions::default().fusion.fuse_depth,
         ];
         b.iter(|| fuse_network_depth(black_box(&joints), &left, &cues[0], weights))
     });

@@ -47,7 +47,10 @@ pub mod prelude {
     pub use crate::bbox::BBox;
     pub use crate::camera::{Camera, Distortion, Extrinsics, Intrinsics};
     pub use crate::error::{CoreError, CoreResult};
-    pub use crate::fitting::{FitOptions, FitResult, HandFitter, HandTracker, View};
+    pub use crate::fitting::{
+        CostSettings, FitOptions, FitResult, FusionSettings, HandFitter, HandTracker,
+        SolverSettings, TrackingSettings, View,
+    };
     pub use crate::hand_model::{
         Finger, HandPose, HandSide, HandSkeleton, JointLimits, NUM_JOINTS,
     };

@@ -73,8 +73,8 @@ impl Keypoints2d {
 /// Both parts are *relative*: they describe the hand's shape and orientation,
 /// not where it is. The fitter turns each into a target direction per bone
 /// ([`crate::hand_model::BONES`]) and adds `L (d_model - d_target)` residuals,
-/// weighted by [`crate::fitting::FitOptions::world_weight`] and
-/// [`crate::fitting::FitOptions::depth_weight`]: only directions are used, so
+/// weighted by [`crate::fitting::CostSettings::world_weight`] and
+/// [`crate::fitting::CostSettings::depth_weight`]: only directions are used, so
 /// neither the network's metric scale nor its bone proportions have to agree
 /// with the skeleton's.
 ///

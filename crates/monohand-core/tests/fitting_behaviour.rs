@@ -75,7 +75,10 @@ fn bad_inputs_are_errors() {
         .unwrap_err();
     assert!(matches!(e, CoreError::InvalidOptions(_)), "{e}");
     let e = FitOptions {
-        min_confidence: 2.0,
+        cost: CostSettings {
+            min_confidence: 2.0,
+            ..Default::default()
+        },
         ..Default::default()
     }
     .validate()
@@ -112,7 +115,10 @@ fn tracking_follows_motion_and_keeps_vanished_joints_on_the_hand() {
     // The paper's cost: exact keypoints give the exact pose (the temporal term's bias
     // is measured in `temporal_term_follows_steady_motion`).
     let options = FitOptions {
-        temporal_weight: 0.0,
+        tracking: TrackingSettings {
+            temporal_weight: 0.0,
+            ..TrackingSettings::default()
+        },
         ..FitOptions::default()
     };
     let mut tracker = HandTracker::new(sk, options).unwrap();
@@ -184,7 +190,10 @@ fn starting_poses_are_the_starts_fit_iterates_from() {
     let mut lm_only = HandFitter::new(
         sk,
         FitOptions {
-            max_iterations_tracking: opts.max_iterations,
+            solver: SolverSettings {
+                max_iterations_tracking: opts.solver.max_iterations,
+                ..opts.solver
+            },
             ..opts
         },
     )

@@ -87,7 +87,7 @@ def test_track_runs_the_cli_engine_and_gives_its_records(tmp_path, moving_video,
         assert [h.to_dict() for h in f.hands] == rec["hands"]
     assert frames[0].cameras == [
         {"fx": pytest.approx(320 / np.tan(np.radians(30))), "fy": pytest.approx(320 / np.tan(np.radians(30))),
-         "cx": 320.0, "cy": 240.0, "width": 640, "height": 480, "source": "generic"}
+         "cx": 319.5, "cy": 239.5, "width": 640, "height": 480, "source": "generic"}
     ]
     assert summary["frames"] == 40 and summary["hands_3d"] >= 38 and summary["fps"] > 0
     assert any("generic camera for 640x480" in n for n in notes), notes

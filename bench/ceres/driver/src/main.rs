@@ -133,8 +133,8 @@ fn project(
 
 /// Residual weight of a keypoint, as `HandFitter` computes it.
 fn weight(p: f64, o: &FitOptions) -> f64 {
-    if p > 0.0 && p >= o.min_confidence {
-        p.powf(o.confidence_power)
+    if p > 0.0 && p >= o.cost.min_confidence {
+        p.powf(o.cost.confidence_power)
     } else {
         0.0
     }
@@ -219,7 +219,10 @@ fn run() -> Res<()> {
     let mut lm_scratch = HandFitter::new(
         sk,
         FitOptions {
-            max_iterations_tracking: opts.max_iterations,
+            solver: SolverSettings {
+                max_iterations_tracking: opts.solver.max_iterations,
+                ..opts.solver
+            },
             ..opts
         },
     )?;
@@ -238,7 +241,7 @@ fn run() -> Res<()> {
             name: format!("noise{noise}px-scratch"),
             noise,
             warm: false,
-            max_iter: opts.max_iterations,
+            max_iter: opts.solver.max_iterations,
             problems: Vec::new(),
             ours_lm: Vec::new(),
             ours_full: Vec::new(),
@@ -288,7 +291,7 @@ fn run() -> Res<()> {
             name: format!("noise{noise}px-warm"),
             noise,
             warm: true,
-            max_iter: opts.max_iterations_tracking,
+            max_iter: opts.solver.max_iterations_tracking,
             problems: Vec::new(),
             ours_lm: Vec::new(),
             ours_full: Vec::new(),

@@ -30,8 +30,12 @@ pub struct FitResult {
     pub pose: HandPose,
     /// The 21 joints in the reference (first) camera frame, millimetres: the
     /// posed skeleton's, with one view moved towards the network's depth
-    /// ([`FitOptions::fuse_world`], [`FitOptions::fuse_depth`]) and pixels
-    /// ([`FitOptions::fuse_pixels`]).
+    /// ([`FusionSettings::fuse_world`], [`FusionSettings::fuse_depth`]) and pixels
+    /// ([`FusionSettings::fuse_pixels`]).
+    ///
+    /// [`FusionSettings::fuse_world`]: crate::fitting::FusionSettings::fuse_world
+    /// [`FusionSettings::fuse_depth`]: crate::fitting::FusionSettings::fuse_depth
+    /// [`FusionSettings::fuse_pixels`]: crate::fitting::FusionSettings::fuse_pixels
     pub joints_3d: [Vector3<f64>; NUM_JOINTS],
     /// The posed skeleton's joints (`pose` through forward kinematics), the
     /// same as `joints_3d` without fusion ([`crate::fitting::fuse_network_depth`],
@@ -87,8 +91,7 @@ pub struct HandFitter {
     bone_lengths: [f64; NUM_BONES],
     /// Joints the temporal term pulls towards (reference frame), in tracking.
     prior: Option<[Vector3<f64>; NUM_JOINTS]>,
-    /// The network's 3D of a fit with one view, for [`FitOptions::fuse_world`]
-    /// and [`FitOptions::fuse_depth`].
+    /// The network's 3D of a fit with one view, for [`FitOptions::fusion`].
     fusion_cues: Option<NetworkCues>,
 }
 
@@ -155,12 +158,13 @@ impl HandFitter {
         let mut best: Option<Solution> = None;
         let view_index = init::best_view(&self.views);
         for start in starts.iter().flatten() {
-            let mut sol = self.solve(*start, &observed, &free, self.options.max_iterations);
+            let mut sol = self.solve(*start, &observed, &free, self.options.solver.max_iterations);
             // Second pass: re-seat the fingers on the root refined by all joints.
             if sol.cost > 1e-12 * used as f64 {
                 let mut again = sol.pose;
                 init::init_fingers(&self.posed, &mut again, &self.views[view_index]);
-                let second = self.solve(again, &observed, &free, self.options.max_iterations);
+                let second =
+                    self.solve(again, &observed, &free, self.options.solver.max_iterations);
                 if second.cost < sol.cost {
                     sol = second;
                 }
@@ -182,7 +186,7 @@ impl HandFitter {
     /// are seen, each with its fingers set from the keypoint rays.
     ///
     /// `fit` runs the solver from each of these (with
-    /// [`FitOptions::max_iterations`]), re-seats the fingers on each result and
+    /// [`SolverSettings::max_iterations`]), re-seats the fingers on each result and
     /// solves once more (the second pass), and keeps the lowest cost. The
     /// first part alone is [`HandFitter::fit_from`] on each start with
     /// `max_iterations_tracking` set to `max_iterations`; benchmarks use this
@@ -190,6 +194,8 @@ impl HandFitter {
     ///
     /// Errors as [`HandFitter::fit`] for bad views or too few joints; the list
     /// is empty if no start could be placed in front of the cameras.
+    ///
+    /// [`SolverSettings::max_iterations`]: crate::fitting::SolverSettings::max_iterations
     pub fn starting_poses(&mut self, views: &[View]) -> CoreResult<Vec<HandPose>> {
         self.prepare(views)?;
         let observed = self.observed_joints();
@@ -203,8 +209,10 @@ impl HandFitter {
     /// not observed in any view keep their previous values, so those joints keep
     /// their last position relative to the hand and move with its root (the
     /// paper's rule for vanishing joints). With
-    /// [`FitOptions::temporal_weight`] above 0, every joint is also pulled
+    /// [`TrackingSettings::temporal_weight`] above 0, every joint is also pulled
     /// towards its position in `start`.
+    ///
+    /// [`TrackingSettings::temporal_weight`]: crate::fitting::TrackingSettings::temporal_weight
     pub fn fit_from(&mut self, views: &[View], start: &HandPose) -> CoreResult<FitResult> {
         self.fit_from_with(views, start, Towards::Start)
     }
@@ -251,12 +259,12 @@ impl HandFitter {
             Towards::Joints(joints) => Some(joints),
             Towards::Nothing => None,
         };
-        self.prior = towards.filter(|_| self.options.temporal_weight > 0.0);
+        self.prior = towards.filter(|_| self.options.tracking.temporal_weight > 0.0);
         let sol = self.solve(
             start,
             &observed,
             &free,
-            self.options.max_iterations_tracking,
+            self.options.solver.max_iterations_tracking,
         );
         Ok(self.finish(sol, used))
     }
@@ -288,8 +296,8 @@ impl HandFitter {
         if let [v] = views {
             // Each cue is fused only if the fit itself uses it.
             self.fusion_cues = v.cues.map(|c| NetworkCues {
-                world_mm: c.world_mm.filter(|_| o.world_weight > 0.0),
-                depth_px: c.depth_px.filter(|_| o.depth_weight > 0.0),
+                world_mm: c.world_mm.filter(|_| o.cost.world_weight > 0.0),
+                depth_px: c.depth_px.filter(|_| o.cost.depth_weight > 0.0),
             });
         }
         let with_cues = views.iter().filter(|v| v.cues.is_some()).count();
@@ -303,11 +311,11 @@ impl HandFitter {
             }
         }
         let joints = self.observed_joints().iter().filter(|&&b| b).count();
-        if joints < o.min_joints {
+        if joints < o.cost.min_joints {
             return Err(CoreError::TooFewJoints {
                 usable: joints,
-                threshold: o.min_confidence,
-                needed: o.min_joints,
+                threshold: o.cost.min_confidence,
+                needed: o.cost.min_joints,
             });
         }
         Ok(used)
@@ -369,9 +377,12 @@ impl HandFitter {
         };
         let o = &self.options;
         let deep = match self.fusion_cues {
-            Some(cues) => {
-                fuse_network_depth(joints, &v.camera, &cues, [o.fuse_world, o.fuse_depth])?
-            }
+            Some(cues) => fuse_network_depth(
+                joints,
+                &v.camera,
+                &cues,
+                [o.fusion.fuse_world, o.fusion.fuse_depth],
+            )?,
             None => *joints,
         };
         // The keypoints the fit used (weight above 0), as given (distorted).
@@ -381,7 +392,7 @@ impl HandFitter {
                 [u, w, if v.weights[j] > 0.0 { 1.0 } else { 0.0 }]
             }),
         };
-        fuse_keypoints(&deep, &v.camera, &used, 1.0, o.fuse_pixels)
+        fuse_keypoints(&deep, &v.camera, &used, 1.0, o.fusion.fuse_pixels)
     }
 
     /// Cost of a pose over the masked joints; `None` if a joint is behind a camera.
@@ -481,7 +492,7 @@ impl HandFitter {
                 }
             }
         }
-        let wt = self.options.temporal_weight;
+        let wt = self.options.tracking.temporal_weight;
         for (j, form) in forms.iter_mut().enumerate() {
             if let Some(res) = self.temporal_residual(j, &pts, mask) {
                 cost += res.norm_squared();
@@ -526,7 +537,7 @@ impl HandFitter {
         mask: &JointMask,
     ) -> Option<Vector3<f64>> {
         let prior = self.prior.as_ref().filter(|_| mask[j])?;
-        Some(self.options.temporal_weight * (pts[j] - prior[j]))
+        Some(self.options.tracking.temporal_weight * (pts[j] - prior[j]))
     }
 
     /// Levenberg-Marquardt from `start` over the free degrees of freedom.
@@ -550,7 +561,7 @@ impl HandFitter {
                 converged: false,
             };
         };
-        let mut lambda = self.options.initial_damping;
+        let mut lambda = self.options.solver.initial_damping;
         let mut nu = 2.0;
         let mut converged = false;
         let mut iterations = 0;
@@ -576,7 +587,7 @@ impl HandFitter {
             // cost the Gauss-Newton direction is often good but too long.
             let (candidate, taken, new_cost) = match new_cost {
                 Some(nc) if nc < cost => (candidate, taken, new_cost),
-                _ if taken.amax() > self.options.step_tolerance => {
+                _ if taken.amax() > self.options.solver.step_tolerance => {
                     let slope = 2.0 * g.dot(&taken);
                     let alpha = match new_cost {
                         Some(nc) if slope < 0.0 => {
@@ -602,8 +613,8 @@ impl HandFitter {
                     } else {
                         1.0
                     };
-                    let small_decrease = cost - nc <= self.options.cost_tolerance * cost;
-                    let small_step = taken.amax() <= self.options.step_tolerance;
+                    let small_decrease = cost - nc <= self.options.solver.cost_tolerance * cost;
+                    let small_step = taken.amax() <= self.options.solver.step_tolerance;
                     pose = candidate;
                     lambda *= (1.0f64 / 3.0).max(1.0 - (2.0 * rho - 1.0).powi(3));
                     lambda = lambda.max(1e-15);
@@ -618,7 +629,7 @@ impl HandFitter {
                     }
                 }
                 _ => {
-                    if taken.amax() <= self.options.step_tolerance {
+                    if taken.amax() <= self.options.solver.step_tolerance {
                         converged = true;
                         break;
                     }
@@ -842,6 +853,7 @@ fn step_between(from: &HandPose, to: &HandPose, requested: &Vec26) -> Vec26 {
 mod tests {
     use super::*;
     use crate::camera::Camera;
+    use crate::fitting::{CostSettings, TrackingSettings};
     use crate::hand_model::HandSide;
     use nalgebra::Rotation3;
 
@@ -882,9 +894,15 @@ mod tests {
             depth_px: Some(std::array::from_fn(|j| cue_joints[j].z - cue_joints[0].z)),
         };
         let options = FitOptions {
-            world_weight: 0.7,
-            depth_weight: 0.4,
-            temporal_weight: 0.3,
+            cost: CostSettings {
+                world_weight: 0.7,
+                depth_weight: 0.4,
+                ..CostSettings::default()
+            },
+            tracking: TrackingSettings {
+                temporal_weight: 0.3,
+                ..TrackingSettings::default()
+            },
             ..FitOptions::default()
         };
         let mut fitter = HandFitter::new(sk, options).unwrap();
@@ -964,7 +982,10 @@ mod tests {
             kp
         };
         let options = FitOptions {
-            temporal_weight: 1.0,
+            tracking: TrackingSettings {
+                temporal_weight: 1.0,
+                ..TrackingSettings::default()
+            },
             ..FitOptions::default()
         };
         let mut fitter = HandFitter::new(sk, options).unwrap();

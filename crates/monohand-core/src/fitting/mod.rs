@@ -1,7 +1,7 @@
 //! Fitting the hand model to 2D keypoints in one or more calibrated views.
 //!
 //! The cost is the paper's: for every view and every joint whose confidence
-//! `p` is at least [`FitOptions::min_confidence`],
+//! `p` is at least [`CostSettings::min_confidence`],
 //! `(p^k (x - u))^2 + (p^k (y - v))^2` with `k = 3` by default, where `(x, y)`
 //! is the projection of the model joint and `(u, v)` the observed keypoint
 //! (undistorted once up front, so the solver works on ideal pinhole pixels).
@@ -39,7 +39,9 @@ mod tracker;
 
 pub use fusion::{fuse_keypoints, fuse_network_depth};
 pub use lm::{FitResult, HandFitter};
-pub use options::{FitOptions, View};
+pub use options::{
+    CostSettings, FitOptions, FusionSettings, SolverSettings, TrackingSettings, View,
+};
 pub use proportions::{estimate_proportions, ProportionEstimate, MIN_FRAMES, SETTLED_CHANGE};
 pub use scale::{estimate_hand_scale, ScaleEstimate, MIN_COST_CONTRAST};
 pub use tracker::HandTracker;

@@ -31,15 +31,35 @@ impl<'a> View<'a> {
     }
 }
 
-/// Settings of the fitter.
-#[derive(Debug, Clone, Copy, PartialEq)]
+/// Settings of the fitter, in four groups: the Levenberg-Marquardt solver's, the
+/// cost's (which keypoints count, how much, and the network's 3D cues), tracking's
+/// and the fusion of the network's depth and the keypoints into the output joints.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub struct FitOptions {
-    /// Joints with a confidence below this are dropped (paper: 0.1).
-    pub min_confidence: f64,
-    /// Residuals are weighted by `confidence ^ confidence_power` (paper: 3).
-    pub confidence_power: f64,
-    /// Fewest usable joints (over all views) for a fit to be attempted.
-    pub min_joints: usize,
+    /// The Levenberg-Marquardt solver: iteration caps, stopping rule, damping.
+    pub solver: SolverSettings,
+    /// The cost: which keypoints are used, their weights, the network's 3D cues.
+    pub cost: CostSettings,
+    /// Tracking: when a warm-started fit is redone from scratch, the temporal term.
+    pub tracking: TrackingSettings,
+    /// With one view, after the fit: the output joints moved towards the network's
+    /// depth and the keypoints.
+    pub fusion: FusionSettings,
+}
+
+impl FitOptions {
+    /// Checks the numbers of every group.
+    pub fn validate(&self) -> CoreResult<()> {
+        self.solver.validate()?;
+        self.cost.validate()?;
+        self.tracking.validate()?;
+        self.fusion.validate()
+    }
+}
+
+/// Settings of the Levenberg-Marquardt solver ([`FitOptions::solver`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SolverSettings {
     /// Iteration cap for a fit from scratch (per starting hypothesis).
     pub max_iterations: usize,
     /// Iteration cap for a warm-started (tracking) fit.
@@ -50,9 +70,45 @@ pub struct FitOptions {
     pub step_tolerance: f64,
     /// Initial Levenberg-Marquardt damping (relative to the diagonal).
     pub initial_damping: f64,
-    /// In tracking, refit from scratch when the warm-started fit's mean
-    /// reprojection error exceeds this (pixels).
-    pub tracking_reset_px: f64,
+}
+
+impl Default for SolverSettings {
+    fn default() -> Self {
+        SolverSettings {
+            max_iterations: 100,
+            max_iterations_tracking: 30,
+            cost_tolerance: 1e-9,
+            step_tolerance: 1e-7,
+            initial_damping: 1e-3,
+        }
+    }
+}
+
+impl SolverSettings {
+    /// Checks the numbers.
+    pub fn validate(&self) -> CoreResult<()> {
+        let bad = |m: &str| Err(CoreError::InvalidOptions(m.to_string()));
+        if self.max_iterations == 0 || self.max_iterations_tracking == 0 {
+            return bad("iteration caps must be positive");
+        }
+        if !(self.cost_tolerance >= 0.0 && self.step_tolerance >= 0.0 && self.initial_damping > 0.0)
+        {
+            return bad("tolerances must be >= 0 and damping > 0");
+        }
+        Ok(())
+    }
+}
+
+/// Settings of the cost ([`FitOptions::cost`]): which keypoints are used, how much
+/// each weighs, and the weights of the network's 3D cues.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CostSettings {
+    /// Joints with a confidence below this are dropped (paper: 0.1).
+    pub min_confidence: f64,
+    /// Residuals are weighted by `confidence ^ confidence_power` (paper: 3).
+    pub confidence_power: f64,
+    /// Fewest usable joints (over all views) for a fit to be attempted.
+    pub min_joints: usize,
     /// Weight of the network's metric 3D ([`NetworkCues::world_mm`]): each
     /// bone adds `w p^k L (d_model - d_world)` (mm, `L` the bone's length, `d`
     /// unit directions, `p^k` the smaller confidence weight of its two joints)
@@ -70,10 +126,90 @@ pub struct FitOptions {
     /// [`world_weight`](Self::world_weight) / [`depth_weight`](Self::depth_weight).
     /// Default: the inverse of the measured angular error, [`CUE_BONE_ERROR_DEG`].
     pub cue_segment_weights: [[f64; 4]; 2],
+}
+
+impl Default for CostSettings {
+    fn default() -> Self {
+        CostSettings {
+            min_confidence: 0.1,
+            confidence_power: 3.0,
+            min_joints: 4,
+            // Chosen on the development set (hand_graph_cnn_dev, 292 frames, tracked):
+            // docs/accuracy.md has the table that chose them.
+            world_weight: 1.0,
+            depth_weight: 1.0,
+            cue_segment_weights: cue_segment_weights_from(&CUE_BONE_ERROR_DEG),
+        }
+    }
+}
+
+impl CostSettings {
+    /// Checks the numbers.
+    pub fn validate(&self) -> CoreResult<()> {
+        let bad = |m: &str| Err(CoreError::InvalidOptions(m.to_string()));
+        if !(0.0..=1.0).contains(&self.min_confidence) {
+            return bad("min_confidence must be in [0, 1]");
+        }
+        if !(self.confidence_power.is_finite() && self.confidence_power >= 0.0) {
+            return bad("confidence_power must be finite and >= 0");
+        }
+        if self.min_joints < 3 {
+            return bad("min_joints must be at least 3");
+        }
+        for (name, w) in [
+            ("world_weight", self.world_weight),
+            ("depth_weight", self.depth_weight),
+        ]
+        .into_iter()
+        .chain(
+            self.cue_segment_weights
+                .iter()
+                .flatten()
+                .map(|&w| ("cue_segment_weights", w)),
+        ) {
+            check_weight(name, w)?;
+        }
+        Ok(())
+    }
+}
+
+/// Settings of tracking ([`FitOptions::tracking`]: [`HandTracker`] and
+/// [`HandFitter::fit_from`]).
+///
+/// [`HandTracker`]: crate::fitting::HandTracker
+/// [`HandFitter::fit_from`]: crate::fitting::HandFitter::fit_from
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct TrackingSettings {
+    /// In tracking, refit from scratch when the warm-started fit's mean
+    /// reprojection error exceeds this (pixels).
+    pub tracking_reset_px: f64,
     /// Weight of the pull in tracking towards where constant velocity puts the
     /// joints (from the last two frames): every joint adds `w (X - X_predicted)`
     /// (mm). 0 turns it off.
     pub temporal_weight: f64,
+}
+
+impl Default for TrackingSettings {
+    fn default() -> Self {
+        TrackingSettings {
+            tracking_reset_px: 5.0,
+            // Chosen on the development set, as the cue weights (docs/accuracy.md).
+            temporal_weight: 0.1,
+        }
+    }
+}
+
+impl TrackingSettings {
+    /// Checks the numbers.
+    pub fn validate(&self) -> CoreResult<()> {
+        check_weight("temporal_weight", self.temporal_weight)
+    }
+}
+
+/// Settings of the fusion of the network's depth and the keypoints into the
+/// output joints, with one view, after the fit ([`FitOptions::fusion`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct FusionSettings {
     /// With one view carrying the network's 3D, the share of each output joint's
     /// depth taken from the metric 3D ([`NetworkCues::world_mm`], placed rigidly
     /// on the fit): the joint moves along its viewing ray ([`fuse_network_depth`]).
@@ -96,9 +232,47 @@ pub struct FitOptions {
     pub fuse_pixels: f64,
 }
 
+impl Default for FusionSettings {
+    fn default() -> Self {
+        FusionSettings {
+            // Chosen on the development set (docs/accuracy.md, "depth fusion").
+            fuse_world: 0.5,
+            fuse_depth: 0.1,
+            fuse_pixels: 0.5,
+        }
+    }
+}
+
+impl FusionSettings {
+    /// Checks the numbers.
+    pub fn validate(&self) -> CoreResult<()> {
+        let bad = |m: &str| Err(CoreError::InvalidOptions(m.to_string()));
+        if !((0.0..=1.0).contains(&self.fuse_world)
+            && (0.0..=1.0).contains(&self.fuse_depth)
+            && self.fuse_world + self.fuse_depth <= 1.0)
+        {
+            return bad("fuse_world and fuse_depth must be in [0, 1], with a sum of at most 1");
+        }
+        if !(0.0..=1.0).contains(&self.fuse_pixels) {
+            return bad("fuse_pixels must be in [0, 1]");
+        }
+        Ok(())
+    }
+}
+
+/// A weight must be finite and not negative.
+fn check_weight(name: &str, w: f64) -> CoreResult<()> {
+    if !(w.is_finite() && w >= 0.0) {
+        return Err(CoreError::InvalidOptions(format!(
+            "{name} must be finite and >= 0"
+        )));
+    }
+    Ok(())
+}
+
 /// Angular error (RMS, degrees) of the landmark network's bone directions against
 /// the 3D labels of the development set (hand_graph_cnn_dev, 288 detected frames,
-/// `[cue][segment]` as [`FitOptions::cue_segment_weights`]): world landmarks, then
+/// `[cue][segment]` as [`CostSettings::cue_segment_weights`]): world landmarks, then
 /// relative depth, pooled over the five fingers and all confidences
 /// (`bench/cue_reliability/cue_reliability.py` prints them). The default weights
 /// are the smallest of them over each (inverse-variance weighting: one residual's
@@ -118,78 +292,33 @@ fn cue_segment_weights_from(errors: &[[f64; 4]; 2]) -> [[f64; 4]; 2] {
     errors.map(|cue| cue.map(|e| best / e))
 }
 
-impl Default for FitOptions {
-    fn default() -> Self {
-        FitOptions {
-            min_confidence: 0.1,
-            confidence_power: 3.0,
-            min_joints: 4,
-            max_iterations: 100,
-            max_iterations_tracking: 30,
-            cost_tolerance: 1e-9,
-            step_tolerance: 1e-7,
-            initial_damping: 1e-3,
-            tracking_reset_px: 5.0,
-            // Chosen on the development set (hand_graph_cnn_dev, 292 frames, tracked):
-            // docs/accuracy.md has the table that chose them.
-            world_weight: 1.0,
-            depth_weight: 1.0,
-            cue_segment_weights: cue_segment_weights_from(&CUE_BONE_ERROR_DEG),
-            temporal_weight: 0.1,
-            fuse_world: 0.5,
-            fuse_depth: 0.1,
-            fuse_pixels: 0.5,
-        }
-    }
-}
+#[cfg(test)]
+mod tests {
+    use super::*;
 
-impl FitOptions {
-    /// Checks the numbers.
-    pub fn validate(&self) -> CoreResult<()> {
-        let bad = |m: &str| Err(CoreError::InvalidOptions(m.to_string()));
-        if !(0.0..=1.0).contains(&self.min_confidence) {
-            return bad("min_confidence must be in [0, 1]");
+    #[test]
+    fn validate_checks_every_group() {
+        assert!(FitOptions::default().validate().is_ok());
+        type Spoil = fn(&mut FitOptions);
+        let bad: [(&str, Spoil); 7] = [
+            ("iteration caps", |o| o.solver.max_iterations_tracking = 0),
+            ("damping", |o| o.solver.initial_damping = 0.0),
+            ("min_joints", |o| o.cost.min_joints = 2),
+            ("cue_segment_weights", |o| {
+                o.cost.cue_segment_weights[1][3] = -1.0
+            }),
+            ("temporal_weight", |o| o.tracking.temporal_weight = f64::NAN),
+            ("fuse_world", |o| o.fusion.fuse_depth = 0.6),
+            ("fuse_pixels", |o| o.fusion.fuse_pixels = 1.5),
+        ];
+        for (message, spoil) in bad {
+            let mut o = FitOptions::default();
+            spoil(&mut o);
+            let e = o.validate().unwrap_err();
+            assert!(
+                matches!(e, CoreError::InvalidOptions(_)) && e.to_string().contains(message),
+                "{message}: {e}"
+            );
         }
-        if !(self.confidence_power.is_finite() && self.confidence_power >= 0.0) {
-            return bad("confidence_power must be finite and >= 0");
-        }
-        if self.min_joints < 3 {
-            return bad("min_joints must be at least 3");
-        }
-        if self.max_iterations == 0 || self.max_iterations_tracking == 0 {
-            return bad("iteration caps must be positive");
-        }
-        if !(self.cost_tolerance >= 0.0 && self.step_tolerance >= 0.0 && self.initial_damping > 0.0)
-        {
-            return bad("tolerances must be >= 0 and damping > 0");
-        }
-        if !((0.0..=1.0).contains(&self.fuse_world)
-            && (0.0..=1.0).contains(&self.fuse_depth)
-            && self.fuse_world + self.fuse_depth <= 1.0)
-        {
-            return bad("fuse_world and fuse_depth must be in [0, 1], with a sum of at most 1");
-        }
-        if !(0.0..=1.0).contains(&self.fuse_pixels) {
-            return bad("fuse_pixels must be in [0, 1]");
-        }
-        for (name, w) in [
-            ("world_weight", self.world_weight),
-            ("depth_weight", self.depth_weight),
-            ("temporal_weight", self.temporal_weight),
-        ]
-        .into_iter()
-        .chain(
-            self.cue_segment_weights
-                .iter()
-                .flatten()
-                .map(|&w| ("cue_segment_weights", w)),
-        ) {
-            if !(w.is_finite() && w >= 0.0) {
-                return Err(CoreError::InvalidOptions(format!(
-                    "{name} must be finite and >= 0"
-                )));
-            }
-        }
-        Ok(())
     }
 }

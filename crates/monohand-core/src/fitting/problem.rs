@@ -3,7 +3,7 @@
 //! directions). Both the solver ([`super::lm`]) and its starts ([`super::init`])
 //! read these; this module depends on neither.
 
-use super::options::{FitOptions, View};
+use super::options::{CostSettings, FitOptions, View};
 use crate::camera::Camera;
 use crate::error::{CoreError, CoreResult};
 use crate::hand_model::params::ANGLES_PER_FINGER;
@@ -79,17 +79,17 @@ impl PreparedView {
         };
         for (j, p) in v.keypoints.points.iter().enumerate() {
             pv.raw[j] = [p[0], p[1]];
-            if p[2] > 0.0 && p[2] >= o.min_confidence {
+            if p[2] > 0.0 && p[2] >= o.cost.min_confidence {
                 let u = v.camera.undistort_pixel(nalgebra::Point2::new(p[0], p[1]));
                 pv.targets[j] = [u.x, u.y];
-                pv.weights[j] = p[2].powf(o.confidence_power);
+                pv.weights[j] = p[2].powf(o.cost.confidence_power);
                 used += 1;
             }
         }
         if let Some(cues) = v.cues {
             cues.validate()
                 .map_err(|e| CoreError::InvalidKeypoints(format!("view {vi}: {e}")))?;
-            set_bone_targets(&mut pv, cues, o);
+            set_bone_targets(&mut pv, cues, &o.cost);
         }
         Ok((pv, used))
     }
@@ -101,9 +101,9 @@ impl PreparedView {
 /// it, so its directions are turned by the rotation that takes the optical
 /// axis to the viewing ray through the observed joints' mean. A bone's weight
 /// is the cue's weight times its segment's reliability
-/// ([`FitOptions::cue_segment_weights`]) times the smaller confidence weight of
+/// ([`CostSettings::cue_segment_weights`]) times the smaller confidence weight of
 /// its two joints.
-fn set_bone_targets(pv: &mut PreparedView, cues: &NetworkCues, o: &FitOptions) {
+fn set_bone_targets(pv: &mut PreparedView, cues: &NetworkCues, o: &CostSettings) {
     let (su, sv, n) = (0..NUM_JOINTS)
         .filter(|&j| pv.weights[j] > 0.0)
         .fold((0.0, 0.0, 0.0), |(u, v, n), j| {

@@ -10,7 +10,7 @@
 //! should be kept. With two or more calibrated views the baseline fixes the depth and the
 //! size follows (see `docs/accuracy.md` for the measurement on STB).
 
-use super::options::{FitOptions, View};
+use super::options::{FitOptions, TrackingSettings, View};
 use super::tracker::HandTracker;
 use crate::error::{CoreError, CoreResult};
 use crate::hand_model::HandSkeleton;
@@ -93,7 +93,10 @@ pub fn estimate_hand_scale(
         // The temporal pull would make each scale's fits differ by how they track, not by
         // how well they explain the views: the comparison uses the views' cost alone.
         let options = FitOptions {
-            temporal_weight: 0.0,
+            tracking: TrackingSettings {
+                temporal_weight: 0.0,
+                ..options.tracking
+            },
             ..*options
         };
         let mut tracker = HandTracker::new(template.scaled(s)?, options)?;

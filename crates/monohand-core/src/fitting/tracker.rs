@@ -7,13 +7,16 @@ use nalgebra::Vector3;
 /// Fits a hand frame after frame, starting each fit from the previous solution.
 ///
 /// If the warm-started fit is poor (not converged, or mean reprojection error
-/// above [`FitOptions::tracking_reset_px`]) a fit from scratch is also run and
+/// above [`TrackingSettings::tracking_reset_px`]) a fit from scratch is also run and
 /// the one with the lower cost kept, so large jumps between frames recover. Frames with too few joints return the error and keep the
 /// last pose for the next frame.
 ///
-/// The temporal term ([`FitOptions::temporal_weight`]) pulls each joint towards
+/// The temporal term ([`TrackingSettings::temporal_weight`]) pulls each joint towards
 /// where constant velocity puts it (`2 x(t-1) - x(t-2)`; from the third frame
 /// of a track on), so a hand moving steadily is not held back.
+///
+/// [`TrackingSettings::tracking_reset_px`]: crate::fitting::TrackingSettings::tracking_reset_px
+/// [`TrackingSettings::temporal_weight`]: crate::fitting::TrackingSettings::temporal_weight
 #[derive(Debug, Clone)]
 pub struct HandTracker {
     fitter: HandFitter,
@@ -43,7 +46,7 @@ impl HandTracker {
                 };
                 let warm = self.fitter.fit_from_towards(views, &prev, predicted)?;
                 if !warm.converged
-                    || warm.reprojection_error_px > self.fitter.options().tracking_reset_px
+                    || warm.reprojection_error_px > self.fitter.options().tracking.tracking_reset_px
                 {
                     let cold = self.fitter.fit(views)?;
                     if cold.cost < warm.cost {
