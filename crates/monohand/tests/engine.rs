@@ -1,0 +1,178 @@
+//! The engine on real frames (the first 40 frames of the hand-graph-cnn development set in
+//! `../shared/data`, real networks): it gives the session's records, in order, through its
+//! threads; cancelling stops it cleanly; a failing sink stops it and the others are closed.
+//!
+//! Needs `../shared/data` and the MediaPipe weights (fetched with pip on first use): without
+//! them the tests fail, they do not skip.
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a failed test is a panic
+
+use monohand::engine::{
+    CallerFrames, Engine, EngineError, EngineSettings, FrameSource, Observer, Output, Quiet,
+    RunReport, Sink, SinkError,
+};
+use monohand::records::fitted_record;
+use monohand::{HandPipeline, RgbImage, Session, SessionOptions};
+use monohand_eval::datasets::hand_graph_cnn::load_hand_graph_cnn;
+use monohand_io::jsonl::{CameraSource, FrameRecord};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
+
+/// The first `n` dev frames (256x256 crops) with their times at 30 fps.
+fn frames(n: usize) -> Vec<(RgbImage, f64)> {
+    let data = load_hand_graph_cnn(monohand_testkit::dev_set_dir()).expect("dev set");
+    data.frames[..n]
+        .iter()
+        .enumerate()
+        .map(|(k, f)| {
+            let image = monohand::vision::image_io::load_rgb(&f.images[0]).expect("image");
+            (image, k as f64 / 30.0)
+        })
+        .collect()
+}
+
+/// Keeps every record; counts `finish` calls.
+#[derive(Default, Clone)]
+struct Collect {
+    records: Arc<Mutex<Vec<FrameRecord>>>,
+    finished: Arc<AtomicU64>,
+    fail_at: Option<u64>,
+}
+
+impl Sink for Collect {
+    fn write(&mut self, frame: &Output<'_>) -> Result<(), SinkError> {
+        if self.fail_at == Some(frame.record.frame) {
+            return Err("disk full (a test's sink)".into());
+        }
+        self.records.lock().unwrap().push(frame.record.clone());
+        Ok(())
+    }
+
+    fn finish(&mut self) -> Result<(), SinkError> {
+        self.finished.fetch_add(1, Ordering::Relaxed);
+        Ok(())
+    }
+}
+
+fn source(frames: Vec<(RgbImage, f64)>) -> Box<dyn FrameSource> {
+    Box::new(CallerFrames::new(frames.into_iter(), true))
+}
+
+fn engine(pipeline: &Arc<HandPipeline>) -> Engine {
+    Engine::new(Arc::clone(pipeline), Vec::new(), EngineSettings::default()).expect("engine")
+}
+
+fn without_timings(mut r: FrameRecord) -> FrameRecord {
+    r.timings_ms = None;
+    r
+}
+
+#[test]
+fn the_engine_gives_the_sessions_records_in_order() {
+    let input = frames(40);
+    let options = SessionOptions::default();
+    let pipeline = Arc::new(Session::load_pipeline(&options).expect("networks"));
+    let mut session =
+        Session::with_pipeline(Vec::new(), Arc::clone(&pipeline), options).expect("session");
+    let want: Vec<FrameRecord> = input
+        .iter()
+        .flat_map(|(image, t)| {
+            let done = session.process(&[image], *t).expect("frame");
+            done.into_iter().map(|f| {
+                let mut r = fitted_record(&f, None);
+                r.time_s = Some(*t);
+                r
+            })
+        })
+        .collect();
+    let sink = Collect::default();
+    let mut sinks: Vec<Box<dyn Sink>> = vec![Box::new(sink.clone())];
+    let report = engine(&pipeline)
+        .run(vec![source(input)], &mut sinks, &Quiet)
+        .expect("run");
+    let got: Vec<FrameRecord> = sink.records.lock().unwrap().drain(..).map(without_timings).collect();
+    assert_eq!(got.len(), 40);
+    assert_eq!(got, want, "the engine and the session give the same records");
+    assert_eq!(sink.finished.load(Ordering::Relaxed), 1);
+    assert_eq!((report.frames, report.unreadable), (40, 0));
+    assert!(report.hands_3d >= 38, "{report:?}");
+    // Every record says which camera its hands were fitted with: the generic one here.
+    assert!(got.iter().all(|r| r.cameras.len() == 1
+        && r.cameras[0].source == CameraSource::Generic
+        && (r.cameras[0].width, r.cameras[0].height) == (256, 256)));
+}
+
+/// Cancels once `after` frames were written, and keeps the notes.
+struct CancelAfter {
+    after: u64,
+    stop: AtomicBool,
+    notes: Mutex<Vec<monohand::Note>>,
+}
+
+impl Observer for CancelAfter {
+    fn cancelled(&self) -> bool {
+        self.stop.load(Ordering::Relaxed)
+    }
+
+    fn frame_written(&self, report: &RunReport) {
+        if report.frames >= self.after {
+            self.stop.store(true, Ordering::Relaxed);
+        }
+    }
+
+    fn note(&self, note: &monohand::Note) {
+        self.notes.lock().unwrap().push(note.clone());
+    }
+}
+
+#[test]
+fn cancelling_finishes_the_frames_in_flight_and_closes_the_sinks() {
+    let input = frames(40);
+    let pipeline = Arc::new(Session::load_pipeline(&SessionOptions::default()).expect("networks"));
+    let sink = Collect::default();
+    let mut sinks: Vec<Box<dyn Sink>> = vec![Box::new(sink.clone())];
+    let observer = CancelAfter {
+        after: 5,
+        stop: AtomicBool::new(false),
+        notes: Mutex::new(Vec::new()),
+    };
+    let report = engine(&pipeline)
+        .run(vec![source(input)], &mut sinks, &observer)
+        .expect("run");
+    let got = sink.records.lock().unwrap();
+    // Frames already read when it was cancelled are finished (at most the queues' 8 and the
+    // two in the stages); none is lost or reordered.
+    assert!(report.cancelled);
+    assert!(report.frames >= 5 && report.frames < 40, "{report:?}");
+    assert_eq!(got.len() as u64, report.frames);
+    assert!(got.iter().enumerate().all(|(k, r)| r.frame == k as u64));
+    assert_eq!(sink.finished.load(Ordering::Relaxed), 1);
+    // The note about the generic camera names no command-line flag.
+    let notes = observer.notes.lock().unwrap();
+    assert!(notes.iter().any(|n| n.topic == monohand::NoteTopic::Camera
+        && n.message.starts_with("assuming a generic camera for 256x256")));
+    assert!(notes.iter().all(|n| !n.message.contains("--")), "{notes:?}");
+}
+
+#[test]
+fn a_failing_sink_stops_the_run_and_the_others_are_closed() {
+    let input = frames(12);
+    let pipeline = Arc::new(Session::load_pipeline(&SessionOptions::default()).expect("networks"));
+    let good = Collect::default();
+    let bad = Collect {
+        fail_at: Some(7),
+        ..Collect::default()
+    };
+    let mut sinks: Vec<Box<dyn Sink>> = vec![Box::new(good.clone()), Box::new(bad.clone())];
+    let err = engine(&pipeline)
+        .run(vec![source(input)], &mut sinks, &Quiet)
+        .expect_err("the sink fails");
+    let EngineError::Output { frames, source } = err else {
+        panic!("not an output error: {err}");
+    };
+    // Frames 0-6 are whole in every sink; the good sink got frame 7 before the bad one failed.
+    assert_eq!(frames, 7);
+    assert!(source.to_string().contains("disk full"));
+    assert_eq!(bad.records.lock().unwrap().len(), 7);
+    assert_eq!(good.finished.load(Ordering::Relaxed), 1);
+    assert_eq!(bad.finished.load(Ordering::Relaxed), 1);
+}
