@@ -33,6 +33,19 @@ pub fn hand_png() -> PathBuf {
     path
 }
 
+/// The hand-graph-cnn development set (real frames with 3D labels),
+/// `../shared/data/hand_graph_cnn_dev`. Missing data fails the test: it is part of
+/// `../shared`, which CI always has beside the repository.
+pub fn dev_set_dir() -> PathBuf {
+    let d = shared_data().join("hand_graph_cnn_dev");
+    assert!(
+        d.join("labels.json").is_file(),
+        "the development set is missing at {} (../shared/data beside the repository)",
+        d.display()
+    );
+    d
+}
+
 /// Runs ffmpeg with these arguments (quiet, overwriting: `ffmpeg -v error -y ARGS`);
 /// fails the test if it fails or is missing.
 pub fn ffmpeg(args: &[&str]) {

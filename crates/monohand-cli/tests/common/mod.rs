@@ -127,15 +127,3 @@ pub fn networks_ready() -> bool {
     }
     panic!("monohand models fetch failed: {err}");
 }
-
-/// The hand-graph-cnn development set (real frames with 3D labels). Missing data fails the
-/// test: it is part of `../shared`, which CI always has beside the repository.
-pub fn dev_set_dir() -> PathBuf {
-    let d = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/hand_graph_cnn_dev");
-    assert!(
-        d.join("labels.json").is_file(),
-        "the development set is missing at {} (../shared/data beside the repository)",
-        d.display()
-    );
-    d
-}
