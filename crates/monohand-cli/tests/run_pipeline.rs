@@ -6,12 +6,12 @@
 
 mod common;
 
-use common::{monohand, networks_ready, ok, p, stb_dir};
+use common::{monohand, networks_ready, ok, p};
 use monohand_core::prelude::*;
 use monohand_eval::stb::{stb_cameras, StbSequence};
 use monohand_io::calibration::write_camera_json;
 use monohand_io::jsonl::{read_jsonl, FrameRecord};
-use monohand_testkit::{decodable_frames, hand_png};
+use monohand_testkit::{decodable_frames, hand_png, stb_dir};
 use monohand_vision::RgbImage;
 use std::path::Path;
 use std::process::Command;
@@ -50,7 +50,7 @@ fn stb_error(frames: &[FrameRecord], truth: &[nalgebra::Vector3<f64>; 21]) -> (f
 
 #[test]
 fn stb_stereo_pair_mono_and_stereo_against_the_labels() {
-    let Some(stb) = stb_dir() else { return };
+    let stb = stb_dir();
     if !networks_ready() {
         return;
     }

@@ -46,6 +46,19 @@ pub fn dev_set_dir() -> PathBuf {
     d
 }
 
+/// The STB dataset's sequence B1Counting, `../shared/data/stb_b1counting` (its labels
+/// `labels/B1Counting_BB.mat` and stereo cameras `camera_params.json`); fails the test if
+/// either is missing.
+pub fn stb_dir() -> PathBuf {
+    let d = shared_data().join("stb_b1counting");
+    assert!(
+        d.join("labels/B1Counting_BB.mat").is_file() && d.join("camera_params.json").is_file(),
+        "STB data not found at {} (the shared data directory must sit beside the repository)",
+        d.display()
+    );
+    d
+}
+
 /// Runs ffmpeg with these arguments (quiet, overwriting: `ffmpeg -v error -y ARGS`);
 /// fails the test if it fails or is missing.
 pub fn ffmpeg(args: &[&str]) {
