@@ -5,6 +5,7 @@
 
 mod common;
 use common::*;
+use monohand_testkit::dev_set_dir;
 
 /// `(label, cells)` of the table rows of `monohand eval`'s stdout.
 fn table(stdout: &str) -> Vec<(String, Vec<String>)> {

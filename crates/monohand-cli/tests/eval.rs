@@ -5,6 +5,7 @@
 
 mod common;
 use common::*;
+use monohand_testkit::stb_dir;
 
 /// The table rows of stdout without the fps column (timings differ run to run).
 fn rows(stdout: &str) -> Vec<String> {
@@ -24,7 +25,7 @@ fn cell(row: &str, col: usize) -> f64 {
 
 #[test]
 fn stb_folder_then_manifest_give_the_same_numbers() {
-    let Some(dir) = stb_dir() else { return };
+    let dir = stb_dir();
     let tmp = tempfile::tempdir().unwrap();
     let report = tmp.path().join("report");
     let manifest = tmp.path().join("stb.jsonl");
@@ -115,7 +116,7 @@ fn user_errors_are_clear() {
 
 #[test]
 fn full_stage_runs_the_networks_on_the_stb_images() {
-    let Some(dir) = stb_dir() else { return };
+    let dir = stb_dir();
     if !networks_ready() {
         return;
     }

@@ -10,6 +10,7 @@ mod common;
 
 use common::{monohand, networks_ready, p};
 use monohand_io::jsonl::{read_jsonl, FrameRecord};
+use monohand_testkit::{decodable_frames, hand_png};
 use monohand_vision::models::{sha256_hex, ModelFile};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
@@ -19,17 +20,6 @@ use std::time::{Duration, Instant};
 const INPUT_ENDED_EARLY: i32 = 3;
 const OUTPUT_FAILED: i32 = 4;
 const INTERRUPTED: i32 = 130;
-
-fn hand_png() -> PathBuf {
-    let path =
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/images/pinto/hand.png");
-    assert!(
-        path.is_file(),
-        "{} not found (../shared beside the repository)",
-        path.display()
-    );
-    path
-}
 
 /// `n` frames (600x450, 30 fps, MPEG-4 in Matroska) of the shared photo seen by a camera
 /// that pans in a circle, made by ffmpeg.
@@ -79,21 +69,6 @@ fn consecutive_frames(path: &Path) -> Vec<FrameRecord> {
 
 fn stderr(out: &Output) -> String {
     String::from_utf8_lossy(&out.stderr).into_owned()
-}
-
-/// Frames in a video file as ffprobe decodes them (fails if it cannot read the file).
-fn decodable_frames(video: &Path) -> usize {
-    let probe = Command::new("ffprobe")
-        .args(["-v", "error", "-count_frames", "-select_streams", "v:0"])
-        .args(["-show_entries", "stream=nb_read_frames", "-of", "csv=p=0"])
-        .arg(video)
-        .output()
-        .unwrap();
-    assert!(probe.status.success(), "{}", stderr(&probe));
-    String::from_utf8_lossy(&probe.stdout)
-        .trim()
-        .parse()
-        .unwrap()
 }
 
 /// A complete binary glTF: the magic and a total length equal to the file's.

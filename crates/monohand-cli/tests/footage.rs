@@ -12,33 +12,7 @@ use common::{monohand, networks_ready, ok, p};
 use monohand_core::prelude::*;
 use monohand_io::calibration::write_camera_json;
 use monohand_io::jsonl::read_jsonl;
-use std::path::{Path, PathBuf};
-use std::process::Command;
-
-fn hand_png() -> PathBuf {
-    let path =
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/images/pinto/hand.png");
-    assert!(
-        path.is_file(),
-        "{} not found (../shared beside the repository)",
-        path.display()
-    );
-    path
-}
-
-/// Runs ffmpeg (quiet, overwriting); fails the test if it fails or is missing.
-fn ffmpeg(args: &[&str]) {
-    let out = Command::new("ffmpeg")
-        .args(["-v", "error", "-y"])
-        .args(args)
-        .output()
-        .expect("ffmpeg is not installed (apt-get install ffmpeg)");
-    assert!(
-        out.status.success(),
-        "ffmpeg {args:?}: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-}
+use monohand_testkit::{ffmpeg, hand_png};
 
 /// A portrait phone video (stored 640x480 with rotation metadata): decoded upright; a
 /// calibration of the stored frames is refused, saying why, before anything is written;

@@ -12,6 +12,7 @@ mod common;
 use common::{monohand, ok};
 use monohand_core::camera::Camera;
 use monohand_io::jsonl::read_jsonl;
+use monohand_testkit::hand_png;
 use std::io::{BufRead, BufReader, Write};
 use std::net::TcpListener;
 use std::path::{Path, PathBuf};
@@ -19,18 +20,6 @@ use std::process::Command;
 
 /// The three.js release the page uses.
 const THREE_VERSION: &str = "0.170.0";
-
-fn shared_image(rel: &str) -> PathBuf {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../../shared/data/images")
-        .join(rel);
-    assert!(
-        path.is_file(),
-        "{} not found (../shared beside the repository)",
-        path.display()
-    );
-    path
-}
 
 /// three.js in the tests' scratch folder (`npm install` once; later runs reuse it).
 fn three_js() -> PathBuf {
@@ -129,7 +118,7 @@ new GLTFLoader().load('hands.glb', (g) => {{
 
 #[test]
 fn the_skinned_hand_renders_in_chromium_where_the_fit_says() {
-    let photo = shared_image("pinto/hand.png");
+    let photo = hand_png();
     let dir = tempfile::tempdir().unwrap();
     let site = dir.path().join("site");
     std::fs::create_dir(&site).unwrap();

@@ -8,6 +8,7 @@ use common::*;
 use monohand_core::prelude::*;
 use monohand_io::calibration::write_camera_json;
 use monohand_io::jsonl::{read_jsonl, FrameRecord, HandRecord, JsonlWriter};
+use monohand_testkit::dev_set_dir;
 use nalgebra::{UnitQuaternion, Vector3};
 
 /// The mean over fingers of (proximal + middle + distal) / wrist-to-base length of the

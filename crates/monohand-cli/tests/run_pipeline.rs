@@ -6,13 +6,14 @@
 
 mod common;
 
-use common::{monohand, networks_ready, ok, p, stb_dir};
+use common::{monohand, networks_ready, ok, p};
 use monohand_core::prelude::*;
 use monohand_eval::stb::{stb_cameras, StbSequence};
 use monohand_io::calibration::write_camera_json;
 use monohand_io::jsonl::{read_jsonl, FrameRecord};
+use monohand_testkit::{decodable_frames, hand_png, stb_dir};
 use monohand_vision::RgbImage;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::Command;
 
 fn ffmpeg_ready() -> bool {
@@ -23,20 +24,6 @@ fn ffmpeg_ready() -> bool {
         "ffmpeg/ffprobe not installed (apt-get install ffmpeg)"
     );
     found
-}
-
-fn shared_image(rel: &str) -> Option<PathBuf> {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../../shared/data/images")
-        .join(rel);
-    if path.is_file() {
-        Some(path)
-    } else {
-        panic!(
-            "{} not found (../shared beside the repository)",
-            path.display()
-        )
-    }
 }
 
 /// Mean distance (mm) over the 20 finger joints (STB has no wrist) of the only left hand.
@@ -63,7 +50,7 @@ fn stb_error(frames: &[FrameRecord], truth: &[nalgebra::Vector3<f64>; 21]) -> (f
 
 #[test]
 fn stb_stereo_pair_mono_and_stereo_against_the_labels() {
-    let Some(stb) = stb_dir() else { return };
+    let stb = stb_dir();
     if !networks_ready() {
         return;
     }
@@ -216,9 +203,7 @@ fn make_video(photo: &RgbImage, n: usize, out: &Path) {
 
 #[test]
 fn tracking_a_moving_camera_video() {
-    let Some(photo_path) = shared_image("pinto/hand.png") else {
-        return;
-    };
+    let photo_path = hand_png();
     if !ffmpeg_ready() || !networks_ready() {
         return;
     }
@@ -278,9 +263,7 @@ fn image_of(path: &Path) -> RgbImage {
 
 #[test]
 fn truncated_video_and_bad_image_keep_the_output_valid() {
-    let Some(photo_path) = shared_image("pinto/hand.png") else {
-        return;
-    };
+    let photo_path = hand_png();
     if !ffmpeg_ready() || !networks_ready() {
         return;
     }
@@ -333,9 +316,7 @@ fn truncated_video_and_bad_image_keep_the_output_valid() {
 
 #[test]
 fn an_image_overlay_is_one_png_file() {
-    let Some(photo_path) = shared_image("pinto/hand.png") else {
-        return;
-    };
+    let photo_path = hand_png();
     if !networks_ready() {
         return;
     }
@@ -402,9 +383,7 @@ fn run_rejects_bad_arguments_before_writing() {
 
 #[test]
 fn output_formats_and_camera_checks() {
-    let Some(photo_path) = shared_image("pinto/hand.png") else {
-        return;
-    };
+    let photo_path = hand_png();
     if !ffmpeg_ready() || !networks_ready() {
         return;
     }
@@ -467,9 +446,7 @@ fn output_formats_and_camera_checks() {
 #[cfg(unix)]
 #[test]
 fn ctrl_c_finishes_the_frame_and_closes_the_files() {
-    let Some(photo_path) = shared_image("pinto/hand.png") else {
-        return;
-    };
+    let photo_path = hand_png();
     if !ffmpeg_ready() || !networks_ready() {
         return;
     }
@@ -506,21 +483,7 @@ fn ctrl_c_finishes_the_frame_and_closes_the_files() {
     }
     assert!(stderr.contains("interrupted"), "{stderr}");
     // The overlay video was finalised: ffprobe reads it and counts its frames.
-    let probe = Command::new("ffprobe")
-        .args(["-v", "error", "-count_frames", "-select_streams", "v:0"])
-        .args(["-show_entries", "stream=nb_read_frames", "-of", "csv=p=0"])
-        .arg(&overlay)
-        .output()
-        .unwrap();
-    assert!(
-        probe.status.success(),
-        "{}",
-        String::from_utf8_lossy(&probe.stderr)
-    );
-    let n: usize = String::from_utf8_lossy(&probe.stdout)
-        .trim()
-        .parse()
-        .unwrap();
+    let n = decodable_frames(&overlay);
     assert_eq!(n, frames.len(), "one overlay frame per output frame");
 }
 
@@ -528,9 +491,7 @@ fn ctrl_c_finishes_the_frame_and_closes_the_files() {
 /// with a non-zero exit and says so, and every frame before the fault is written and valid.
 #[test]
 fn a_panicking_network_thread_fails_the_run_and_keeps_the_frames_before() {
-    let Some(photo_path) = shared_image("pinto/hand.png") else {
-        return;
-    };
+    let photo_path = hand_png();
     if !ffmpeg_ready() || !networks_ready() {
         return;
     }

@@ -9,19 +9,11 @@
 
 use monohand_io::jsonl::read_jsonl;
 use monohand_media::scene::{Layers, SceneRenderer};
+use monohand_testkit::hand_png;
 use monohand_vision::RgbImage;
 use std::io::Read;
-use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
-
-fn shared_image(rel: &str) -> PathBuf {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../../shared/data/images")
-        .join(rel);
-    assert!(path.is_file(), "{} not found", path.display());
-    path
-}
 
 /// A process killed when dropped (the X server, a stuck run).
 struct Killed(Child);
@@ -83,7 +75,7 @@ fn parse_xwd(b: &[u8]) -> RgbImage {
 
 #[test]
 fn the_show_window_draws_the_hands_where_the_json_says_and_q_quits() {
-    let photo_path = shared_image("pinto/hand.png");
+    let photo_path = hand_png();
     let photo = monohand_vision::image_io::load_rgb(&photo_path).unwrap();
     let (_x, display) = xvfb();
     let dir = tempfile::tempdir().unwrap();

@@ -23,6 +23,7 @@ use common::*;
 use monohand_core::prelude::*;
 use monohand_io::calibration::write_camera_json;
 use monohand_io::jsonl::{read_jsonl, FrameRecord};
+use monohand_testkit::stb_dir;
 use nalgebra::Vector3;
 use std::path::Path;
 
@@ -74,7 +75,7 @@ struct Fixture {
 }
 
 fn fixture(step: usize, n: usize) -> Option<Fixture> {
-    let stb = stb_dir()?;
+    let stb = stb_dir();
     let (mut labels, left, right) = stb_frames(&stb, step);
     labels.truncate(n);
     let tmp = tempfile::tempdir().unwrap();

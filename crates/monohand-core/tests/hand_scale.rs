@@ -13,7 +13,7 @@ use common::*;
 use monohand_core::fitting::estimate_hand_scale;
 use monohand_core::hand_model::fit_skeleton;
 use monohand_core::prelude::*;
-use std::path::PathBuf;
+use monohand_testkit::stb_dir;
 
 fn phalanges(sk: &HandSkeleton) -> f64 {
     sk.bone_lengths()
@@ -52,12 +52,7 @@ fn stereo_error(
 
 #[test]
 fn hand_size_from_the_first_frames_of_stb() {
-    let d = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/stb_b1counting");
-    assert!(
-        d.join("labels/B1Counting_BB.mat").is_file(),
-        "STB data not found at {}",
-        d.display()
-    );
+    let d = stb_dir();
     let seq = monohand_eval::stb::StbSequence::load(d.join("labels/B1Counting_BB.mat")).unwrap();
     let all: Vec<_> = seq.frames.iter().map(|f| f.joints).collect();
     let template = HandSkeleton::default_for(HandSide::Left);

@@ -11,19 +11,7 @@ mod common;
 use common::*;
 use monohand_core::hand_model::fit_skeleton;
 use monohand_core::prelude::*;
-use std::path::PathBuf;
-
-fn stb_dir() -> Option<PathBuf> {
-    let d = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/stb_b1counting");
-    if d.join("labels/B1Counting_BB.mat").is_file() {
-        Some(d)
-    } else {
-        panic!(
-            "STB data not found at {} (needs ../shared beside the repo)",
-            d.display()
-        )
-    }
-}
+use monohand_testkit::stb_dir;
 
 struct Stats {
     mean: f64,
@@ -64,7 +52,7 @@ fn run(
 
 #[test]
 fn stb_b1counting_round_trip() {
-    let Some(dir) = stb_dir() else { return };
+    let dir = stb_dir();
     let seq = monohand_eval::stb::StbSequence::load(dir.join("labels/B1Counting_BB.mat")).unwrap();
     assert_eq!(seq.len(), 1500);
     let frames: Vec<_> = seq.frames.iter().map(|f| f.joints).collect();

@@ -4,16 +4,11 @@
 
 use monohand_eval::evaluate::evaluated_joints;
 use monohand_eval::*;
-use std::path::Path;
+use monohand_testkit::dev_set_dir;
 
 #[test]
 fn dev_set_loads_with_a_camera_per_crop_and_lifts_back() {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/hand_graph_cnn_dev");
-    assert!(
-        dir.join("labels.json").is_file(),
-        "the development set is missing at {} (../shared/data beside the repository)",
-        dir.display()
-    );
+    let dir = dev_set_dir();
     let ds = Dataset::load(&dir).unwrap();
     assert_eq!(ds.frames.len(), 292);
     assert_eq!(ds.root, RootJoint::Wrist);

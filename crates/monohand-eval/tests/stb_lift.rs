@@ -6,19 +6,7 @@
 use monohand_eval::evaluate::evaluated_joints;
 use monohand_eval::report::Report;
 use monohand_eval::*;
-use std::path::{Path, PathBuf};
-
-fn stb_dir() -> Option<PathBuf> {
-    let d = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/stb_b1counting");
-    if d.join("labels/B1Counting_BB.mat").is_file() {
-        Some(d)
-    } else {
-        panic!(
-            "STB data not found at {} (the shared data directory must sit beside the repository)",
-            d.display()
-        )
-    }
-}
+use monohand_testkit::stb_dir;
 
 fn run(ds: &Dataset, noise: f64, settings: &EvalSettings) -> Vec<RunResult> {
     let mut src = ProjectedLabels::new(noise, 0, 7).unwrap();
@@ -27,7 +15,7 @@ fn run(ds: &Dataset, noise: f64, settings: &EvalSettings) -> Vec<RunResult> {
 
 #[test]
 fn stb_b1counting_lift() {
-    let Some(dir) = stb_dir() else { return };
+    let dir = stb_dir();
     let ds = Dataset::load(&dir).unwrap();
     assert_eq!(ds.frames.len(), 1500);
     assert_eq!(ds.root, RootJoint::PalmCentre);

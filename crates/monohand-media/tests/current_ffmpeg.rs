@@ -7,6 +7,7 @@
 #![allow(clippy::unwrap_used, clippy::expect_used)] // a failed test is a panic
 
 use monohand_media::video::{Encoder, FfmpegTools, VideoInput, VideoReader, VideoWriter};
+use monohand_testkit::hand_png;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -83,13 +84,7 @@ fn current_ffmpeg() -> PathBuf {
 /// system's ffmpeg in `video.rs`), and the pixels are those the system's ffmpeg reads.
 #[test]
 fn ffmpeg_9_reads_every_frame_with_its_time() {
-    let photo =
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/images/pinto/hand.png");
-    assert!(
-        photo.exists(),
-        "{} not found (needs ../shared beside the repo)",
-        photo.display()
-    );
+    let photo = hand_png();
     let current = FfmpegTools {
         ffmpeg: current_ffmpeg(),
         ..FfmpegTools::default()

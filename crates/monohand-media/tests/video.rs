@@ -6,15 +6,12 @@ use monohand_io::IoError;
 use monohand_media::video::{
     probe, Encoder, FfmpegTools, RgbImage, VideoInput, VideoReader, VideoWriter,
 };
-use std::path::{Path, PathBuf};
+use monohand_testkit::{ffmpeg, hand_png};
+use std::path::Path;
 
 const FRAMES: usize = 20;
 const W: usize = 320;
 const H: usize = 240;
-
-fn hand_png() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/images/pinto/hand.png")
-}
 
 /// The tools; fails the test if ffmpeg is not installed.
 fn tools() -> Option<FfmpegTools> {
@@ -29,11 +26,6 @@ fn tools() -> Option<FfmpegTools> {
 /// The picture, decoded by ffmpeg as a one-frame video; `None` (and a message)
 /// without the shared data.
 fn picture() -> Option<RgbImage> {
-    assert!(
-        hand_png().exists(),
-        "{} not found (needs ../shared beside the repo)",
-        hand_png().display()
-    );
     let mut r = VideoReader::open(&VideoInput::File(hand_png())).unwrap();
     assert_eq!((r.info().width, r.info().height), (640, 480));
     let f = r.next_frame().unwrap().unwrap();
@@ -253,20 +245,6 @@ fn dropped_writer_leaves_a_playable_file_and_odd_sizes_work() {
     assert_eq!(frames.len(), 7);
     let mid = frames[6].image.get_pixel(10, 8).0;
     assert!(mid.iter().all(|&c| c.abs_diff(180) < 8), "{mid:?}");
-}
-
-/// Runs ffmpeg with these arguments (quiet, overwriting); fails the test if it fails.
-fn ffmpeg(args: &[&str]) {
-    let out = std::process::Command::new("ffmpeg")
-        .args(["-v", "error", "-y"])
-        .args(args)
-        .output()
-        .expect("ffmpeg is not installed (apt-get install ffmpeg)");
-    assert!(
-        out.status.success(),
-        "ffmpeg {args:?}: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
 }
 
 /// Every frame of a video, with its time.

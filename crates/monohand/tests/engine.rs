@@ -89,9 +89,18 @@ fn the_engine_gives_the_sessions_records_in_order() {
     let report = engine(&pipeline)
         .run(vec![source(input)], &mut sinks, &Quiet)
         .expect("run");
-    let got: Vec<FrameRecord> = sink.records.lock().unwrap().drain(..).map(without_timings).collect();
+    let got: Vec<FrameRecord> = sink
+        .records
+        .lock()
+        .unwrap()
+        .drain(..)
+        .map(without_timings)
+        .collect();
     assert_eq!(got.len(), 40);
-    assert_eq!(got, want, "the engine and the session give the same records");
+    assert_eq!(
+        got, want,
+        "the engine and the session give the same records"
+    );
     assert_eq!(sink.finished.load(Ordering::Relaxed), 1);
     assert_eq!((report.frames, report.unreadable), (40, 0));
     assert!(report.hands_3d >= 38, "{report:?}");
@@ -149,7 +158,8 @@ fn cancelling_finishes_the_frames_in_flight_and_closes_the_sinks() {
     // The note about the generic camera names no command-line flag.
     let notes = observer.notes.lock().unwrap();
     assert!(notes.iter().any(|n| n.topic == monohand::NoteTopic::Camera
-        && n.message.starts_with("assuming a generic camera for 256x256")));
+        && n.message
+            .starts_with("assuming a generic camera for 256x256")));
     assert!(notes.iter().all(|n| !n.message.contains("--")), "{notes:?}");
 }
 

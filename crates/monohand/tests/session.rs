@@ -9,17 +9,7 @@ use monohand::prelude::*;
 use monohand::{Session, SessionError, SessionOptions};
 use monohand_eval::datasets::hand_graph_cnn::load_hand_graph_cnn;
 use monohand_eval::metrics::{masked_mean, procrustes_errors, to_joints};
-use std::path::{Path, PathBuf};
-
-fn dev_set_dir() -> PathBuf {
-    let d = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/hand_graph_cnn_dev");
-    assert!(
-        d.join("labels.json").is_file(),
-        "the development set is missing at {} (../shared/data beside the repository)",
-        d.display()
-    );
-    d
-}
+use monohand_testkit::dev_set_dir;
 
 #[test]
 fn a_tracked_session_follows_one_left_hand_with_the_networks_shape() {

@@ -8,21 +8,8 @@ use monohand_eval::stb::{stb_cameras, StbSequence};
 use monohand_io::jsonl::{read_jsonl, FrameRecord};
 use monohand_io::openpose::{write_openpose_file, OpenPoseHandOut, OpenPosePerson};
 use nalgebra::Vector3;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Output};
-
-/// The STB data directory; missing data fails the test (CI always has ../shared).
-pub fn stb_dir() -> Option<PathBuf> {
-    let d = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/stb_b1counting");
-    if d.join("labels/B1Counting_BB.mat").is_file() && d.join("camera_params.json").is_file() {
-        Some(d)
-    } else {
-        panic!(
-            "STB data not found at {} (the shared data directory must sit beside the repository)",
-            d.display()
-        )
-    }
-}
 
 /// Every `step`-th STB frame (3D joints, our order; index 0 = palm centre) and the stereo pair.
 pub fn stb_frames(dir: &Path, step: usize) -> (Vec<[Vector3<f64>; 21]>, Camera, Camera) {
@@ -126,16 +113,4 @@ pub fn networks_ready() -> bool {
         return false;
     }
     panic!("monohand models fetch failed: {err}");
-}
-
-/// The hand-graph-cnn development set (real frames with 3D labels). Missing data fails the
-/// test: it is part of `../shared`, which CI always has beside the repository.
-pub fn dev_set_dir() -> PathBuf {
-    let d = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data/hand_graph_cnn_dev");
-    assert!(
-        d.join("labels.json").is_file(),
-        "the development set is missing at {} (../shared/data beside the repository)",
-        d.display()
-    );
-    d
 }

@@ -1,0 +1,95 @@
+//! # monohand-testkit
+//!
+//! Test helpers shared by monohand's test suites (a dev-dependency only, never
+//! published): the paths of the shared data (`../shared/data` beside the repository,
+//! which CI always has) and of its sample files, and the system tools the tests drive
+//! (`ffmpeg`, `ffprobe`).
+//!
+//! Missing data or a missing tool fails the calling test with a message that says what
+//! is missing and where it was looked for.
+
+#![deny(missing_docs)]
+// Test helpers panic on failure: a failed check fails the test that called it.
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+/// `../shared/data` beside the repository (not checked: see the helpers below for the
+/// files the tests use).
+pub fn shared_data() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/data")
+}
+
+/// The shared photo of a hand, `../shared/data/images/pinto/hand.png` (640x480); fails
+/// the test if it is missing.
+pub fn hand_png() -> PathBuf {
+    let path = shared_data().join("images/pinto/hand.png");
+    assert!(
+        path.is_file(),
+        "{} not found (../shared beside the repository)",
+        path.display()
+    );
+    path
+}
+
+/// The hand-graph-cnn development set (real frames with 3D labels),
+/// `../shared/data/hand_graph_cnn_dev`. Missing data fails the test: it is part of
+/// `../shared`, which CI always has beside the repository.
+pub fn dev_set_dir() -> PathBuf {
+    let d = shared_data().join("hand_graph_cnn_dev");
+    assert!(
+        d.join("labels.json").is_file(),
+        "the development set is missing at {} (../shared/data beside the repository)",
+        d.display()
+    );
+    d
+}
+
+/// The STB dataset's sequence B1Counting, `../shared/data/stb_b1counting` (its labels
+/// `labels/B1Counting_BB.mat` and stereo cameras `camera_params.json`); fails the test if
+/// either is missing.
+pub fn stb_dir() -> PathBuf {
+    let d = shared_data().join("stb_b1counting");
+    assert!(
+        d.join("labels/B1Counting_BB.mat").is_file() && d.join("camera_params.json").is_file(),
+        "STB data not found at {} (the shared data directory must sit beside the repository)",
+        d.display()
+    );
+    d
+}
+
+/// Runs ffmpeg with these arguments (quiet, overwriting: `ffmpeg -v error -y ARGS`);
+/// fails the test if it fails or is missing.
+pub fn ffmpeg(args: &[&str]) {
+    let out = Command::new("ffmpeg")
+        .args(["-v", "error", "-y"])
+        .args(args)
+        .output()
+        .expect("ffmpeg is not installed (apt-get install ffmpeg)");
+    assert!(
+        out.status.success(),
+        "ffmpeg {args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+/// Frames in a video file as ffprobe decodes them (`ffprobe -count_frames`); fails the test
+/// if it cannot read the file.
+pub fn decodable_frames(video: &Path) -> usize {
+    let probe = Command::new("ffprobe")
+        .args(["-v", "error", "-count_frames", "-select_streams", "v:0"])
+        .args(["-show_entries", "stream=nb_read_frames", "-of", "csv=p=0"])
+        .arg(video)
+        .output()
+        .unwrap();
+    assert!(
+        probe.status.success(),
+        "{}",
+        String::from_utf8_lossy(&probe.stderr)
+    );
+    String::from_utf8_lossy(&probe.stdout)
+        .trim()
+        .parse()
+        .unwrap()
+}
