@@ -167,8 +167,7 @@ pub fn lift_keypoints(
             }
         }
     }
-    let mut lifter = Lifter::new(cameras, skeletons, settings.options, settings.tracking)
-        .map_err(crate::SessionError::from)?;
+    let mut lifter = Lifter::new(cameras, skeletons, settings.options, settings.tracking)?;
     let lens: Vec<usize> = inputs.iter().map(KeypointInput::len).collect();
     let n_frames = lens.iter().copied().max().unwrap_or(0);
     if lens.iter().any(|&l| l != n_frames) {
