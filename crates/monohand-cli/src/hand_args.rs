@@ -18,13 +18,15 @@ pub(crate) enum HandScale {
 impl FromStr for HandScale {
     type Err = String;
     fn from_str(s: &str) -> Result<Self, String> {
+        const LO: f64 = monohand::HAND_SCALE_RANGE.0;
+        const HI: f64 = monohand::HAND_SCALE_RANGE.1;
         if s.eq_ignore_ascii_case("auto") {
             return Ok(HandScale::Auto);
         }
         match s.parse::<f64>() {
-            Ok(v) if v.is_finite() && v > 0.3 && v < 3.0 => Ok(HandScale::Fixed(v)),
+            Ok(v) if v.is_finite() && v > LO && v < HI => Ok(HandScale::Fixed(v)),
             _ => Err(format!(
-                "{s:?} is neither \"auto\" nor a factor between 0.3 and 3"
+                "{s:?} is neither \"auto\" nor a factor between {LO} and {HI}"
             )),
         }
     }
@@ -117,19 +119,18 @@ impl HandModelArgs {
         }
     }
 
-    /// The skeleton of one side at scale `scale`, with --bone-lengths applied.
-    pub fn skeleton(&self, side: HandSide, scale: f64) -> Result<HandSkeleton> {
-        let mut sk = HandSkeleton::default_for(side)
-            .scaled(scale)
-            .context("--hand-scale")?;
-        if let Some(p) = &self.bone_lengths {
-            let lengths = monohand_io::skeleton::read_bone_lengths(p)?;
-            let lengths = lengths.map(|l| l * scale);
-            sk = sk
-                .with_bone_lengths(&lengths)
-                .with_context(|| format!("{}: impossible bone lengths", p.display()))?;
-        }
-        Ok(sk)
+    /// The left and right hand models at scale `scale`, with --bone-lengths applied.
+    pub fn skeletons(&self, scale: f64) -> Result<[HandSkeleton; 2]> {
+        let lengths = match &self.bone_lengths {
+            Some(p) => Some(monohand_io::skeleton::read_bone_lengths(p)?),
+            None => None,
+        };
+        monohand::hand_skeletons(scale, lengths.as_ref()).with_context(|| {
+            match &self.bone_lengths {
+                Some(p) => format!("{}: impossible bone lengths", p.display()),
+                None => "--hand-scale".into(),
+            }
+        })
     }
 
     /// The fitter's options, checked.

@@ -65,10 +65,7 @@ pub(crate) fn run(args: &LiftArgs) -> Result<()> {
             1.0
         }
     };
-    let skeletons = [
-        args.hand.skeleton(HandSide::Left, scale)?,
-        args.hand.skeleton(HandSide::Right, scale)?,
-    ];
+    let skeletons = args.hand.skeletons(scale)?;
     let mut views = Vec::with_capacity(inputs.len());
     for (i, (flag, p)) in inputs.iter().enumerate() {
         let v = if *flag == "--jsonl" {

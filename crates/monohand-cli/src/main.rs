@@ -132,16 +132,12 @@ struct CameraArgs {
 }
 
 fn camera_command(args: &CameraArgs) -> Result<()> {
-    if !(args.hfov.is_finite() && args.hfov > 1.0 && args.hfov < 179.0) {
-        anyhow::bail!("--hfov {} must be between 1 and 179 degrees", args.hfov);
-    }
-    let generic = Camera::generic(args.width, args.height)
-        .with_context(|| format!("impossible image size {}x{}", args.width, args.height))?;
-    let f = 0.5 * args.width as f64 / (0.5 * args.hfov.to_radians()).tan();
-    let mut camera = generic;
-    camera.intrinsics.fx = f;
-    camera.intrinsics.fy = f;
-    camera.validate()?;
+    let camera = Camera::with_hfov(args.width, args.height, args.hfov).with_context(|| {
+        format!(
+            "--width {} --height {} --hfov {}",
+            args.width, args.height, args.hfov
+        )
+    })?;
     let mut json = monohand_io::calibration::camera_to_json(&camera);
     if let Some(o) = json.as_object_mut() {
         o.insert("hfov_deg".into(), serde_json::json!(args.hfov));

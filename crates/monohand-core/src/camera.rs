@@ -186,7 +186,18 @@ impl Camera {
     /// A camera for footage of unknown origin: principal point at the image centre,
     /// square pixels, horizontal field of view [`GENERIC_HFOV_DEG`].
     pub fn generic(width: u32, height: u32) -> CoreResult<Camera> {
-        let f = 0.5 * width as f64 / (0.5 * GENERIC_HFOV_DEG.to_radians()).tan();
+        Camera::with_hfov(width, height, GENERIC_HFOV_DEG)
+    }
+
+    /// A camera with square pixels, the principal point at the image centre and this
+    /// horizontal field of view (degrees, between 1 and 179).
+    pub fn with_hfov(width: u32, height: u32, hfov_deg: f64) -> CoreResult<Camera> {
+        if !(hfov_deg.is_finite() && hfov_deg > 1.0 && hfov_deg < 179.0) {
+            return Err(CoreError::InvalidCamera(format!(
+                "a horizontal field of view of {hfov_deg} degrees (give one between 1 and 179)"
+            )));
+        }
+        let f = 0.5 * width as f64 / (0.5 * hfov_deg.to_radians()).tan();
         Camera::centred(f, width, height)
     }
 

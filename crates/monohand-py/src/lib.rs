@@ -66,21 +66,10 @@ fn parse_side(side: &str) -> PyResult<HandSide> {
     }
 }
 
-/// The default (population average) hands, left then right, scaled by `hand_scale`.
+/// The default (population average) hands, left then right, scaled by `hand_scale`
+/// ([`monohand::hand_skeletons`]).
 fn skeletons(hand_scale: f64) -> PyResult<[HandSkeleton; 2]> {
-    if !(hand_scale.is_finite() && hand_scale > 0.3 && hand_scale < 3.0) {
-        return Err(PyValueError::new_err(format!(
-            "hand_scale {hand_scale} must be between 0.3 and 3 (1: the average adult hand)"
-        )));
-    }
-    Ok([
-        HandSkeleton::default_for(HandSide::Left)
-            .scaled(hand_scale)
-            .map_err(core_err)?,
-        HandSkeleton::default_for(HandSide::Right)
-            .scaled(hand_scale)
-            .map_err(core_err)?,
-    ])
+    monohand::hand_skeletons(hand_scale, None).map_err(|e| PyValueError::new_err(e.to_string()))
 }
 
 /// A record as plain Python lists, dicts and numbers: exactly what `monohand run` writes

@@ -63,3 +63,30 @@ pub fn learn_proportions(
         ),
     }
 }
+
+/// The hand sizes a user may ask for, as a factor on the default adult hand (open
+/// interval): outside it the 3D would be a child's doll or a giant's.
+pub const HAND_SCALE_RANGE: (f64, f64) = (0.3, 3.0);
+
+/// The default (population average) left and right hands scaled by `scale`, with the
+/// subject's 20 bone lengths (mm, at scale 1) when given: the hand-size policy of the
+/// engine, the CLI and the Python package.
+pub fn hand_skeletons(
+    scale: f64,
+    bone_lengths_mm: Option<&[f64; 20]>,
+) -> crate::SessionResult<[HandSkeleton; 2]> {
+    let (lo, hi) = HAND_SCALE_RANGE;
+    if !(scale.is_finite() && scale > lo && scale < hi) {
+        return Err(crate::SessionError::Invalid(format!(
+            "hand scale {scale} must be between {lo} and {hi} (1: the average adult hand)"
+        )));
+    }
+    let side = |side| -> crate::SessionResult<HandSkeleton> {
+        let mut sk = HandSkeleton::default_for(side).scaled(scale)?;
+        if let Some(lengths) = bone_lengths_mm {
+            sk = sk.with_bone_lengths(&lengths.map(|l| l * scale))?;
+        }
+        Ok(sk)
+    };
+    Ok([side(HandSide::Left)?, side(HandSide::Right)?])
+}

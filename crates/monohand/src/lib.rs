@@ -35,7 +35,9 @@ mod session;
 
 pub use crops::{CropTracker, HandId, ViewHands, VisionFrame};
 pub use error::{SessionError, SessionResult};
-pub use fit::{fit_views, is_finite, learn_proportions, FitOutcome};
+pub use fit::{
+    fit_views, hand_skeletons, is_finite, learn_proportions, FitOutcome, HAND_SCALE_RANGE,
+};
 pub use hands::{FitSettings, FittedFrame, HandsFitter, TrackedHand, FORGET_AFTER_FRAMES};
 pub use lifter::{LiftedHand, Lifter};
 pub use notes::{Note, NoteTopic};

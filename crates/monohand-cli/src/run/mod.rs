@@ -198,10 +198,7 @@ pub(crate) fn run(args: &RunArgs) -> Result<Outcome> {
     }
     let options = args.hand.fit_options()?;
     let scale = args.hand.initial_scale();
-    let skeletons = [
-        args.hand.skeleton(HandSide::Left, scale)?,
-        args.hand.skeleton(HandSide::Right, scale)?,
-    ];
+    let skeletons = args.hand.skeletons(scale)?;
     if args.detect_every == 0 {
         bail!("--detect-every must be at least 1");
     }
