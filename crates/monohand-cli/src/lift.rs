@@ -6,7 +6,6 @@ use crate::LiftArgs;
 use anyhow::{bail, Context, Result};
 use monohand::engine::lift::{lift_keypoints, KeypointInput, LiftSettings};
 use monohand::engine::{EngineError, JsonlSink, Observer, RunReport, Sink};
-use monohand_core::prelude::*;
 use std::path::PathBuf;
 use tracing::{info, warn};
 
@@ -15,7 +14,7 @@ struct Terminal;
 
 impl Observer for Terminal {
     fn frame_written(&self, report: &RunReport) {
-        if report.frames % 100 == 0 {
+        if report.frames.is_multiple_of(100) {
             info!("{} frames", report.frames);
         }
     }

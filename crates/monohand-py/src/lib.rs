@@ -648,7 +648,7 @@ impl PySession {
             })
             .map_err(|e| MonohandError::new_err(format!("could not start a thread: {e}")))?;
         Ok(PyFrameStream {
-            rx: Some(rx),
+            rx: Some(Mutex::new(rx)),
             worker: Some(worker),
             watch,
             report: None,
@@ -841,7 +841,8 @@ impl PyTrackedFrame {
 /// The frames of a `Session.track` call, in order, as they are done.
 #[pyclass(module = "monohand._monohand", name = "FrameStream")]
 struct PyFrameStream {
-    rx: Option<Receiver<FrameRecord>>,
+    /// In a mutex only because Python objects must be shareable between threads.
+    rx: Option<Mutex<Receiver<FrameRecord>>>,
     worker: Option<std::thread::JoinHandle<monohand::engine::EngineResult<RunReport>>>,
     watch: Arc<Watch>,
     report: Option<RunReport>,
@@ -877,9 +878,13 @@ impl PyFrameStream {
         let Some(rx) = self.rx.as_ref() else {
             return Err(PyStopIteration::new_err(()));
         };
-        match py.detach(|| rx.recv()) {
-            Ok(record) => Ok(PyTrackedFrame { record }),
-            Err(_) => {
+        let next = py.detach(|| match rx.lock() {
+            Ok(rx) => rx.recv().ok(),
+            Err(_) => None,
+        });
+        match next {
+            Some(record) => Ok(PyTrackedFrame { record }),
+            None => {
                 self.join(py)?;
                 Err(PyStopIteration::new_err(()))
             }

@@ -16,7 +16,6 @@ use clap::Args;
 use monohand::engine::{Engine, EngineError, EngineSettings, FrameSource, Input, RunReport};
 use monohand::FitSettings;
 use monohand_core::filtering::OneEuroParams;
-use monohand_core::prelude::*;
 use outputs::{GltfStyle, OutputFormat};
 use std::path::PathBuf;
 use std::sync::Arc;
