@@ -69,7 +69,8 @@ fn parse_side(side: &str) -> PyResult<HandSide> {
 /// The default (population average) hands, left then right, scaled by `hand_scale`
 /// ([`monohand::hand_skeletons`]).
 fn skeletons(hand_scale: f64) -> PyResult<[HandSkeleton; 2]> {
-    monohand::hand_skeletons(hand_scale, None).map_err(|e| PyValueError::new_err(e.to_string()))
+    monohand::hand_skeletons(hand_scale, None)
+        .map_err(|e| PyValueError::new_err(format!("hand_scale: {e}")))
 }
 
 /// A record as plain Python lists, dicts and numbers: exactly what `monohand run` writes
