@@ -14,7 +14,7 @@
 //! - A hand whose fit fails (too few joints, no view) is **not detected**: it
 //!   counts in the detection rate and is left out of the 3D errors.
 
-use crate::dataset::{Dataset, Frame, RootJoint};
+use crate::dataset::{Dataset, Frame, GtHand, RootJoint};
 use crate::error::{EvalError, EvalResult};
 use crate::metrics::{self, HandErrors, JointMask, Joints, ALL_JOINTS};
 use monohand_core::fitting::estimate_proportions;
@@ -364,6 +364,41 @@ pub fn evaluate(
     settings: &EvalSettings,
     noise_px: Option<f64>,
 ) -> EvalResult<(Vec<RunResult>, Vec<SkeletonNote>)> {
+    check_settings(dataset, settings)?;
+    let (sks, notes) = skeletons(dataset, settings)?;
+    let (mut runs, mut network) = empty_runs(settings, &source.describe(), noise_px);
+    let mut network_seen = false;
+    let mut evaluator = Evaluator {
+        settings,
+        sks,
+        mask: evaluated_joints(dataset.root),
+        palm_root: dataset.root == RootJoint::PalmCentre,
+        default_sk: settings.skeleton == SkeletonChoice::Default,
+        gathered: HashMap::new(),
+        learnt: HashMap::new(),
+        solvers: HashMap::new(),
+    };
+    for frame in &dataset.frames {
+        let t0 = Instant::now();
+        let mut kps = source.keypoints(frame)?;
+        let source_s = t0.elapsed().as_secs_f64() / frame.hands.len().max(1) as f64;
+        for h in 0..frame.hands.len() {
+            let views_kp = kps.get_mut(h).ok_or_else(|| {
+                EvalError::Detector("the keypoint source returned fewer hands than labelled".into())
+            })?;
+            network_seen |=
+                evaluator.hand(frame, h, views_kp, source_s, &mut runs, &mut network)?;
+        }
+    }
+    if network_seen {
+        runs.push(network);
+    }
+    Ok((runs, notes))
+}
+
+/// Checks that `settings` can be evaluated on `dataset`: at least one view mode, two
+/// cameras in every frame for stereo, valid fit options.
+fn check_settings(dataset: &Dataset, settings: &EvalSettings) -> EvalResult<()> {
     if settings.modes.is_empty() {
         return Err(EvalError::Settings("no view mode to evaluate".into()));
     }
@@ -378,10 +413,17 @@ pub fn evaluate(
     settings
         .fit_options
         .validate()
-        .map_err(|e| EvalError::core("fit options", e))?;
-    let (sks, notes) = skeletons(dataset, settings)?;
-    let desc = source.describe();
-    let mut runs: Vec<RunResult> = settings
+        .map_err(|e| EvalError::core("fit options", e))
+}
+
+/// The runs of an evaluation before any hand: one per mode of `settings`, and the run of
+/// the network's own 3D; `desc` describes the keypoint source.
+fn empty_runs(
+    settings: &EvalSettings,
+    desc: &str,
+    noise_px: Option<f64>,
+) -> (Vec<RunResult>, RunResult) {
+    let runs: Vec<RunResult> = settings
         .modes
         .iter()
         .map(|&mode| RunResult {
@@ -390,7 +432,7 @@ pub fn evaluate(
                 None => mode.as_str().to_string(),
             },
             mode,
-            source: desc.clone(),
+            source: desc.to_string(),
             noise_px,
             relative_only: false,
             hands: Vec::new(),
@@ -398,7 +440,7 @@ pub fn evaluate(
         .collect();
     // The network's own 3D of the first view, scored beside the fits when the
     // source gives it (same frames, same detections).
-    let mut network = RunResult {
+    let network = RunResult {
         label: NETWORK_RUN_LABEL.to_string(),
         mode: ViewMode::Mono,
         source: format!("{desc}; its metric 3D landmarks, first view"),
@@ -406,146 +448,210 @@ pub fn evaluate(
         relative_only: true,
         hands: Vec::new(),
     };
-    let mut network_seen = false;
-    // Network 3D gathered per (sequence, side) until the proportions are learnt.
-    let mut gathered: HashMap<(String, HandSide), Vec<NetworkCues>> = HashMap::new();
-    let mut learnt: HashMap<(String, HandSide), HandSkeleton> = HashMap::new();
-    // One tracker per (mode, sequence, side); without tracking it is reset
-    // before every frame, i.e. every fit starts from scratch.
-    let mut solvers: HashMap<(usize, String, HandSide), HandTracker> = HashMap::new();
-    let palm_root = dataset.root == RootJoint::PalmCentre;
-    let default_sk = settings.skeleton == SkeletonChoice::Default;
-    let mask = evaluated_joints(dataset.root);
-    for frame in &dataset.frames {
-        let t0 = Instant::now();
-        let mut kps = source.keypoints(frame)?;
-        let source_s = t0.elapsed().as_secs_f64() / frame.hands.len().max(1) as f64;
-        for (h, hand) in frame.hands.iter().enumerate() {
-            let views_kp = kps.get_mut(h).ok_or_else(|| {
-                EvalError::Detector("the keypoint source returned fewer hands than labelled".into())
-            })?;
-            if palm_root && default_sk {
-                // The default model's joint 0 is a wrist: never feed it the palm centre.
-                for o in views_kp.iter_mut().flatten() {
-                    o.keypoints.points[0][2] = 0.0;
-                }
+    (runs, network)
+}
+
+/// One labelled hand of a frame, as every run sees it.
+struct HandInput<'a> {
+    frame: &'a Frame,
+    hand: &'a GtHand,
+    /// The hand's keypoints in each view (`None` where it was not found).
+    views: &'a [Option<HandObservation>],
+    /// Its ground-truth 2D keypoints in the first view.
+    gt2d: Keypoints2d,
+    /// Mean 2D error of its keypoints in the first view (pixels).
+    keypoints_px: Option<f64>,
+    /// The keypoint source's time for it (seconds).
+    source_s: f64,
+}
+
+/// What an evaluation carries from hand to hand: the settings and skeletons, the
+/// proportions being learnt, and the trackers.
+struct Evaluator<'a> {
+    settings: &'a EvalSettings,
+    sks: SkeletonMap,
+    mask: JointMask,
+    /// The ground truth's joint 0 is the palm centre.
+    palm_root: bool,
+    /// The fits use the default skeleton (whose joint 0 is a wrist).
+    default_sk: bool,
+    /// Network 3D gathered per (sequence, side) until the proportions are learnt.
+    gathered: HashMap<(String, HandSide), Vec<NetworkCues>>,
+    /// The learnt skeletons per (sequence, side).
+    learnt: HashMap<(String, HandSide), HandSkeleton>,
+    /// One tracker per (mode, sequence, side); without tracking it is reset
+    /// before every frame, i.e. every fit starts from scratch.
+    solvers: HashMap<(usize, String, HandSide), HandTracker>,
+}
+
+impl Evaluator<'_> {
+    /// Evaluates hand `h` of `frame` with its keypoints `views_kp` in every run of `runs`
+    /// and in `network`; returns whether the keypoint source gave the network's 3D.
+    fn hand(
+        &mut self,
+        frame: &Frame,
+        h: usize,
+        views_kp: &mut [Option<HandObservation>],
+        source_s: f64,
+        runs: &mut [RunResult],
+        network: &mut RunResult,
+    ) -> EvalResult<bool> {
+        if self.palm_root && self.default_sk {
+            // The default model's joint 0 is a wrist: never feed it the palm centre.
+            for o in views_kp.iter_mut().flatten() {
+                o.keypoints.points[0][2] = 0.0;
             }
-            let gt2d = frame.gt_keypoints(h, 0);
-            let first = views_kp.first().copied().flatten();
-            let keypoints_px = first.and_then(|o| {
-                mean_px(&metrics::keypoint_errors_px(
-                    &o.keypoints.points,
-                    &gt2d.points,
-                ))
-            });
-            let world = first.and_then(|o| o.cues).and_then(|c| c.world_mm);
-            network_seen |= world.is_some();
-            let network_pred = world.map(|w| {
-                let (cw, cg) = (
-                    metrics::centroid(&w, &mask),
-                    metrics::centroid(&hand.joints_3d, &mask),
-                );
-                w.map(|p| std::array::from_fn(|k| p[k] - cw[k] + cg[k]))
-            });
-            network.hands.push(HandResult {
-                sequence: frame.sequence.clone(),
-                frame: frame.index,
-                side: hand.side,
-                errors: network_pred.map(|p| HandErrors::compute(&p, &hand.joints_3d, &mask, 0)),
-                pred: network_pred,
-                gt: hand.joints_3d,
-                keypoints_px,
-                reprojection_px: None,
-                seconds: source_s,
-            });
-            let key_sk = (frame.sequence.clone(), hand.side);
-            let mut sk = sks.get(&key_sk).copied().ok_or_else(|| {
-                EvalError::Settings(format!("no skeleton for sequence {:?}", frame.sequence))
-            })?;
-            if let Some(n) = settings.proportion_frames {
-                let cues = first.and_then(|o| o.cues);
-                if let (Some(c), false) = (cues, learnt.contains_key(&key_sk)) {
-                    let g = gathered.entry(key_sk.clone()).or_default();
-                    g.push(c);
-                    if g.len() >= n {
-                        if let Ok(est) = estimate_proportions(&sk, g) {
-                            learnt.insert(key_sk.clone(), est.skeleton);
-                            for (key, t) in solvers.iter_mut() {
-                                if key.1 == key_sk.0 && key.2 == key_sk.1 {
-                                    t.fitter_mut()
-                                        .set_skeleton(est.skeleton)
-                                        .map_err(|e| EvalError::core("learnt proportions", e))?;
-                                }
+        }
+        let gt2d = frame.gt_keypoints(h, 0);
+        let first = views_kp.first().copied().flatten();
+        let keypoints_px = first.and_then(|o| {
+            mean_px(&metrics::keypoint_errors_px(
+                &o.keypoints.points,
+                &gt2d.points,
+            ))
+        });
+        let input = HandInput {
+            frame,
+            hand: &frame.hands[h],
+            views: views_kp,
+            gt2d,
+            keypoints_px,
+            source_s,
+        };
+        let world = first.and_then(|o| o.cues).and_then(|c| c.world_mm);
+        network.hands.push(self.network_result(&input, world));
+        let sk = self.skeleton(&input, first)?;
+        for (m, run) in runs.iter_mut().enumerate() {
+            run.hands.push(self.fit(m, run.mode, &input, sk)?);
+        }
+        Ok(world.is_some())
+    }
+
+    /// The network's own 3D `world` of a hand, placed at the ground truth's centroid.
+    fn network_result(&self, input: &HandInput, world: Option<Joints>) -> HandResult {
+        let (frame, hand, mask) = (input.frame, input.hand, &self.mask);
+        let network_pred = world.map(|w| {
+            let (cw, cg) = (
+                metrics::centroid(&w, mask),
+                metrics::centroid(&hand.joints_3d, mask),
+            );
+            w.map(|p| std::array::from_fn(|k| p[k] - cw[k] + cg[k]))
+        });
+        HandResult {
+            sequence: frame.sequence.clone(),
+            frame: frame.index,
+            side: hand.side,
+            errors: network_pred.map(|p| HandErrors::compute(&p, &hand.joints_3d, mask, 0)),
+            pred: network_pred,
+            gt: hand.joints_3d,
+            keypoints_px: input.keypoints_px,
+            reprojection_px: None,
+            seconds: input.source_s,
+        }
+    }
+
+    /// The skeleton to fit a hand with: its sequence's, or the proportions learnt from
+    /// the network's 3D (`first`, the observation in the first view, adds to them).
+    fn skeleton(
+        &mut self,
+        input: &HandInput,
+        first: Option<HandObservation>,
+    ) -> EvalResult<HandSkeleton> {
+        let (frame, hand) = (input.frame, input.hand);
+        let key_sk = (frame.sequence.clone(), hand.side);
+        let mut sk = self.sks.get(&key_sk).copied().ok_or_else(|| {
+            EvalError::Settings(format!("no skeleton for sequence {:?}", frame.sequence))
+        })?;
+        if let Some(n) = self.settings.proportion_frames {
+            let cues = first.and_then(|o| o.cues);
+            if let (Some(c), false) = (cues, self.learnt.contains_key(&key_sk)) {
+                let g = self.gathered.entry(key_sk.clone()).or_default();
+                g.push(c);
+                if g.len() >= n {
+                    if let Ok(est) = estimate_proportions(&sk, g) {
+                        self.learnt.insert(key_sk.clone(), est.skeleton);
+                        for (key, t) in self.solvers.iter_mut() {
+                            if key.1 == key_sk.0 && key.2 == key_sk.1 {
+                                t.fitter_mut()
+                                    .set_skeleton(est.skeleton)
+                                    .map_err(|e| EvalError::core("learnt proportions", e))?;
                             }
                         }
                     }
                 }
-                if let Some(l) = learnt.get(&key_sk) {
-                    sk = *l;
-                }
             }
-            for (m, run) in runs.iter_mut().enumerate() {
-                let n_views = match run.mode {
-                    ViewMode::Mono => 1,
-                    ViewMode::Stereo => frame.cameras.len(),
-                };
-                let views: Vec<View> = frame.cameras[..n_views]
-                    .iter()
-                    .zip(views_kp.iter())
-                    .filter_map(|(camera, o)| {
-                        o.as_ref()
-                            .map(|o| View::new(camera, &o.keypoints).with_cues(o.cues.as_ref()))
-                    })
-                    .collect();
-                let key = (m, frame.sequence.clone(), hand.side);
-                if !solvers.contains_key(&key) {
-                    let t = HandTracker::new(sk, settings.fit_options)
-                        .map_err(|e| EvalError::core("creating the fitter", e))?;
-                    solvers.insert(key.clone(), t);
-                }
-                let t1 = Instant::now();
-                let fit = match (views.is_empty(), solvers.get_mut(&key)) {
-                    (false, Some(t)) => {
-                        if !settings.track {
-                            t.reset();
-                        }
-                        t.update(&views).ok()
-                    }
-                    _ => None,
-                };
-                let fit_s = t1.elapsed().as_secs_f64();
-                let pred = fit.map(|f| {
-                    let mut j = metrics::to_joints(&f.joints_3d);
-                    if palm_root && default_sk {
-                        j[0] = palm_centre_estimate(&f.joints_3d);
-                    }
-                    j
-                });
-                let errors = pred
-                    .as_ref()
-                    .map(|p| HandErrors::compute(p, &hand.joints_3d, &mask, 0));
-                let reprojection_px = pred.as_ref().and_then(|p| {
-                    let k = crate::dataset::project_joints(&frame.cameras[0], p);
-                    mean_px(&metrics::keypoint_errors_px(&k.points, &gt2d.points))
-                });
-                run.hands.push(HandResult {
-                    sequence: frame.sequence.clone(),
-                    frame: frame.index,
-                    side: hand.side,
-                    pred,
-                    gt: hand.joints_3d,
-                    errors,
-                    keypoints_px,
-                    reprojection_px,
-                    seconds: source_s + fit_s,
-                });
+            if let Some(l) = self.learnt.get(&key_sk) {
+                sk = *l;
             }
         }
+        Ok(sk)
     }
-    if network_seen {
-        runs.push(network);
+
+    /// Fits a hand in view mode `mode` (run `m`) with the skeleton `sk`, with the run's
+    /// tracker; its result.
+    fn fit(
+        &mut self,
+        m: usize,
+        mode: ViewMode,
+        input: &HandInput,
+        sk: HandSkeleton,
+    ) -> EvalResult<HandResult> {
+        let (frame, hand, mask) = (input.frame, input.hand, &self.mask);
+        let n_views = match mode {
+            ViewMode::Mono => 1,
+            ViewMode::Stereo => frame.cameras.len(),
+        };
+        let views: Vec<View> = frame.cameras[..n_views]
+            .iter()
+            .zip(input.views.iter())
+            .filter_map(|(camera, o)| {
+                o.as_ref()
+                    .map(|o| View::new(camera, &o.keypoints).with_cues(o.cues.as_ref()))
+            })
+            .collect();
+        let key = (m, frame.sequence.clone(), hand.side);
+        if !self.solvers.contains_key(&key) {
+            let t = HandTracker::new(sk, self.settings.fit_options)
+                .map_err(|e| EvalError::core("creating the fitter", e))?;
+            self.solvers.insert(key.clone(), t);
+        }
+        let t1 = Instant::now();
+        let fit = match (views.is_empty(), self.solvers.get_mut(&key)) {
+            (false, Some(t)) => {
+                if !self.settings.track {
+                    t.reset();
+                }
+                t.update(&views).ok()
+            }
+            _ => None,
+        };
+        let fit_s = t1.elapsed().as_secs_f64();
+        let pred = fit.map(|f| {
+            let mut j = metrics::to_joints(&f.joints_3d);
+            if self.palm_root && self.default_sk {
+                j[0] = palm_centre_estimate(&f.joints_3d);
+            }
+            j
+        });
+        let errors = pred
+            .as_ref()
+            .map(|p| HandErrors::compute(p, &hand.joints_3d, mask, 0));
+        let reprojection_px = pred.as_ref().and_then(|p| {
+            let k = crate::dataset::project_joints(&frame.cameras[0], p);
+            mean_px(&metrics::keypoint_errors_px(&k.points, &input.gt2d.points))
+        });
+        Ok(HandResult {
+            sequence: frame.sequence.clone(),
+            frame: frame.index,
+            side: hand.side,
+            pred,
+            gt: hand.joints_3d,
+            errors,
+            keypoints_px: input.keypoints_px,
+            reprojection_px,
+            seconds: input.source_s + fit_s,
+        })
     }
-    Ok((runs, notes))
 }
 
 /// Where the default (wrist-rooted) model puts an STB-style palm centre: the

@@ -378,11 +378,56 @@ fn finish(cx: Ctx, output: i32, out_shape: &[usize], value: Value) -> Result<(),
     Ok(())
 }
 
+/// The settings of a `CONV_2D` or `DEPTHWISE_CONV_2D`, read from its options and checked.
+struct ConvParams {
+    /// The kernel's shape: OHWI, or 1HWC for a depthwise kernel.
+    ks: Vec<usize>,
+    /// Channels of the (NHWC) input.
+    in_channels: usize,
+    /// Channels of the output.
+    out_channels: usize,
+    /// TFLite's padding.
+    pad: Padding,
+    /// The same padding for tract.
+    padding: PaddingSpec,
+    /// Strides (height, width), at least 1.
+    strides: [usize; 2],
+    /// Dilations (height, width), at least 1.
+    dilations: [usize; 2],
+    /// The fused activation.
+    act: ActivationFunctionType,
+    /// Convolution groups: the input channels for a depthwise convolution, else 1.
+    group: usize,
+}
+
 /// `CONV_2D` (kernel OHWI) and `DEPTHWISE_CONV_2D` (kernel 1HW(C·M), M = 1 here).
 fn conv(cx: &mut Ctx, depthwise: bool) -> Result<OutletId, ImportError> {
     let x = cx.wire(0)?;
     let kernel = cx.konst(1)?;
-    let ks = kernel.shape().to_vec();
+    let p = conv_params(cx, depthwise, x, kernel.shape().to_vec())?;
+    let bias = if cx.has_input(2) {
+        cx.konst(2)?.into_tensor()
+    } else {
+        Tensor::zero::<f32>(&[p.out_channels])?
+    };
+    if depthwise && cx.options.fast_depthwise && p.dilations == [1, 1] {
+        return fast_depthwise(cx, x, kernel, bias, &p);
+    }
+    if !depthwise {
+        if let Some(y) = fast_conv(cx, x, &kernel, &bias, &p)? {
+            return Ok(y);
+        }
+    }
+    tract_conv(cx, x, kernel, bias, p)
+}
+
+/// Reads and checks the options and kernel shape `ks` of a convolution of the wire `x`.
+fn conv_params(
+    cx: &Ctx,
+    depthwise: bool,
+    x: OutletId,
+    ks: Vec<usize>,
+) -> Result<ConvParams, ImportError> {
     if ks.len() != 4 {
         return Err(ImportError::Malformed(format!(
             "{}: kernel shape {ks:?}",
@@ -449,87 +494,124 @@ fn conv(cx: &mut Ctx, depthwise: bool) -> Result<OutletId, ImportError> {
             cx.prefix
         )));
     }
-    let pool_spec = PoolSpec {
-        data_format: DataFormat::NHWC,
-        kernel_shape: tvec!(ks[1], ks[2]),
+    Ok(ConvParams {
         padding: padding(pad)?,
-        strides: Some(tvec!(strides[0], strides[1])),
-        dilations: Some(tvec!(dilations[0], dilations[1])),
-        input_channels: in_channels,
-        output_channels: out_channels,
+        ks,
+        in_channels,
+        out_channels,
+        pad,
+        strides,
+        dilations,
+        act,
+        group,
+    })
+}
+
+/// A depthwise convolution (dilation 1) of `x` as the importer's own NHWC operator, its
+/// activation fused in when enabled.
+fn fast_depthwise(
+    cx: &mut Ctx,
+    x: OutletId,
+    kernel: Arc<Tensor>,
+    bias: Tensor,
+    p: &ConvParams,
+) -> Result<OutletId, ImportError> {
+    let ks = &p.ks;
+    let [_, kh, kw, c] = [ks[0], ks[1], ks[2], ks[3]];
+    let kernel = kernel.into_tensor().into_shape(&[kh, kw, c])?;
+    let fused = match p.act {
+        _ if !cx.options.fused_depthwise_activation => None,
+        ActivationFunctionType::RELU => Some(Activation::Relu),
+        ActivationFunctionType::RELU6 => Some(Activation::Relu6),
+        _ => None,
     };
-    let bias = if cx.has_input(2) {
-        cx.konst(2)?.into_tensor()
-    } else {
-        Tensor::zero::<f32>(&[out_channels])?
+    let op = super::depthwise::NhwcDepthwise {
+        kernel: kernel.into_arc_tensor(),
+        bias: bias.into_arc_tensor(),
+        strides: (p.strides[0], p.strides[1]),
+        same: p.pad == Padding::SAME,
+        activation: fused.unwrap_or_default(),
+        register_blocked: cx.options.register_blocked_depthwise,
+        split: cx.options.split_rows,
     };
-    if depthwise && cx.options.fast_depthwise && dilations == [1, 1] {
-        let [_, kh, kw, c] = [ks[0], ks[1], ks[2], ks[3]];
-        let kernel = kernel.into_tensor().into_shape(&[kh, kw, c])?;
-        let fused = match act {
-            _ if !cx.options.fused_depthwise_activation => None,
-            ActivationFunctionType::RELU => Some(Activation::Relu),
-            ActivationFunctionType::RELU6 => Some(Activation::Relu6),
-            _ => None,
-        };
-        let op = super::depthwise::NhwcDepthwise {
-            kernel: kernel.into_arc_tensor(),
-            bias: bias.into_arc_tensor(),
-            strides: (strides[0], strides[1]),
-            same: pad == Padding::SAME,
-            activation: fused.unwrap_or_default(),
-            register_blocked: cx.options.register_blocked_depthwise,
-            split: cx.options.split_rows,
-        };
-        let y = cx.node("depthwise", op, &[x])?;
-        return match fused {
-            Some(_) => Ok(y),
-            None => cx.activation(y, act),
-        };
+    let y = cx.node("depthwise", op, &[x])?;
+    match fused {
+        Some(_) => Ok(y),
+        None => cx.activation(y, p.act),
     }
-    if !depthwise
-        && cx.options.fast_pointwise
+}
+
+/// A (not depthwise) convolution of `x` as the importer's own [`PointwiseConv`] (1x1,
+/// stride 1) or [`super::conv::NhwcConv`] where they apply; `None` where they do not.
+fn fast_conv(
+    cx: &mut Ctx,
+    x: OutletId,
+    kernel: &Tensor,
+    bias: &Tensor,
+    p: &ConvParams,
+) -> Result<Option<OutletId>, ImportError> {
+    let (ks, strides) = (&p.ks, p.strides);
+    if cx.options.fast_pointwise
         && ks[1] == 1
         && ks[2] == 1
         && strides == [1, 1]
         && PointwiseConv::fast_kernel_available()
     {
         // 1x1 stride 1: padding and dilation change nothing.
-        let act = match act {
+        let act = match p.act {
             ActivationFunctionType::NONE => Some(Activation::None),
             ActivationFunctionType::RELU => Some(Activation::Relu),
             ActivationFunctionType::RELU6 => Some(Activation::Relu6),
             _ => None,
         };
         if let Some(act) = act {
-            let op = PointwiseConv::new(&kernel, &bias, act)?.with_split(cx.options.split_rows);
-            return cx.node("pointwise", op, &[x]);
+            let op = PointwiseConv::new(kernel, bias, act)?.with_split(cx.options.split_rows);
+            return cx.node("pointwise", op, &[x]).map(Some);
         }
     }
-    let fused = match act {
+    let fused = match p.act {
         ActivationFunctionType::NONE => Some(Activation::None),
         ActivationFunctionType::RELU => Some(Activation::Relu),
         ActivationFunctionType::RELU6 => Some(Activation::Relu6),
         _ => None,
     };
     if let Some(act) = fused.filter(|_| {
-        !depthwise
-            && cx.options.fast_conv
+        cx.options.fast_conv
             && !(ks[1] == 1 && ks[2] == 1 && strides == [1, 1])
-            && dilations == [1, 1]
+            && p.dilations == [1, 1]
             && ks[1] * ks[2] * ks[3] <= 512
             && PointwiseConv::fast_kernel_available()
     }) {
         let op = super::conv::NhwcConv::new(
-            &kernel,
-            &bias,
+            kernel,
+            bias,
             (strides[0], strides[1]),
-            pad == Padding::SAME,
+            p.pad == Padding::SAME,
             act,
         )?
         .with_split(cx.options.split_rows);
-        return cx.node("conv", op, &[x]);
+        return cx.node("conv", op, &[x]).map(Some);
     }
+    Ok(None)
+}
+
+/// A convolution of `x` as tract's [`Conv`], then its activation.
+fn tract_conv(
+    cx: &mut Ctx,
+    x: OutletId,
+    kernel: Arc<Tensor>,
+    bias: Tensor,
+    p: ConvParams,
+) -> Result<OutletId, ImportError> {
+    let pool_spec = PoolSpec {
+        data_format: DataFormat::NHWC,
+        kernel_shape: tvec!(p.ks[1], p.ks[2]),
+        padding: p.padding,
+        strides: Some(tvec!(p.strides[0], p.strides[1])),
+        dilations: Some(tvec!(p.dilations[0], p.dilations[1])),
+        input_channels: p.in_channels,
+        output_channels: p.out_channels,
+    };
     // tract's OHWI carries the group on I: a depthwise kernel 1xHxWxC with group C is
     // exactly TFLite's layout.
     let k = cx.add_const("kernel", kernel.into_tensor())?;
@@ -537,11 +619,11 @@ fn conv(cx: &mut Ctx, depthwise: bool) -> Result<OutletId, ImportError> {
     let op = Conv {
         pool_spec,
         kernel_fmt: KernelFormat::OHWI,
-        group,
+        group: p.group,
         q_params: None,
     };
     let y = cx.node("conv", op, &[x, k, b])?;
-    cx.activation(y, act)
+    cx.activation(y, p.act)
 }
 
 /// `PRELU`: `max(x, 0) + alpha * min(x, 0)`, alpha broadcast over the channel axis.

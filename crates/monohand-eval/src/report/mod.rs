@@ -211,8 +211,18 @@ impl Report {
         s
     }
 
+    /// Draws the report's plots into `dir` (PCK curves, errors per axis, errors over
+    /// time); returns (file, caption) pairs.
     fn plots(&self, dir: &Path) -> EvalResult<Vec<(PathBuf, String)>> {
-        let mut out = Vec::new();
+        let mut out = vec![self.pck_plot(dir)?];
+        out.extend(self.axis_plot(dir)?);
+        out.extend(self.time_plots(dir)?);
+        Ok(out)
+    }
+
+    /// Draws `pck.png`, the PCK curves of every run (absolute per frame, aligned per
+    /// joint); returns it with its caption.
+    fn pck_plot(&self, dir: &Path) -> EvalResult<(PathBuf, String)> {
         let t = metrics::thresholds(0.0, 50.0, 101);
         let curve = |errors: &[f64], colour: usize, label: String| Line {
             label,
@@ -256,70 +266,76 @@ impl Report {
             2,
             (640, 480),
         )?;
-        out.push((
+        Ok((
             pck_path,
             "3D PCK curves of every run: left, the fraction of frames whose mean absolute joint error is below the threshold (the paper's plots); right, the fraction of joints below the threshold after root and scale alignment (what STB tables integrate over 20-50 mm).".to_string(),
-        ));
+        ))
+    }
 
-        // Per-axis error per joint, one panel per run.
-        let axis_charts: Vec<Chart> = self
-            .runs
-            .iter()
-            .map(|r| {
-                let det: Vec<_> = r
-                    .hands
-                    .iter()
-                    .filter_map(|h| h.pred.map(|p| (p, h.gt)))
-                    .collect();
-                let ymax = det
-                    .iter()
-                    .flat_map(|(p, g)| {
-                        (0..NUM_JOINTS)
-                            .flat_map(move |j| (0..3).map(move |a| (p[j][a] - g[j][a]).abs()))
-                    })
-                    .fold(0.0f64, f64::max);
-                let lines = (0..3)
-                    .map(|a| Line {
-                        label: ["x", "y", "z (depth)"][a].to_string(),
-                        points: (0..NUM_JOINTS)
-                            .filter(|&j| self.mask[j])
-                            .map(|j| {
-                                let v: Vec<f64> =
-                                    det.iter().map(|(p, g)| (p[j][a] - g[j][a]).abs()).collect();
-                                (j as f64, metrics::mean(&v))
-                            })
-                            .collect(),
-                        colour: a,
-                        width: 2,
-                    })
-                    .collect::<Vec<_>>();
-                let top = lines
-                    .iter()
-                    .flat_map(|l| l.points.iter().map(|p| p.1))
-                    .filter(|v| v.is_finite())
-                    .fold(1.0f64, f64::max)
-                    .min(ymax.max(1.0));
-                Chart {
-                    title: format!("{}: mean |error| per axis", r.label),
-                    x_desc: "joint (0 = root ... 20 = little tip)".into(),
-                    y_desc: "mm".into(),
-                    x: (0.0, 20.0),
-                    y: (0.0, top * 1.1),
-                    lines,
-                }
-            })
-            .collect();
-        if !axis_charts.is_empty() {
-            let p = dir.join("axis_errors.png");
-            plot::draw_charts(&p, &axis_charts, 2, (560, 360))?;
-            out.push((
-                p,
-                "Mean absolute error along each camera axis, per joint, for each run (z is depth)."
-                    .into(),
-            ));
+    /// Draws `axis_errors.png`, the per-axis error per joint with one panel per run;
+    /// returns it with its caption, `None` without runs.
+    fn axis_plot(&self, dir: &Path) -> EvalResult<Option<(PathBuf, String)>> {
+        let axis_charts: Vec<Chart> = self.runs.iter().map(|r| self.axis_chart(r)).collect();
+        if axis_charts.is_empty() {
+            return Ok(None);
         }
+        let p = dir.join("axis_errors.png");
+        plot::draw_charts(&p, &axis_charts, 2, (560, 360))?;
+        Ok(Some((
+            p,
+            "Mean absolute error along each camera axis, per joint, for each run (z is depth)."
+                .into(),
+        )))
+    }
 
-        // Error over time, one chart per sequence (at most 12).
+    /// The mean absolute error of run `r` along each axis, per joint.
+    fn axis_chart(&self, r: &RunResult) -> Chart {
+        let det: Vec<_> = r
+            .hands
+            .iter()
+            .filter_map(|h| h.pred.map(|p| (p, h.gt)))
+            .collect();
+        let ymax = det
+            .iter()
+            .flat_map(|(p, g)| {
+                (0..NUM_JOINTS).flat_map(move |j| (0..3).map(move |a| (p[j][a] - g[j][a]).abs()))
+            })
+            .fold(0.0f64, f64::max);
+        let lines = (0..3)
+            .map(|a| Line {
+                label: ["x", "y", "z (depth)"][a].to_string(),
+                points: (0..NUM_JOINTS)
+                    .filter(|&j| self.mask[j])
+                    .map(|j| {
+                        let v: Vec<f64> =
+                            det.iter().map(|(p, g)| (p[j][a] - g[j][a]).abs()).collect();
+                        (j as f64, metrics::mean(&v))
+                    })
+                    .collect(),
+                colour: a,
+                width: 2,
+            })
+            .collect::<Vec<_>>();
+        let top = lines
+            .iter()
+            .flat_map(|l| l.points.iter().map(|p| p.1))
+            .filter(|v| v.is_finite())
+            .fold(1.0f64, f64::max)
+            .min(ymax.max(1.0));
+        Chart {
+            title: format!("{}: mean |error| per axis", r.label),
+            x_desc: "joint (0 = root ... 20 = little tip)".into(),
+            y_desc: "mm".into(),
+            x: (0.0, 20.0),
+            y: (0.0, top * 1.1),
+            lines,
+        }
+    }
+
+    /// Draws the error over time, one chart per sequence (at most 12, `time_NN_SEQ.png`);
+    /// returns them with their captions.
+    fn time_plots(&self, dir: &Path) -> EvalResult<Vec<(PathBuf, String)>> {
+        let mut out = Vec::new();
         let mut seqs: Vec<String> = Vec::new();
         for r in &self.runs {
             for h in &r.hands {
@@ -329,60 +345,60 @@ impl Report {
             }
         }
         for (k, seq) in seqs.iter().take(12).enumerate() {
-            let mut lines = Vec::new();
-            let mut xmax = 1.0f64;
-            let mut ymax = 1.0f64;
-            for (i, r) in self.runs.iter().enumerate() {
-                let pts: Vec<(f64, f64)> = r
-                    .hands
-                    .iter()
-                    .filter(|h| &h.sequence == seq)
-                    .filter_map(|h| {
-                        h.errors.as_ref().map(|e| {
-                            (
-                                h.frame as f64,
-                                metrics::masked_mean(&e.absolute, &self.mask),
-                            )
-                        })
-                    })
-                    .collect();
-                for p in &pts {
-                    xmax = xmax.max(p.0);
-                    ymax = ymax.max(p.1);
-                }
-                lines.push(Line {
-                    label: r.label.clone(),
-                    points: pts,
-                    colour: i,
-                    width: 1,
-                });
-            }
-            // The largest errors first, so that the smaller ones stay visible on top.
-            lines.sort_by(|a, b| {
-                let m = |l: &Line| metrics::mean(&l.points.iter().map(|p| p.1).collect::<Vec<_>>());
-                m(b).total_cmp(&m(a))
-            });
             let name = format!("time_{k:02}_{}.png", file_safe(seq));
             let p = dir.join(&name);
-            plot::draw_charts(
-                &p,
-                &[Chart {
-                    title: format!("sequence {seq}: absolute error per frame"),
-                    x_desc: "frame".into(),
-                    y_desc: "mean joint error (mm)".into(),
-                    x: (0.0, xmax),
-                    y: (0.0, ymax.min(200.0) * 1.05),
-                    lines,
-                }],
-                1,
-                (1000, 400),
-            )?;
+            plot::draw_charts(&p, &[self.time_chart(seq)], 1, (1000, 400))?;
             out.push((
                 p,
                 format!("Mean absolute joint error over the frames of sequence {seq} (clipped at 200 mm)."),
             ));
         }
         Ok(out)
+    }
+
+    /// The mean absolute joint error per frame of sequence `seq`, one line per run.
+    fn time_chart(&self, seq: &str) -> Chart {
+        let mut lines = Vec::new();
+        let mut xmax = 1.0f64;
+        let mut ymax = 1.0f64;
+        for (i, r) in self.runs.iter().enumerate() {
+            let pts: Vec<(f64, f64)> = r
+                .hands
+                .iter()
+                .filter(|h| h.sequence == seq)
+                .filter_map(|h| {
+                    h.errors.as_ref().map(|e| {
+                        (
+                            h.frame as f64,
+                            metrics::masked_mean(&e.absolute, &self.mask),
+                        )
+                    })
+                })
+                .collect();
+            for p in &pts {
+                xmax = xmax.max(p.0);
+                ymax = ymax.max(p.1);
+            }
+            lines.push(Line {
+                label: r.label.clone(),
+                points: pts,
+                colour: i,
+                width: 1,
+            });
+        }
+        // The largest errors first, so that the smaller ones stay visible on top.
+        lines.sort_by(|a, b| {
+            let m = |l: &Line| metrics::mean(&l.points.iter().map(|p| p.1).collect::<Vec<_>>());
+            m(b).total_cmp(&m(a))
+        });
+        Chart {
+            title: format!("sequence {seq}: absolute error per frame"),
+            x_desc: "frame".into(),
+            y_desc: "mean joint error (mm)".into(),
+            x: (0.0, xmax),
+            y: (0.0, ymax.min(200.0) * 1.05),
+            lines,
+        }
     }
 
     /// The Markdown report; `plots` are (file, caption) pairs in `dir`.

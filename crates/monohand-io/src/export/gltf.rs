@@ -2,7 +2,7 @@
 //! skinned hand mesh.
 
 use crate::error::{name_of, IoError, IoResult};
-use crate::hand_mesh::{HandMesh, MESH_CREDIT, MESH_JOINTS};
+use crate::hand_mesh::{HandMesh, JointPose, MESH_CREDIT, MESH_JOINTS};
 use crate::jsonl::{FrameRecord, HandRecord};
 use crate::sink::write_file_atomically;
 use monohand_core::hand_model::{HandSide, BONES, JOINT_NAMES, NUM_JOINTS};
@@ -255,6 +255,75 @@ impl GltfWriter {
 
     /// The whole `.glb` file as bytes.
     pub fn to_glb(&self) -> Vec<u8> {
+        let mut scene = GlbScene::new();
+        // The camera, at the origin looking along -z as the real camera.
+        let mut cam = json!({"type": "perspective", "perspective": {
+            "yfov": self.yfov_rad, "znear": 0.01, "zfar": 100.0}});
+        if let Some(a) = self.aspect {
+            cam["perspective"]["aspectRatio"] = json!(a);
+        }
+        scene.nodes.push(json!({"name": "camera", "camera": 0}));
+        scene.scene_roots.push(0);
+        for track in &self.tracks {
+            scene.add_track(track, &self.times, self.meshes.as_deref());
+        }
+        scene.finish(cam)
+    }
+
+    /// Writes the file (to `PATH.tmp`, then renamed to `PATH`; complete or absent).
+    pub fn finish(self) -> IoResult<()> {
+        write_file_atomically(&self.path, &self.to_glb())
+    }
+}
+
+/// Index of a side in per-side arrays: left 0, right 1.
+fn side_index(s: HandSide) -> usize {
+    match s {
+        HandSide::Left => 0,
+        HandSide::Right => 1,
+    }
+}
+
+/// The keys of one track, which the nodes of its hand are animated over.
+struct TrackKeys {
+    /// Which hand.
+    side: HandSide,
+    /// The track's id as named in its nodes (`na` without one).
+    id: String,
+    /// The accessor of the key times; `None` without keys.
+    time_acc: Option<usize>,
+    /// The joints at each key, gaps filled (see [`fill_gaps`]).
+    filled: Vec<[[f32; 3]; NUM_JOINTS]>,
+    /// Whether the hand was seen at each key.
+    visible: Vec<bool>,
+}
+
+/// A `.glb` under construction: its binary data and the JSON arrays the hands are
+/// added to in turn.
+struct GlbScene {
+    b: GlbBuilder,
+    materials: Vec<Value>,
+    /// The joint and bone meshes.
+    meshes: Vec<Value>,
+    /// The skinned meshes, which follow `meshes`.
+    meshes_json: Vec<Value>,
+    /// Index of each side's skinned mesh, once added.
+    skinned_mesh: [Option<usize>; 2],
+    skins: Vec<Value>,
+    nodes: Vec<Value>,
+    scene_roots: Vec<usize>,
+    channels: Vec<Value>,
+    samplers: Vec<Value>,
+    /// The joint mesh of each side.
+    side_mesh: [usize; 2],
+    /// The bone mesh of each finger.
+    finger_mesh: Vec<usize>,
+}
+
+impl GlbScene {
+    /// A scene with the joint and bone geometry, their materials and meshes, and nothing
+    /// else.
+    fn new() -> GlbScene {
         let mut b = GlbBuilder::default();
         // Geometry: joint octahedron and bone pyramid (base at the origin, tip at +Y 1).
         let r = JOINT_RADIUS_M;
@@ -291,10 +360,6 @@ impl GltfWriter {
             let m = material(&format!("{s}_joint"), crate::palette::side_color(s));
             mesh(&format!("{s}_joint"), joint_acc, m)
         });
-        let side_index = |s: HandSide| match s {
-            HandSide::Left => 0,
-            HandSide::Right => 1,
-        };
         let finger_mesh: Vec<usize> = monohand_core::hand_model::Finger::ALL
             .iter()
             .map(|f| {
@@ -305,195 +370,241 @@ impl GltfWriter {
                 mesh(&format!("{}_bone", f.name()), bone_acc, m)
             })
             .collect();
-
-        let mut meshes_json: Vec<Value> = Vec::new();
-        let mut skinned_mesh: [Option<usize>; 2] = [None, None];
-        let mut skins: Vec<Value> = Vec::new();
-        let mut nodes: Vec<Value> = Vec::new();
-        let mut scene_roots = Vec::new();
-        let mut channels = Vec::new();
-        let mut samplers = Vec::new();
-        // The camera, at the origin looking along -z as the real camera.
-        let mut cam = json!({"type": "perspective", "perspective": {
-            "yfov": self.yfov_rad, "znear": 0.01, "zfar": 100.0}});
-        if let Some(a) = self.aspect {
-            cam["perspective"]["aspectRatio"] = json!(a);
+        GlbScene {
+            b,
+            materials,
+            meshes,
+            meshes_json: Vec::new(),
+            skinned_mesh: [None, None],
+            skins: Vec::new(),
+            nodes: Vec::new(),
+            scene_roots: Vec::new(),
+            channels: Vec::new(),
+            samplers: Vec::new(),
+            side_mesh,
+            finger_mesh,
         }
-        nodes.push(json!({"name": "camera", "camera": 0}));
-        scene_roots.push(0);
+    }
 
-        for track in &self.tracks {
-            let (first, samples) = track.keyed(self.times.len());
-            let times: Vec<f32> = self
-                .times
+    /// Adds the hand of a track (times of all frames in `times`): a skinned mesh of
+    /// `meshes` (left, right) when given, else joints and bones.
+    fn add_track(&mut self, track: &Track, times: &[f64], meshes: Option<&[HandMesh; 2]>) {
+        let (first, samples) = track.keyed(times.len());
+        let times: Vec<f32> = times
+            .iter()
+            .skip(first)
+            .take(samples.len())
+            .map(|&t| t as f32)
+            .collect();
+        let time_acc = (!times.is_empty()).then(|| self.b.scalar_accessor(&times));
+        let keys = TrackKeys {
+            side: track.side,
+            id: track.id.map_or("na".to_string(), |i| i.to_string()),
+            time_acc,
+            filled: fill_gaps(&samples),
+            visible: samples.iter().map(Option::is_some).collect(),
+        };
+        let children = match meshes {
+            Some(meshes) => self.add_skinned_hand(&keys, &meshes[side_index(track.side)]),
+            None => {
+                let mut children = self.add_joint_nodes(&keys);
+                children.extend(self.add_bone_nodes(&keys));
+                children
+            }
+        };
+        let (id, side) = (&keys.id, keys.side);
+        let hand = self.nodes.len();
+        self.nodes
+            .push(json!({"name": format!("hand_{id}_{side}"), "children": children}));
+        self.scene_roots.push(hand);
+    }
+
+    /// Animates the `path` of `node` with `data` (`comps` floats a key) at the keys of
+    /// the accessor `input` (nothing without keys); `step` for step interpolation, else
+    /// linear.
+    fn animate(
+        &mut self,
+        input: Option<usize>,
+        node: usize,
+        path: &str,
+        data: Vec<f32>,
+        comps: usize,
+        step: bool,
+    ) {
+        let Some(input) = input else { return };
+        let out = self.b.float_accessor(&data, comps);
+        let sampler = json!({"input": input, "output": out,
+            "interpolation": if step { "STEP" } else { "LINEAR" }});
+        self.samplers.push(sampler);
+        let channel = json!({"sampler": self.samplers.len() - 1,
+            "target": {"node": node, "path": path}});
+        self.channels.push(channel);
+    }
+
+    /// Adds a hand drawn as `mesh` skinned to animated joint nodes (its skin, the joint
+    /// nodes and the mesh node); returns the nodes to put under the hand's node.
+    fn add_skinned_hand(&mut self, k: &TrackKeys, mesh: &HandMesh) -> Vec<usize> {
+        let (id, side) = (&k.id, k.side);
+        let si = side_index(side);
+        let (b, materials, meshes_json) = (&mut self.b, &mut self.materials, &mut self.meshes_json);
+        let mi = *self.skinned_mesh[si]
+            .get_or_insert_with(|| skinned_mesh_json(b, mesh, materials, meshes_json));
+        let ibm = self.b.raw_accessor(&mesh.inverse_bind);
+        let poses = skinned_poses(mesh, &k.filled);
+        let mut children = Vec::new();
+        let mut joint_nodes = Vec::new();
+        for (ji, (name, _)) in MESH_JOINTS.iter().enumerate() {
+            let node = self.nodes.len();
+            joint_nodes.push(node);
+            children.push(node);
+            let (mut tr, mut rot, mut sc) = (Vec::new(), Vec::new(), Vec::new());
+            let mut prev_q: Option<[f32; 4]> = None;
+            for (p, &v) in poses.iter().zip(&k.visible) {
+                let jp = p.map(|p| p[ji]);
+                let t = jp.map_or([0.0; 3], |j| j.translation);
+                let mut q = jp.map_or([0.0, 0.0, 0.0, 1.0], |j| j.rotation);
+                if let Some(pq) = prev_q {
+                    if pq.iter().zip(&q).map(|(x, y)| x * y).sum::<f32>() < 0.0 {
+                        q = q.map(|x| -x);
+                    }
+                }
+                prev_q = Some(q);
+                let s = if v { jp.map_or(0.0, |j| j.scale) } else { 0.0 };
+                tr.extend(t);
+                rot.extend(q);
+                sc.extend([s; 3]);
+            }
+            let mut n = json!({"name": format!("{name}_{id}_{side}")});
+            if let (Some(t0), Some(r0), Some(s0)) = (tr.get(0..3), rot.get(0..4), sc.get(0..3)) {
+                n["translation"] = json!(t0);
+                n["rotation"] = json!(r0);
+                n["scale"] = json!(s0);
+            }
+            self.nodes.push(n);
+            self.animate(k.time_acc, node, "translation", tr, 3, false);
+            self.animate(k.time_acc, node, "rotation", rot, 4, false);
+            self.animate(k.time_acc, node, "scale", sc, 3, true);
+        }
+        let skin = json!({"name": format!("skin_{id}_{side}"),
+            "inverseBindMatrices": ibm, "joints": joint_nodes});
+        self.skins.push(skin);
+        let node = self.nodes.len();
+        let mesh_node = json!({"name": format!("mesh_{id}_{side}"),
+            "mesh": mi, "skin": self.skins.len() - 1});
+        self.nodes.push(mesh_node);
+        children.push(node);
+        children
+    }
+
+    /// Adds the 21 joint nodes of a hand drawn as joints and bones; returns them.
+    fn add_joint_nodes(&mut self, k: &TrackKeys) -> Vec<usize> {
+        let (id, side) = (&k.id, k.side);
+        let mut children = Vec::new();
+        for (j, name) in JOINT_NAMES.iter().enumerate() {
+            let node = self.nodes.len();
+            let first = k.filled.first().map_or([0.0; 3], |f| f[j]);
+            let joint = json!({"name": format!("{name}_{id}_{side}"),
+                "mesh": self.side_mesh[side_index(side)], "translation": first});
+            self.nodes.push(joint);
+            children.push(node);
+            let tr: Vec<f32> = k.filled.iter().flat_map(|f| f[j]).collect();
+            let sc: Vec<f32> = k
+                .visible
                 .iter()
-                .skip(first)
-                .take(samples.len())
-                .map(|&t| t as f32)
+                .flat_map(|&v| if v { [1.0; 3] } else { [0.0; 3] })
                 .collect();
-            let time_acc = (!times.is_empty()).then(|| b.scalar_accessor(&times));
-            let filled = fill_gaps(&samples);
-            let visible: Vec<bool> = samples.iter().map(Option::is_some).collect();
-            let id = track.id.map_or("na".to_string(), |i| i.to_string());
-            let skin_parts = self.meshes.as_ref().map(|meshes| {
-                let si = side_index(track.side);
-                let mesh = &meshes[si];
-                let mi = *skinned_mesh[si].get_or_insert_with(|| {
-                    skinned_mesh_json(&mut b, mesh, &mut materials, &mut meshes_json)
-                });
-                (mesh, mi, b.raw_accessor(&mesh.inverse_bind))
-            });
-            let mut children = Vec::new();
-            let mut anim = |node: usize, path: &str, data: Vec<f32>, comps: usize, step: bool| {
-                let Some(input) = time_acc else { return };
-                let out = b.float_accessor(&data, comps);
-                samplers.push(json!({"input": input, "output": out,
-                    "interpolation": if step { "STEP" } else { "LINEAR" }}));
-                channels.push(json!({"sampler": samplers.len() - 1,
-                    "target": {"node": node, "path": path}}));
-            };
-            if let Some((mesh, mi, ibm)) = skin_parts {
-                // One pose per frame; frames with a degenerate fit keep the last pose.
-                let mut poses = Vec::with_capacity(filled.len());
-                let mut last = None;
-                for f in &filled {
-                    if let Some(p) = mesh.pose(f) {
-                        last = Some(p);
-                    }
-                    poses.push(last);
-                }
-                let first = poses.iter().flatten().next().copied();
-                let poses: Vec<_> = poses.into_iter().map(|p| p.or(first)).collect();
-                let mut joint_nodes = Vec::new();
-                for (k, (name, _)) in MESH_JOINTS.iter().enumerate() {
-                    let node = nodes.len();
-                    joint_nodes.push(node);
-                    children.push(node);
-                    let (mut tr, mut rot, mut sc) = (Vec::new(), Vec::new(), Vec::new());
-                    let mut prev_q: Option<[f32; 4]> = None;
-                    for (p, &v) in poses.iter().zip(&visible) {
-                        let jp = p.map(|p| p[k]);
-                        let t = jp.map_or([0.0; 3], |j| j.translation);
-                        let mut q = jp.map_or([0.0, 0.0, 0.0, 1.0], |j| j.rotation);
-                        if let Some(pq) = prev_q {
-                            if pq.iter().zip(&q).map(|(x, y)| x * y).sum::<f32>() < 0.0 {
-                                q = q.map(|x| -x);
-                            }
-                        }
-                        prev_q = Some(q);
-                        let s = if v { jp.map_or(0.0, |j| j.scale) } else { 0.0 };
-                        tr.extend(t);
-                        rot.extend(q);
-                        sc.extend([s; 3]);
-                    }
-                    let mut n = json!({"name": format!("{name}_{id}_{}", track.side)});
-                    if let (Some(t0), Some(r0), Some(s0)) =
-                        (tr.get(0..3), rot.get(0..4), sc.get(0..3))
-                    {
-                        n["translation"] = json!(t0);
-                        n["rotation"] = json!(r0);
-                        n["scale"] = json!(s0);
-                    }
-                    nodes.push(n);
-                    anim(node, "translation", tr, 3, false);
-                    anim(node, "rotation", rot, 4, false);
-                    anim(node, "scale", sc, 3, true);
-                }
-                skins.push(json!({"name": format!("skin_{id}_{}", track.side),
-                    "inverseBindMatrices": ibm, "joints": joint_nodes}));
-                let node = nodes.len();
-                nodes.push(json!({"name": format!("mesh_{id}_{}", track.side),
-                    "mesh": mi, "skin": skins.len() - 1}));
-                children.push(node);
-                let hand = nodes.len();
-                nodes.push(
-                    json!({"name": format!("hand_{id}_{}", track.side), "children": children}),
-                );
-                scene_roots.push(hand);
-                continue;
-            }
-            for (j, name) in JOINT_NAMES.iter().enumerate() {
-                let node = nodes.len();
-                let first = filled.first().map_or([0.0; 3], |f| f[j]);
-                nodes.push(json!({"name": format!("{name}_{id}_{}", track.side),
-                    "mesh": side_mesh[side_index(track.side)], "translation": first}));
-                children.push(node);
-                let tr: Vec<f32> = filled.iter().flat_map(|f| f[j]).collect();
-                let sc: Vec<f32> = visible
-                    .iter()
-                    .flat_map(|&v| if v { [1.0; 3] } else { [0.0; 3] })
-                    .collect();
-                anim(node, "translation", tr, 3, false);
-                anim(node, "scale", sc, 3, true);
-            }
-            for &(a, c) in &BONES {
-                let node = nodes.len();
-                let finger = (c - 1) / 4;
-                nodes.push(json!({"name": format!("bone_{}_{}_{id}_{}",
-                    JOINT_NAMES[a], JOINT_NAMES[c], track.side), "mesh": finger_mesh[finger]}));
-                children.push(node);
-                let (mut tr, mut rot, mut sc) = (Vec::new(), Vec::new(), Vec::new());
-                let mut prev_q: Option<[f32; 4]> = None;
-                for (f, &v) in filled.iter().zip(&visible) {
-                    let (p, q) = (f[a], f[c]);
-                    let d = [q[0] - p[0], q[1] - p[1], q[2] - p[2]];
-                    let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
-                    let mut rq = if len > 1e-7 {
-                        rotation_from_y(d.map(|x| x / len))
-                    } else {
-                        prev_q.unwrap_or([0.0, 0.0, 0.0, 1.0])
-                    };
-                    // Stay in the hemisphere of the previous key so interpolation takes the short way.
-                    if let Some(pq) = prev_q {
-                        if pq.iter().zip(&rq).map(|(x, y)| x * y).sum::<f32>() < 0.0 {
-                            rq = rq.map(|x| -x);
-                        }
-                    }
-                    prev_q = Some(rq);
-                    tr.extend(p);
-                    rot.extend(rq);
-                    sc.extend(if v { [1.0, len, 1.0] } else { [0.0; 3] });
-                }
-                if let (Some(t0), Some(r0)) = (tr.get(0..3), rot.get(0..4)) {
-                    nodes[node]["translation"] = json!(t0);
-                    nodes[node]["rotation"] = json!(r0);
-                }
-                anim(node, "translation", tr, 3, false);
-                anim(node, "rotation", rot, 4, false);
-                anim(node, "scale", sc, 3, true);
-            }
-            let hand = nodes.len();
-            nodes.push(json!({"name": format!("hand_{id}_{}", track.side), "children": children}));
-            scene_roots.push(hand);
+            self.animate(k.time_acc, node, "translation", tr, 3, false);
+            self.animate(k.time_acc, node, "scale", sc, 3, true);
         }
+        children
+    }
 
+    /// Adds the 20 bone nodes of a hand drawn as joints and bones; returns them.
+    fn add_bone_nodes(&mut self, k: &TrackKeys) -> Vec<usize> {
+        let (id, side) = (&k.id, k.side);
+        let mut children = Vec::new();
+        for &(a, c) in &BONES {
+            let node = self.nodes.len();
+            let finger = (c - 1) / 4;
+            let bone = json!({"name": format!("bone_{}_{}_{id}_{side}",
+                JOINT_NAMES[a], JOINT_NAMES[c]), "mesh": self.finger_mesh[finger]});
+            self.nodes.push(bone);
+            children.push(node);
+            let (mut tr, mut rot, mut sc) = (Vec::new(), Vec::new(), Vec::new());
+            let mut prev_q: Option<[f32; 4]> = None;
+            for (f, &v) in k.filled.iter().zip(&k.visible) {
+                let (p, q) = (f[a], f[c]);
+                let d = [q[0] - p[0], q[1] - p[1], q[2] - p[2]];
+                let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+                let mut rq = if len > 1e-7 {
+                    rotation_from_y(d.map(|x| x / len))
+                } else {
+                    prev_q.unwrap_or([0.0, 0.0, 0.0, 1.0])
+                };
+                // Stay in the hemisphere of the previous key so interpolation takes the short way.
+                if let Some(pq) = prev_q {
+                    if pq.iter().zip(&rq).map(|(x, y)| x * y).sum::<f32>() < 0.0 {
+                        rq = rq.map(|x| -x);
+                    }
+                }
+                prev_q = Some(rq);
+                tr.extend(p);
+                rot.extend(rq);
+                sc.extend(if v { [1.0, len, 1.0] } else { [0.0; 3] });
+            }
+            if let (Some(t0), Some(r0)) = (tr.get(0..3), rot.get(0..4)) {
+                self.nodes[node]["translation"] = json!(t0);
+                self.nodes[node]["rotation"] = json!(r0);
+            }
+            self.animate(k.time_acc, node, "translation", tr, 3, false);
+            self.animate(k.time_acc, node, "rotation", rot, 4, false);
+            self.animate(k.time_acc, node, "scale", sc, 3, true);
+        }
+        children
+    }
+
+    /// The `.glb` of the scene with the camera `cam`.
+    fn finish(self, cam: Value) -> Vec<u8> {
         let mut doc = json!({
             "asset": {"version": "2.0", "generator": concat!("monohand-io ", env!("CARGO_PKG_VERSION"))},
             "scene": 0,
-            "scenes": [{"name": "monohand", "nodes": scene_roots}],
-            "nodes": nodes,
+            "scenes": [{"name": "monohand", "nodes": self.scene_roots}],
+            "nodes": self.nodes,
             "cameras": [cam],
-            "materials": materials,
-            "meshes": meshes,
+            "materials": self.materials,
+            "meshes": self.meshes,
         });
         if let Some(m) = doc["meshes"].as_array_mut() {
-            m.extend(meshes_json);
+            m.extend(self.meshes_json);
         }
-        if !skins.is_empty() {
-            doc["skins"] = json!(skins);
+        if !self.skins.is_empty() {
+            doc["skins"] = json!(self.skins);
             doc["asset"]["copyright"] = json!(MESH_CREDIT);
         }
-        if !channels.is_empty() {
+        if !self.channels.is_empty() {
             doc["animations"] =
-                json!([{"name": "tracking", "channels": channels, "samplers": samplers}]);
+                json!([{"name": "tracking", "channels": self.channels, "samplers": self.samplers}]);
         }
-        b.finish(doc)
+        self.b.finish(doc)
     }
+}
 
-    /// Writes the file (to `PATH.tmp`, then renamed to `PATH`; complete or absent).
-    pub fn finish(self) -> IoResult<()> {
-        write_file_atomically(&self.path, &self.to_glb())
+/// The pose of a skinned mesh at each key: frames with a degenerate fit keep the last
+/// pose (the first pose before it).
+fn skinned_poses(
+    mesh: &HandMesh,
+    filled: &[[[f32; 3]; NUM_JOINTS]],
+) -> Vec<Option<[JointPose; MESH_JOINTS.len()]>> {
+    let mut poses = Vec::with_capacity(filled.len());
+    let mut last = None;
+    for f in filled {
+        if let Some(p) = mesh.pose(f) {
+            last = Some(p);
+        }
+        poses.push(last);
     }
+    let first = poses.iter().flatten().next().copied();
+    poses.into_iter().map(|p| p.or(first)).collect()
 }
 
 /// Adds a side's skinned mesh (its vertex data, and a material in the side's colour) to
