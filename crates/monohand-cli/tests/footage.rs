@@ -250,8 +250,11 @@ fn a_photo_is_drawn_with_the_camera_it_was_fitted_with() {
     };
     let (exif, exif_overlay) = run(&[], "exif");
     assert_eq!(exif.cameras.len(), 1, "{:?}", exif.cameras);
-    let cam = exif.cameras[0];
-    assert_eq!(cam.source, monohand_io::jsonl::CameraSource::Exif);
+    assert_eq!(
+        exif.cameras[0].source,
+        monohand_io::jsonl::CameraSource::Exif
+    );
+    let cam = exif.cameras[0].intrinsics;
     // 18 mm on the 43.27 mm diagonal of 35 mm film, for the 800 px diagonal of 640x480.
     let fx = 18.0 * 800.0 / 36f64.hypot(24.0);
     assert!((cam.fx - fx).abs() < 1e-6 && cam.fx == cam.fy, "{cam:?}");
@@ -262,19 +265,7 @@ fn a_photo_is_drawn_with_the_camera_it_was_fitted_with() {
     );
 
     let file = dir.path().join("cam.json");
-    let camera = Camera::new(
-        Intrinsics {
-            fx: cam.fx,
-            fy: cam.fy,
-            cx: cam.cx,
-            cy: cam.cy,
-            width: cam.width,
-            height: cam.height,
-        },
-        Distortion::default(),
-        Extrinsics::default(),
-    )
-    .unwrap();
+    let camera = Camera::new(cam, Distortion::default(), Extrinsics::default()).unwrap();
     write_camera_json(&file, &camera).unwrap();
     let (given, given_overlay) = run(&["--camera", p(&file)], "file");
     assert_eq!(given.cameras.len(), 1);
@@ -282,7 +273,7 @@ fn a_photo_is_drawn_with_the_camera_it_was_fitted_with() {
         given.cameras[0].source,
         monohand_io::jsonl::CameraSource::File
     );
-    assert_eq!(given.cameras[0].fx, cam.fx);
+    assert_eq!(given.cameras[0].intrinsics, cam);
 
     assert_eq!(exif.hands.len(), 1);
     assert_eq!(given.hands.len(), 1);

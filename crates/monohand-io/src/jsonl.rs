@@ -311,21 +311,13 @@ pub enum CameraSource {
     Generic,
 }
 
-/// The intrinsics of the camera a view was fitted with, and where they came from.
+/// The intrinsics of the camera a view was fitted with, and where they came from: in JSON
+/// `fx, fy, cx, cy, width, height, source`.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct CameraRecord {
-    /// Focal length along x, pixels.
-    pub fx: f64,
-    /// Focal length along y, pixels.
-    pub fy: f64,
-    /// Principal point x, pixels.
-    pub cx: f64,
-    /// Principal point y, pixels.
-    pub cy: f64,
-    /// Image width the intrinsics are for, pixels.
-    pub width: u32,
-    /// Image height the intrinsics are for, pixels.
-    pub height: u32,
+    /// Focal lengths, principal point and image size, pixels.
+    #[serde(flatten)]
+    pub intrinsics: monohand_core::camera::Intrinsics,
     /// Where the camera came from.
     pub source: CameraSource,
 }
@@ -333,14 +325,8 @@ pub struct CameraRecord {
 impl CameraRecord {
     /// The record of a camera's intrinsics.
     pub fn new(camera: &monohand_core::camera::Camera, source: CameraSource) -> CameraRecord {
-        let k = &camera.intrinsics;
         CameraRecord {
-            fx: k.fx,
-            fy: k.fy,
-            cx: k.cx,
-            cy: k.cy,
-            width: k.width,
-            height: k.height,
+            intrinsics: camera.intrinsics,
             source,
         }
     }
@@ -512,6 +498,27 @@ mod tests {
         assert_eq!(second, r#"{"frame":8,"hands":[]}"#);
         // The only "box" is the head's: the hand has none.
         assert!(!text.contains("timings_ms") && text.matches("\"box\"").count() == 1);
+    }
+
+    #[test]
+    fn a_frame_says_its_cameras_flat_and_reads_them_back() {
+        let camera = monohand_core::camera::Camera::generic(640, 480).unwrap();
+        let frame = FrameRecord {
+            frame: 3,
+            cameras: vec![CameraRecord::new(&camera, CameraSource::Exif)],
+            ..FrameRecord::default()
+        };
+        let text = serde_json::to_string(&frame).unwrap();
+        let f = 320.0 / 30f64.to_radians().tan();
+        let want = format!(
+            r#""cameras":[{{"fx":{f:?},"fy":{f:?},"cx":319.5,"cy":239.5,"width":640,"height":480,"source":"exif"}}]"#
+        );
+        assert!(text.contains(&want), "{text}");
+        let back: FrameRecord = serde_json::from_str(&text).unwrap();
+        assert_eq!(back, frame);
+        // Frames without a fit (detect's records) leave the field out.
+        let bare = serde_json::to_string(&FrameRecord::default()).unwrap();
+        assert!(!bare.contains("cameras"), "{bare}");
     }
 
     #[test]

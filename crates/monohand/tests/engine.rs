@@ -107,7 +107,10 @@ fn the_engine_gives_the_sessions_records_in_order() {
     // Every record says which camera its hands were fitted with: the generic one here.
     assert!(got.iter().all(|r| r.cameras.len() == 1
         && r.cameras[0].source == CameraSource::Generic
-        && (r.cameras[0].width, r.cameras[0].height) == (256, 256)));
+        && (
+            r.cameras[0].intrinsics.width,
+            r.cameras[0].intrinsics.height
+        ) == (256, 256)));
 }
 
 /// Cancels once `after` frames were written, and keeps the notes.
