@@ -3,7 +3,7 @@
 //! images are independent, so the networks run on all cores, a chunk at a time, and the
 //! records are written in order.
 
-use super::{thread_pool, EngineError, EngineResult, Observer, Output, RunReport, Sink};
+use super::{thread_pool, EngineResult, Observer, Output, RunReport, Sink, Writer};
 use crate::records::detections_record;
 use monohand_io::jsonl::FrameRecord;
 use monohand_vision::HandPipeline;
@@ -21,49 +21,37 @@ pub fn detect_images(
     sinks: &mut [Box<dyn Sink>],
     observer: &dyn Observer,
 ) -> EngineResult<RunReport> {
-    let start = Instant::now();
     let pool = thread_pool(threads)?;
     let chunk = 4 * pool.current_num_threads();
-    let mut report = RunReport::default();
-    let mut result = Ok(());
-    'chunks: for (c, paths) in files.chunks(chunk).enumerate() {
-        if observer.cancelled() {
-            tracing::warn!("interrupted: stopped after {} images", c * chunk);
-            break;
-        }
-        let records: Vec<FrameRecord> = pool.install(|| {
-            paths
-                .par_iter()
-                .enumerate()
-                .map(|(k, path)| detect_one(pipeline, (c * chunk + k) as u64, path))
-                .collect()
-        });
-        for record in &records {
-            if let Some(e) = &record.error {
-                tracing::warn!("frame {}: {e}", record.frame);
+    let mut out = Writer::new(sinks, observer);
+    let mut detect_all = || -> EngineResult<()> {
+        for (c, paths) in files.chunks(chunk).enumerate() {
+            if observer.cancelled() {
+                tracing::warn!("interrupted: stopped after {} images", c * chunk);
+                break;
             }
-            let out = Output {
-                record,
-                image: None,
-                cameras: &[],
-            };
-            for sink in sinks.iter_mut() {
-                if let Err(source) = sink.write(&out) {
-                    result = Err(EngineError::Output {
-                        frames: report.frames,
-                        source,
-                    });
-                    break 'chunks;
+            let records: Vec<FrameRecord> = pool.install(|| {
+                paths
+                    .par_iter()
+                    .enumerate()
+                    .map(|(k, path)| detect_one(pipeline, (c * chunk + k) as u64, path))
+                    .collect()
+            });
+            for record in &records {
+                if let Some(e) = &record.error {
+                    tracing::warn!("frame {}: {e}", record.frame);
                 }
+                out.write(&Output {
+                    record,
+                    image: None,
+                    cameras: &[],
+                })?;
             }
-            report.add(record);
-            observer.frame_written(&report);
         }
-    }
-    super::finish_sinks(sinks, &report, result)?;
-    report.cancelled = observer.cancelled();
-    report.seconds = start.elapsed().as_secs_f64();
-    Ok(report)
+        Ok(())
+    };
+    let result = detect_all();
+    out.end(result)
 }
 
 /// The record of one image: its detections, with the time they took, or why it could not

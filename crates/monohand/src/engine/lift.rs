@@ -1,7 +1,7 @@
 //! The lifting job: 2D keypoint files made elsewhere (OpenPose folders, the project's JSON
 //! Lines) of one or several calibrated views in, 3D hands out to the engine's sinks.
 
-use super::{EngineError, EngineResult, Observer, Output, RunReport, Sink};
+use super::{EngineError, EngineResult, Observer, Output, RunReport, Sink, Writer};
 use crate::fit::{learn_proportions, FitOutcome};
 use crate::lifter::Lifter;
 use monohand_core::observation::NetworkCues;
@@ -10,7 +10,6 @@ use monohand_io::jsonl::{read_jsonl, FrameRecord, HandRecord};
 use monohand_io::openpose::{list_openpose_files, read_openpose_file};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use std::time::Instant;
 use tracing::{debug, warn};
 
 /// The 2D keypoints of one view, frame by frame.
@@ -140,7 +139,6 @@ pub fn lift_keypoints(
     sinks: &mut [Box<dyn Sink>],
     observer: &dyn Observer,
 ) -> EngineResult<RunReport> {
-    let start = Instant::now();
     if inputs.is_empty() || inputs.len() != cameras.len() {
         return Err(EngineError::Input(format!(
             "{} camera(s) for {} view(s) of keypoints: give one camera per view",
@@ -175,24 +173,8 @@ pub fn lift_keypoints(
             "views have different frame counts {lens:?}; frames are matched by index and a view without frame i contributes nothing to it"
         );
     }
-    let mut report = RunReport::default();
+    let mut out = Writer::new(sinks, observer);
     let mut warned_multi = false;
-    let mut write = |record: &FrameRecord, report: &mut RunReport| -> EngineResult<()> {
-        let out = Output {
-            record,
-            image: None,
-            cameras: &[],
-        };
-        for sink in sinks.iter_mut() {
-            sink.write(&out).map_err(|source| EngineError::Output {
-                frames: report.frames,
-                source,
-            })?;
-        }
-        report.add(record);
-        observer.frame_written(report);
-        Ok(())
-    };
     let mut result = Ok(());
     for i in 0..n_frames {
         if observer.cancelled() {
@@ -213,7 +195,7 @@ pub fn lift_keypoints(
             }
         }
         let record = if failed.is_some() {
-            report.unreadable += 1;
+            out.report.unreadable += 1;
             FrameRecord {
                 frame: i as u64,
                 source: inputs[0].source_name(i),
@@ -228,15 +210,16 @@ pub fn lift_keypoints(
                 &mut warned_multi,
             )
         };
-        if let Err(e) = write(&record, &mut report) {
-            result = Err(e);
+        result = out.write(&Output {
+            record: &record,
+            image: None,
+            cameras: &[],
+        });
+        if result.is_err() {
             break;
         }
     }
-    super::finish_sinks(sinks, &report, result)?;
-    report.cancelled = observer.cancelled();
-    report.seconds = start.elapsed().as_secs_f64();
-    Ok(report)
+    out.end(result)
 }
 
 /// The record of frame `i`, its views' hands lifted (`per_view[v]`: view `v`'s hands).

@@ -314,33 +314,18 @@ impl Engine {
         if sources.is_empty() {
             return Err(EngineError::Input("no input".into()));
         }
-        let start = Instant::now();
         let tracking = self.settings.fit.tracking;
         let mut fit = HandsFitter::new(self.cameras.clone(), self.settings.fit)
             .map_err(crate::SessionError::from)?;
         let keep_image = sinks.iter().any(|s| s.wants_images());
-        let mut out = Writer {
-            sinks,
-            report: RunReport::default(),
-            observer,
-        };
+        let mut out = Writer::new(sinks, observer);
         let result = if tracking || sources.len() > 1 {
             self.run_threaded(sources, &mut fit, &mut out, keep_image)
         } else {
             let source = sources.swap_remove(0);
             self.run_independent(source, &mut fit, &mut out, keep_image)
         };
-        match result {
-            Ok(()) => out.finish()?,
-            Err(e) => {
-                out.close_after_failure();
-                return Err(e);
-            }
-        }
-        let mut report = out.report;
-        report.cancelled = observer.cancelled();
-        report.seconds = start.elapsed().as_secs_f64();
-        Ok(report)
+        out.end(result)
     }
 
     /// Decode → networks → fit on three threads, in order.
@@ -509,9 +494,49 @@ struct Writer<'s, 'o> {
     sinks: &'s mut [Box<dyn Sink>],
     report: RunReport,
     observer: &'o dyn Observer,
+    start: Instant,
 }
 
-impl Writer<'_, '_> {
+impl<'s, 'o> Writer<'s, 'o> {
+    /// A job writing to `sinks`, heard by `observer`, from now on.
+    fn new(sinks: &'s mut [Box<dyn Sink>], observer: &'o dyn Observer) -> Writer<'s, 'o> {
+        Writer {
+            sinks,
+            report: RunReport::default(),
+            observer,
+            start: Instant::now(),
+        }
+    }
+
+    /// Writes one frame to every sink, then counts it.
+    fn write(&mut self, frame: &Output<'_>) -> EngineResult<()> {
+        for sink in self.sinks.iter_mut() {
+            sink.write(frame).map_err(|source| EngineError::Output {
+                frames: self.report.frames,
+                source,
+            })?;
+        }
+        self.report.add(frame.record);
+        self.observer.frame_written(&self.report);
+        Ok(())
+    }
+
+    /// Closes the sinks after a job that ended with `result` (all of them, a failed one
+    /// too) and gives the totals, or the job's error.
+    fn end(mut self, result: EngineResult<()>) -> EngineResult<RunReport> {
+        match result {
+            Ok(()) => self.finish()?,
+            Err(e) => {
+                self.close_after_failure();
+                return Err(e);
+            }
+        }
+        let mut report = self.report;
+        report.cancelled = self.observer.cancelled();
+        report.seconds = self.start.elapsed().as_secs_f64();
+        Ok(report)
+    }
+
     /// Writes the fitted frames (in order) to every sink, and passes on the fitter's notes.
     fn emit(
         &mut self,
@@ -523,26 +548,29 @@ impl Writer<'_, '_> {
         }
         for (f, extra) in done {
             let record = record(&f, &extra);
-            let frame = Output {
+            self.write(&Output {
                 record: &record,
                 image: extra.image.as_ref(),
                 cameras: &f.cameras,
-            };
-            for sink in self.sinks.iter_mut() {
-                sink.write(&frame).map_err(|source| EngineError::Output {
-                    frames: self.report.frames,
-                    source,
-                })?;
-            }
-            self.report.add(&record);
-            self.observer.frame_written(&self.report);
+            })?;
         }
         Ok(())
     }
 
     /// Closes every sink; the first failure is returned after all were tried.
     fn finish(&mut self) -> EngineResult<()> {
-        finish_sinks(self.sinks, &self.report, Ok(()))
+        let mut closed = Ok(());
+        for sink in self.sinks.iter_mut() {
+            if let Err(source) = sink.finish() {
+                if closed.is_ok() {
+                    closed = Err(EngineError::Output {
+                        frames: self.report.frames,
+                        source,
+                    });
+                }
+            }
+        }
+        closed
     }
 
     /// After a failure: closes the others (an overlay video finalised, a glTF written),
@@ -671,24 +699,3 @@ fn read_all(
 
 /// The default stall timeout of video sources.
 pub const DEFAULT_STALL_TIMEOUT: Duration = monohand_media::video::DEFAULT_STALL_TIMEOUT;
-
-/// Closes every sink after a job that ended with `result`: the first error, the job's or
-/// else a sink's, is returned once all were tried.
-fn finish_sinks(
-    sinks: &mut [Box<dyn Sink>],
-    report: &RunReport,
-    result: EngineResult<()>,
-) -> EngineResult<()> {
-    let mut closed = Ok(());
-    for sink in sinks.iter_mut() {
-        if let Err(source) = sink.finish() {
-            if closed.is_ok() {
-                closed = Err(EngineError::Output {
-                    frames: report.frames,
-                    source,
-                });
-            }
-        }
-    }
-    result.and(closed)
-}
