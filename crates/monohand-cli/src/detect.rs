@@ -4,8 +4,7 @@ use crate::vision::ModelArgs;
 use anyhow::{bail, Result};
 use clap::Args;
 use monohand::engine::detect::detect_images;
-use monohand::engine::{JsonlSink, Observer, Sink};
-use monohand_vision::image_io::images_in_folder;
+use monohand::engine::{Input, JsonlSink, Observer, Sink};
 use std::path::PathBuf;
 
 /// Arguments of `monohand detect`.
@@ -26,20 +25,16 @@ pub(crate) struct DetectArgs {
     pub models: ModelArgs,
 }
 
-/// The image files behind the inputs, in frame order.
-pub(crate) fn expand_inputs(inputs: &[PathBuf]) -> Result<Vec<PathBuf>> {
+/// The image files behind the inputs, in frame order (the engine's reading of a name).
+fn expand_inputs(inputs: &[PathBuf]) -> Result<Vec<PathBuf>> {
     let mut files = Vec::new();
     for input in inputs {
-        if input.is_dir() {
-            let found = images_in_folder(input)?;
-            if found.is_empty() {
-                tracing::warn!("{}: no .jpg/.jpeg/.png/.webp files", input.display());
-            }
-            files.extend(found);
-        } else if input.exists() {
-            files.push(input.clone());
-        } else {
-            bail!("{}: no such file or folder", input.display());
+        match Input::parse(&input.to_string_lossy())? {
+            Input::Images(found) => files.extend(found),
+            Input::Video(_) => bail!(
+                "{}: not an image; `monohand run` reads videos",
+                input.display()
+            ),
         }
     }
     Ok(files)
@@ -47,9 +42,6 @@ pub(crate) fn expand_inputs(inputs: &[PathBuf]) -> Result<Vec<PathBuf>> {
 
 pub(crate) fn run(args: &DetectArgs) -> Result<()> {
     let files = expand_inputs(&args.inputs)?;
-    if files.is_empty() {
-        bail!("no images to read");
-    }
     if args.threads == Some(0) {
         bail!("--threads must be at least 1");
     }

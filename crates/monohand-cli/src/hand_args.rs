@@ -2,35 +2,9 @@
 
 use anyhow::{bail, Context, Result};
 use clap::Args;
+use monohand::HandScale;
 use monohand_core::prelude::*;
 use std::path::PathBuf;
-use std::str::FromStr;
-
-/// The hand's size: a fixed factor on the default adult hand, or measured from the input.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub(crate) enum HandScale {
-    /// Multiply the default hand (hand length ~185 mm) by this.
-    Fixed(f64),
-    /// Estimate the factor from the first frames (needs two or more calibrated views).
-    Auto,
-}
-
-impl FromStr for HandScale {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
-        const LO: f64 = monohand::HAND_SCALE_RANGE.0;
-        const HI: f64 = monohand::HAND_SCALE_RANGE.1;
-        if s.eq_ignore_ascii_case("auto") {
-            return Ok(HandScale::Auto);
-        }
-        match s.parse::<f64>() {
-            Ok(v) if v.is_finite() && v > LO && v < HI => Ok(HandScale::Fixed(v)),
-            _ => Err(format!(
-                "{s:?} is neither \"auto\" nor a factor between {LO} and {HI}"
-            )),
-        }
-    }
-}
 
 /// Hand model and fitting options.
 #[derive(Debug, Clone, Args)]
@@ -111,14 +85,6 @@ impl CueArgs {
 }
 
 impl HandModelArgs {
-    /// The fixed scale factor (1 for "auto" until it is measured).
-    pub fn initial_scale(&self) -> f64 {
-        match self.hand_scale {
-            HandScale::Fixed(s) => s,
-            HandScale::Auto => 1.0,
-        }
-    }
-
     /// The left and right hand models at scale `scale`, with --bone-lengths applied.
     pub fn skeletons(&self, scale: f64) -> Result<[HandSkeleton; 2]> {
         let lengths = match &self.bone_lengths {
@@ -146,19 +112,5 @@ impl HandModelArgs {
             bail!("--scale-frames must be at least 1");
         }
         Ok(options)
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn hand_scale_parses() {
-        assert_eq!("auto".parse::<HandScale>(), Ok(HandScale::Auto));
-        assert_eq!("0.9".parse::<HandScale>(), Ok(HandScale::Fixed(0.9)));
-        assert!("0".parse::<HandScale>().is_err());
-        assert!("NaN".parse::<HandScale>().is_err());
-        assert!("big".parse::<HandScale>().is_err());
     }
 }

@@ -1,11 +1,11 @@
 //! `monohand lift`: read cameras and 2D keypoints, fit, write JSON Lines. The job is the
 //! library's ([`monohand::engine::lift`]); this checks the arguments and says the outcome.
 
-use crate::hand_args::HandScale;
 use crate::LiftArgs;
 use anyhow::{bail, Context, Result};
 use monohand::engine::lift::{lift_keypoints, KeypointInput, LiftSettings};
-use monohand::engine::{EngineError, JsonlSink, Observer, RunReport, Sink};
+use monohand::engine::{JsonlSink, Observer, RunReport, Sink};
+use monohand::HandScale;
 use std::path::PathBuf;
 use tracing::{info, warn};
 
@@ -42,17 +42,12 @@ pub(crate) fn run(args: &LiftArgs) -> Result<()> {
             inputs[0].0
         );
     }
-    let mut cameras = Vec::with_capacity(args.cameras.len());
-    for (i, p) in args.cameras.iter().enumerate() {
-        let cam = monohand_io::calibration::read_camera(p)
-            .with_context(|| format!("camera of view {}", i + 1))?;
-        if i == 0 && !cam.extrinsics.is_identity() {
-            warn!(
-                "{}: the first camera has extrinsics; output joints are in the frame they map from, not in this camera's frame",
-                p.display()
-            );
-        }
-        cameras.push(cam);
+    let cameras = crate::read_cameras(&args.cameras)?;
+    if cameras.first().is_some_and(|c| !c.extrinsics.is_identity()) {
+        warn!(
+            "{}: the first camera has extrinsics; output joints are in the frame they map from, not in this camera's frame",
+            args.cameras[0].display()
+        );
     }
     let options = args.hand.fit_options()?;
     let scale = match args.hand.hand_scale {
@@ -86,15 +81,8 @@ pub(crate) fn run(args: &LiftArgs) -> Result<()> {
     } else {
         Box::new(JsonlSink::create(&args.output)?)
     };
-    let report = match lift_keypoints(&views, cameras, settings, &mut [out], &Terminal) {
-        Ok(r) => r,
-        Err(EngineError::Output { frames, source }) => {
-            return Err(
-                anyhow::Error::from_boxed(source).context(crate::run::OutputFailed { frames })
-            )
-        }
-        Err(e) => return Err(e.into()),
-    };
+    let report = lift_keypoints(&views, cameras, settings, &mut [out], &Terminal)
+        .map_err(crate::run::engine_error)?;
     if report.frames > 0 && report.unreadable == report.frames {
         bail!(
             "none of the {} input frame(s) could be read (see the warnings above); the output has only empty frames",

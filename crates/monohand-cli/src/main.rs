@@ -201,6 +201,15 @@ pub(crate) fn say(msg: &str) {
     }
 }
 
+/// The cameras of calibration files, one per view.
+pub(crate) fn read_cameras(paths: &[PathBuf]) -> Result<Vec<Camera>> {
+    let read = |(i, p): (usize, &PathBuf)| {
+        monohand_io::calibration::read_camera(p)
+            .with_context(|| format!("camera of view {}", i + 1))
+    };
+    paths.iter().enumerate().map(read).collect()
+}
+
 /// A note of the library, with the flag it is about in front (the library names none).
 pub(crate) fn flagged(note: &monohand::Note) -> String {
     let flag = match note.topic {

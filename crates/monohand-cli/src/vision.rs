@@ -97,12 +97,6 @@ impl ModelArgs {
 
     /// Builds the front end (fetching the weights if needed).
     pub fn pipeline(&self, refine_passes: usize) -> Result<HandPipeline> {
-        if self.max_hands == 0 {
-            bail!("--hands must be at least 1");
-        }
-        if !(0.0..=1.0).contains(&self.min_presence) {
-            bail!("--min-presence {} must be in [0, 1]", self.min_presence);
-        }
         let models = ModelOptions {
             model_dir: self.model_dir.clone(),
             palm: self.palm_model.into(),
@@ -137,7 +131,8 @@ impl ModelArgs {
             (Some(_), None) => bail!("--keypoint-model needs --keypoint-format"),
             _ => HandPipeline::new(&models, options),
         };
-        pipeline.context("could not set up the hand networks")
+        pipeline
+            .context("could not set up the hand networks (--hands, --min-presence, --model-dir)")
     }
 }
 

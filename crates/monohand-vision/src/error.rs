@@ -31,6 +31,9 @@ pub enum VisionError {
         /// Why.
         reason: String,
     },
+    /// The pipeline's options are impossible.
+    #[error("invalid options: {0}")]
+    Options(String),
     /// The network weights are missing and could not be fetched.
     #[error("model weights unavailable: {0}")]
     ModelFetch(String),

@@ -277,6 +277,30 @@ impl Default for PipelineOptions {
     }
 }
 
+impl PipelineOptions {
+    /// Checks the thresholds: at least one hand, a presence threshold in `[0, 1]`, a
+    /// duplicate IoU in `[0, 1]`.
+    pub fn validate(&self) -> Result<()> {
+        let bad = |m: String| Err(crate::VisionError::Options(m));
+        if self.max_hands == 0 {
+            return bad("at least one hand per image".into());
+        }
+        if !(0.0..=1.0).contains(&self.min_presence) {
+            return bad(format!(
+                "min_presence {} must be in [0, 1]",
+                self.min_presence
+            ));
+        }
+        if !(0.0..=1.0).contains(&self.duplicate_iou) {
+            return bad(format!(
+                "duplicate_iou {} must be in [0, 1]",
+                self.duplicate_iou
+            ));
+        }
+        Ok(())
+    }
+}
+
 /// One hand found in an image (pixel-centre coordinates, see the module docs).
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct DetectedHand {
@@ -373,6 +397,7 @@ impl HandPipeline {
     /// MediaPipe's palm detector + landmark model (+ BlazeFace when `models.detect_heads`),
     /// fetching the weights on first use.
     pub fn new(models: &ModelOptions, options: PipelineOptions) -> Result<Self> {
+        options.validate()?;
         let store = ModelStore::new(models.model_dir.clone())?;
         let palm_file = match models.palm {
             ModelVariant::Full => ModelFile::PalmDetectionFull,

@@ -68,6 +68,45 @@ pub fn learn_proportions(
 /// interval): outside it the 3D would be a child's doll or a giant's.
 pub const HAND_SCALE_RANGE: (f64, f64) = (0.3, 3.0);
 
+/// The hand's size: a fixed factor on the default adult hand, or measured from the input
+/// (with two or more calibrated views, [`FitSettings::auto_scale_frames`]). Parsed from
+/// `"auto"` or a factor in [`HAND_SCALE_RANGE`].
+///
+/// [`FitSettings::auto_scale_frames`]: crate::FitSettings::auto_scale_frames
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum HandScale {
+    /// Multiply the default hand (hand length ~185 mm) by this.
+    Fixed(f64),
+    /// Estimate the factor from the first frames.
+    Auto,
+}
+
+impl HandScale {
+    /// The factor to start from (1 for [`HandScale::Auto`] until it is measured).
+    pub fn initial(self) -> f64 {
+        match self {
+            HandScale::Fixed(s) => s,
+            HandScale::Auto => 1.0,
+        }
+    }
+}
+
+impl std::str::FromStr for HandScale {
+    type Err = String;
+    fn from_str(s: &str) -> Result<HandScale, String> {
+        let (lo, hi) = HAND_SCALE_RANGE;
+        if s.eq_ignore_ascii_case("auto") {
+            return Ok(HandScale::Auto);
+        }
+        match s.parse::<f64>() {
+            Ok(v) if v.is_finite() && v > lo && v < hi => Ok(HandScale::Fixed(v)),
+            _ => Err(format!(
+                "{s:?} is neither \"auto\" nor a factor between {lo} and {hi}"
+            )),
+        }
+    }
+}
+
 /// The default (population average) left and right hands scaled by `scale`, with the
 /// subject's 20 bone lengths (mm, at scale 1) when given: the hand-size policy of the
 /// engine, the CLI and the Python package.
@@ -89,4 +128,21 @@ pub fn hand_skeletons(
         Ok(sk)
     };
     Ok([side(HandSide::Left)?, side(HandSide::Right)?])
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn hand_scale_parses_auto_or_a_factor_in_range() {
+        assert_eq!("auto".parse::<HandScale>(), Ok(HandScale::Auto));
+        assert_eq!("AUTO".parse::<HandScale>(), Ok(HandScale::Auto));
+        assert_eq!("0.9".parse::<HandScale>(), Ok(HandScale::Fixed(0.9)));
+        for bad in ["0", "0.3", "3", "NaN", "inf", "big", ""] {
+            assert!(bad.parse::<HandScale>().is_err(), "{bad:?}");
+        }
+        assert_eq!(HandScale::Auto.initial(), 1.0);
+        assert_eq!(HandScale::Fixed(1.2).initial(), 1.2);
+    }
 }

@@ -36,7 +36,8 @@ mod session;
 pub use crops::{CropTracker, HandId, ViewHands, VisionFrame};
 pub use error::{SessionError, SessionResult};
 pub use fit::{
-    fit_views, hand_skeletons, is_finite, learn_proportions, FitOutcome, HAND_SCALE_RANGE,
+    fit_views, hand_skeletons, is_finite, learn_proportions, FitOutcome, HandScale,
+    HAND_SCALE_RANGE,
 };
 pub use hands::{FitSettings, FittedFrame, HandsFitter, TrackedHand, FORGET_AFTER_FRAMES};
 pub use lifter::{LiftedHand, Lifter};

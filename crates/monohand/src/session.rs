@@ -89,15 +89,9 @@ impl SessionOptions {
     }
 
     fn checked(&self) -> SessionResult<()> {
-        if self.pipeline.max_hands == 0 {
-            return Err(SessionError::Invalid("at least one hand per frame".into()));
-        }
-        if !(0.0..=1.0).contains(&self.pipeline.min_presence) {
-            return Err(SessionError::Invalid(format!(
-                "min_presence {} must be in [0, 1]",
-                self.pipeline.min_presence
-            )));
-        }
+        self.pipeline
+            .validate()
+            .map_err(|e| SessionError::Invalid(e.to_string()))?;
         if self.detect_every == 0 {
             return Err(SessionError::Invalid(
                 "detect_every must be at least 1".into(),

@@ -9,12 +9,12 @@ mod show;
 #[path = "show_off.rs"]
 mod show;
 
-use crate::hand_args::{HandModelArgs, HandScale};
+use crate::hand_args::HandModelArgs;
 use crate::vision::ModelArgs;
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use monohand::engine::{Engine, EngineError, EngineSettings, FrameSource, Input, RunReport};
-use monohand::FitSettings;
+use monohand::{FitSettings, HandScale};
 use monohand_core::filtering::OneEuroParams;
 use outputs::{GltfStyle, OutputFormat};
 use std::path::PathBuf;
@@ -145,6 +145,17 @@ impl std::fmt::Display for OutputFailed {
     }
 }
 
+/// An engine error for `main`: a failed output carries [`OutputFailed`] (its own exit
+/// status).
+pub(crate) fn engine_error(e: EngineError) -> anyhow::Error {
+    match e {
+        EngineError::Output { frames, source } => {
+            anyhow::Error::from_boxed(source).context(OutputFailed { frames })
+        }
+        e => e.into(),
+    }
+}
+
 /// The CLI's side of a run: Ctrl-C and the window's Q cancel it, the progress bar follows
 /// it, and the engine's notes go to stderr.
 struct Terminal {
@@ -188,15 +199,9 @@ pub(crate) fn run(args: &RunArgs) -> Result<Outcome> {
             "several views need their calibrations: one --camera per --view (docs/calibration.md)"
         );
     }
-    let mut cameras = Vec::new();
-    for (i, p) in args.cameras.iter().enumerate() {
-        cameras.push(
-            monohand_io::calibration::read_camera(p)
-                .with_context(|| format!("camera of view {}", i + 1))?,
-        );
-    }
+    let cameras = crate::read_cameras(&args.cameras)?;
     let options = args.hand.fit_options()?;
-    let scale = args.hand.initial_scale();
+    let scale = args.hand.hand_scale.initial();
     let skeletons = args.hand.skeletons(scale)?;
     if args.detect_every == 0 {
         bail!("--detect-every must be at least 1");
@@ -253,13 +258,9 @@ pub(crate) fn run(args: &RunArgs) -> Result<Outcome> {
     let terminal = Terminal {
         progress: crate::progress::Progress::new(total),
     };
-    let report = match engine.run(sources, &mut sinks, &terminal) {
-        Ok(report) => report,
-        Err(EngineError::Output { frames, source }) => {
-            return Err(anyhow::Error::from_boxed(source).context(OutputFailed { frames }))
-        }
-        Err(e) => return Err(e.into()),
-    };
+    let report = engine
+        .run(sources, &mut sinks, &terminal)
+        .map_err(engine_error)?;
     terminal.progress.finish();
     summarise(&report)
 }
