@@ -4,13 +4,13 @@ use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
 use monohand_core::prelude::*;
 use monohand_eval::evaluate::evaluated_joints;
+use monohand_eval::plan::{self, Plan, Selection};
 use monohand_eval::report::Report;
 use monohand_eval::{
-    evaluate, Dataset, Detected, EvalSettings, ImageDetector, ProjectedLabels, SkeletonChoice,
-    ViewMode,
+    evaluate, evaluate_full, Dataset, EvalSettings, ProjectedLabels, SkeletonChoice, ViewMode,
 };
-use monohand_vision::HandPipeline;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
+use std::sync::Arc;
 
 use crate::vision::ModelArgs;
 
@@ -20,7 +20,8 @@ pub(crate) enum Stage {
     /// The 3D lifting alone, on ground-truth 2D keypoints (labelled, or the 3D
     /// labels projected) with optional noise and dropped joints. Needs no images.
     Lift,
-    /// The whole pipeline on the images (detector + lifting).
+    /// The whole pipeline on the images: each sequence through the engine of `run`, as
+    /// the video it is (crops pasted back into their frames).
     Full,
 }
 
@@ -99,12 +100,16 @@ pub(crate) struct EvalArgs {
     /// Use at most this many frames in all (after --step).
     #[arg(long, value_name = "N")]
     pub max_frames: Option<usize>,
+    /// Also print the table for the first and the second half of each sequence (the
+    /// report always has it): a setting chosen on a dataset should help on both.
+    #[arg(long)]
+    pub halves: bool,
     /// Write a report folder: report.md (settings, table, plots), errors.csv (raw
     /// per-frame errors), PNG plots.
     #[arg(long, value_name = "DIR")]
     pub report: Option<PathBuf>,
-    /// Also write the dataset (after --step/--max-frames) as a manifest, to convert
-    /// a natively read dataset such as STB.
+    /// Also write the frames evaluated (after --step/--max-frames) as a manifest, to
+    /// convert a natively read dataset such as STB.
     #[arg(long, value_name = "OUT.jsonl")]
     pub write_manifest: Option<PathBuf>,
     /// The networks of --stage full.
@@ -112,28 +117,13 @@ pub(crate) struct EvalArgs {
     pub models: ModelArgs,
 }
 
-/// The vision front end as the evaluation's detector.
-struct VisionDetector {
-    pipeline: HandPipeline,
-    description: String,
-}
-
-impl ImageDetector for VisionDetector {
-    fn describe(&self) -> String {
-        self.description.clone()
-    }
-
-    fn detect(&mut self, image: &Path, _camera: &Camera) -> Result<Vec<HandObservation>, String> {
-        let found = self
-            .pipeline
-            .detect_file(image)
-            .map_err(|e| e.to_string())?;
-        Ok(found.hands.iter().map(|h| h.observation()).collect())
-    }
-}
-
 pub(crate) fn run(args: &EvalArgs) -> Result<()> {
-    let ds = load_dataset(args)?;
+    if args.stage == Stage::Full
+        && (args.noise_px.iter().any(|&n| n != 0.0) || args.drop_joints > 0)
+    {
+        bail!("--noise-px and --drop-joints apply to --stage lift only");
+    }
+    let mut ds = Dataset::load(&args.dataset)?;
     let stereo_ok = ds.max_cameras() >= 2;
     let modes = match args.views {
         Views::Left => vec![ViewMode::Mono],
@@ -144,175 +134,98 @@ pub(crate) fn run(args: &EvalArgs) -> Result<()> {
             vec![ViewMode::Mono]
         }
     };
-    let settings = EvalSettings {
-        modes: modes.clone(),
-        track: args.track,
-        skeleton: match args.skeleton {
-            Skeleton::Subject => SkeletonChoice::Subject,
-            Skeleton::Default => SkeletonChoice::Default,
+    let plan = Plan {
+        stage: match args.stage {
+            Stage::Lift => plan::Stage::Lift {
+                noise_px: args.noise_px.clone(),
+                drop_joints: args.drop_joints,
+                seed: args.seed,
+            },
+            Stage::Full => plan::Stage::Full,
         },
-        hand_scale: args.hand_scale,
-        fit_options: args.cues.apply(FitOptions::default()),
-        proportion_frames: args.proportion_frames,
+        selection: Selection {
+            step: args.step,
+            max_frames: args.max_frames,
+        },
+        settings: EvalSettings {
+            modes,
+            track: args.track,
+            skeleton: match args.skeleton {
+                Skeleton::Subject => SkeletonChoice::Subject,
+                Skeleton::Default => SkeletonChoice::Default,
+            },
+            hand_scale: args.hand_scale,
+            fit_options: args.cues.apply(FitOptions::default()),
+            proportion_frames: args.proportion_frames,
+        },
     };
+    let left_out = plan.select(&mut ds)?;
+    if left_out > 0 {
+        eprintln!(
+            "--stage full: {} of {} frames have their images on disk; evaluating those",
+            ds.frames.len(),
+            ds.frames.len() + left_out
+        );
+    }
+    if let Some(out) = &args.write_manifest {
+        monohand_eval::manifest::write_manifest(out, &ds)?;
+        tracing::info!("manifest written to {}", out.display());
+    }
     let mask = evaluated_joints(ds.root);
-    let stage_name = match args.stage {
-        Stage::Lift => "lift (ground-truth 2D keypoints)",
-        Stage::Full => "full (detector + keypoints + lifting on the images)",
-    };
-    let mut report = Report::new(&ds, stage_name, mask);
-    report.settings = settings_rows(args, &ds, &modes);
+    let mut report = Report::new(&ds, plan.stage.describe(), mask);
+    report.settings = plan.settings_rows(&ds);
     eprintln!(
         "evaluating {} ({} frames) ...",
         args.dataset.display(),
         ds.frames.len()
     );
-    match args.stage {
-        Stage::Lift => {
-            for &noise in &args.noise_px {
-                let mut source = ProjectedLabels::new(noise, args.drop_joints, args.seed)?;
-                let (runs, notes) = evaluate(&ds, &mut source, &settings, Some(noise))
-                    .with_context(|| format!("evaluating with {noise} px noise"))?;
-                report.runs.extend(runs);
-                report.skeletons = notes;
-            }
-        }
-        Stage::Full => {
-            let pipeline = args.models.pipeline(1)?;
-            let description = format!(
-                "MediaPipe 0.10.14 palm detector ({:?}) + hand landmarks ({:?}{}) in tract",
-                args.models.palm_model,
-                args.models.landmark_model,
-                if args.models.no_mirror_pass {
-                    ", one pass per crop"
-                } else {
-                    ", mean of each crop and its mirror image"
-                }
-            );
-            let mut source = Detected(VisionDetector {
-                pipeline,
-                description,
-            });
-            let (runs, notes) = evaluate(&ds, &mut source, &settings, None)
-                .context("evaluating the full pipeline")?;
+    let settings = &plan.settings;
+    if let plan::Stage::Lift {
+        noise_px,
+        drop_joints,
+        seed,
+    } = &plan.stage
+    {
+        for &noise in noise_px {
+            let mut source = ProjectedLabels::new(noise, *drop_joints, *seed)?;
+            let (runs, notes) = evaluate(&ds, &mut source, settings, Some(noise))
+                .with_context(|| format!("evaluating with {noise} px noise"))?;
             report.runs.extend(runs);
             report.skeletons = notes;
         }
+    } else {
+        let pipeline = Arc::new(args.models.pipeline(monohand::refine_passes(args.track))?);
+        let description = format!(
+            "MediaPipe 0.10.14 palm detector ({:?}) + hand landmarks ({:?}{}) in tract",
+            args.models.palm_model,
+            args.models.landmark_model,
+            if args.models.no_mirror_pass {
+                ", one pass per crop"
+            } else {
+                ", mean of each crop and its mirror image"
+            }
+        );
+        let (runs, notes) = evaluate_full(&ds, &pipeline, &description, settings)
+            .context("evaluating the full pipeline")?;
+        report.runs.extend(runs);
+        report.skeletons = notes;
     }
     println!(
         "monohand {} eval: {} ({}), stage {}, root {}, {} evaluated joints",
         env!("CARGO_PKG_VERSION"),
         ds.name,
         args.dataset.display(),
-        match args.stage {
-            Stage::Lift => "lift",
-            Stage::Full => "full",
-        },
+        plan.stage.as_str(),
         ds.root.as_str(),
         mask.iter().filter(|&&m| m).count()
     );
     print!("{}", report.table());
+    if args.halves {
+        print!("\nBy half of each sequence:\n{}", report.halves_table());
+    }
     if let Some(dir) = &args.report {
         report.write(dir)?;
         println!("report: {}", dir.join("report.md").display());
     }
     Ok(())
-}
-
-/// The settings rows of the report.
-fn settings_rows(args: &EvalArgs, ds: &Dataset, modes: &[ViewMode]) -> Vec<(String, String)> {
-    let seqs = ds.sequences();
-    vec![
-        (
-            "frames".into(),
-            format!(
-                "{} frames, {} labelled hands, {} sequence(s): {}",
-                ds.frames.len(),
-                ds.num_hands(),
-                seqs.len(),
-                seqs.join(", ")
-            ),
-        ),
-        (
-            "views".into(),
-            modes
-                .iter()
-                .map(|m| m.as_str())
-                .collect::<Vec<_>>()
-                .join(", "),
-        ),
-        (
-            "2D noise (px, sigma per coordinate)".into(),
-            args.noise_px
-                .iter()
-                .map(|n| n.to_string())
-                .collect::<Vec<_>>()
-                .join(", "),
-        ),
-        (
-            "dropped joints per view".into(),
-            args.drop_joints.to_string(),
-        ),
-        ("seed".into(), args.seed.to_string()),
-        (
-            "fitting".into(),
-            if args.track {
-                "tracking (warm start from the previous frame)".into()
-            } else {
-                "every frame from scratch".into()
-            },
-        ),
-        (
-            "skeleton".into(),
-            match args.skeleton {
-                Skeleton::Subject => "subject: fitted to each sequence's ground truth".into(),
-                Skeleton::Default => format!("default adult hand x {}", args.hand_scale),
-            },
-        ),
-        (
-            "frame step / limit".into(),
-            format!("{} / {:?}", args.step, args.max_frames),
-        ),
-    ]
-}
-
-/// The dataset of the arguments, subsampled, with the frames `--stage full` can run.
-fn load_dataset(args: &EvalArgs) -> Result<Dataset> {
-    if args.step == 0 {
-        bail!("--step must be at least 1");
-    }
-    if args.noise_px.is_empty() {
-        bail!("--noise-px needs a value");
-    }
-    let mut ds = Dataset::load(&args.dataset)?;
-    ds.subsample(args.step, args.max_frames);
-    if ds.frames.is_empty() {
-        bail!("{}: no frames to evaluate", args.dataset.display());
-    }
-    if let Some(out) = &args.write_manifest {
-        monohand_eval::manifest::write_manifest(out, &ds)?;
-        tracing::info!("manifest written to {}", out.display());
-    }
-    if args.stage == Stage::Full {
-        // Only frames whose images are all on disk can be run through the networks.
-        let before = ds.frames.len();
-        ds.frames
-            .retain(|f| !f.images.is_empty() && f.images.iter().all(|p| p.is_file()));
-        if ds.frames.is_empty() {
-            bail!(
-                "{}: --stage full needs the images, and none of the {before} frames has all of its images on disk",
-                args.dataset.display()
-            );
-        }
-        if ds.frames.len() < before {
-            eprintln!(
-                "--stage full: {} of {before} frames have their images on disk; evaluating those",
-                ds.frames.len()
-            );
-        }
-        if args.noise_px.iter().any(|&n| n != 0.0) || args.drop_joints > 0 {
-            bail!("--noise-px and --drop-joints apply to --stage lift only");
-        }
-    }
-    Ok(ds)
 }

@@ -104,7 +104,7 @@ fn user_errors_are_clear() {
     let out = monohand(&["eval", "--dataset", p(&m), "--stage", "full"]);
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.contains("--stage full needs the images"), "{err}");
+    assert!(err.contains("full stage needs the images"), "{err}");
     let out = monohand(&["eval", "--dataset", p(tmp.path())]);
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("not a dataset"), "{err}");

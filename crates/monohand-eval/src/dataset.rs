@@ -56,6 +56,30 @@ pub struct Frame {
     pub cameras: Vec<Camera>,
     /// The labelled hands.
     pub hands: Vec<GtHand>,
+    /// Set when the frame's one image is a crop of a larger frame: that frame's camera and
+    /// where the crop was cut. `--stage full` pastes the crop back to run the sequence as
+    /// the video it came from.
+    pub crop: Option<CropOrigin>,
+}
+
+/// Where a crop image was cut from ([`Frame::crop`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CropOrigin {
+    /// The camera of the original frame (the 3D labels are in its frame, as in the crop's).
+    pub camera: Camera,
+    /// The crop's box in the original frame's pixels: `x, y, width, height`.
+    pub box_xywh: [f64; 4],
+    /// The crop image's side in pixels (the box is resized to it).
+    pub side: u32,
+}
+
+impl CropOrigin {
+    /// A point of the original frame in the crop's pixels.
+    pub fn to_crop(&self, u: f64, v: f64) -> (f64, f64) {
+        let [x, y, w, _] = self.box_xywh;
+        let s = f64::from(self.side) / w;
+        ((u - x) * s, (v - y) * s)
+    }
 }
 
 impl Frame {

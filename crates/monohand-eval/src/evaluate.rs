@@ -1,6 +1,7 @@
-//! Running an evaluation: keypoints from a [`KeypointSource`] (projected
-//! labels for `--stage lift`, a detector for `--stage full`), fitted per frame
-//! in each [`ViewMode`], compared with the ground truth.
+//! Running an evaluation: keypoints from a [`KeypointSource`] (projected labels for
+//! `--stage lift`) fitted per frame in each [`ViewMode`] and compared with the ground
+//! truth; the run results and their summaries, which `--stage full` ([`crate::full`], the
+//! engine over each sequence) fills too.
 //!
 //! Decisions (documented in `docs/evaluation.md`):
 //! - Mono and stereo see **the same frames and the same keypoints** (noise and
@@ -27,7 +28,6 @@ use rand::seq::index::sample;
 use rand::SeedableRng;
 use rand_distr::{Distribution, Normal};
 use std::collections::HashMap;
-use std::path::Path;
 use std::time::Instant;
 
 /// Which cameras a fit uses.
@@ -180,64 +180,6 @@ impl KeypointSource for ProjectedLabels {
         }
         Ok(out)
     }
-}
-
-/// A 2D hand detector for `--stage full`: image (with its camera) to the hands found.
-pub trait ImageDetector {
-    /// A one-line description for the report (model names, versions).
-    fn describe(&self) -> String;
-    /// The hands found in one image.
-    fn detect(&mut self, image: &Path, camera: &Camera) -> Result<Vec<HandObservation>, String>;
-}
-
-/// `--stage full`: keypoints from a [`ImageDetector`] run on the frame's images.
-/// Of several detections of the ground-truth hand's side, the one with the
-/// highest mean confidence is kept.
-pub struct Detected<D: ImageDetector>(pub D);
-
-impl<D: ImageDetector> KeypointSource for Detected<D> {
-    fn describe(&self) -> String {
-        format!("detector: {}", self.0.describe())
-    }
-
-    fn keypoints(&mut self, frame: &Frame) -> EvalResult<Vec<Vec<Option<HandObservation>>>> {
-        if frame.images.len() != frame.cameras.len() {
-            return Err(EvalError::Detector(format!(
-                "frame {} of sequence {:?} has no image for every camera (the full stage needs images)",
-                frame.index, frame.sequence
-            )));
-        }
-        let mut per_view = Vec::with_capacity(frame.cameras.len());
-        for (img, cam) in frame.images.iter().zip(&frame.cameras) {
-            let found = self
-                .0
-                .detect(img, cam)
-                .map_err(|e| EvalError::Detector(format!("{}: {e}", img.display())))?;
-            per_view.push(found);
-        }
-        Ok(frame
-            .hands
-            .iter()
-            .map(|h| {
-                per_view
-                    .iter()
-                    .map(|found| {
-                        found
-                            .iter()
-                            .filter(|o| o.side == h.side)
-                            .max_by(|a, b| {
-                                mean_conf(&a.keypoints).total_cmp(&mean_conf(&b.keypoints))
-                            })
-                            .copied()
-                    })
-                    .collect()
-            })
-            .collect())
-    }
-}
-
-fn mean_conf(k: &Keypoints2d) -> f64 {
-    k.points.iter().map(|p| p[2]).sum::<f64>() / NUM_JOINTS as f64
 }
 
 /// The outcome for one ground-truth hand in one frame and mode.
@@ -398,7 +340,7 @@ pub fn evaluate(
 
 /// Checks that `settings` can be evaluated on `dataset`: at least one view mode, two
 /// cameras in every frame for stereo, valid fit options.
-fn check_settings(dataset: &Dataset, settings: &EvalSettings) -> EvalResult<()> {
+pub(crate) fn check_settings(dataset: &Dataset, settings: &EvalSettings) -> EvalResult<()> {
     if settings.modes.is_empty() {
         return Err(EvalError::Settings("no view mode to evaluate".into()));
     }
@@ -418,7 +360,7 @@ fn check_settings(dataset: &Dataset, settings: &EvalSettings) -> EvalResult<()> 
 
 /// The runs of an evaluation before any hand: one per mode of `settings`, and the run of
 /// the network's own 3D; `desc` describes the keypoint source.
-fn empty_runs(
+pub(crate) fn empty_runs(
     settings: &EvalSettings,
     desc: &str,
     noise_px: Option<f64>,
@@ -661,7 +603,7 @@ pub fn palm_centre_estimate(joints: &[Vector3<f64>; NUM_JOINTS]) -> [f64; 3] {
     [c.x, c.y, c.z]
 }
 
-fn mean_px(e: &[Option<f64>; NUM_JOINTS]) -> Option<f64> {
+pub(crate) fn mean_px(e: &[Option<f64>; NUM_JOINTS]) -> Option<f64> {
     let v: Vec<f64> = e.iter().flatten().copied().collect();
     (!v.is_empty()).then(|| metrics::mean(&v))
 }
@@ -726,6 +668,35 @@ pub struct ErrorLists {
 }
 
 impl RunResult {
+    /// The run split in two: the first and the second half of each sequence's frames (by
+    /// frame index; an odd count puts the middle frame in the second half). A setting
+    /// chosen on a dataset should help on both halves; a gain on one half only is noise.
+    pub fn halves(&self) -> [RunResult; 2] {
+        let mut frames: HashMap<&str, Vec<usize>> = HashMap::new();
+        for h in &self.hands {
+            frames.entry(&h.sequence).or_default().push(h.frame);
+        }
+        for f in frames.values_mut() {
+            f.sort_unstable();
+            f.dedup();
+        }
+        let first = |h: &HandResult| {
+            let f = &frames[h.sequence.as_str()];
+            f.partition_point(|&i| i < h.frame) < f.len() / 2
+        };
+        let half = |which: bool, name: &str| RunResult {
+            label: format!("{}, {name} half", self.label),
+            hands: self
+                .hands
+                .iter()
+                .filter(|h| first(h) == which)
+                .cloned()
+                .collect(),
+            ..self.clone()
+        };
+        [half(true, "1st"), half(false, "2nd")]
+    }
+
     /// The pooled error lists of one metric, picked by `pick`.
     pub fn errors(
         &self,
@@ -817,5 +788,62 @@ impl RunSummary {
         } else {
             self.detected as f64 / self.hands as f64
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn hand(sequence: &str, frame: usize, error: f64) -> HandResult {
+        let gt = [[0.0, 0.0, 500.0]; NUM_JOINTS];
+        let pred = gt.map(|p| [p[0] + error, p[1], p[2]]);
+        HandResult {
+            sequence: sequence.into(),
+            frame,
+            side: HandSide::Left,
+            errors: Some(HandErrors::compute(&pred, &gt, &ALL_JOINTS, 0)),
+            pred: Some(pred),
+            gt,
+            keypoints_px: None,
+            reprojection_px: None,
+            seconds: 0.01,
+        }
+    }
+
+    #[test]
+    fn halves_split_each_sequence_by_frame_index() {
+        // Sequence a: frames 0-3 (2 + 2); sequence b: frames 10-14 (2 + 3), out of order.
+        let mut hands: Vec<HandResult> = (0..4).map(|i| hand("a", i, 1.0 + i as f64)).collect();
+        for i in [14, 10, 13, 11, 12] {
+            hands.push(hand("b", i, 10.0));
+        }
+        let run = RunResult {
+            label: "mono".into(),
+            mode: ViewMode::Mono,
+            source: "test".into(),
+            noise_px: None,
+            relative_only: false,
+            hands,
+        };
+        let [first, second] = run.halves();
+        let frames = |r: &RunResult| -> Vec<(String, usize)> {
+            r.hands
+                .iter()
+                .map(|h| (h.sequence.clone(), h.frame))
+                .collect()
+        };
+        assert_eq!(
+            frames(&first),
+            [("a", 0), ("a", 1), ("b", 10), ("b", 11)].map(|(s, f)| (s.to_string(), f))
+        );
+        assert_eq!(
+            frames(&second),
+            [("a", 2), ("a", 3), ("b", 14), ("b", 13), ("b", 12)].map(|(s, f)| (s.to_string(), f))
+        );
+        assert_eq!(first.label, "mono, 1st half");
+        let mean = |r: &RunResult| r.summary(&ALL_JOINTS).mpjpe;
+        assert!((mean(&first) - (1.0 + 2.0 + 10.0 + 10.0) / 4.0).abs() < 1e-9);
+        assert!((mean(&second) - (3.0 + 4.0 + 30.0) / 5.0).abs() < 1e-9);
     }
 }

@@ -10,8 +10,10 @@
 //!   writer); [`datasets::hand_graph_cnn`]: the hand-graph-cnn real-world set.
 //! - [`metrics`]: absolute, root-relative, Zimmermann-Brox aligned and
 //!   Procrustes-aligned errors, per-axis errors, PCK and its AUC, 2D errors.
-//! - [`evaluate`]: the lift stage (ground-truth 2D, noise, dropped joints) and
-//!   the full stage (any [`evaluate::ImageDetector`]), mono and stereo on the same frames.
+//! - [`evaluate`]: the lift stage (ground-truth 2D, noise, dropped joints), mono and stereo
+//!   on the same frames; [`full`]: the full stage, each sequence run through the engine of
+//!   `monohand run` (the `monohand` crate) and its records scored.
+//! - [`plan`]: the frames, stage and settings of one evaluation, and its report's settings.
 //! - [`report`]: the printed table and the report folder (Markdown, CSV, PNG plots).
 //!
 //! Definitions of every metric and convention: `docs/evaluation.md`.
@@ -22,15 +24,18 @@ pub mod dataset;
 pub mod datasets;
 pub mod error;
 pub mod evaluate;
+pub mod full;
 pub mod manifest;
 pub mod mat;
 pub mod metrics;
+pub mod plan;
 pub mod report;
 pub mod stb;
 
-pub use dataset::{Dataset, Frame, GtHand, RootJoint};
+pub use dataset::{CropOrigin, Dataset, Frame, GtHand, RootJoint};
 pub use error::{EvalError, EvalResult};
 pub use evaluate::{
-    evaluate, Detected, EvalSettings, ImageDetector, KeypointSource, ProjectedLabels, RunResult,
-    RunSummary, SkeletonChoice, ViewMode,
+    evaluate, EvalSettings, KeypointSource, ProjectedLabels, RunResult, RunSummary, SkeletonChoice,
+    ViewMode,
 };
+pub use full::evaluate_full;

@@ -233,6 +233,7 @@ fn parse_line(
         images: l.images.iter().map(|p| base.join(p)).collect(),
         cameras,
         hands,
+        crop: None,
     })
 }
 

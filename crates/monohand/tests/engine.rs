@@ -12,19 +12,25 @@ use monohand::engine::{
 };
 use monohand::records::fitted_record;
 use monohand::{HandPipeline, RgbImage, Session, SessionOptions};
-use monohand_eval::datasets::hand_graph_cnn::load_hand_graph_cnn;
 use monohand_io::jsonl::{CameraSource, FrameRecord};
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 use std::sync::{Arc, Mutex};
 
 /// The first `n` dev frames (256x256 crops) with their times at 30 fps.
 fn frames(n: usize) -> Vec<(RgbImage, f64)> {
-    let data = load_hand_graph_cnn(monohand_testkit::dev_set_dir()).expect("dev set");
-    data.frames[..n]
+    let dir = monohand_testkit::dev_set_dir().join("images");
+    let files = monohand::vision::image_io::images_in_folder(&dir).expect("dev set");
+    assert!(
+        files.len() >= n,
+        "{} images in {}",
+        files.len(),
+        dir.display()
+    );
+    files[..n]
         .iter()
         .enumerate()
         .map(|(k, f)| {
-            let image = monohand::vision::image_io::load_rgb(&f.images[0]).expect("image");
+            let image = monohand::vision::image_io::load_rgb(f).expect("image");
             (image, k as f64 / 30.0)
         })
         .collect()

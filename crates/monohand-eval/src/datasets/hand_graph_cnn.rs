@@ -14,7 +14,7 @@
 //! MediaPipe's wrist point), so wrist-relative errors carry a convention offset that
 //! centroid-aligned and Procrustes-aligned errors mostly do not (`docs/evaluation.md`).
 
-use crate::dataset::{Dataset, Frame, GtHand, RootJoint};
+use crate::dataset::{CropOrigin, Dataset, Frame, GtHand, RootJoint};
 use crate::error::{EvalError, EvalResult};
 use monohand_core::prelude::*;
 use serde::Deserialize;
@@ -139,6 +139,11 @@ pub fn load_hand_graph_cnn(dir: impl AsRef<Path>) -> EvalResult<Dataset> {
                 joints_3d: f.joints_3d_mm,
                 keypoints_2d: None,
             }],
+            crop: Some(CropOrigin {
+                camera: original,
+                box_xywh: f.crop_box_xywh,
+                side,
+            }),
         });
     }
     if frames.is_empty() {

@@ -103,6 +103,7 @@ pub fn load_stb(dir: impl AsRef<Path>) -> EvalResult<Dataset> {
                     joints_3d: to_joints(&fr.joints),
                     keypoints_2d: None,
                 }],
+                crop: None,
             });
         }
     }

@@ -76,16 +76,16 @@ impl Report {
     pub fn table(&self) -> String {
         let mut s = String::new();
         s.push_str(
-            "| run | hands | detected | MPJPE abs (mm) | median (mm) | root-rel (mm) | aligned (mm) | centroid (mm) | PA-MPJPE (mm) | jitter (mm/f²) | x / y / z (mm) | AUC abs joints | AUC abs frames | AUC aligned joints | AUC aligned frames | AUC PA joints | 2D in (px) | reproj (px) | fps |\n",
+            "| run | hands | detected | MPJPE abs (mm) | median (mm) | root-rel (mm) | aligned (mm) | centroid (mm) | PA-MPJPE (mm) | jitter (mm/f²) | x / y / z (mm) | AUC abs joints | AUC abs frames | AUC aligned joints | AUC aligned frames | AUC PA joints | 2D in (px) | reproj (px) | labels' jitter (mm/f²) | fps |\n",
         );
         s.push_str(
-            "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
+            "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
         );
         let summaries = self.summaries();
         for r in &summaries {
             let _ = writeln!(
                 s,
-                "| {} | {} | {:.1}% | {} | {} | {} | {} | {} | {} | {} | {} / {} / {} | {} | {} | {} | {} | {} | {} | {} | {} |",
+                "| {} | {} | {:.1}% | {} | {} | {} | {} | {} | {} | {} | {} / {} / {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
                 r.label,
                 r.hands,
                 100.0 * r.detection_rate(),
@@ -106,6 +106,7 @@ impl Report {
                 f(r.auc_pa_joint, 3),
                 f(r.keypoints_px, 2),
                 f(r.reprojection_px, 2),
+                f(r.gt_jitter, 2),
                 f(r.fps, 0),
             );
         }
@@ -130,6 +131,16 @@ impl Report {
             );
         }
         s
+    }
+
+    /// The table of every run split into the first and second half of each sequence
+    /// ([`RunResult::halves`]).
+    pub fn halves_table(&self) -> String {
+        let halves = Report {
+            runs: self.runs.iter().flat_map(RunResult::halves).collect(),
+            ..self.clone()
+        };
+        halves.table()
     }
 
     /// Writes `report.md`, `errors.csv` and the plots into `dir` (created if
@@ -463,6 +474,8 @@ impl Report {
             AUC_RANGE_MM.0, AUC_RANGE_MM.1
         );
         s.push_str(&self.table());
+        s.push_str("\nBy half of each sequence (a setting chosen here should help on both):\n\n");
+        s.push_str(&self.halves_table());
         if self.root == RootJoint::PalmCentre {
             s.push_str("\nPublished STB numbers (AUC 20-50 mm, aligned, per joint; full pipeline from images on the STB test set, so not like for like with a lift-stage run on ground-truth 2D):\n\n");
             for (who, auc) in PUBLISHED_STB {

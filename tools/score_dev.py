@@ -1,0 +1,92 @@
+#!/usr/bin/env python3
+"""Scores `monohand run` records of the dev video (tools/dev_video.py) against the dev set's 3D
+labels, as `monohand eval` does: absolute, wrist-relative, centroid-aligned and Procrustes-
+aligned MPJPE, and jitter (mean joint acceleration over three consecutive scored frames, with
+the labels' own on the same frames), over all frames and over each half (0-145, 146-291).
+
+    python3 tools/score_dev.py RECORDS.jsonl [--first-frame N]
+
+Record k is label frame N + k (N: the first frame given to tools/dev_video.py --frames).
+Per frame the left hand with the highest mean keypoint confidence is scored. Needs numpy.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+import numpy as np
+
+REPO = Path(__file__).resolve().parents[1]
+DEV = REPO.parent / "shared" / "data" / "hand_graph_cnn_dev"
+
+
+def procrustes(pred: np.ndarray, gt: np.ndarray) -> np.ndarray:
+    """pred aligned to gt by the best similarity transform."""
+    mp, mg = pred.mean(0), gt.mean(0)
+    p, g = pred - mp, gt - mg
+    u, s, vt = np.linalg.svd(p.T @ g)
+    d = np.sign(np.linalg.det(u @ vt))
+    fix = np.diag([1.0, 1.0, d])
+    r = u @ fix @ vt
+    scale = (s * np.diag(fix)).sum() / (p**2).sum()
+    return scale * p @ r + mg
+
+
+def metrics(pred: np.ndarray, gt: np.ndarray) -> dict[str, float]:
+    err = lambda a, b: float(np.linalg.norm(a - b, axis=1).mean())  # noqa: E731
+    return {
+        "abs": err(pred, gt),
+        "wrist-rel": err(pred - pred[0], gt - gt[0]),
+        "centroid": err(pred - pred.mean(0), gt - gt.mean(0)),
+        "PA": err(procrustes(pred, gt), gt),
+    }
+
+
+def summary(rows: list[tuple[int, np.ndarray, np.ndarray]]) -> dict[str, float]:
+    out = {k: float(np.mean([metrics(p, g)[k] for _, p, g in rows])) for k in ("abs", "wrist-rel", "centroid", "PA")}
+    by_frame = {f: (p, g) for f, p, g in rows}
+    acc, gt_acc = [], []
+    for f in sorted(by_frame):
+        if f + 1 in by_frame and f + 2 in by_frame:
+            (a, ga), (b, gb), (c, gc) = by_frame[f], by_frame[f + 1], by_frame[f + 2]
+            acc.append(float(np.linalg.norm(a - 2 * b + c, axis=1).mean()))
+            gt_acc.append(float(np.linalg.norm(ga - 2 * gb + gc, axis=1).mean()))
+    out["jitter"] = float(np.mean(acc)) if acc else float("nan")
+    out["labels' jitter"] = float(np.mean(gt_acc)) if gt_acc else float("nan")
+    out["frames"] = len(rows)
+    return out
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("records", type=Path)
+    ap.add_argument("--first-frame", type=int, default=0)
+    args = ap.parse_args()
+    labels = {f["frame"]: np.array(f["joints_3d_mm"]) for f in json.loads((DEV / "labels.json").read_text())["frames"]}
+    rows = []
+    for line in args.records.read_text().splitlines():
+        rec = json.loads(line)
+        frame = args.first_frame + rec["frame"]
+        hands = [h for h in rec.get("hands", []) if h["side"] == "left" and h.get("joints_3d_mm")]
+        if frame not in labels or not hands:
+            continue
+        best = max(hands, key=lambda h: sum(p[2] for p in h["keypoints_2d"]))
+        rows.append((frame, np.array(best["joints_3d_mm"]), labels[frame]))
+    parts = {
+        "all": rows,
+        "frames 0-145": [r for r in rows if r[0] <= 145],
+        "frames 146-291": [r for r in rows if r[0] >= 146],
+    }
+    keys = ["frames", "abs", "wrist-rel", "centroid", "PA", "jitter", "labels' jitter"]
+    print("| part | " + " | ".join(keys) + " |")
+    print("|---" * (len(keys) + 1) + "|")
+    for name, part in parts.items():
+        if part:
+            s = summary(part)
+            print(f"| {name} | " + " | ".join(f"{s[k]:.2f}" if k != "frames" else str(s[k]) for k in keys) + " |")
+
+
+if __name__ == "__main__":
+    main()
