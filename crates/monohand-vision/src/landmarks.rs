@@ -29,6 +29,12 @@ use crate::warp::{warp_into_with_border, Border, Normalization};
 /// Number of hand keypoints.
 pub const NUM_LANDMARKS: usize = 21;
 
+/// MediaPipe's landmark graph divides the network's `z` by this beside the crop size
+/// (`TensorsToLandmarksCalculator`, `normalize_z: 0.4` in `hand_landmark_cpu.pbtxt`, "to
+/// account for the Z coordinate distribution in the training data"), so that `z` has
+/// about the scale of `x`. Without it the relative depth is 2.5 times too flat.
+pub const NORMALIZE_Z: f64 = 0.4;
+
 /// Options of the landmark stage.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LandmarkOptions {
@@ -131,7 +137,7 @@ fn not_landmark_outputs() -> VisionError {
 pub struct HandLandmarks {
     /// `[x, y, z]` per joint: x, y in image pixels (continuous coordinates, see
     /// [`crate::geometry`]); z relative depth in the same pixel scale (wrist ≈ 0, negative is
-    /// closer to the camera).
+    /// closer to the camera), MediaPipe's own ([`NORMALIZE_Z`]).
     pub image: [[f64; 3]; NUM_LANDMARKS],
     /// Per-joint confidence (see the module docs).
     pub confidence: [f64; NUM_LANDMARKS],
@@ -284,7 +290,7 @@ impl LandmarkModel {
             _ => return Err(not_landmark_outputs()),
         };
         let to_image = roi.crop_to_image(self.size, self.size);
-        let z_scale = roi.width / self.size as f64;
+        let z_scale = roi.width / self.size as f64 / NORMALIZE_Z;
         let (sin, cos) = roi.rotation.sin_cos();
         let mut image = [[0.0; 3]; NUM_LANDMARKS];
         let mut crop = [[0.0; 2]; NUM_LANDMARKS];

@@ -186,13 +186,19 @@ impl KeypointEstimator for MediaPipeKeypoints {
 }
 
 /// MediaPipe's `HandLandmarksToRectCalculator` + its `RectTransformation` (scale 2, shift
-/// −0.1): the region a landmark set suggests for the next crop.
+/// −0.1): the region a landmark set suggests for the next crop. As in MediaPipe's graph
+/// (`hand_landmark_landmarks_to_roi.pbtxt`) the calculator sees the partial list
+/// `[0, 1, 2, 3, 5, 6, 9, 10, 13, 14, 17, 18]`: the rotation runs from the wrist to the
+/// mean of the middle MCP and the midpoint of the index and ring MCPs, and the box bounds
+/// that list.
 pub fn roi_from_landmarks(lm: &[[f64; 3]; NUM_LANDMARKS]) -> RotatedRect {
     const PARTIAL: [usize; 12] = [0, 1, 2, 3, 5, 6, 9, 10, 13, 14, 17, 18];
     let [x0, y0] = [lm[0][0], lm[0][1]];
     let mid = |a: usize, b: usize| [(lm[a][0] + lm[b][0]) / 2.0, (lm[a][1] + lm[b][1]) / 2.0];
-    let ir = mid(6, 14);
-    let (x1, y1) = ((ir[0] + lm[10][0]) / 2.0, (ir[1] + lm[10][1]) / 2.0);
+    // MediaPipe reads its joints 4, 8 and 6 of the partial list: the index, ring and middle
+    // MCP joints (5, 13, 9), whatever the calculator's constants are named.
+    let ir = mid(5, 13);
+    let (x1, y1) = ((ir[0] + lm[9][0]) / 2.0, (ir[1] + lm[9][1]) / 2.0);
     let rotation = normalize_angle(std::f64::consts::FRAC_PI_2 - (-(y1 - y0)).atan2(x1 - x0));
     let (s, c) = rotation.sin_cos();
     // Bounds in the frame rotated by −rotation.
@@ -765,6 +771,35 @@ mod tests {
         assert!(r.rotation.abs() < 0.2, "{}", r.rotation);
         assert!(r.center[1] < 200.0);
         assert!(r.width > 100.0);
+    }
+
+    #[test]
+    fn roi_rotation_follows_the_mcp_joints_not_the_pip_joints() {
+        // MCPs straight above the wrist; the index, middle and ring PIPs bent far to the
+        // right. MediaPipe's rotation comes from the MCPs: the crop stays upright.
+        let mut lm = [[0.0; 3]; NUM_LANDMARKS];
+        lm[0] = [100.0, 200.0, 0.0];
+        for (mcp, x) in [(1, 80.0), (5, 85.0), (9, 100.0), (13, 115.0), (17, 125.0)] {
+            lm[mcp] = [x, 140.0, 0.0];
+            for k in 1..4 {
+                lm[mcp + k] = [x + if mcp == 1 { 0.0 } else { 40.0 * k as f64 }, 140.0, 0.0];
+            }
+        }
+        let r = roi_from_landmarks(&lm);
+        assert!(r.rotation.abs() < 1e-9, "{}", r.rotation);
+        // Turning the MCPs turns the crop: MCPs up and to the right by 45 degrees.
+        let mut turned = lm;
+        for p in turned.iter_mut().skip(1) {
+            let (dx, dy) = (p[0] - 100.0, p[1] - 200.0);
+            let (s, c) = std::f64::consts::FRAC_PI_4.sin_cos();
+            *p = [100.0 + c * dx - s * dy, 200.0 + s * dx + c * dy, 0.0];
+        }
+        let r = roi_from_landmarks(&turned);
+        assert!(
+            (r.rotation.abs() - std::f64::consts::FRAC_PI_4).abs() < 1e-9,
+            "{}",
+            r.rotation
+        );
     }
 
     #[test]

@@ -137,7 +137,8 @@ impl Default for CostSettings {
             // Chosen on the development set (hand_graph_cnn_dev, 292 frames, tracked):
             // docs/accuracy.md has the table that chose them.
             world_weight: 1.0,
-            depth_weight: 1.0,
+            // 1.5 since the relative depth is MediaPipe's own (normalize_z, 2026-11-25).
+            depth_weight: 1.5,
             cue_segment_weights: cue_segment_weights_from(&CUE_BONE_ERROR_DEG),
         }
     }
@@ -237,7 +238,8 @@ impl Default for FusionSettings {
         FusionSettings {
             // Chosen on the development set (docs/accuracy.md, "depth fusion").
             fuse_world: 0.5,
-            fuse_depth: 0.1,
+            // 0.2 since the relative depth is MediaPipe's own (normalize_z, 2026-11-25).
+            fuse_depth: 0.2,
             fuse_pixels: 0.5,
         }
     }
