@@ -461,15 +461,9 @@ impl<T> HandsFitter<T> {
             let (cam, origin) = if (k.width, k.height) == (w, h) {
                 (*cal, CameraOrigin::new(CameraSource::File, fov))
             } else {
-                let scaled = cal.scaled_to(w, h).map_err(|why| {
-                    format!(
-                        "view {}: the image is {w}x{h} but the camera is calibrated for {}x{} \
-                         and cannot be scaled to it ({why}); no 3D for this frame",
-                        v + 1,
-                        k.width,
-                        k.height
-                    )
-                })?;
+                let scaled = cal
+                    .scaled_to(w, h)
+                    .map_err(|why| format!("view {}: {why}; no 3D for this frame", v + 1))?;
                 let why = format!(
                     "calibrated for {}x{}, scaled by {:.4} to the frames' {w}x{h}",
                     k.width,

@@ -79,7 +79,7 @@ fn calls_that_do_not_fit_the_session_are_refused() {
         done[0]
             .error
             .as_deref()
-            .is_some_and(|e| e.contains("calibrated for 64x48") && e.contains("128x64")),
+            .is_some_and(|e| e.contains("the calibration is for 64x48") && e.contains("128x64")),
         "{:?}",
         done[0].error
     );
