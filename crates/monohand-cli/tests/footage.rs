@@ -307,7 +307,9 @@ fn a_photo_is_drawn_with_the_camera_it_was_fitted_with() {
     let frame = monohand_vision::image_io::load_photo(&photo).unwrap().image;
     let draw = |cameras: &[Camera]| {
         let mut image = frame.clone();
-        SceneRenderer::default().draw(&mut image, &exif.hands, cameras, &layers);
+        let mut renderer = SceneRenderer::default();
+        renderer.set_camera_source(Some("exif"));
+        renderer.draw(&mut image, &exif.hands, cameras, &layers);
         image
     };
     assert!(
