@@ -52,6 +52,13 @@ pub(crate) fn run(args: &LiftArgs) -> Result<()> {
                 p.display()
             );
         }
+        if let Some(why) = cam.implausible_field_of_view() {
+            // The user's own calibration is used as given, but not silently.
+            warn!(
+                "{}: the calibration gives {why}; used as given (docs/calibration.md)",
+                p.display()
+            );
+        }
         cameras.push(cam);
     }
     let options = args.hand.fit_options()?;

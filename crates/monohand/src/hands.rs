@@ -689,3 +689,100 @@ impl<T> HandsFitter<T> {
 fn detected(frame: &VisionFrame, v: usize, k: usize) -> Option<&DetectedHand> {
     frame.views.get(v)?.as_ref().ok()?.detections.hands.get(k)
 }
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used)]
+    use super::*;
+    use monohand_vision::image_io::PhotoFocal;
+
+    #[test]
+    fn a_calibration_outside_the_real_fields_of_view_is_used_with_its_reason() {
+        let tele = Camera::centred(16_000.0, 640, 480).unwrap();
+        let mut fitter = HandsFitter::<()>::new(vec![tele], FitSettings::default()).unwrap();
+        let notes = fitter.take_notes();
+        assert_eq!(notes.len(), 1, "{notes:?}");
+        assert!(
+            notes[0]
+                .message
+                .starts_with("camera 1: the calibration gives a 2.3 degree"),
+            "{}",
+            notes[0]
+        );
+        fitter
+            .camera_for(&[Some((640, 480))], &ExifFocal::None)
+            .unwrap();
+        assert_eq!(fitter.cameras(), &[tele]);
+        let o = &fitter.origins[0];
+        assert_eq!(o.source, CameraSource::File);
+        assert!(o
+            .reason
+            .as_deref()
+            .is_some_and(|r| r.contains("used as given")));
+        // Scaled, it keeps both reasons.
+        fitter
+            .camera_for(&[Some((320, 240))], &ExifFocal::None)
+            .unwrap();
+        let o = &fitter.origins[0];
+        assert_eq!(o.source, CameraSource::FileScaled);
+        let r = o.reason.as_deref().unwrap();
+        assert!(
+            r.contains("scaled by 0.5000") && r.contains("2.3 degree"),
+            "{r}"
+        );
+    }
+
+    #[test]
+    fn photos_get_the_exif_camera_or_the_generic_one_with_the_reason() {
+        let mut fitter = HandsFitter::<()>::new(Vec::new(), FitSettings::default()).unwrap();
+        let db = ExifFocal::Used(PhotoFocal {
+            px: 2072.9,
+            source: "EXIF FocalLength 88 mm on the Canon EOS 5DS R's 36 mm wide sensor".into(),
+            sensor_width_mm: Some(36.0),
+            fallback: Some("the photo was resized".into()),
+        });
+        fitter.camera_for(&[Some((848, 565))], &db).unwrap();
+        assert_eq!(fitter.cameras()[0].intrinsics.fx, 2072.9);
+        assert_eq!(
+            fitter.origins,
+            [CameraOrigin::new(
+                CameraSource::ExifSensorDb,
+                Some("the photo was resized".into())
+            )]
+        );
+        let refused = ExifFocal::Refused("a 2.3 degree field of view".into());
+        fitter.camera_for(&[Some((848, 565))], &refused).unwrap();
+        assert_eq!(fitter.cameras()[0], Camera::generic(848, 565).unwrap());
+        assert_eq!(fitter.origins[0].source, CameraSource::Generic);
+        assert_eq!(
+            fitter.origins[0].reason.as_deref(),
+            Some("the EXIF focal length was not used: a 2.3 degree field of view")
+        );
+        fitter
+            .camera_for(&[Some((640, 480))], &ExifFocal::None)
+            .unwrap();
+        assert_eq!(
+            fitter.origins,
+            [CameraOrigin::new(CameraSource::Generic, None)]
+        );
+        // Each kind said once: the database's camera, the refusal, the generic guess.
+        fitter.camera_for(&[Some((640, 480))], &refused).unwrap();
+        let notes: Vec<String> = fitter.take_notes().into_iter().map(|n| n.message).collect();
+        assert_eq!(notes.len(), 3, "{notes:?}");
+        assert!(
+            notes[0].contains("fx = fy = 2072.9 px for 848x565"),
+            "{}",
+            notes[0]
+        );
+        assert!(
+            notes[1].starts_with("the EXIF focal length was not used"),
+            "{}",
+            notes[1]
+        );
+        assert!(
+            notes[2].starts_with("assuming a generic camera for 640x480"),
+            "{}",
+            notes[2]
+        );
+    }
+}
