@@ -49,6 +49,15 @@ pub(crate) fn run(args: &LiftArgs) -> Result<()> {
             args.cameras[0].display()
         );
     }
+    for (cam, p) in cameras.iter().zip(&args.cameras) {
+        if let Some(why) = cam.implausible_field_of_view() {
+            // The user's own calibration is used as given, but not silently.
+            warn!(
+                "{}: the calibration gives {why}; used as given (docs/calibration.md)",
+                p.display()
+            );
+        }
+    }
     let options = args.hand.fit_options()?;
     let scale = match args.hand.hand_scale {
         HandScale::Fixed(s) => s,

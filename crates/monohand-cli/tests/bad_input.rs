@@ -449,3 +449,21 @@ fn lift_uses_network_3d_cues_from_json_lines() {
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
     assert!(stderr(&o).contains("in.jsonl: line 1"), "{}", stderr(&o));
 }
+
+/// A calibration whose field of view is outside 5-150 degrees (here 2.3 degrees, a 10x
+/// too long focal length) is the user's own: `lift` uses it as given, but says so.
+#[test]
+fn a_calibration_outside_the_real_fields_of_view_is_used_and_said() {
+    let s = Setup::new(1);
+    let tele = Camera::centred(16_000.0, 640, 480).unwrap();
+    write_camera_json(s.path("cam.json"), &tele).unwrap();
+    let (o, out) = s.lift(&s.path("op"), &[]);
+    ok(&o);
+    let e = stderr(&o);
+    assert!(
+        e.contains("cam.json: the calibration gives a 2.3 degree field of view")
+            && e.contains("used as given"),
+        "{e}"
+    );
+    assert_eq!(read_jsonl(&out).unwrap().len(), 1);
+}

@@ -307,7 +307,9 @@ fn a_photo_is_drawn_with_the_camera_it_was_fitted_with() {
     let frame = monohand_vision::image_io::load_photo(&photo).unwrap().image;
     let draw = |cameras: &[Camera]| {
         let mut image = frame.clone();
-        SceneRenderer::default().draw(&mut image, &exif.hands, cameras, &layers);
+        let mut renderer = SceneRenderer::default();
+        renderer.set_camera_source(Some("exif"));
+        renderer.draw(&mut image, &exif.hands, cameras, &layers);
         image
     };
     assert!(
@@ -323,5 +325,110 @@ fn a_photo_is_drawn_with_the_camera_it_was_fitted_with() {
     assert!(
         differ as f64 > 0.005 * 640.0 * 480.0,
         "only {differ} pixels differ with the generic camera"
+    );
+}
+
+/// `../shared/data/images/hamer/test1.jpg` without `--camera` (issue 33): a Canon EOS 5DS R
+/// photo (88 mm) exported at 848x565, whose EXIF has the sensor's own focal plane
+/// resolution but no 35 mm equivalent. The camera comes from the sensor database (36 mm
+/// wide: fx = 88 x 848 / 36 = 2072.9 px; it was 21237 px, and the hands 22 m away), the
+/// record says so and why, and both hands are between 1.5 and 3.5 m from the camera.
+#[test]
+fn a_resized_camera_photo_puts_the_hands_at_a_real_distance() {
+    assert!(networks_ready());
+    let photo = monohand_testkit::shared_data().join("images/hamer/test1.jpg");
+    assert!(photo.is_file(), "{} not found", photo.display());
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("out.jsonl");
+    let run = monohand(&["run", p(&photo), "-o", p(&out)]);
+    ok(&run);
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert!(
+        stderr.contains("the camera comes from the photo's EXIF FocalLength 88 mm on the Canon EOS 5DS R's 36 mm wide sensor (sensor database)"),
+        "{stderr}"
+    );
+    let frames = read_jsonl(&out).unwrap();
+    let camera = &frames[0].cameras[0];
+    assert_eq!(
+        camera.source,
+        monohand_io::jsonl::CameraSource::ExifSensorDb
+    );
+    assert!(
+        (camera.intrinsics.fx / 2073.0 - 1.0).abs() < 0.02,
+        "{:?}",
+        camera.intrinsics
+    );
+    let why = camera.reason.as_deref().unwrap_or_default();
+    assert!(
+        why.contains("3.5 mm wide") && why.contains("resized"),
+        "{why}"
+    );
+    let hands = &frames[0].hands;
+    assert_eq!(hands.len(), 2, "{hands:?}");
+    for h in hands {
+        let joints = h.joints_3d_mm.expect("3D");
+        let centre = joints
+            .iter()
+            .fold([0.0; 3], |c, j| [c[0] + j[0], c[1] + j[1], c[2] + j[2]])
+            .map(|v| v / joints.len() as f64);
+        let metres = centre[0].hypot(centre[1]).hypot(centre[2]) / 1000.0;
+        assert!((1.5..=3.5).contains(&metres), "a hand {metres:.2} m away");
+    }
+}
+
+/// A calibration made at twice the photos' size (1280x960 for 640x480 photos) is scaled
+/// to them: the record says `file-scaled` and why, and the joints are those of the same
+/// calibration made at 640x480. One of another shape (1280x720) is refused for the frame,
+/// saying why.
+#[test]
+fn a_calibration_for_another_size_is_scaled_when_the_shape_matches() {
+    assert!(networks_ready());
+    let dir = tempfile::tempdir().unwrap();
+    let run = |camera: &Camera, name: &str| {
+        let file = dir.path().join(format!("{name}.json"));
+        write_camera_json(&file, camera).unwrap();
+        let out = dir.path().join(format!("{name}.jsonl"));
+        let run = monohand(&["run", p(&hand_png()), "--camera", p(&file), "-o", p(&out)]);
+        (run, out)
+    };
+    let fitted = |camera: &Camera, name: &str| {
+        let (run, out) = run(camera, name);
+        ok(&run);
+        let stderr = String::from_utf8_lossy(&run.stderr).into_owned();
+        (read_jsonl(&out).unwrap().remove(0), stderr)
+    };
+    let small = Camera::pinhole(560.0, 560.0, 322.5, 241.5, 640, 480).unwrap();
+    let big = Camera::pinhole(1120.0, 1120.0, 645.5, 483.5, 1280, 960).unwrap();
+    let (direct, _) = fitted(&small, "small");
+    let (scaled, stderr) = fitted(&big, "big");
+    assert_eq!(
+        direct.cameras[0].source,
+        monohand_io::jsonl::CameraSource::File
+    );
+    let c = &scaled.cameras[0];
+    assert_eq!(c.source, monohand_io::jsonl::CameraSource::FileScaled);
+    assert_eq!(c.intrinsics, small.intrinsics);
+    assert_eq!(
+        c.reason.as_deref(),
+        Some("calibrated for 1280x960, scaled by 0.5000 to the frames' 640x480")
+    );
+    assert!(stderr.contains("scaled by 0.5000"), "{stderr}");
+    assert_eq!(direct.hands.len(), 1);
+    assert_eq!(scaled.hands.len(), 1);
+    assert_eq!(direct.hands[0].joints_3d_mm, scaled.hands[0].joints_3d_mm);
+
+    // The one photo gets no 3D, so the run fails; the record and the message say why.
+    let (refused, out) = run(&Camera::generic(1280, 720).unwrap(), "hd");
+    assert!(!refused.status.success());
+    let stderr = String::from_utf8_lossy(&refused.stderr);
+    let record = read_jsonl(&out).unwrap().remove(0);
+    assert!(record.cameras.is_empty());
+    let e = record.error.unwrap_or_default();
+    assert!(
+        e.contains("the calibration is for 1280x720")
+            && e.contains("640x480")
+            && e.contains("not the same frame scaled")
+            && stderr.contains(&e),
+        "{e}\n{stderr}"
     );
 }

@@ -116,7 +116,9 @@ fn the_show_window_draws_the_hands_where_the_json_says_and_q_quits() {
     assert_eq!(hands.len(), 1, "one hand in the photo");
     // What the library draws for that JSON (generic camera, default layers).
     let mut expected = photo.clone();
-    SceneRenderer::default().draw(&mut expected, hands, &[], &Layers::default());
+    let mut renderer = SceneRenderer::default();
+    renderer.set_camera_source(Some("generic"));
+    renderer.draw(&mut expected, hands, &[], &Layers::default());
     let (mut same, mut differ, mut drawn) = (0usize, 0usize, 0usize);
     for (x, y, p) in shot.enumerate_pixels() {
         if y < 40 && x < 360 {

@@ -16,6 +16,12 @@ use serde::{Deserialize, Serialize};
 /// recovered depth by tan(guess/2)/tan(true/2), e.g. 13% for 60 vs 68 degrees.
 pub const GENERIC_HFOV_DEG: f64 = 60.0;
 
+/// Fields of view taken as real, in degrees, across the image's longer side: a camera
+/// outside them (a 2 degree "telephoto" from a resized photo's EXIF, a 170 degree
+/// "fisheye" from a typo) is refused unless the user's own calibration gives it
+/// ([`Camera::field_of_view_deg`], docs/calibration.md).
+pub const PLAUSIBLE_FOV_DEG: std::ops::RangeInclusive<f64> = 5.0..=150.0;
+
 /// Focal lengths, principal point and image size, in pixels.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
 pub struct Intrinsics {
@@ -214,6 +220,72 @@ impl Camera {
         )
     }
 
+    /// The field of view across the image's longer side, degrees (the one
+    /// [`PLAUSIBLE_FOV_DEG`] bounds), from the focal length along that side.
+    pub fn field_of_view_deg(&self) -> f64 {
+        let k = &self.intrinsics;
+        let (side, f) = if k.width >= k.height {
+            (k.width, k.fx)
+        } else {
+            (k.height, k.fy)
+        };
+        2.0 * (0.5 * side as f64 / f).atan().to_degrees()
+    }
+
+    /// Why this camera's field of view cannot be a real one, if it is outside
+    /// [`PLAUSIBLE_FOV_DEG`].
+    pub fn implausible_field_of_view(&self) -> Option<String> {
+        let fov = self.field_of_view_deg();
+        (!PLAUSIBLE_FOV_DEG.contains(&fov)).then(|| {
+            format!(
+                "a {fov:.1} degree field of view across the longer side, outside the {:.0}-{:.0} \
+                 degrees of real cameras",
+                PLAUSIBLE_FOV_DEG.start(),
+                PLAUSIBLE_FOV_DEG.end()
+            )
+        })
+    }
+
+    /// This camera for the same lens on images of `width` x `height`: the frame scaled as a
+    /// whole (focal lengths and principal point times the scale, pixel centres kept at
+    /// integers: `c' = (c + 0.5) s - 0.5`; distortion, which is in normalised coordinates,
+    /// and the pose unchanged). The aspect ratio must be the same up to one pixel of
+    /// rounding on either side; otherwise the error says why the camera cannot describe
+    /// these images (cropped, or another sensor mode).
+    pub fn scaled_to(&self, width: u32, height: u32) -> Result<Camera, String> {
+        let k = &self.intrinsics;
+        if width == 0 || height == 0 {
+            return Err(format!("an image of {width}x{height} pixels"));
+        }
+        let sx = width as f64 / k.width as f64;
+        let sy = height as f64 / k.height as f64;
+        // One pixel of rounding on either side of the scaled frame.
+        let off_x = (k.width as f64 * sy - width as f64).abs();
+        let off_y = (k.height as f64 * sx - height as f64).abs();
+        if off_x > 1.0 && off_y > 1.0 {
+            return Err(format!(
+                "the calibration is for {}x{} (aspect {:.4}) and the images are {width}x{height} \
+                 (aspect {:.4}): not the same frame scaled, so the images were cropped or come \
+                 from another sensor mode; calibrate at {width}x{height}",
+                k.width,
+                k.height,
+                k.width as f64 / k.height as f64,
+                width as f64 / height as f64
+            ));
+        }
+        let mut cam = *self;
+        cam.intrinsics = Intrinsics {
+            fx: k.fx * sx,
+            fy: k.fy * sy,
+            cx: (k.cx + 0.5) * sx - 0.5,
+            cy: (k.cy + 0.5) * sy - 0.5,
+            width,
+            height,
+        };
+        cam.validate().map_err(|e| e.to_string())?;
+        Ok(cam)
+    }
+
     /// Checks that the camera is physically possible.
     pub fn validate(&self) -> CoreResult<()> {
         let k = &self.intrinsics;
@@ -340,6 +412,51 @@ mod tests {
         let cam = Camera::generic(640, 480).unwrap();
         let hfov = 2.0 * (320.0 / cam.intrinsics.fx).atan();
         assert!((hfov.to_degrees() - GENERIC_HFOV_DEG).abs() < 1e-9);
+    }
+
+    #[test]
+    fn field_of_view_is_across_the_longer_side() {
+        // The generic camera: 60 degrees across a landscape image; a portrait one is wider
+        // along its height.
+        let land = Camera::generic(640, 480).unwrap();
+        assert!((land.field_of_view_deg() - 60.0).abs() < 1e-9);
+        assert!(land.implausible_field_of_view().is_none());
+        let portrait = Camera::generic(480, 640).unwrap();
+        let want = 2.0 * (320.0 / portrait.intrinsics.fy).atan().to_degrees();
+        assert!((portrait.field_of_view_deg() - want).abs() < 1e-9);
+        // A resized photo's focal plane resolution read against the small image: 2.3 degrees.
+        let tele = Camera::centred(21237.3, 848, 565).unwrap();
+        let why = tele.implausible_field_of_view().unwrap();
+        assert!(why.contains("2.3 degree") && why.contains("5-150"), "{why}");
+        let fisheye = Camera::centred(50.0, 848, 565).unwrap();
+        assert!(fisheye.implausible_field_of_view().is_some());
+    }
+
+    #[test]
+    fn scaling_keeps_the_frame_and_refuses_another_aspect() {
+        let cal = Camera::pinhole(1400.0, 1390.0, 959.5, 539.5, 1920, 1080)
+            .unwrap()
+            .with_extrinsics(Extrinsics {
+                rotation: Rotation3::from_euler_angles(0.1, 0.0, 0.0),
+                translation: Vector3::new(-120.0, 0.0, 0.0),
+            });
+        // 1920x1080 -> 848x477: 477 is 1080 x 0.4417 rounded (477.0), the same frame.
+        let s = cal.scaled_to(848, 477).unwrap();
+        let k = s.intrinsics;
+        let sx = 848.0 / 1920.0;
+        assert!((k.fx - 1400.0 * sx).abs() < 1e-9);
+        assert!((k.fy - 1390.0 * 477.0 / 1080.0).abs() < 1e-9);
+        // The centred principal point stays centred: (w - 1) / 2.
+        assert!((k.cx - 423.5).abs() < 1e-9 && (k.cy - 238.0).abs() < 1e-9);
+        assert_eq!((k.width, k.height), (848, 477));
+        assert_eq!(s.extrinsics, cal.extrinsics);
+        assert_eq!(s.distortion, cal.distortion);
+        // The same size is the same camera.
+        assert_eq!(cal.scaled_to(1920, 1080).unwrap(), cal);
+        // 4:3 frames from a 16:9 calibration: cropped or another mode, refused with why.
+        let e = cal.scaled_to(640, 480).unwrap_err();
+        assert!(e.contains("1920x1080") && e.contains("640x480"), "{e}");
+        assert!(cal.scaled_to(0, 480).is_err());
     }
 
     #[test]

@@ -228,7 +228,7 @@ impl FrameSource for SequenceImages {
             timestamp_s: index as f64 / FPS,
             image,
             decode_ms: 0.0,
-            focal: None,
+            focal: monohand::vision::image_io::ExifFocal::None,
         }))
     }
 

@@ -299,36 +299,81 @@ pub struct FrameRecord {
     pub timings_ms: Option<BTreeMap<String, f64>>,
 }
 
-/// Where a camera came from.
+/// Where a camera came from (in JSON: `file`, `file-scaled`, `exif`, `exif+sensor-db`,
+/// `generic`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
 pub enum CameraSource {
-    /// A calibration the user gave (a file, or a camera object in Python).
+    /// A calibration the user gave (a file, or a camera object in Python), as given.
+    #[serde(rename = "file")]
     File,
-    /// The focal length the image file states in its EXIF, principal point at the centre.
+    /// A calibration the user gave for another image size of the same shape, scaled to the
+    /// frames' size.
+    #[serde(rename = "file-scaled")]
+    FileScaled,
+    /// The focal length the image file states in its EXIF (its 35 mm equivalent, or its
+    /// focal length in mm with the sensor's focal plane resolution), principal point at the
+    /// centre.
+    #[serde(rename = "exif")]
     Exif,
+    /// The focal length in mm the image file states in its EXIF, with the width of the
+    /// camera's sensor from the sensor database (by EXIF make and model), principal point at
+    /// the centre.
+    #[serde(rename = "exif+sensor-db")]
+    ExifSensorDb,
     /// The generic guess for the image size (60 degree horizontal field of view).
+    #[serde(rename = "generic")]
     Generic,
 }
 
-/// The intrinsics of the camera a view was fitted with, and where they came from: in JSON
-/// `fx, fy, cx, cy, width, height, source`.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+impl CameraSource {
+    /// The name in the records (`exif+sensor-db`).
+    pub fn name(self) -> &'static str {
+        match self {
+            CameraSource::File => "file",
+            CameraSource::FileScaled => "file-scaled",
+            CameraSource::Exif => "exif",
+            CameraSource::ExifSensorDb => "exif+sensor-db",
+            CameraSource::Generic => "generic",
+        }
+    }
+}
+
+impl std::fmt::Display for CameraSource {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// The intrinsics of the camera a view was fitted with, where they came from and why: in
+/// JSON `fx, fy, cx, cy, width, height, source[, reason]`.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct CameraRecord {
     /// Focal lengths, principal point and image size, pixels.
     #[serde(flatten)]
     pub intrinsics: monohand_core::camera::Intrinsics,
     /// Where the camera came from.
     pub source: CameraSource,
+    /// Why this source and not a better one (a stated EXIF focal length that failed its
+    /// checks, a calibration scaled from another size, a field of view outside 5-150
+    /// degrees that the user's calibration gives): absent when there is nothing to say.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub reason: Option<String>,
 }
 
 impl CameraRecord {
-    /// The record of a camera's intrinsics.
+    /// The record of a camera's intrinsics, with no reason.
     pub fn new(camera: &monohand_core::camera::Camera, source: CameraSource) -> CameraRecord {
         CameraRecord {
             intrinsics: camera.intrinsics,
             source,
+            reason: None,
         }
+    }
+
+    /// The same record with the reason for its source.
+    pub fn with_reason(mut self, reason: Option<String>) -> CameraRecord {
+        self.reason = reason;
+        self
     }
 }
 
@@ -516,6 +561,23 @@ mod tests {
         assert!(text.contains(&want), "{text}");
         let back: FrameRecord = serde_json::from_str(&text).unwrap();
         assert_eq!(back, frame);
+        // The finer sources, and a reason, read back.
+        for (source, name) in [
+            (CameraSource::File, "file"),
+            (CameraSource::FileScaled, "file-scaled"),
+            (CameraSource::Exif, "exif"),
+            (CameraSource::ExifSensorDb, "exif+sensor-db"),
+            (CameraSource::Generic, "generic"),
+        ] {
+            let rec = CameraRecord::new(&camera, source).with_reason(Some("why".into()));
+            let text = serde_json::to_string(&rec).unwrap();
+            assert!(
+                text.ends_with(&format!(r#""source":"{name}","reason":"why"}}"#)),
+                "{text}"
+            );
+            assert_eq!(source.to_string(), name);
+            assert_eq!(serde_json::from_str::<CameraRecord>(&text).unwrap(), rec);
+        }
         // Frames without a fit (detect's records) leave the field out.
         let bare = serde_json::to_string(&FrameRecord::default()).unwrap();
         assert!(!bare.contains("cameras"), "{bare}");

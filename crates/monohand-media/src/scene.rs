@@ -235,9 +235,19 @@ pub struct SceneRenderer {
     cover: Vec<f32>,
     /// The pixels touched this frame `[x0, y0, x1, y1]` (inclusive), if any.
     dirty: Option<[usize; 4]>,
+    /// Where the frame's camera came from, shown once with the labels.
+    camera_source: Option<String>,
 }
 
 impl SceneRenderer {
+    /// Says where the camera of the frames to come came from (a record's camera `source`,
+    /// such as `exif+sensor-db`): the [`Layer::Labels`] layer shows it once, at the
+    /// frame's bottom left (`CAMERA EXIF+SENSOR-DB`), since every distance drawn rests on
+    /// it. `None`: not shown.
+    pub fn set_camera_source(&mut self, source: Option<&str>) {
+        self.camera_source = source.map(|s| format!("CAMERA {}", s.to_uppercase()));
+    }
+
     /// Draws `hands` on `frame` with the chosen layers. `cameras[0]` is the camera of
     /// `frame` (the reference frame of the hands' `joints_3d_mm`); the others, if any, are
     /// the rest of a rig, drawn in the top view. Without a camera, a generic one for the
@@ -299,6 +309,13 @@ impl SceneRenderer {
             let mut placed = Vec::with_capacity(hands.len());
             for hand in hands {
                 draw_hand_label(frame, camera, hand, style.label_scale, &mut placed);
+            }
+            if let Some(text) = &self.camera_source {
+                let scale = style.label_scale.max(1);
+                let (_, th) = text_size(text, scale);
+                let margin = (w.min(h) as f64 * 0.02).round().max(4.0);
+                let y = (h as f64 - margin - (th + 2 * scale) as f64).max(0.0);
+                draw_label(frame, text, [margin, y], scale, [0, 0, 0], [220, 220, 220]);
             }
         }
         if layers.top {
@@ -965,6 +982,44 @@ mod tests {
         let d = hand_distance_mm(h.joints_3d_mm.as_ref().unwrap());
         assert!((d - 423.0).abs() < 5.0, "{d}");
         assert_eq!(hand_label_with_distance(&h), "L 42CM");
+    }
+
+    #[test]
+    fn the_camera_source_is_shown_once_with_the_labels() {
+        let camera = Camera::pinhole(500.0, 500.0, 319.5, 239.5, 640, 480).unwrap();
+        let hands = [record(HandSide::Left, flat_hand(0.0, 0.0, 420.0))];
+        let draw = |source: Option<&str>, layers: Layers| {
+            let mut frame = RgbImage::new(640, 480);
+            let mut r = SceneRenderer::default();
+            r.set_camera_source(source);
+            r.draw(&mut frame, &hands, &[camera], &layers);
+            frame
+        };
+        let labels = Layers::only(&[Layer::Labels]);
+        let with = draw(Some("exif+sensor-db"), labels);
+        let without = draw(None, labels);
+        // The label's light box sits at the bottom left (a 2% margin, 10 px; font scale 2
+        // and its padding of 2 at 640x480), once.
+        let light = |f: &RgbImage, x: u32, y: u32| f.get_pixel(x, y).0 == [220, 220, 220];
+        let (tw, th) = text_size("CAMERA EXIF+SENSOR-DB", 2);
+        let (top, bottom) = (480 - 10 - (th as u32 + 4), 480 - 10 - 1);
+        let right = 10 + tw as u32 + 4 - 1;
+        for (x, y) in [(10, top), (10, bottom), (right, top), (right, bottom)] {
+            assert!(light(&with, x, y) && !light(&without, x, y), "({x}, {y})");
+        }
+        assert!(!light(&with, right + 1, bottom) && !light(&with, 10, bottom + 1));
+        // Everything else is the same; without the labels layer it is not drawn.
+        let differ = with
+            .pixels()
+            .zip(without.pixels())
+            .filter(|(a, b)| a != b)
+            .count();
+        assert!(
+            differ > 0 && differ <= (right as usize + 1) * 30,
+            "{differ}"
+        );
+        let top = Layers::only(&[Layer::Top]);
+        assert!(draw(Some("exif"), top) == draw(None, top));
     }
 
     #[test]

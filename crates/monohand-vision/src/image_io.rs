@@ -58,41 +58,409 @@ pub fn decode_rgb(bytes: &[u8], what: &str) -> Result<RgbImage> {
 pub struct Photo {
     /// The pixels, upright (EXIF orientation applied), 8-bit RGB.
     pub image: RgbImage,
-    /// The focal length from the EXIF, in pixels of `image`; `None` when the file has no
-    /// usable focal length (see [`PhotoFocal`]).
-    pub focal: Option<PhotoFocal>,
+    /// The focal length from the EXIF in pixels of `image`, or why the one the EXIF states
+    /// was not used (see [`PhotoFocal`]).
+    pub focal: ExifFocal,
 }
 
-/// A focal length in pixels, read from a photo's EXIF.
+/// What a photo's EXIF gave for its camera.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub enum ExifFocal {
+    /// No focal length in the file (or no file: a video's frames).
+    #[default]
+    None,
+    /// A focal length that passed the checks ([`PhotoFocal`]).
+    Used(PhotoFocal),
+    /// The file states a focal length but none of its readings passed the checks: why,
+    /// for the user (the camera then falls back to the generic guess).
+    Refused(String),
+}
+
+impl ExifFocal {
+    /// The focal length used, if any.
+    pub fn used(&self) -> Option<&PhotoFocal> {
+        match self {
+            ExifFocal::Used(f) => Some(f),
+            _ => None,
+        }
+    }
+
+    /// Why the stated focal length was not used, if it was not.
+    pub fn refused(&self) -> Option<&str> {
+        match self {
+            ExifFocal::Refused(why) => Some(why),
+            _ => None,
+        }
+    }
+}
+
+/// A focal length in pixels, read from a photo's EXIF and checked.
 ///
-/// In order of preference (the order COLMAP uses too):
+/// The readings, in order of preference; the first that passes the checks is used:
 /// 1. `FocalLengthIn35mmFilm` (tag 0xA405, what phones write): the focal length that gives
 ///    a 36 x 24 mm frame the same angle of view. By its definition (CIPA DC-008) the angle is
-///    the diagonal's, so `px = f35 * diagonal_px / 43.27` with 43.27 mm the diagonal of 36 x 24.
-/// 2. `FocalLength` (0x920A) in mm with the sensor's `FocalPlaneXResolution` (0xA20E, pixels
-///    per `FocalPlaneResolutionUnit` 0xA210: inch, cm, mm or µm), scaled from the EXIF's
-///    `PixelXDimension` (0xA002) to the stored image's width when the two differ.
+///    the diagonal's, so `px = f35 * diagonal_px / 43.27` with 43.27 mm the diagonal of
+///    36 x 24. Relative to the frame, it survives resizing. Checked against `FocalLength`
+///    in mm where both are present: their ratio (divided by any `DigitalZoomRatio`) is the
+///    sensor's crop factor, which is between [`CROP_FACTORS`]'s ends for every camera.
+/// 2. `FocalLength` (0x920A) in mm and the sensor's width from the database by `Make` and
+///    `Model` ([`crate::sensor_db`]): `px = f_mm * longer side px / sensor width mm`, times
+///    any `DigitalZoomRatio`. It survives resizing too.
+/// 3. `FocalLength` in mm with the sensor's `FocalPlaneXResolution` (0xA20E, pixels per
+///    `FocalPlaneResolutionUnit` 0xA210: inch, cm, mm or µm). This resolution is the
+///    sensor's own: it holds for the file as the camera wrote it, so it is scaled by the
+///    stored width over `PixelXDimension` (0xA002) when the two differ, and is wrong for a
+///    copy resized by software that rewrote `PixelXDimension` or dropped it (the sensor
+///    width it implies, `width px / resolution`, is then too small).
 ///
-/// Both assume the photo shows the whole sensor frame (no crop after capture) and square
-/// pixels. Values outside [`PhotoFocal::PLAUSIBLE_35MM`] (as a 35 mm equivalent) are
-/// ignored as broken.
+/// Every reading must give a field of view within
+/// [`monohand_core::camera::PLAUSIBLE_FOV_DEG`] (5-150 degrees across the longer side).
+///
+/// `PixelXDimension` and `PixelYDimension` say which frame the tags describe: an image of
+/// the same shape is that frame resized; one of another shape with a side of the same
+/// length was cropped without resizing, and the readings are for the uncropped frame,
+/// whose pixels are this image's; one of another shape with no side in common was cropped
+/// and resized, and no reading can be placed in it (refused). All readings assume square
+/// pixels and that the frame the camera wrote spans the sensor's width.
 #[derive(Clone, Debug, PartialEq)]
 pub struct PhotoFocal {
     /// Focal length in pixels (the same on both axes).
     pub px: f64,
     /// The tags it came from, for the user (for example `FocalLengthIn35mmFilm 26 mm`).
     pub source: String,
+    /// The sensor width from the database, mm, when the focal came from it (reading 2).
+    pub sensor_width_mm: Option<f64>,
+    /// Why a reading ranked before this one was not used, when one was stated.
+    pub fallback: Option<String>,
 }
 
 impl PhotoFocal {
     /// 35 mm-equivalent focal lengths taken as real, in mm: from a 4 mm fisheye-like
-    /// wide angle (about 157 degrees across the diagonal) to a 2000 mm telephoto.
+    /// wide angle (about 157 degrees across the diagonal) to a 2000 mm telephoto. The field
+    /// of view check ([`monohand_core::camera::PLAUSIBLE_FOV_DEG`]) is narrower.
     pub const PLAUSIBLE_35MM: std::ops::RangeInclusive<f64> = 4.0..=2000.0;
 
     /// The 35 mm-equivalent focal length of this focal for an image of this size, mm.
     pub fn equivalent_35mm(&self, width: u32, height: u32) -> f64 {
         self.px * DIAGONAL_35MM / (width as f64).hypot(height as f64)
     }
+}
+
+/// Crop factors (the 35 mm frame's diagonal over the sensor's) of real cameras: from
+/// 0.5 (a sensor of 87 mm diagonal, larger than any digital medium format) to 15 (2.9 mm,
+/// smaller than any phone's 1/5" sensor).
+pub const CROP_FACTORS: std::ops::RangeInclusive<f64> = 0.5..=15.0;
+
+/// The tags of a photo's EXIF that say its camera (read by [`decode_photo`]).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ExifTags {
+    /// `Make` (0x010F).
+    pub make: Option<String>,
+    /// `Model` (0x0110).
+    pub model: Option<String>,
+    /// `FocalLength` (0x920A), mm.
+    pub focal_mm: Option<f64>,
+    /// `FocalLengthIn35mmFilm` (0xA405), mm; absent when 0 ("unknown").
+    pub focal_35mm: Option<f64>,
+    /// `FocalPlaneXResolution` (0xA20E) in pixels per mm (`FocalPlaneResolutionUnit`
+    /// applied), and as the file writes it (for example `2413.33 pixels per cm`).
+    pub focal_plane: Option<(f64, String)>,
+    /// `PixelXDimension` and `PixelYDimension` (0xA002, 0xA003): the size of the image the
+    /// tags were written for, in its stored orientation (the height may be missing).
+    pub pixel_dimensions: Option<(f64, Option<f64>)>,
+    /// `DigitalZoomRatio` (0xA404), when over 1.
+    pub digital_zoom: Option<f64>,
+}
+
+impl ExifTags {
+    /// The camera's name for the user: `Make Model`, the make once (`Canon EOS 5DS R`).
+    pub fn camera_name(&self) -> Option<String> {
+        let model = self.model.as_deref()?.trim();
+        match self.make.as_deref().map(str::trim) {
+            Some(make) if !model.to_lowercase().starts_with(&make.to_lowercase()) => {
+                Some(format!("{make} {model}"))
+            }
+            _ => Some(model.to_string()),
+        }
+    }
+}
+
+/// Reads the camera tags of a raw EXIF (TIFF) block; `Err`: unreadable, or a focal plane
+/// unit that is not a length.
+pub fn read_exif_tags(raw: Vec<u8>) -> std::result::Result<ExifTags, String> {
+    use exif::{In, Tag};
+    let exif = exif::Reader::new()
+        .read_raw(raw)
+        .map_err(|e| format!("unreadable EXIF: {e}"))?;
+    let number = |tag: Tag| -> Option<f64> {
+        let field = exif.get_field(tag, In::PRIMARY)?;
+        let v = match &field.value {
+            exif::Value::Rational(v) => v.first().map(|r| r.to_f64()),
+            exif::Value::SRational(v) => v.first().map(|r| r.to_f64()),
+            other => other.get_uint(0).map(f64::from),
+        }?;
+        v.is_finite().then_some(v)
+    };
+    let text = |tag: Tag| -> Option<String> {
+        let field = exif.get_field(tag, In::PRIMARY)?;
+        let exif::Value::Ascii(parts) = &field.value else {
+            return None;
+        };
+        let s: String = parts
+            .first()?
+            .iter()
+            .take_while(|&&b| b != 0)
+            .map(|&b| char::from(b))
+            .collect();
+        let s = s.trim().to_string();
+        (!s.is_empty()).then_some(s)
+    };
+    let focal_plane = match number(Tag::FocalPlaneXResolution).filter(|&r| r > 0.0) {
+        None => None,
+        Some(res) => {
+            // Pixels per unit on the sensor; the unit is the inch when the tag is absent.
+            let (unit_mm, unit) =
+                match number(Tag::FocalPlaneResolutionUnit).map_or(2, |u| u as u32) {
+                    2 => (25.4, "inch"),
+                    3 => (10.0, "cm"),
+                    4 => (1.0, "mm"),
+                    5 => (1e-3, "µm"),
+                    u => return Err(format!("FocalPlaneResolutionUnit {u} is not a length")),
+                };
+            Some((res / unit_mm, format!("{} pixels per {unit}", round2(res))))
+        }
+    };
+    let pixel_dimensions = number(Tag::PixelXDimension)
+        .filter(|&x| x > 0.0)
+        .map(|x| (x, number(Tag::PixelYDimension).filter(|&y| y > 0.0)));
+    Ok(ExifTags {
+        make: text(Tag::Make),
+        model: text(Tag::Model),
+        focal_mm: number(Tag::FocalLength).filter(|&f| f > 0.0),
+        // 0 means "unknown" in the standard.
+        focal_35mm: number(Tag::FocalLengthIn35mmFilm).filter(|&f| f > 0.0),
+        focal_plane,
+        pixel_dimensions,
+        digital_zoom: number(Tag::DigitalZoomRatio).filter(|&z| z > 1.0),
+    })
+}
+
+/// A number as the user wrote it, to two decimals at most (`2413.33`, `88`).
+fn round2(v: f64) -> String {
+    let r = (v * 100.0).round() / 100.0;
+    format!("{r}")
+}
+
+/// The frame the EXIF tags describe, in pixels of the image at hand.
+struct TaggedFrame {
+    /// Its size in pixels of this image (larger than the image when it was cropped).
+    width: f64,
+    height: f64,
+    /// The scale from the file the camera wrote to this one (1 unless resized).
+    scale: f64,
+    /// How the image relates to the frame, for the user (`None`: it is the frame).
+    note: Option<String>,
+}
+
+/// Where this image (stored `sw` x `sh`, before the EXIF orientation) sits in the frame its
+/// tags describe (`PixelXDimension` x `PixelYDimension`, in either orientation).
+fn tagged_frame(
+    dims: Option<(f64, Option<f64>)>,
+    sw: u32,
+    sh: u32,
+) -> std::result::Result<TaggedFrame, String> {
+    let (w, h) = (f64::from(sw), f64::from(sh));
+    let (px, py) = match dims {
+        None => {
+            return Ok(TaggedFrame {
+                width: w,
+                height: h,
+                scale: 1.0,
+                note: None,
+            })
+        }
+        // Without the height, the width alone: taken as the same shape.
+        Some((px, None)) => (px, px * h / w),
+        Some((px, Some(py))) => (px, py),
+    };
+    // The same shape up to a pixel of rounding: the frame, resized (or not).
+    let same_shape =
+        |px: f64, py: f64| (py * w / px - h).abs() <= 1.0 || (px * h / py - w).abs() <= 1.0;
+    // Cropped without resizing: inside the frame, one side whole.
+    let cropped = |px: f64, py: f64| w <= px && h <= py && (w == px || h == py);
+    // Some writers give the upright size: the tags as written first, then turned.
+    for (px, py) in [(px, py), (py, px)] {
+        if same_shape(px, py) {
+            let scale = w / px;
+            let note = (scale != 1.0).then(|| {
+                format!(
+                    "the image is {sw}x{sh}, resized from the {px}x{py} the EXIF was written for"
+                )
+            });
+            return Ok(TaggedFrame {
+                width: w,
+                height: h,
+                scale,
+                note,
+            });
+        }
+    }
+    for (px, py) in [(px, py), (py, px)] {
+        if cropped(px, py) {
+            return Ok(TaggedFrame {
+                width: px,
+                height: py,
+                scale: 1.0,
+                note: Some(format!(
+                    "the image is {sw}x{sh}, cropped from the {px}x{py} frame the EXIF describes"
+                )),
+            });
+        }
+    }
+    Err(format!(
+        "the image is {sw}x{sh} but its EXIF describes a {px}x{py} frame, another shape with \
+         no side in common: it was cropped and resized, so where the lens's frame lies in it \
+         is unknown"
+    ))
+}
+
+/// The focal length in pixels of an image stored `stored` (width, height, before the EXIF
+/// orientation) and `upright` after it, from its EXIF camera tags (see [`PhotoFocal`]).
+pub fn focal_from_tags(tags: &ExifTags, stored: (u32, u32), upright: (u32, u32)) -> ExifFocal {
+    use monohand_core::camera::Camera;
+    if tags.focal_35mm.is_none() && tags.focal_mm.is_none() {
+        return ExifFocal::None;
+    }
+    let frame = match tagged_frame(tags.pixel_dimensions, stored.0, stored.1) {
+        Ok(f) => f,
+        Err(why) => return ExifFocal::Refused(why),
+    };
+    let (w, h) = upright;
+    let zoom = tags.digital_zoom.unwrap_or(1.0);
+    let zoom_text = match tags.digital_zoom {
+        Some(z) => format!(" with DigitalZoomRatio {}", round2(z)),
+        None => String::new(),
+    };
+    let diagonal = frame.width.hypot(frame.height);
+    let longer = frame.width.max(frame.height);
+    // Why each reading tried was not used, in order.
+    let mut refused: Vec<String> = Vec::new();
+    let check = |px: f64, source: &str| -> std::result::Result<(), String> {
+        let camera = Camera::centred(px, w, h).map_err(|e| format!("{source}: {e}"))?;
+        let f35 = px * DIAGONAL_35MM / diagonal;
+        if let Some(why) = camera.implausible_field_of_view() {
+            return Err(format!("{source} gives fx {px:.0} px for {w}x{h}, {why}"));
+        }
+        if !PhotoFocal::PLAUSIBLE_35MM.contains(&f35) {
+            return Err(format!(
+                "{source} gives a 35 mm equivalent of {f35:.1} mm, outside {:?} mm",
+                PhotoFocal::PLAUSIBLE_35MM
+            ));
+        }
+        Ok(())
+    };
+    let done = |px: f64, source: String, sensor: Option<f64>, refused: &[String]| {
+        let mut why: Vec<String> = refused.to_vec();
+        if let Some(n) = &frame.note {
+            why.push(n.clone());
+        }
+        ExifFocal::Used(PhotoFocal {
+            px,
+            source,
+            sensor_width_mm: sensor,
+            fallback: (!why.is_empty()).then(|| why.join("; ")),
+        })
+    };
+    // 1. The 35 mm equivalent.
+    if let Some(f35) = tags.focal_35mm {
+        let source = format!("EXIF FocalLengthIn35mmFilm {} mm", round2(f35));
+        let px = f35 * diagonal / DIAGONAL_35MM;
+        let crop = tags.focal_mm.map(|f| f35 / (f * zoom));
+        match crop.filter(|c| !CROP_FACTORS.contains(c)) {
+            Some(c) => refused.push(format!(
+                "{source} against FocalLength {} mm{zoom_text} is a crop factor of {c:.2}, a \
+                 sensor {:.1} mm across, outside the {}-{} of real cameras (an editor's value?)",
+                round2(tags.focal_mm.unwrap_or_default()),
+                DIAGONAL_35MM / c,
+                CROP_FACTORS.start(),
+                CROP_FACTORS.end()
+            )),
+            None => match check(px, &source) {
+                Ok(()) => return done(px, source, None, &refused),
+                Err(why) => refused.push(why),
+            },
+        }
+    }
+    let Some(f_mm) = tags.focal_mm else {
+        return ExifFocal::Refused(refused.join("; "));
+    };
+    // What the focal plane resolution implies, for 2. and 3.
+    let plane = tags.focal_plane.as_ref().map(|(per_mm, text)| {
+        let px = f_mm * zoom * per_mm * frame.scale;
+        // The sensor width it implies for this image's frame.
+        let width_mm = frame.width / (per_mm * frame.scale);
+        (px, width_mm, text)
+    });
+    // 2. The sensor database.
+    let entry = match (&tags.make, &tags.model) {
+        (Some(make), Some(model)) => crate::sensor_db::lookup(make, model),
+        _ => None,
+    };
+    if let Some(e) = entry {
+        let name = tags.camera_name().unwrap_or_default();
+        let source = format!(
+            "EXIF FocalLength {} mm{zoom_text} on the {name}'s {} mm wide sensor (sensor database)",
+            round2(f_mm),
+            round2(e.width_mm)
+        );
+        let px = f_mm * zoom * longer / e.width_mm;
+        match check(px, &source) {
+            Ok(()) => {
+                let mut why = refused.clone();
+                if tags.focal_35mm.is_none() {
+                    why.push("no FocalLengthIn35mmFilm".into());
+                }
+                if let Some((_, width_mm, text)) = &plane {
+                    if (width_mm / e.width_mm - 1.0).abs() > 0.05 {
+                        why.push(format!(
+                            "FocalPlaneXResolution {text} implies a sensor {width_mm:.1} mm wide \
+                             for this {}-pixel-wide frame, not {} mm: the photo was resized",
+                            frame.width,
+                            round2(e.width_mm)
+                        ));
+                    }
+                }
+                return done(px, source, Some(e.width_mm), &why);
+            }
+            Err(why) => refused.push(why),
+        }
+    }
+    // 3. The focal plane resolution.
+    if let Some((px, width_mm, text)) = plane {
+        let source = format!(
+            "EXIF FocalLength {} mm{zoom_text} at {text} on the sensor",
+            round2(f_mm)
+        );
+        match check(px, &source) {
+            Ok(()) => return done(px, source, None, &refused),
+            Err(why) => refused.push(format!(
+                "{why} (read against this {}-pixel-wide frame it implies a sensor {width_mm:.1} \
+                 mm wide: was the photo resized?)",
+                frame.width
+            )),
+        }
+    } else if entry.is_none() && tags.focal_35mm.is_none() {
+        refused.push(format!(
+            "EXIF FocalLength {} mm, but nothing says the sensor's size: no \
+             FocalLengthIn35mmFilm, no FocalPlaneXResolution, and {} in the sensor database",
+            round2(f_mm),
+            match tags.camera_name() {
+                Some(name) => format!("the {name} is not"),
+                None => "no Make and Model to look up".into(),
+            }
+        ));
+    }
+    ExifFocal::Refused(refused.join("; "))
 }
 
 /// Diagonal of a 36 x 24 mm frame, mm.
@@ -150,83 +518,20 @@ pub fn decode_photo(bytes: &[u8], what: &str) -> Result<Photo> {
             ),
         });
     }
-    let focal = exif.and_then(|raw| {
-        focal_from_exif(raw, stored_width, rgb.width(), rgb.height())
-            .map_err(|why| tracing::warn!("{what}: EXIF focal length not used: {why}"))
-            .ok()
-            .flatten()
-    });
+    let focal = match exif.map(read_exif_tags) {
+        None => ExifFocal::None,
+        Some(Err(why)) => {
+            // A damaged block says nothing: the photo is decoded without it.
+            tracing::warn!("{what}: EXIF not read: {why}");
+            ExifFocal::None
+        }
+        Some(Ok(tags)) => focal_from_tags(
+            &tags,
+            (stored_width, stored_height),
+            (rgb.width(), rgb.height()),
+        ),
+    };
     Ok(Photo { image: rgb, focal })
-}
-
-/// The focal length in pixels of an image `width` x `height` (upright; `stored_width` is its
-/// width as stored, before the EXIF orientation) from its raw EXIF (TIFF) block. `Ok(None)`:
-/// no focal length in it; `Err`: one that cannot be right.
-fn focal_from_exif(
-    raw: Vec<u8>,
-    stored_width: u32,
-    width: u32,
-    height: u32,
-) -> std::result::Result<Option<PhotoFocal>, String> {
-    use exif::{In, Tag};
-    let exif = exif::Reader::new()
-        .read_raw(raw)
-        .map_err(|e| format!("unreadable EXIF: {e}"))?;
-    let number = |tag: Tag| -> Option<f64> {
-        let field = exif.get_field(tag, In::PRIMARY)?;
-        match &field.value {
-            exif::Value::Rational(v) => v.first().map(|r| r.to_f64()),
-            exif::Value::SRational(v) => v.first().map(|r| r.to_f64()),
-            other => other.get_uint(0).map(f64::from),
-        }
-    };
-    let diagonal = (width as f64).hypot(height as f64);
-    let focal = if let Some(f35) = number(Tag::FocalLengthIn35mmFilm).filter(|&f| f > 0.0) {
-        // 0 means "unknown" in the standard.
-        PhotoFocal {
-            px: f35 * diagonal / DIAGONAL_35MM,
-            source: format!("EXIF FocalLengthIn35mmFilm {f35} mm"),
-        }
-    } else {
-        let (Some(f_mm), Some(res)) =
-            (number(Tag::FocalLength), number(Tag::FocalPlaneXResolution))
-        else {
-            return Ok(None);
-        };
-        // Pixels per unit on the sensor; the unit is the inch when the tag is absent.
-        let unit_mm = match number(Tag::FocalPlaneResolutionUnit).map_or(2, |u| u as u32) {
-            2 => 25.4,
-            3 => 10.0,
-            4 => 1.0,
-            5 => 1e-3,
-            u => return Err(format!("FocalPlaneResolutionUnit {u} is not a length")),
-        };
-        let scale = match number(Tag::PixelXDimension).filter(|&p| p > 0.0) {
-            Some(p) => stored_width as f64 / p,
-            None => 1.0,
-        };
-        PhotoFocal {
-            px: f_mm * res / unit_mm * scale,
-            source: format!(
-                "EXIF FocalLength {f_mm} mm at {res} pixels per {} on the sensor",
-                match unit_mm {
-                    25.4 => "inch",
-                    10.0 => "cm",
-                    1.0 => "mm",
-                    _ => "µm",
-                }
-            ),
-        }
-    };
-    let f35 = focal.equivalent_35mm(width, height);
-    if !(focal.px.is_finite() && PhotoFocal::PLAUSIBLE_35MM.contains(&f35)) {
-        return Err(format!(
-            "{} gives a 35 mm equivalent of {f35:.1} mm, outside {:?} mm",
-            focal.source,
-            PhotoFocal::PLAUSIBLE_35MM
-        ));
-    }
-    Ok(Some(focal))
 }
 
 #[cfg(test)]

@@ -63,7 +63,7 @@ fn fuzz_exif_focal_length() {
             // The EXIF never breaks the pixels: 32x24, or 24x32 after an orientation.
             let (w, h) = photo.image.dimensions();
             assert!((w, h) == (32, 24) || (w, h) == (24, 32), "{w}x{h}");
-            if let Some(f) = &photo.focal {
+            if let Some(f) = photo.focal.used() {
                 with_focal += 1;
                 assert!(PhotoFocal::PLAUSIBLE_35MM.contains(&f.equivalent_35mm(w, h)));
             }

@@ -1,6 +1,6 @@
 //! Stages 1 and 2 over every view, with MediaPipe's crop tracking and hand identities.
 
-use monohand_vision::image_io::PhotoFocal;
+use monohand_vision::image_io::ExifFocal;
 use monohand_vision::{Detections, HandPipeline, RgbImage};
 use std::sync::Arc;
 use std::time::Instant;
@@ -32,7 +32,7 @@ pub struct VisionFrame {
     /// The focal length the first view's image file states in its EXIF, set by whoever read
     /// the file. Without calibrated cameras, the 3D stage builds that view's camera from it
     /// instead of the generic guess ([`crate::HandsFitter::new`]).
-    pub focal: Option<PhotoFocal>,
+    pub focal: ExifFocal,
 }
 
 /// Per view: the hands of the previous frame, for the next crops.
@@ -101,7 +101,7 @@ impl CropTracker {
             time_s,
             views: vec![view],
             vision_ms,
-            focal: None,
+            focal: ExifFocal::None,
         }
     }
 
@@ -181,7 +181,7 @@ impl CropTracker {
             time_s,
             views: out,
             vision_ms: t.elapsed().as_secs_f64() * 1e3,
-            focal: None,
+            focal: ExifFocal::None,
         }
     }
 }

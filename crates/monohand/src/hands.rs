@@ -10,7 +10,7 @@ use monohand_core::fitting::{estimate_hand_scale, ProportionEstimate, ScaleEstim
 use monohand_core::observation::NetworkCues;
 use monohand_core::prelude::*;
 use monohand_io::jsonl::CameraSource;
-use monohand_vision::image_io::PhotoFocal;
+use monohand_vision::image_io::ExifFocal;
 use monohand_vision::DetectedHand;
 use nalgebra::Vector3;
 use std::collections::HashMap;
@@ -88,11 +88,36 @@ pub struct FittedFrame {
     pub error: Option<String>,
     /// Time the fits took, ms.
     pub fit_ms: f64,
-    /// The camera of each view the frame was fitted with (empty when it was not fitted),
-    /// and where they came from. Every drawing of the frame uses these.
+    /// The camera of each view the frame was fitted with (empty when it was not fitted).
+    /// Every drawing of the frame uses these.
     pub cameras: Vec<Camera>,
-    /// Where [`FittedFrame::cameras`] came from.
-    pub camera_source: CameraSource,
+    /// Where each of [`FittedFrame::cameras`] came from, and why, in the same order.
+    pub camera_origins: Vec<CameraOrigin>,
+}
+
+/// Where a camera in use came from, and why that source and not a better one.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CameraOrigin {
+    /// The source, as the records name it.
+    pub source: CameraSource,
+    /// Why: a stated EXIF focal length that failed its checks, a calibration scaled from
+    /// another size, a field of view outside 5-150 degrees that the user's calibration
+    /// gives (`None`: nothing to say).
+    pub reason: Option<String>,
+}
+
+impl CameraOrigin {
+    fn new(source: CameraSource, reason: Option<String>) -> CameraOrigin {
+        CameraOrigin { source, reason }
+    }
+}
+
+/// `reason` and `more` joined, either possibly absent.
+fn join_reasons(reason: Option<String>, more: Option<&String>) -> Option<String> {
+    match (reason, more) {
+        (Some(a), Some(b)) => Some(format!("{a}; {b}")),
+        (a, b) => a.or_else(|| b.cloned()),
+    }
 }
 
 /// One hand followed over the frames.
@@ -122,12 +147,17 @@ fn side_index(side: HandSide) -> usize {
 /// overlay), because with [`FitSettings::auto_scale_frames`] frames come back later than
 /// they went in.
 pub struct HandsFitter<T = ()> {
+    /// The calibrations the user gave, as given (empty: a camera per image).
+    calibrated: Vec<Camera>,
+    /// The reason each calibration is used despite a field of view outside 5-150 degrees.
+    calibrated_fov: Vec<Option<String>>,
+    /// The cameras in use: the calibrations, scaled to the frames' size when it differs,
+    /// or the last image's camera.
     cameras: Vec<Camera>,
-    /// Where `cameras` came from (for a generic or EXIF camera: the last frame's).
-    camera_source: CameraSource,
-    generic: bool,
-    /// Whether the generic guess and an EXIF focal length were announced.
-    said: [bool; 2],
+    /// Where each of `cameras` came from.
+    origins: Vec<CameraOrigin>,
+    /// The kinds of camera already announced (each is said once).
+    said: Vec<String>,
     prototypes: [HandTracker; 2],
     settings: FitSettings,
     tracks: HashMap<HandId, Track>,
@@ -147,14 +177,33 @@ impl<T> HandsFitter<T> {
             c.validate()?;
         }
         settings.options.validate()?;
+        let calibrated_fov: Vec<Option<String>> = cameras
+            .iter()
+            .map(|c| {
+                c.implausible_field_of_view().map(|why| {
+                    format!(
+                        "the calibration gives {why}; used as given, since it is the user's own"
+                    )
+                })
+            })
+            .collect();
+        let mut notes = Vec::new();
+        for (v, why) in calibrated_fov.iter().enumerate() {
+            if let Some(why) = why {
+                notes.push(Note::new(
+                    NoteTopic::Camera,
+                    format!("camera {}: {why}", v + 1),
+                ));
+            }
+        }
         Ok(HandsFitter {
-            generic: cameras.is_empty(),
-            camera_source: if cameras.is_empty() {
-                CameraSource::Generic
-            } else {
-                CameraSource::File
-            },
-            said: [false; 2],
+            origins: calibrated_fov
+                .iter()
+                .map(|why| CameraOrigin::new(CameraSource::File, why.clone()))
+                .collect(),
+            calibrated_fov,
+            calibrated: cameras.clone(),
+            said: Vec::new(),
             cameras,
             prototypes: [
                 HandTracker::new(settings.skeletons[0], settings.options)?,
@@ -170,7 +219,7 @@ impl<T> HandsFitter<T> {
             tracks: HashMap::new(),
             scale: None,
             proportions: [None, None],
-            notes: Vec::new(),
+            notes,
         })
     }
 
@@ -379,54 +428,130 @@ impl<T> HandsFitter<T> {
             .collect()
     }
 
-    /// Makes the camera fit the frame: without calibrated cameras, one for its size (from
-    /// the focal length its file states, else the generic guess); with them, a check that
-    /// the size is the calibrated one.
-    fn camera_for(&mut self, size: (u32, u32), focal: Option<&PhotoFocal>) -> Result<(), String> {
-        let (w, h) = size;
-        if self.generic {
-            let cam = match focal {
-                Some(f) => Camera::centred(f.px, w, h),
-                None => Camera::generic(w, h),
-            }
-            .map_err(|e| e.to_string())?;
-            if self.cameras.first().map(|c| &c.intrinsics) != Some(&cam.intrinsics) {
-                let kind = usize::from(focal.is_some());
-                if !self.said[kind] {
-                    self.said[kind] = true;
-                    let message = match focal {
-                        Some(f) => format!(
-                            "the camera comes from the photo's {}: fx = fy = {:.1} \
-                             px for {w}x{h} ({:.1} degree horizontal field of view; photos \
-                             without it get the generic 60 degree guess)",
-                            f.source,
-                            f.px,
-                            2.0 * (0.5 * w as f64 / f.px).atan().to_degrees()
-                        ),
-                        None => format!(
-                            "assuming a generic camera for {w}x{h} (60 degree horizontal field \
-                             of view); absolute depth is only as right as this guess \
-                             (docs/calibration.md)"
-                        ),
-                    };
-                    self.notes.push(Note::new(NoteTopic::Camera, message));
-                }
-                self.cameras = vec![cam];
-            }
-            self.camera_source = if focal.is_some() {
-                CameraSource::Exif
-            } else {
-                CameraSource::Generic
+    /// Says `message` once per `kind` of camera.
+    fn say_once(&mut self, kind: String, message: String) {
+        if !self.said.contains(&kind) {
+            self.said.push(kind);
+            self.notes.push(Note::new(NoteTopic::Camera, message));
+        }
+    }
+
+    /// Makes the cameras fit the frame (`sizes`: each view's image size, `None` for an
+    /// unreadable view): without calibrated cameras, one for the first view's size from the
+    /// focal length its file states, else the generic guess; with them, the calibrations,
+    /// scaled to the frames' size when it differs and has the same shape (another shape is
+    /// the error).
+    fn camera_for(
+        &mut self,
+        sizes: &[Option<(u32, u32)>],
+        focal: &ExifFocal,
+    ) -> Result<(), String> {
+        if self.calibrated.is_empty() {
+            let Some(&Some((w, h))) = sizes.first() else {
+                return Ok(());
             };
-            return Ok(());
+            return self.photo_camera(w, h, focal);
         }
-        match self.cameras.first() {
-            Some(c) if (c.intrinsics.width, c.intrinsics.height) != (w, h) => Err(format!(
-                "the image is {w}x{h} but the camera is calibrated for {}x{}; no 3D for this frame",
-                c.intrinsics.width, c.intrinsics.height
-            )),
-            _ => Ok(()),
+        for (v, size) in sizes.iter().enumerate() {
+            let (Some(&(w, h)), Some(cal)) = (size.as_ref(), self.calibrated.get(v)) else {
+                continue;
+            };
+            let k = cal.intrinsics;
+            let fov = self.calibrated_fov.get(v).cloned().flatten();
+            let (cam, origin) = if (k.width, k.height) == (w, h) {
+                (*cal, CameraOrigin::new(CameraSource::File, fov))
+            } else {
+                let scaled = cal
+                    .scaled_to(w, h)
+                    .map_err(|why| format!("view {}: {why}; no 3D for this frame", v + 1))?;
+                let why = format!(
+                    "calibrated for {}x{}, scaled by {:.4} to the frames' {w}x{h}",
+                    k.width,
+                    k.height,
+                    w as f64 / k.width as f64
+                );
+                self.say_once(
+                    format!("file-scaled {v} {w}x{h}"),
+                    format!(
+                        "camera {}: {why} (fx {:.1} -> {:.1} px); a calibration at the \
+                         frames' own size is better (docs/calibration.md)",
+                        v + 1,
+                        k.fx,
+                        scaled.intrinsics.fx
+                    ),
+                );
+                let reason = join_reasons(Some(why), fov.as_ref());
+                (scaled, CameraOrigin::new(CameraSource::FileScaled, reason))
+            };
+            if let (Some(c), Some(o)) = (self.cameras.get_mut(v), self.origins.get_mut(v)) {
+                *c = cam;
+                *o = origin;
+            }
         }
+        Ok(())
+    }
+
+    /// The camera of a photo without calibration: from the focal length its EXIF states
+    /// when that passed its checks, else the generic guess (with why, when the EXIF stated
+    /// one).
+    fn photo_camera(&mut self, w: u32, h: u32, focal: &ExifFocal) -> Result<(), String> {
+        let generic = || Camera::generic(w, h).map_err(|e| e.to_string());
+        let (cam, origin) = match focal {
+            ExifFocal::Used(f) => {
+                let cam = Camera::centred(f.px, w, h).map_err(|e| e.to_string())?;
+                let source = if f.sensor_width_mm.is_some() {
+                    CameraSource::ExifSensorDb
+                } else {
+                    CameraSource::Exif
+                };
+                let why = f
+                    .fallback
+                    .as_ref()
+                    .map(|why| format!(" ({why})"))
+                    .unwrap_or_default();
+                self.say_once(
+                    source.to_string(),
+                    format!(
+                        "the camera comes from the photo's {}: fx = fy = {:.1} px for {w}x{h} \
+                         ({:.1} degree horizontal field of view; photos without it get the \
+                         generic 60 degree guess){why}",
+                        f.source,
+                        f.px,
+                        2.0 * (0.5 * w as f64 / f.px).atan().to_degrees()
+                    ),
+                );
+                (cam, CameraOrigin::new(source, f.fallback.clone()))
+            }
+            ExifFocal::Refused(why) => {
+                let reason = format!("the EXIF focal length was not used: {why}");
+                self.say_once(
+                    "generic, EXIF refused".into(),
+                    format!(
+                        "{reason}; assuming a generic camera for {w}x{h} (60 degree horizontal \
+                         field of view) instead; absolute depth is only as right as this guess \
+                         (docs/calibration.md)"
+                    ),
+                );
+                (
+                    generic()?,
+                    CameraOrigin::new(CameraSource::Generic, Some(reason)),
+                )
+            }
+            ExifFocal::None => {
+                self.say_once(
+                    "generic".into(),
+                    format!(
+                        "assuming a generic camera for {w}x{h} (60 degree horizontal field of \
+                         view); absolute depth is only as right as this guess \
+                         (docs/calibration.md)"
+                    ),
+                );
+                (generic()?, CameraOrigin::new(CameraSource::Generic, None))
+            }
+        };
+        self.cameras = vec![cam];
+        self.origins = vec![origin];
+        Ok(())
     }
 
     fn fit_frame(&mut self, frame: VisionFrame) -> FittedFrame {
@@ -437,28 +562,34 @@ impl<T> HandsFitter<T> {
             fit_ms: 0.0,
             vision: frame,
             cameras: Vec::new(),
-            camera_source: self.camera_source,
+            camera_origins: Vec::new(),
         };
         for (v, view) in out.vision.views.iter().enumerate().skip(1) {
             if let Err(e) = view {
                 tracing::warn!("frame {}: view {} unreadable: {e}", out.vision.index, v + 1);
             }
         }
-        let size = match out.vision.views.first() {
-            Some(Ok(first)) => first.detections.image_size,
+        match out.vision.views.first() {
+            Some(Ok(_)) => {}
             Some(Err(e)) => {
                 out.error = Some(e.clone());
                 return out;
             }
             None => return out,
-        };
-        if let Err(e) = self.camera_for(size, out.vision.focal.as_ref()) {
+        }
+        let sizes: Vec<Option<(u32, u32)>> = out
+            .vision
+            .views
+            .iter()
+            .map(|v| v.as_ref().ok().map(|vh| vh.detections.image_size))
+            .collect();
+        if let Err(e) = self.camera_for(&sizes, &out.vision.focal) {
             tracing::warn!("frame {}: {e}", out.vision.index);
             out.error = Some(e);
             return out;
         }
         out.cameras.clone_from(&self.cameras);
-        out.camera_source = self.camera_source;
+        out.camera_origins.clone_from(&self.origins);
         let index = out.vision.index;
         for view in out.vision.views.iter().flatten() {
             for (hand, &id) in view.detections.hands.iter().zip(&view.ids) {
@@ -557,4 +688,101 @@ impl<T> HandsFitter<T> {
 /// Hand `k` of view `v` of a frame.
 fn detected(frame: &VisionFrame, v: usize, k: usize) -> Option<&DetectedHand> {
     frame.views.get(v)?.as_ref().ok()?.detections.hands.get(k)
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used)]
+    use super::*;
+    use monohand_vision::image_io::PhotoFocal;
+
+    #[test]
+    fn a_calibration_outside_the_real_fields_of_view_is_used_with_its_reason() {
+        let tele = Camera::centred(16_000.0, 640, 480).unwrap();
+        let mut fitter = HandsFitter::<()>::new(vec![tele], FitSettings::default()).unwrap();
+        let notes = fitter.take_notes();
+        assert_eq!(notes.len(), 1, "{notes:?}");
+        assert!(
+            notes[0]
+                .message
+                .starts_with("camera 1: the calibration gives a 2.3 degree"),
+            "{}",
+            notes[0]
+        );
+        fitter
+            .camera_for(&[Some((640, 480))], &ExifFocal::None)
+            .unwrap();
+        assert_eq!(fitter.cameras(), &[tele]);
+        let o = &fitter.origins[0];
+        assert_eq!(o.source, CameraSource::File);
+        assert!(o
+            .reason
+            .as_deref()
+            .is_some_and(|r| r.contains("used as given")));
+        // Scaled, it keeps both reasons.
+        fitter
+            .camera_for(&[Some((320, 240))], &ExifFocal::None)
+            .unwrap();
+        let o = &fitter.origins[0];
+        assert_eq!(o.source, CameraSource::FileScaled);
+        let r = o.reason.as_deref().unwrap();
+        assert!(
+            r.contains("scaled by 0.5000") && r.contains("2.3 degree"),
+            "{r}"
+        );
+    }
+
+    #[test]
+    fn photos_get_the_exif_camera_or_the_generic_one_with_the_reason() {
+        let mut fitter = HandsFitter::<()>::new(Vec::new(), FitSettings::default()).unwrap();
+        let db = ExifFocal::Used(PhotoFocal {
+            px: 2072.9,
+            source: "EXIF FocalLength 88 mm on the Canon EOS 5DS R's 36 mm wide sensor".into(),
+            sensor_width_mm: Some(36.0),
+            fallback: Some("the photo was resized".into()),
+        });
+        fitter.camera_for(&[Some((848, 565))], &db).unwrap();
+        assert_eq!(fitter.cameras()[0].intrinsics.fx, 2072.9);
+        assert_eq!(
+            fitter.origins,
+            [CameraOrigin::new(
+                CameraSource::ExifSensorDb,
+                Some("the photo was resized".into())
+            )]
+        );
+        let refused = ExifFocal::Refused("a 2.3 degree field of view".into());
+        fitter.camera_for(&[Some((848, 565))], &refused).unwrap();
+        assert_eq!(fitter.cameras()[0], Camera::generic(848, 565).unwrap());
+        assert_eq!(fitter.origins[0].source, CameraSource::Generic);
+        assert_eq!(
+            fitter.origins[0].reason.as_deref(),
+            Some("the EXIF focal length was not used: a 2.3 degree field of view")
+        );
+        fitter
+            .camera_for(&[Some((640, 480))], &ExifFocal::None)
+            .unwrap();
+        assert_eq!(
+            fitter.origins,
+            [CameraOrigin::new(CameraSource::Generic, None)]
+        );
+        // Each kind said once: the database's camera, the refusal, the generic guess.
+        fitter.camera_for(&[Some((640, 480))], &refused).unwrap();
+        let notes: Vec<String> = fitter.take_notes().into_iter().map(|n| n.message).collect();
+        assert_eq!(notes.len(), 3, "{notes:?}");
+        assert!(
+            notes[0].contains("fx = fy = 2072.9 px for 848x565"),
+            "{}",
+            notes[0]
+        );
+        assert!(
+            notes[1].starts_with("the EXIF focal length was not used"),
+            "{}",
+            notes[1]
+        );
+        assert!(
+            notes[2].starts_with("assuming a generic camera for 640x480"),
+            "{}",
+            notes[2]
+        );
+    }
 }

@@ -39,7 +39,9 @@ pub use fit::{
     fit_views, hand_skeletons, is_finite, learn_proportions, FitOutcome, HandScale,
     HAND_SCALE_RANGE,
 };
-pub use hands::{FitSettings, FittedFrame, HandsFitter, TrackedHand, FORGET_AFTER_FRAMES};
+pub use hands::{
+    CameraOrigin, FitSettings, FittedFrame, HandsFitter, TrackedHand, FORGET_AFTER_FRAMES,
+};
 pub use lifter::{LiftedHand, Lifter};
 pub use notes::{Note, NoteTopic};
 pub use session::{refine_passes, Session, SessionOptions};

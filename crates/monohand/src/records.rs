@@ -67,7 +67,8 @@ pub fn fitted_record(done: &FittedFrame, source: Option<String>) -> FrameRecord 
     record.cameras = done
         .cameras
         .iter()
-        .map(|c| CameraRecord::new(c, done.camera_source))
+        .zip(&done.camera_origins)
+        .map(|(c, o)| CameraRecord::new(c, o.source).with_reason(o.reason.clone()))
         .collect();
     for hand in &done.hands {
         match hand.views.first() {

@@ -5,6 +5,7 @@ use crate::hands::{FitSettings, FittedFrame, HandsFitter};
 use crate::{SessionError, SessionResult};
 use monohand_core::filtering::OneEuroParams;
 use monohand_core::prelude::*;
+use monohand_vision::image_io::ExifFocal;
 use monohand_vision::{HandPipeline, ModelOptions, PipelineOptions, RgbImage};
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -190,7 +191,7 @@ impl Session {
         images: &[&RgbImage],
         time_s: f64,
     ) -> SessionResult<Vec<FittedFrame>> {
-        self.process_with_focal(images, time_s, None)
+        self.process_with_focal(images, time_s, ExifFocal::None)
     }
 
     /// [`Session::process`] for one photo read with
@@ -209,7 +210,7 @@ impl Session {
         &mut self,
         images: &[&RgbImage],
         time_s: f64,
-        focal: Option<monohand_vision::image_io::PhotoFocal>,
+        focal: monohand_vision::image_io::ExifFocal,
     ) -> SessionResult<Vec<FittedFrame>> {
         if images.len() != self.views {
             return Err(SessionError::Invalid(format!(

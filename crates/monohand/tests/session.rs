@@ -20,13 +20,35 @@ fn calls_that_do_not_fit_the_session_are_refused() {
         session.process(&[&image], f64::NAN),
         Err(SessionError::Invalid(_))
     ));
-    // A frame of the wrong size gets no 3D and says why; the session goes on.
+    // A frame of another shape gets no 3D and says why; the session goes on.
+    let wide = monohand::RgbImage::new(128, 64);
+    let done = session.process(&[&wide], 0.0).expect("frame");
+    assert!(
+        done[0]
+            .error
+            .as_deref()
+            .is_some_and(|e| e.contains("the calibration is for 64x48") && e.contains("128x64")),
+        "{:?}",
+        done[0].error
+    );
+    // One of another size but the same shape gets the calibration scaled, and says so.
     let big = monohand::RgbImage::new(128, 96);
-    let done = session.process(&[&big], 0.0).expect("frame");
-    assert!(done[0]
-        .error
-        .as_deref()
-        .is_some_and(|e| e.contains("calibrated for 64x48")));
+    let done = session.process(&[&big], 0.05).expect("frame");
+    assert!(done[0].error.is_none(), "{:?}", done[0].error);
+    let k = done[0].cameras[0].intrinsics;
+    assert_eq!((k.width, k.height), (128, 96));
+    assert!((k.fx - 2.0 * camera.intrinsics.fx).abs() < 1e-9);
+    assert!((k.cx - 63.5).abs() < 1e-9 && (k.cy - 47.5).abs() < 1e-9);
+    let origin = &done[0].camera_origins[0];
+    assert_eq!(origin.source, monohand_io::jsonl::CameraSource::FileScaled);
+    assert_eq!(
+        origin.reason.as_deref(),
+        Some("calibrated for 64x48, scaled by 2.0000 to the frames' 128x96")
+    );
+    assert!(session
+        .take_notes()
+        .iter()
+        .any(|n| n.contains("camera 1: calibrated for 64x48, scaled by 2.0000")));
     let done = session.process(&[&image], 0.1).expect("frame");
     assert!(done[0].error.is_none() && done[0].hands.is_empty());
     assert!(matches!(

@@ -85,6 +85,8 @@ impl Show {
         loop {
             if drawn != Some(self.layers) {
                 let mut frame = image.clone();
+                let source = record.cameras.first().map(|c| c.source.name());
+                self.renderer.set_camera_source(source);
                 self.renderer
                     .draw(&mut frame, &record.hands, cameras, &self.layers);
                 let scale = ((w.max(h) as f64 / 640.0).round() as usize).max(1);

@@ -206,7 +206,7 @@ struct RawFrame {
     images: Vec<Result<RgbImage, String>>,
     decode_ms: f64,
     /// The EXIF focal length of the first view's image file.
-    focal: Option<monohand_vision::image_io::PhotoFocal>,
+    focal: monohand_vision::image_io::ExifFocal,
 }
 
 /// What the engine carries beside each frame through the fit.
@@ -288,10 +288,12 @@ impl Engine {
                     s.rotation_deg()
                 )));
             }
-            if (k.width, k.height) != (w, h) {
+            // Another size of the same shape is scaled frame by frame (said then); another
+            // shape cannot be the same lens's frame.
+            if let Err(why) = cam.scaled_to(w, h) {
                 return Err(EngineError::Input(format!(
-                    "view {}: the video is {w}x{h} but its calibration is for {}x{}; calibrate \
-                     at the video's resolution (or scale fx, fy, cx, cy with the image)",
+                    "view {}: the video is {w}x{h} but its calibration is for {}x{}, which cannot \
+                     be scaled to it ({why})",
                     v + 1,
                     k.width,
                     k.height

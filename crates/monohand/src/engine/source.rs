@@ -3,7 +3,7 @@
 
 use super::{EngineError, EngineResult};
 use monohand_media::video::{VideoInput, VideoReader};
-use monohand_vision::image_io::{images_in_folder, load_photo, PhotoFocal, IMAGE_EXTENSIONS};
+use monohand_vision::image_io::{images_in_folder, load_photo, ExifFocal, IMAGE_EXTENSIONS};
 use monohand_vision::RgbImage;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
@@ -22,7 +22,7 @@ pub struct SourceFrame {
     /// Milliseconds spent reading and decoding it.
     pub decode_ms: f64,
     /// The focal length the image file states in its EXIF (photos only).
-    pub focal: Option<PhotoFocal>,
+    pub focal: ExifFocal,
 }
 
 /// Frames of one view, in order.
@@ -142,7 +142,7 @@ impl FrameSource for ImageFiles {
         self.next += 1;
         let (image, focal) = match load_photo(path) {
             Ok(p) => (Ok(p.image), p.focal),
-            Err(e) => (Err(e.to_string()), None),
+            Err(e) => (Err(e.to_string()), ExifFocal::None),
         };
         Ok(Some(SourceFrame {
             index,
@@ -202,7 +202,7 @@ impl FrameSource for VideoSource {
                 timestamp_s: f.timestamp_s,
                 image: Ok(f.image),
                 decode_ms: t.elapsed().as_secs_f64() * 1e3,
-                focal: None,
+                focal: ExifFocal::None,
             })),
             Ok(None) => {
                 self.reader = None;
@@ -273,7 +273,7 @@ where
             timestamp_s,
             image: Ok(image),
             decode_ms: 0.0,
-            focal: None,
+            focal: ExifFocal::None,
         }))
     }
 
