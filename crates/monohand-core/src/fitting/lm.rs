@@ -91,6 +91,8 @@ pub struct HandFitter {
     bone_lengths: [f64; NUM_BONES],
     /// Joints the temporal term pulls towards (reference frame), in tracking.
     prior: Option<[Vector3<f64>; NUM_JOINTS]>,
+    /// The weight of that pull in the fit in progress.
+    prior_weight: f64,
     /// The network's 3D of a fit with one view, for [`FitOptions::fusion`].
     fusion_cues: Option<NetworkCues>,
 }
@@ -108,6 +110,7 @@ impl HandFitter {
             options,
             views: Vec::with_capacity(2),
             prior: None,
+            prior_weight: 0.0,
             fusion_cues: None,
         })
     }
@@ -214,7 +217,28 @@ impl HandFitter {
     ///
     /// [`TrackingSettings::temporal_weight`]: crate::fitting::TrackingSettings::temporal_weight
     pub fn fit_from(&mut self, views: &[View], start: &HandPose) -> CoreResult<FitResult> {
-        self.fit_from_with(views, start, Towards::Start)
+        let w = self.options.tracking.temporal_weight;
+        self.fit_from_with(views, start, Towards::Start, w)
+    }
+
+    /// Fits from `start` with every joint pulled towards `target` (reference frame, mm) at
+    /// `weight` instead of [`TrackingSettings::temporal_weight`]: a smoother's refit of a
+    /// frame towards where its neighbours, before and after, put the hand.
+    ///
+    /// [`TrackingSettings::temporal_weight`]: crate::fitting::TrackingSettings::temporal_weight
+    pub fn refit_towards(
+        &mut self,
+        views: &[View],
+        start: &HandPose,
+        target: &[Vector3<f64>; NUM_JOINTS],
+        weight: f64,
+    ) -> CoreResult<FitResult> {
+        if !(weight.is_finite() && weight >= 0.0) {
+            return Err(CoreError::InvalidOptions(format!(
+                "the pull's weight {weight} must be a finite number >= 0"
+            )));
+        }
+        self.fit_from_with(views, start, Towards::Joints(*target), weight)
     }
 
     /// [`HandFitter::fit_from`] with the temporal term pulling towards `towards`
@@ -230,7 +254,8 @@ impl HandFitter {
             Some(joints) => Towards::Joints(joints),
             None => Towards::Nothing,
         };
-        self.fit_from_with(views, start, towards)
+        let w = self.options.tracking.temporal_weight;
+        self.fit_from_with(views, start, towards, w)
     }
 
     fn fit_from_with(
@@ -238,6 +263,7 @@ impl HandFitter {
         views: &[View],
         start: &HandPose,
         towards: Towards,
+        weight: f64,
     ) -> CoreResult<FitResult> {
         if !start.is_finite() {
             return Err(CoreError::InvalidOptions(
@@ -259,7 +285,8 @@ impl HandFitter {
             Towards::Joints(joints) => Some(joints),
             Towards::Nothing => None,
         };
-        self.prior = towards.filter(|_| self.options.tracking.temporal_weight > 0.0);
+        self.prior_weight = weight;
+        self.prior = towards.filter(|_| weight > 0.0);
         let sol = self.solve(
             start,
             &observed,
@@ -492,7 +519,7 @@ impl HandFitter {
                 }
             }
         }
-        let wt = self.options.tracking.temporal_weight;
+        let wt = self.prior_weight;
         for (j, form) in forms.iter_mut().enumerate() {
             if let Some(res) = self.temporal_residual(j, &pts, mask) {
                 cost += res.norm_squared();
@@ -537,7 +564,7 @@ impl HandFitter {
         mask: &JointMask,
     ) -> Option<Vector3<f64>> {
         let prior = self.prior.as_ref().filter(|_| mask[j])?;
-        Some(self.options.tracking.temporal_weight * (pts[j] - prior[j]))
+        Some(self.prior_weight * (pts[j] - prior[j]))
     }
 
     /// Levenberg-Marquardt from `start` over the free degrees of freedom.
@@ -916,6 +943,7 @@ mod tests {
             .iter_mut()
             .for_each(|x| *x += Vector3::new(3.0, -2.0, 5.0));
         fitter.prior = Some(prior);
+        fitter.prior_weight = fitter.options.tracking.temporal_weight;
         let mask = [true; NUM_JOINTS];
         (fitter, pose, mask)
     }
