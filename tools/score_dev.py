@@ -4,9 +4,12 @@ labels, as `monohand eval` does: absolute, wrist-relative, centroid-aligned and 
 aligned MPJPE, and jitter (mean joint acceleration over three consecutive scored frames, with
 the labels' own on the same frames), over all frames and over each half (0-145, 146-291).
 
-    python3 tools/score_dev.py RECORDS.jsonl [--first-frame N]
+    python3 tools/score_dev.py RECORDS.jsonl [--first-frame N] [--gauss SIGMA]
 
 Record k is label frame N + k (N: the first frame given to tools/dev_video.py --frames).
+`--gauss SIGMA` first puts the scored joints through a Gaussian filter over time (SIGMA in
+frames, truncated at 3 SIGMA, renormalised at gaps and ends): the baseline an offline
+smoother has to beat.
 Per frame the left hand with the highest mean keypoint confidence is scored. Needs numpy.
 """
 
@@ -59,10 +62,23 @@ def summary(rows: list[tuple[int, np.ndarray, np.ndarray]]) -> dict[str, float]:
     return out
 
 
+def gaussian(rows: list[tuple[int, np.ndarray, np.ndarray]], sigma: float) -> list[tuple[int, np.ndarray, np.ndarray]]:
+    """The joints averaged over neighbouring scored frames with Gaussian weights."""
+    by_frame = {f: p for f, p, _ in rows}
+    reach = int(np.ceil(3 * sigma))
+    out = []
+    for f, _, g in rows:
+        near = [(by_frame[f + k], np.exp(-0.5 * (k / sigma) ** 2)) for k in range(-reach, reach + 1) if f + k in by_frame]
+        total = sum(w for _, w in near)
+        out.append((f, sum(p * w for p, w in near) / total, g))
+    return out
+
+
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("records", type=Path)
     ap.add_argument("--first-frame", type=int, default=0)
+    ap.add_argument("--gauss", type=float, default=0.0)
     args = ap.parse_args()
     labels = {f["frame"]: np.array(f["joints_3d_mm"]) for f in json.loads((DEV / "labels.json").read_text())["frames"]}
     rows = []
@@ -74,6 +90,8 @@ def main() -> None:
             continue
         best = max(hands, key=lambda h: sum(p[2] for p in h["keypoints_2d"]))
         rows.append((frame, np.array(best["joints_3d_mm"]), labels[frame]))
+    if args.gauss > 0:
+        rows = gaussian(rows, args.gauss)
     parts = {
         "all": rows,
         "frames 0-145": [r for r in rows if r[0] <= 145],

@@ -83,6 +83,9 @@ pub(crate) struct EvalArgs {
     /// every frame from scratch, as single-image methods are evaluated).
     #[arg(long)]
     pub track: bool,
+    /// With --track: the offline smoother of `run --offline`.
+    #[arg(long, requires = "track")]
+    pub offline: bool,
     /// Learn the hand's proportions (size kept) from the network's 3D over this many first
     /// frames of each sequence, then fit the rest with them (docs/accuracy.md).
     #[arg(long, value_name = "N")]
@@ -157,6 +160,7 @@ pub(crate) fn run(args: &EvalArgs) -> Result<()> {
             hand_scale: args.hand_scale,
             fit_options: args.cues.apply(FitOptions::default()),
             proportion_frames: args.proportion_frames,
+            offline: args.offline,
         },
     };
     let left_out = plan.select(&mut ds)?;

@@ -85,6 +85,8 @@ pub struct EvalSettings {
     /// frames of each sequence and hand ([`estimate_proportions`]); later
     /// frames are fitted with them. `None` keeps the skeleton's.
     pub proportion_frames: Option<usize>,
+    /// The full stage with the offline smoother (tracking only).
+    pub offline: bool,
 }
 
 impl Default for EvalSettings {
@@ -96,6 +98,7 @@ impl Default for EvalSettings {
             hand_scale: 1.0,
             fit_options: FitOptions::default(),
             proportion_frames: None,
+            offline: false,
         }
     }
 }

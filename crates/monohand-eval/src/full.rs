@@ -158,6 +158,7 @@ fn run_sequence(
             options: settings.fit_options,
             tracking: settings.track,
             proportion_frames: settings.proportion_frames,
+            offline: settings.offline.then(monohand::OfflineSettings::default),
             ..FitSettings::default()
         },
         detect_every: DETECT_EVERY,

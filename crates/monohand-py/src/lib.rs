@@ -623,16 +623,22 @@ impl PySession {
     /// engine). Returns an iterator over the frames, in order, each a `TrackedFrame`; at
     /// most a few frames wait in memory. Each call starts from a fresh state (its own
     /// tracks and ids), apart from `process`'s. An input that ends on an error raises
-    /// `MonohandError` after its good frames.
-    #[pyo3(signature = (path, max_frames=None))]
+    /// `MonohandError` after its good frames. `offline=True` is `monohand run --offline`:
+    /// each frame is refitted with the frames after it too (needs a tracking session).
+    #[pyo3(signature = (path, max_frames=None, offline=false))]
     fn track(
         &mut self,
         py: Python<'_>,
         path: String,
         max_frames: Option<u64>,
+        offline: bool,
     ) -> PyResult<PyFrameStream> {
         self.session()?;
-        let engine = (*self.engine).clone().with_max_frames(max_frames);
+        let engine = (*self.engine)
+            .clone()
+            .with_max_frames(max_frames)
+            .with_offline(offline)
+            .map_err(|e| PyValueError::new_err(e.to_string()))?;
         let source = py
             .detach(|| {
                 Input::parse(&path).and_then(|i| i.open(monohand::engine::DEFAULT_STALL_TIMEOUT))

@@ -1,6 +1,7 @@
 """A corpus of eight real-photo videos and one damaged file, tracked with `monohand.daft` on
 Daft's native runner and on a local Ray instance: every frame once, in order, equal to
-`monohand run` on each video, and the damaged file an error row, not a failed job."""
+`monohand run --offline` on each video (corpora are tracked offline by default), and the
+damaged file an error row, not a failed job."""
 
 from __future__ import annotations
 
@@ -24,7 +25,7 @@ def cli_outputs(corpus, tmp_path_factory) -> Dict[str, List[dict]]:
     out = {}
     for v in corpus:
         o = d / (v.stem + ".jsonl")
-        run_cli("run", str(v), "-o", str(o), "--hands", "2")
+        run_cli("run", str(v), "-o", str(o), "--hands", "2", "--offline")
         out[str(v)] = read_jsonl(o)
     return out
 

@@ -100,6 +100,30 @@ def test_track_runs_the_cli_engine_and_gives_its_records(tmp_path, moving_video,
     assert few[0].cameras[0]["source"] == "file" and few[0].cameras[0]["fx"] == 600.0
 
 
+def test_offline_track_equals_the_cli_offline(tmp_path, moving_video, models):
+    """`track(offline=True)` is `monohand run --offline`: the same records; every frame comes
+    out, in order, with the causal run's hands and keypoints and refitted 3D."""
+    out = tmp_path / "cli.jsonl"
+    run_cli("run", str(moving_video), "-o", str(out), "--hands", "2", "--offline")
+    cli = read_jsonl(out)
+    with monohand.Session(None, hands=2, models=models) as s:
+        offline = list(s.track(str(moving_video), offline=True))
+        causal = list(s.track(str(moving_video)))
+    assert len(offline) == len(cli) == len(causal) == 40
+    moved = 0
+    for f, rec, c in zip(offline, cli, causal):
+        d = f.to_dict()
+        d.pop("timings_ms"), rec.pop("timings_ms")
+        assert d == rec, f.index
+        assert [h.to_dict()["keypoints_2d"] for h in f.hands] == [
+            h.to_dict()["keypoints_2d"] for h in c.hands
+        ]
+        for a, b in zip(f.hands, c.hands):
+            if a.joints_3d_mm is not None and b.joints_3d_mm is not None:
+                moved += not np.allclose(a.joints_3d_mm, b.joints_3d_mm, atol=0.1)
+    assert moved >= 20, f"{moved} hands refitted"
+
+
 def test_track_raises_on_a_missing_input_and_after_a_broken_video(tmp_path, moving_video, models):
     with monohand.Session(None, hands=2, models=models) as s:
         with pytest.raises(monohand.MonohandError, match="no such file"):
@@ -170,9 +194,12 @@ def test_bad_input_raises_clear_errors(tmp_path, models):
             s.process(np.zeros((480, 640, 3), dtype=np.float32))
         with pytest.raises(ValueError, match="camera"):
             s.process([np.zeros((480, 640, 3), dtype=np.uint8)] * 2)
-        # An image of another size than the calibration: said, not guessed.
-        with pytest.raises(monohand.MonohandError, match="640x480|size"):
-            s.process(np.zeros((240, 320, 3), dtype=np.uint8))
+        # An image of another shape than the calibration: said, not guessed. (One of the
+        # same shape at another size gets the calibration scaled: docs/calibration.md.)
+        with pytest.raises(monohand.MonohandError, match="640x480|size|aspect"):
+            s.process(np.zeros((320, 320, 3), dtype=np.uint8))
+        assert s.process(np.zeros((240, 320, 3), dtype=np.uint8)) == []
+        assert s.cameras[0].width == 320 and s.cameras[0].fx == pytest.approx(cam.fx / 2)
         # An empty image has no hands.
         assert s.process(np.zeros((480, 640, 3), dtype=np.uint8)) == []
         # A strided view is copied, not misread.

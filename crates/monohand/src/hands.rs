@@ -5,6 +5,7 @@ use crate::association::{associate, Candidate};
 use crate::crops::{HandId, VisionFrame};
 use crate::fit::{fit_views, learn_proportions, FitOutcome};
 use crate::notes::{Note, NoteTopic};
+use crate::offline::{causal, neighbours, CausalFrame, OfflineSettings, Window};
 use monohand_core::filtering::{OneEuroFilter, OneEuroParams};
 use monohand_core::fitting::{estimate_hand_scale, ProportionEstimate, ScaleEstimate};
 use monohand_core::observation::NetworkCues;
@@ -14,6 +15,7 @@ use monohand_vision::image_io::ExifFocal;
 use monohand_vision::DetectedHand;
 use nalgebra::Vector3;
 use std::collections::HashMap;
+use std::collections::VecDeque;
 use std::time::Instant;
 
 /// A hand is forgotten (its tracker, side vote and filter dropped) after this many frames
@@ -43,6 +45,9 @@ pub struct FitSettings {
     pub proportion_frames: Option<usize>,
     /// Smooth each hand's 3D joints over time with a One Euro filter.
     pub smoothing: Option<OneEuroParams>,
+    /// Refit each frame with the frames after it too, writing it `lag` frames later
+    /// ([`crate::offline`]; needs tracking, and replaces `smoothing`).
+    pub offline: Option<OfflineSettings>,
 }
 
 impl Default for FitSettings {
@@ -57,6 +62,7 @@ impl Default for FitSettings {
             auto_scale_frames: None,
             proportion_frames: None,
             smoothing: None,
+            offline: None,
         }
     }
 }
@@ -165,6 +171,10 @@ pub struct HandsFitter<T = ()> {
     scale: Option<ScaleEstimate>,
     proportions: [Option<ProportionEstimate>; 2],
     notes: Vec<Note>,
+    /// With [`FitSettings::offline`]: the frames fitted but not yet written, and the causal
+    /// fits of the last ones written.
+    ahead: VecDeque<(FittedFrame, T)>,
+    behind: VecDeque<CausalFrame>,
 }
 
 impl<T> HandsFitter<T> {
@@ -177,6 +187,14 @@ impl<T> HandsFitter<T> {
             c.validate()?;
         }
         settings.options.validate()?;
+        if let Some(o) = &settings.offline {
+            o.validate().map_err(CoreError::InvalidOptions)?;
+            if !settings.tracking || settings.smoothing.is_some() {
+                return Err(CoreError::InvalidOptions(
+                    "offline smoothing needs tracking, and replaces the One Euro filter".into(),
+                ));
+            }
+        }
         let calibrated_fov: Vec<Option<String>> = cameras
             .iter()
             .map(|c| {
@@ -220,6 +238,8 @@ impl<T> HandsFitter<T> {
             scale: None,
             proportions: [None, None],
             notes,
+            ahead: VecDeque::new(),
+            behind: VecDeque::new(),
         })
     }
 
@@ -247,20 +267,120 @@ impl<T> HandsFitter<T> {
     /// Fits one frame; returns the frames now ready, in order: one, or none while frames
     /// are kept back to measure the hand size, then all of those.
     pub fn push(&mut self, frame: VisionFrame, payload: T) -> Vec<(FittedFrame, T)> {
-        if let Some((n, pending)) = &mut self.pending {
+        let fitted = if let Some((n, pending)) = &mut self.pending {
             pending.push((frame, payload));
             if pending.len() < *n {
                 return Vec::new();
             }
-            return self.finish_scale();
-        }
-        let fitted = self.fit_frame(frame);
-        vec![(fitted, payload)]
+            self.finish_scale()
+        } else {
+            vec![(self.fit_frame(frame), payload)]
+        };
+        self.smooth(fitted, false)
     }
 
     /// Fits the frames still kept back, at the end of the input.
     pub fn flush(&mut self) -> Vec<(FittedFrame, T)> {
-        self.finish_scale()
+        let fitted = self.finish_scale();
+        self.smooth(fitted, true)
+    }
+
+    /// With [`FitSettings::offline`]: takes the newly fitted frames and gives back those
+    /// whose `lag` following frames are fitted (all of them at the end), refitted.
+    fn smooth(&mut self, fitted: Vec<(FittedFrame, T)>, end: bool) -> Vec<(FittedFrame, T)> {
+        let Some(settings) = self.settings.offline else {
+            return fitted;
+        };
+        self.ahead.extend(fitted);
+        let mut out = Vec::new();
+        while self.ahead.len() > settings.lag || (end && !self.ahead.is_empty()) {
+            let Some((mut frame, payload)) = self.ahead.pop_front() else {
+                break;
+            };
+            let own = causal(&frame);
+            let nexts: Vec<CausalFrame> = self
+                .ahead
+                .iter()
+                .take(settings.lag)
+                .map(|(f, _)| causal(f))
+                .collect();
+            let window = Window {
+                behind: &self.behind,
+                ahead: nexts.iter().collect(),
+            };
+            let refits: Vec<_> = frame
+                .hands
+                .iter()
+                .map(|h| {
+                    let c = own.get(&h.id)?;
+                    let n = neighbours(&settings, &window, h.id, c)?;
+                    Some((n, c.offset))
+                })
+                .collect();
+            for (hand, refit) in frame.hands.iter_mut().zip(refits) {
+                if let Some((n, own_offset)) = refit {
+                    self.refit_hand(
+                        &frame.vision,
+                        &frame.cameras,
+                        hand,
+                        &n,
+                        &own_offset,
+                        &settings,
+                    );
+                }
+            }
+            self.behind.push_back(own);
+            if self.behind.len() > settings.lag {
+                self.behind.pop_front();
+            }
+            out.push((frame, payload));
+        }
+        out
+    }
+
+    /// Refits `hand` of a frame towards its neighbours' joints; its output joints get the
+    /// neighbours' mean fusion offsets, its own refitted offset in its own share.
+    fn refit_hand(
+        &mut self,
+        vision: &VisionFrame,
+        cameras: &[Camera],
+        hand: &mut TrackedHand,
+        n: &crate::offline::Neighbours,
+        own_offset: &[Vector3<f64>; NUM_JOINTS],
+        settings: &OfflineSettings,
+    ) {
+        let (Some(fit), Some(track)) = (hand.fit.as_mut(), self.tracks.get_mut(&hand.id)) else {
+            return;
+        };
+        let views: Vec<View> = hand
+            .views
+            .iter()
+            .filter_map(|&(v, k)| {
+                let d = detected(vision, v, k)?;
+                Some(View::new(cameras.get(v)?, &d.keypoints).with_cues(d.cues.as_ref()))
+            })
+            .collect();
+        let fitter = track.tracker.fitter_mut();
+        let Ok(mut refit) = fitter.refit_towards(&views, &fit.pose, &n.target, settings.weight)
+        else {
+            return;
+        };
+        if !crate::fit::is_finite(&refit) {
+            return;
+        }
+        let model = refit.model_joints_3d;
+        for (((out, m), mean), causal) in refit
+            .joints_3d
+            .iter_mut()
+            .zip(&model)
+            .zip(&n.offset)
+            .zip(own_offset)
+        {
+            // The neighbours' mean offset, with this frame's share now its refit's own.
+            let own = *out - m;
+            *out = m + mean + (own - causal) * n.own_share;
+        }
+        *fit = refit;
     }
 
     fn finish_scale(&mut self) -> Vec<(FittedFrame, T)> {

@@ -30,6 +30,7 @@ mod fit;
 mod hands;
 mod lifter;
 mod notes;
+pub mod offline;
 pub mod records;
 mod session;
 
@@ -44,6 +45,7 @@ pub use hands::{
 };
 pub use lifter::{LiftedHand, Lifter};
 pub use notes::{Note, NoteTopic};
+pub use offline::OfflineSettings;
 pub use session::{refine_passes, Session, SessionOptions};
 
 /// The geometry core (usable without networks).

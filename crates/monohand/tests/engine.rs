@@ -119,6 +119,57 @@ fn the_engine_gives_the_sessions_records_in_order() {
         ) == (256, 256)));
 }
 
+#[test]
+fn offline_runs_write_every_frame_in_order_with_the_same_hands() {
+    let input = frames(30);
+    let pipeline = Arc::new(Session::load_pipeline(&SessionOptions::default()).expect("networks"));
+    let run = |offline: bool| {
+        let sink = Collect::default();
+        let mut sinks: Vec<Box<dyn Sink>> = vec![Box::new(sink.clone())];
+        let engine = engine(&pipeline).with_offline(offline).expect("engine");
+        engine
+            .run(vec![source(input.clone())], &mut sinks, &Quiet)
+            .expect("run");
+        let records = sink.records.lock().unwrap().clone();
+        records
+    };
+    let (causal, offline) = (run(false), run(true));
+    assert_eq!(offline.len(), 30, "the last frames are written at the end");
+    let mut moved = 0;
+    for (k, (c, o)) in causal.iter().zip(&offline).enumerate() {
+        assert_eq!(o.frame, k as u64);
+        assert_eq!(c.hands.len(), o.hands.len(), "frame {k}");
+        for (hc, ho) in c.hands.iter().zip(&o.hands) {
+            // The smoother refits the 3D; what the networks saw is the same.
+            assert_eq!(
+                (hc.id, hc.side, hc.keypoints_2d),
+                (ho.id, ho.side, ho.keypoints_2d)
+            );
+            let (Some(jc), Some(jo)) = (hc.joints_3d_mm, ho.joints_3d_mm) else {
+                continue;
+            };
+            let d = jc
+                .iter()
+                .zip(&jo)
+                .map(|(a, b)| (0..3).map(|i| (a[i] - b[i]).powi(2)).sum::<f64>().sqrt())
+                .fold(0.0, f64::max);
+            moved += usize::from(d > 0.1);
+            assert!(d < 50.0, "frame {k}: a joint moved {d} mm");
+        }
+    }
+    assert!(moved >= 20, "{moved} of 30 frames refitted");
+    // Without tracking there is nothing to smooth over.
+    let independent = EngineSettings {
+        fit: monohand::FitSettings {
+            tracking: false,
+            ..Default::default()
+        },
+        ..Default::default()
+    };
+    let e = Engine::new(Arc::clone(&pipeline), Vec::new(), independent).expect("engine");
+    assert!(e.with_offline(true).is_err());
+}
+
 /// Cancels once `after` frames were written, and keeps the notes.
 struct CancelAfter {
     after: u64,

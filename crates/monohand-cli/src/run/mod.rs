@@ -14,7 +14,7 @@ use crate::vision::ModelArgs;
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use monohand::engine::{Engine, EngineError, EngineSettings, FrameSource, Input, RunReport};
-use monohand::{FitSettings, HandScale};
+use monohand::{FitSettings, HandScale, OfflineSettings};
 use monohand_core::filtering::OneEuroParams;
 use outputs::{GltfStyle, OutputFormat};
 use std::path::PathBuf;
@@ -88,8 +88,12 @@ pub(crate) struct RunArgs {
     pub detect_every: usize,
     /// Smooth the 3D joints over time with a One Euro filter (video only; off by default:
     /// it trades a little lag for less jitter).
-    #[arg(long)]
+    #[arg(long, conflicts_with = "offline")]
     pub smooth: bool,
+    /// Files and corpora: refit each frame with the frames after it too (no lag in the
+    /// motion, less shake; each frame is written a few frames later). Needs tracking.
+    #[arg(long)]
+    pub offline: bool,
     /// One Euro filter: minimum cutoff frequency, Hz (lower: smoother when still).
     #[arg(long, value_name = "HZ", default_value_t = OneEuroParams::default().min_cutoff)]
     pub smooth_min_cutoff: f64,
@@ -220,8 +224,8 @@ pub(crate) fn run(args: &RunArgs) -> Result<Outcome> {
         bail!("--stall-timeout must be a positive number of seconds");
     }
     let stall = std::time::Duration::from_secs_f64(args.stall_timeout.min(1e6));
-    if args.smooth && !tracking {
-        bail!("--smooth needs tracking (a video, or --track on an image sequence)");
+    if (args.smooth || args.offline) && !tracking {
+        bail!("--smooth and --offline need tracking (a video, or --track on an image sequence)");
     }
     let sources: Vec<Box<dyn FrameSource>> = inputs
         .iter()
@@ -246,6 +250,7 @@ pub(crate) fn run(args: &RunArgs) -> Result<Outcome> {
                 beta: args.smooth_beta,
                 ..Default::default()
             }),
+            offline: args.offline.then(OfflineSettings::default),
         },
         detect_every: args.detect_every,
         max_frames: args.max_frames,

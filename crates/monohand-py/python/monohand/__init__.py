@@ -127,11 +127,13 @@ def video_rows(
     empty_frames: bool = True,
     models: Optional[Models] = None,
     mirror_pass: bool = True,
+    offline: bool = False,
 ) -> Iterator[dict]:
     """Tracks a whole video and yields plain rows: one per frame per hand, plus (with
     ``empty_frames``) one row with ``hand_id=None`` for each frame without hands, so that
     every frame appears. Raises `MonohandError` if the video cannot be read. The video runs
-    through the same engine as ``monohand run`` (`Session.track`)."""
+    through the same engine as ``monohand run`` (`Session.track`); ``offline=True`` is
+    ``run --offline`` (each frame refitted with the frames after it too)."""
     with Session(
         camera,
         hands=hands,
@@ -139,7 +141,7 @@ def video_rows(
         smoothing=smoothing,
         models=models,
         mirror_pass=mirror_pass,
-    ) as session, session.track(str(path), max_frames=max_frames) as frames:
+    ) as session, session.track(str(path), max_frames=max_frames, offline=offline) as frames:
         for frame in frames:
             found = frame.hands
             if not found and empty_frames:
@@ -158,6 +160,7 @@ def track_video(
     max_frames: Optional[int] = None,
     output: str = "pandas",
     mirror_pass: bool = True,
+    offline: bool = False,
 ) -> Any:
     """Tracks a whole video and returns a table with one row per frame per hand (and one
     row with null hand fields for each frame without hands): a pandas DataFrame
@@ -184,6 +187,7 @@ def track_video(
         smoothing=smoothing,
         max_frames=max_frames,
         mirror_pass=mirror_pass,
+        offline=offline,
     )
     table = pa.Table.from_pylist(list(rows), schema=row_schema())
     return table.to_pandas() if output == "pandas" else table

@@ -134,10 +134,21 @@ class _VideoTracker:
     """Tracks whole videos. The networks are loaded once per instance (`monohand.Models`)
     and shared by the session of each video it tracks."""
 
-    def __init__(self, hands: int = 2, model_dir: Optional[str] = None, smoothing: bool = False):
+    def __init__(
+        self,
+        hands: int = 2,
+        model_dir: Optional[str] = None,
+        smoothing: bool = False,
+        offline: Optional[bool] = None,
+    ):
+        if offline is None:  # corpora are offline by nature, unless the causal filter is asked
+            offline = not smoothing
+        if smoothing and offline:
+            raise ValueError("smoothing is the causal filter: it does not go with offline=True")
         self.models = monohand.Models(hands=hands, tracking=True, model_dir=model_dir)
         self.hands = hands
         self.smoothing = smoothing
+        self.offline = offline
 
     @daft.method(return_dtype=DataType.list(FRAME_DTYPE))
     def track(self, path: str, intrinsics: Optional[Dict[str, Any]] = None) -> List[Dict[str, Any]]:
@@ -147,7 +158,7 @@ class _VideoTracker:
             camera = _camera(intrinsics)
             with monohand.Session(
                 camera, hands=self.hands, smoothing=self.smoothing, models=self.models
-            ) as session, session.track(path) as video:
+            ) as session, session.track(path, offline=self.offline) as video:
                 for frame in video:
                     frames.append(
                         {
@@ -179,8 +190,13 @@ def track_videos(
     model_dir: Optional[str] = None,
     smoothing: bool = False,
     workers: Optional[int] = None,
+    offline: Optional[bool] = None,
 ) -> daft.DataFrame:
     """One row per frame of every video in ``df[path_column]``, in order within a video.
+
+    ``offline`` (on by default for corpora, unless ``smoothing`` asks for the causal filter)
+    refits each frame with the frames after it too, as ``monohand run --offline``: steadier
+    hands, no lag; ``offline=False`` gives the causal output of a live run.
 
     ``intrinsics_column``, if given, holds a struct like `INTRINSICS_DTYPE` (or null for a
     generic camera) per video. The result keeps ``df``'s columns and adds ``frame``,
@@ -193,7 +209,7 @@ def track_videos(
     if workers is None and daft.get_or_infer_runner_type() == "native":
         workers = os.cpu_count() or 1
     tracker_cls = daft.cls(max_concurrency=workers, use_process=False)(_VideoTracker)
-    tracker = tracker_cls(hands=hands, model_dir=model_dir, smoothing=smoothing)
+    tracker = tracker_cls(hands=hands, model_dir=model_dir, smoothing=smoothing, offline=offline)
     df = df.into_batches(1)
     path = df[path_column]
     if intrinsics_column is None:

@@ -256,6 +256,15 @@ impl Engine {
         self
     }
 
+    /// The same engine with the offline smoother on (its default settings) or off; refused
+    /// without tracking.
+    pub fn with_offline(mut self, on: bool) -> EngineResult<Engine> {
+        self.settings.fit.offline = on.then(crate::OfflineSettings::default);
+        HandsFitter::<()>::new(self.cameras.clone(), self.settings.fit)
+            .map_err(crate::SessionError::from)?;
+        Ok(self)
+    }
+
     /// Checks that the calibrated cameras fit the sources' frames (one source per view).
     pub fn check_sources(&self, sources: &[Box<dyn FrameSource>]) -> EngineResult<()> {
         if !self.cameras.is_empty() && self.cameras.len() != sources.len() {
