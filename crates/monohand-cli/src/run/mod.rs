@@ -2,6 +2,7 @@
 //! hands out. The arguments are checked and turned into the library's engine
 //! ([`monohand::engine`]), its sources and its sinks; the engine runs the pipeline.
 
+mod each;
 mod outputs;
 #[cfg(feature = "show")]
 mod show;
@@ -26,12 +27,21 @@ pub(crate) struct RunArgs {
     /// An image, a folder of images (file-name order), a video file (anything ffmpeg
     /// reads) or `webcam:N` (/dev/videoN). For several calibrated cameras use --view
     /// instead, once per camera.
-    #[arg(value_name = "INPUT", required_unless_present = "views")]
+    #[arg(value_name = "INPUT", required_unless_present_any = ["views", "each"])]
     pub input: Option<String>,
     /// One view of a calibrated multi-camera rig (repeat, with one --camera each, in the
     /// same order); frames are matched by index across views.
     #[arg(long = "view", value_name = "INPUT", conflicts_with = "input")]
     pub views: Vec<String>,
+    /// A folder of videos and images, each run as its own input into --output-dir as
+    /// `<file name>.jsonl`. Each file is complete or absent (written as `.partial`, renamed at
+    /// the end); a rerun skips the complete ones. One line per input, then a summary; exit
+    /// status 3 if an input failed (its frames stay in the `.partial` file).
+    #[arg(long, value_name = "DIR", requires = "output_dir", conflicts_with_all = ["input", "views", "overlay", "gltf", "show", "format", "output"])]
+    pub each: Option<PathBuf>,
+    /// Where --each writes.
+    #[arg(long, value_name = "OUT", requires = "each")]
+    pub output_dir: Option<PathBuf>,
     /// Camera calibration (project JSON, WACV'18 JSON or OpenCV YAML/XML; see
     /// docs/calibration.md), one per view. Without it a generic camera (60 degree
     /// horizontal field of view) is assumed for the image size, and said once.
@@ -181,6 +191,9 @@ impl monohand::engine::Observer for Terminal {
 }
 
 pub(crate) fn run(args: &RunArgs) -> Result<Outcome> {
+    if let (Some(dir), Some(out)) = (&args.each, &args.output_dir) {
+        return each::run(args, dir, out);
+    }
     // Everything that can be checked is checked before any output is created.
     let specs: Vec<String> = match &args.input {
         Some(i) => vec![i.clone()],
@@ -204,29 +217,10 @@ pub(crate) fn run(args: &RunArgs) -> Result<Outcome> {
         );
     }
     let cameras = crate::read_cameras(&args.cameras)?;
-    let options = args.hand.fit_options()?;
-    let scale = args.hand.hand_scale.initial();
-    let skeletons = args.hand.skeletons(scale)?;
-    if args.detect_every == 0 {
-        bail!("--detect-every must be at least 1");
-    }
-    if args.threads == Some(0) {
-        bail!("--threads must be at least 1");
-    }
     let video = inputs.iter().any(Input::is_video);
     let tracking = (video || args.track) && !args.no_track;
-    let cutoff_ok = args.smooth_min_cutoff.is_finite() && args.smooth_min_cutoff > 0.0;
-    let beta_ok = args.smooth_beta.is_finite() && args.smooth_beta >= 0.0;
-    if !(cutoff_ok && beta_ok) {
-        bail!("--smooth-min-cutoff must be positive and --smooth-beta not negative");
-    }
-    if !(args.stall_timeout.is_finite() && args.stall_timeout > 0.0) {
-        bail!("--stall-timeout must be a positive number of seconds");
-    }
-    let stall = std::time::Duration::from_secs_f64(args.stall_timeout.min(1e6));
-    if (args.smooth || args.offline) && !tracking {
-        bail!("--smooth and --offline need tracking (a video, or --track on an image sequence)");
-    }
+    let settings = engine_settings(args, tracking)?;
+    let stall = stall_timeout(args)?;
     let sources: Vec<Box<dyn FrameSource>> = inputs
         .iter()
         .enumerate()
@@ -237,8 +231,40 @@ pub(crate) fn run(args: &RunArgs) -> Result<Outcome> {
         .len_hint()
         .map(|n| args.max_frames.map_or(n, |m| n.min(m)));
     let pipeline = Arc::new(args.models.pipeline(monohand::refine_passes(tracking))?);
+    let engine = Engine::new(pipeline, cameras, settings)?;
+    engine.check_sources(&sources)?;
+    let single_image = matches!(inputs.as_slice(), [i] if i.is_single_image());
+    let mut sinks = outputs::create(args, fps, single_image)?;
+    let terminal = Terminal {
+        progress: crate::progress::Progress::new(total),
+    };
+    let report = engine
+        .run(sources, &mut sinks, &terminal)
+        .map_err(engine_error)?;
+    terminal.progress.finish();
+    summarise(&report)
+}
+
+/// The engine's settings from the arguments, checked, for an input tracked or not.
+fn engine_settings(args: &RunArgs, tracking: bool) -> Result<EngineSettings> {
+    let options = args.hand.fit_options()?;
+    let skeletons = args.hand.skeletons(args.hand.hand_scale.initial())?;
+    if args.detect_every == 0 {
+        bail!("--detect-every must be at least 1");
+    }
+    if args.threads == Some(0) {
+        bail!("--threads must be at least 1");
+    }
+    let cutoff_ok = args.smooth_min_cutoff.is_finite() && args.smooth_min_cutoff > 0.0;
+    let beta_ok = args.smooth_beta.is_finite() && args.smooth_beta >= 0.0;
+    if !(cutoff_ok && beta_ok) {
+        bail!("--smooth-min-cutoff must be positive and --smooth-beta not negative");
+    }
+    if (args.smooth || args.offline) && !tracking {
+        bail!("--smooth and --offline need tracking (a video, or --track on an image sequence)");
+    }
     let auto_frames = (args.hand.hand_scale == HandScale::Auto).then_some(args.hand.scale_frames);
-    let settings = EngineSettings {
+    Ok(EngineSettings {
         fit: FitSettings {
             skeletons,
             options,
@@ -255,19 +281,17 @@ pub(crate) fn run(args: &RunArgs) -> Result<Outcome> {
         detect_every: args.detect_every,
         max_frames: args.max_frames,
         threads: args.threads,
-    };
-    let engine = Engine::new(pipeline, cameras, settings)?;
-    engine.check_sources(&sources)?;
-    let single_image = matches!(inputs.as_slice(), [i] if i.is_single_image());
-    let mut sinks = outputs::create(args, fps, single_image)?;
-    let terminal = Terminal {
-        progress: crate::progress::Progress::new(total),
-    };
-    let report = engine
-        .run(sources, &mut sinks, &terminal)
-        .map_err(engine_error)?;
-    terminal.progress.finish();
-    summarise(&report)
+    })
+}
+
+/// How long a video may deliver no frame before it counts as stalled.
+fn stall_timeout(args: &RunArgs) -> Result<std::time::Duration> {
+    if !(args.stall_timeout.is_finite() && args.stall_timeout > 0.0) {
+        bail!("--stall-timeout must be a positive number of seconds");
+    }
+    Ok(std::time::Duration::from_secs_f64(
+        args.stall_timeout.min(1e6),
+    ))
 }
 
 /// Says what the run did, and how it ended.

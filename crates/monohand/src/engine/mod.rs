@@ -17,6 +17,7 @@
 //!
 //! `monohand run`, the Python package and `monohand eval --stage full` all run this.
 
+pub mod corpus;
 pub mod detect;
 pub mod lift;
 mod sinks;

@@ -1,0 +1,125 @@
+//! `run --each DIR --output-dir OUT`: every video and image of a folder as its own input,
+//! each into `OUT/<file name>.jsonl`, complete or absent ([`monohand::engine::corpus`]).
+
+use super::{engine_error, engine_settings, stall_timeout, Outcome, RunArgs, Terminal};
+use anyhow::{bail, Context, Result};
+use monohand::engine::corpus::{corpus, CorpusItem};
+use monohand::engine::{Engine, Input, JsonlSink, Sink};
+use monohand::HandPipeline;
+use std::collections::HashMap;
+use std::path::Path;
+use std::sync::Arc;
+
+/// How one input ended.
+enum Ended {
+    Done,
+    Failed(String),
+    Interrupted,
+}
+
+pub(super) fn run(args: &RunArgs, dir: &Path, out: &Path) -> Result<Outcome> {
+    if args.cameras.len() > 1 {
+        bail!("--each runs one view per input: give at most one --camera");
+    }
+    let cameras = crate::read_cameras(&args.cameras)?;
+    let stall = stall_timeout(args)?;
+    let items = corpus(dir, out)?;
+    // The networks, loaded once per kind of input (tracked videos, independent images).
+    let mut pipelines: HashMap<bool, Arc<HandPipeline>> = HashMap::new();
+    let (mut done, mut skipped, mut failed) = (0, 0, 0);
+    for item in &items {
+        let name = item.input.display();
+        if item.is_done() {
+            skipped += 1;
+            crate::say(&format!("{name}: already done, skipped"));
+            continue;
+        }
+        match one(args, item, &cameras, stall, &mut pipelines)? {
+            Ended::Done => {
+                done += 1;
+                crate::say(&format!("{name}: done, {}", item.output.display()));
+            }
+            Ended::Failed(why) => {
+                failed += 1;
+                crate::say(&format!("{name}: failed: {why}"));
+            }
+            Ended::Interrupted => {
+                crate::say(&format!("{name}: interrupted; a rerun redoes it"));
+                return Ok(Outcome::Interrupted);
+            }
+        }
+    }
+    crate::say(&format!(
+        "{} inputs: {done} done, {skipped} already done, {failed} failed",
+        items.len()
+    ));
+    Ok(if failed > 0 {
+        Outcome::InputEndedEarly
+    } else {
+        Outcome::Complete
+    })
+}
+
+/// Runs one input into its partial file and, if it ended well, renames it. Errors that
+/// concern the job (an output that cannot be written, bad settings) stop it.
+fn one(
+    args: &RunArgs,
+    item: &CorpusItem,
+    cameras: &[monohand_core::camera::Camera],
+    stall: std::time::Duration,
+    pipelines: &mut HashMap<bool, Arc<HandPipeline>>,
+) -> Result<Ended> {
+    let input = Input::parse(&item.input.to_string_lossy())?;
+    let tracking = (input.is_video() || args.track) && !args.no_track;
+    let settings = engine_settings(args, tracking)?;
+    let source = match input.open(stall) {
+        Ok(s) => s,
+        Err(e) => return Ok(Ended::Failed(e.to_string())),
+    };
+    let pipeline = match pipelines.get(&tracking) {
+        Some(p) => Arc::clone(p),
+        None => {
+            let p = Arc::new(args.models.pipeline(monohand::refine_passes(tracking))?);
+            pipelines.insert(tracking, Arc::clone(&p));
+            p
+        }
+    };
+    let engine = Engine::new(pipeline, cameras.to_vec(), settings)?;
+    let sources = vec![source];
+    if let Err(e) = engine.check_sources(&sources) {
+        return Ok(Ended::Failed(e.to_string()));
+    }
+    let partial = item.partial();
+    let mut sinks: Vec<Box<dyn Sink>> = vec![Box::new(
+        JsonlSink::create(&partial).with_context(|| format!("{}", partial.display()))?,
+    )];
+    let terminal = Terminal {
+        progress: crate::progress::Progress::new(sources[0].len_hint()),
+    };
+    let report = engine
+        .run(sources, &mut sinks, &terminal)
+        .map_err(engine_error)?;
+    terminal.progress.finish();
+    drop(sinks);
+    if report.cancelled {
+        return Ok(Ended::Interrupted);
+    }
+    if let Some(e) = report.input_error {
+        return Ok(Ended::Failed(format!(
+            "{e} (its {} good frames are in {})",
+            report.frames,
+            partial.display()
+        )));
+    }
+    if report.frames > 0 && report.unreadable == report.frames {
+        return Ok(Ended::Failed("no frame could be read".into()));
+    }
+    item.commit().with_context(|| {
+        format!(
+            "renaming {} to {}",
+            partial.display(),
+            item.output.display()
+        )
+    })?;
+    Ok(Ended::Done)
+}

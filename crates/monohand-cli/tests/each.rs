@@ -1,0 +1,176 @@
+//! `run --each DIR --output-dir OUT`: every video and image of a folder into a records file
+//! of its own, complete or absent; a rerun after a kill redoes only the unfinished inputs and
+//! gives what one uninterrupted run gives. Needs ffmpeg, the networks and `../shared`.
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a failed test is a panic
+
+mod common;
+use common::*;
+use monohand_io::jsonl::{read_jsonl, FrameRecord};
+use monohand_testkit::{ffmpeg, hand_png};
+use std::path::Path;
+use std::process::Command;
+use std::time::{Duration, Instant};
+
+/// `n` frames of the shared photo seen by a camera panning by `dx` pixels a frame.
+fn clip(out: &Path, n: usize, dx: usize) {
+    let crop = format!("crop=560:420:'10+{dx}*n':20");
+    ffmpeg(&[
+        "-loop",
+        "1",
+        "-framerate",
+        "30",
+        "-i",
+        p(&hand_png()),
+        "-vf",
+        &crop,
+        "-frames:v",
+        &n.to_string(),
+        "-c:v",
+        "mpeg4",
+        "-q:v",
+        "2",
+        p(out),
+    ]);
+}
+
+fn records(path: &Path) -> Vec<FrameRecord> {
+    read_jsonl(path)
+        .unwrap()
+        .into_iter()
+        .map(|mut r| {
+            r.timings_ms = None;
+            r
+        })
+        .collect()
+}
+
+#[test]
+fn each_input_is_complete_or_absent_and_a_rerun_redoes_only_what_is_missing() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("clips");
+    std::fs::create_dir(&dir).unwrap();
+    for (k, name) in ["a.mkv", "b.mkv", "c.mkv"].iter().enumerate() {
+        clip(&dir.join(name), 8, k + 1);
+    }
+    std::fs::copy(hand_png(), dir.join("photo.png")).unwrap();
+    std::fs::write(
+        dir.join("damaged.mp4"),
+        b"\x00\x00\x00\x18ftypmp42 not a video",
+    )
+    .unwrap();
+    std::fs::write(dir.join("notes.txt"), b"not an input").unwrap();
+    let out = tmp.path().join("out");
+    let each = |extra: &[&str]| {
+        let mut args = vec![
+            "run",
+            "--each",
+            p(&dir),
+            "--output-dir",
+            p(&out),
+            "--hands",
+            "1",
+        ];
+        args.extend_from_slice(extra);
+        monohand(&args)
+    };
+    let first = each(&[]);
+    let said = String::from_utf8_lossy(&first.stderr).to_string();
+    // A failed input is said and sets status 3; the others are done.
+    assert_eq!(first.status.code(), Some(3), "{said}");
+    assert!(said.contains("damaged.mp4: failed"), "{said}");
+    assert!(
+        said.contains("5 inputs: 4 done, 0 already done, 1 failed"),
+        "{said}"
+    );
+    let outputs = ["a.mkv", "b.mkv", "c.mkv", "photo.png"].map(|n| out.join(format!("{n}.jsonl")));
+    for o in &outputs {
+        assert!(o.is_file(), "{} missing", o.display());
+    }
+    assert!(!out.join("damaged.mp4.jsonl").exists());
+    assert!(!out.join("notes.txt.jsonl").exists());
+    // Each output is what a single run of its input gives.
+    let single = tmp.path().join("single.jsonl");
+    ok(&monohand(&[
+        "run",
+        p(&dir.join("b.mkv")),
+        "-o",
+        p(&single),
+        "--hands",
+        "1",
+    ]));
+    assert_eq!(records(&outputs[1]), records(&single));
+    assert_eq!(records(&outputs[1]).len(), 8);
+    assert!(records(&outputs[3])[0]
+        .hands
+        .iter()
+        .any(|h| h.joints_3d_mm.is_some()));
+
+    // A rerun skips what is done; a missing output and a stale partial file are redone.
+    let want: Vec<_> = outputs.iter().map(|o| records(o)).collect();
+    std::fs::remove_file(&outputs[0]).unwrap();
+    std::fs::write(out.join("c.mkv.jsonl.partial"), b"{\"frame\": 0}\n").unwrap();
+    std::fs::remove_file(&outputs[2]).unwrap();
+    let again = each(&[]);
+    let said = String::from_utf8_lossy(&again.stderr).to_string();
+    assert!(
+        said.contains("5 inputs: 2 done, 2 already done, 1 failed"),
+        "{said}"
+    );
+    assert!(said.contains("b.mkv: already done"), "{said}");
+    for (o, w) in outputs.iter().zip(&want) {
+        assert_eq!(&records(o), w, "{}", o.display());
+    }
+    assert!(!out.join("c.mkv.jsonl.partial").exists());
+
+    // Killed part-way (SIGKILL, by its own process id) and rerun: the same outputs.
+    for o in &outputs {
+        std::fs::remove_file(o).unwrap();
+    }
+    let mut child = Command::new(env!("CARGO_BIN_EXE_monohand"))
+        .args([
+            "run",
+            "--each",
+            p(&dir),
+            "--output-dir",
+            p(&out),
+            "--hands",
+            "1",
+        ])
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let t = Instant::now();
+    while !outputs[0].exists() && t.elapsed() < Duration::from_secs(300) {
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    child.kill().unwrap();
+    child.wait().unwrap();
+    let rerun = each(&[]);
+    assert_eq!(rerun.status.code(), Some(3));
+    for (o, w) in outputs.iter().zip(&want) {
+        assert_eq!(&records(o), w, "{}", o.display());
+    }
+    let partials: Vec<_> = std::fs::read_dir(&out)
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .filter(|e| e.file_name().to_string_lossy().ends_with(".partial"))
+        .collect();
+    assert!(partials.is_empty(), "{partials:?}");
+}
+
+#[test]
+fn each_needs_a_folder_of_inputs_and_an_output_folder() {
+    let tmp = tempfile::tempdir().unwrap();
+    let out = monohand(&["run", "--each", p(tmp.path())]);
+    assert!(!out.status.success());
+    let out = monohand(&[
+        "run",
+        "--each",
+        p(tmp.path()),
+        "--output-dir",
+        p(&tmp.path().join("o")),
+    ]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("no videos"), "{err}");
+}

@@ -1,0 +1,104 @@
+//! A folder of inputs run one by one, each into a records file of its own that is complete
+//! or absent: written under a `.partial` name and renamed when its input has ended well, so
+//! a rerun after a crash or a kill skips what is done and redoes the rest.
+
+use super::overlay_paths::{has_extension, IMAGE_EXTENSIONS, VIDEO_EXTENSIONS};
+use super::{EngineError, EngineResult};
+use std::path::{Path, PathBuf};
+
+/// One input of a folder, and where its records go.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct CorpusItem {
+    /// The video or image file.
+    pub input: PathBuf,
+    /// `OUT/<file name>.jsonl`: present only when complete.
+    pub output: PathBuf,
+}
+
+impl CorpusItem {
+    /// Whether the records of this input are complete (a rerun skips it).
+    pub fn is_done(&self) -> bool {
+        self.output.is_file()
+    }
+
+    /// Where the records are written while the input runs (and stay if it fails half-way).
+    pub fn partial(&self) -> PathBuf {
+        let mut name = self.output.clone().into_os_string();
+        name.push(".partial");
+        PathBuf::from(name)
+    }
+
+    /// Marks the records complete: the partial file takes the output's name.
+    pub fn commit(&self) -> std::io::Result<()> {
+        std::fs::rename(self.partial(), &self.output)
+    }
+}
+
+/// The videos and images directly in `dir` (file-name order; other files are left alone),
+/// each with its output in `out_dir` (created).
+pub fn corpus(dir: &Path, out_dir: &Path) -> EngineResult<Vec<CorpusItem>> {
+    let io =
+        |what: &Path, e: std::io::Error| EngineError::Input(format!("{}: {e}", what.display()));
+    let mut inputs: Vec<PathBuf> = std::fs::read_dir(dir)
+        .map_err(|e| io(dir, e))?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| {
+            p.is_file()
+                && (has_extension(p, VIDEO_EXTENSIONS) || has_extension(p, IMAGE_EXTENSIONS))
+        })
+        .collect();
+    if inputs.is_empty() {
+        return Err(EngineError::Input(format!(
+            "{}: no videos ({}) or images ({}) in this folder",
+            dir.display(),
+            VIDEO_EXTENSIONS.join(", "),
+            IMAGE_EXTENSIONS.join(", ")
+        )));
+    }
+    inputs.sort();
+    std::fs::create_dir_all(out_dir).map_err(|e| io(out_dir, e))?;
+    Ok(inputs
+        .into_iter()
+        .filter_map(|input| {
+            let mut name = input.file_name()?.to_os_string();
+            name.push(".jsonl");
+            let output = out_dir.join(name);
+            Some(CorpusItem { input, output })
+        })
+        .collect())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_folder_gives_its_videos_and_images_in_order_and_done_means_renamed() {
+        let dir = tempfile::tempdir().expect("tempdir");
+        for f in ["b.mp4", "a.png", "notes.txt", "c.MKV"] {
+            std::fs::write(dir.path().join(f), b"x").expect("write");
+        }
+        std::fs::create_dir(dir.path().join("sub.mp4")).expect("dir");
+        let out = dir.path().join("out");
+        let items = corpus(dir.path(), &out).expect("corpus");
+        let names: Vec<_> = items
+            .iter()
+            .map(|i| {
+                i.output
+                    .file_name()
+                    .expect("name")
+                    .to_string_lossy()
+                    .into_owned()
+            })
+            .collect();
+        assert_eq!(names, ["a.png.jsonl", "b.mp4.jsonl", "c.MKV.jsonl"]);
+        let item = &items[0];
+        assert!(!item.is_done());
+        std::fs::write(item.partial(), b"{}\n").expect("partial");
+        assert!(!item.is_done(), "a partial file is not done");
+        item.commit().expect("rename");
+        assert!(item.is_done() && !item.partial().exists());
+        let empty = tempfile::tempdir().expect("tempdir");
+        assert!(corpus(empty.path(), &out).is_err());
+    }
+}
