@@ -22,8 +22,11 @@ they do not: ``kp3d_camera_mm`` (absolute, in the camera's frame, mm), ``hand_id
 
 from __future__ import annotations
 
+import json
 import os
-from typing import Any, Dict, List, Optional
+import sys
+import time
+from typing import Any, Dict, Iterable, List, Optional, Union
 
 import daft
 from daft import DataType, Expression
@@ -38,6 +41,7 @@ __all__ = [
     "HandImages",
     "VideoTracker",
     "hand_struct",
+    "track_corpus",
     "track_images",
     "track_videos",
 ]
@@ -226,6 +230,149 @@ def track_videos(
             "error": f["error"],
         }
     ).exclude("_monohand_frames")
+
+
+class _CorpusTracker:
+    """Tracks each video of a corpus into its own Parquet file (`monohand._corpus`)."""
+
+    def __init__(self, out_dir: str, hands: int, model_dir: Optional[str], smoothing: bool, offline: bool):
+        self.models = monohand.Models(hands=hands, tracking=True, model_dir=model_dir)
+        self.out_dir, self.hands, self.smoothing, self.offline = out_dir, hands, smoothing, offline
+        self.settings = {"hands": hands, "smoothing": smoothing, "offline": offline}
+
+    @daft.method(return_dtype=DataType.string())
+    def track(self, path: str, intrinsics: Optional[Dict[str, Any]] = None) -> str:
+        """The video's summary row, as JSON."""
+        from monohand import _corpus
+
+        try:
+            camera = _camera(intrinsics)
+        except (KeyError, TypeError, ValueError) as e:
+            return json.dumps({"path": path, "status": "failed", "reason": f"{path}: intrinsics: {e}"})
+
+        def session() -> monohand.Session:
+            return monohand.Session(camera, hands=self.hands, smoothing=self.smoothing, models=self.models)
+
+        return json.dumps(_corpus.track_one(path, self.out_dir, session, self.offline, self.settings, hand_struct))
+
+
+def track_corpus(
+    paths_or_df: Union[daft.DataFrame, Iterable[str]],
+    out_dir: str,
+    path_column: str = "path",
+    intrinsics_column: Optional[str] = None,
+    *,
+    hands: int = 2,
+    model_dir: Optional[str] = None,
+    smoothing: bool = False,
+    offline: Optional[bool] = None,
+    workers: Optional[int] = None,
+    progress: bool = True,
+) -> Any:
+    """Tracks every video of a corpus into ``out_dir``, one Parquet file per video, and
+    returns the summary (a pyarrow Table, also written as ``out_dir/_videos.parquet``).
+
+    - ``out_dir/<video_id>.parquet`` holds `track_videos`' rows (``frame, time_s, hands,
+      error``) with ``path`` and ``video_id``, streamed in row groups of a few thousand
+      frames. It is written under a temporary name and renamed when the video is complete.
+      ``video_id`` comes from the file's absolute path, size and modification time.
+    - A video that fails is ``failed`` in the summary with the reason; its good frames stay
+      in ``out_dir/<video_id>.partial.parquet``.
+    - Rerunning with the same ``out_dir`` skips the finished videos and redoes the others:
+      a job killed at any point and rerun gives what one uninterrupted run gives.
+    - The summary has one row per video: ``path, video_id, status, reason, camera,
+      camera_source, frames, frames_with_hands, hands, mean_reprojection_px, settings,
+      monohand_version``.
+
+    ``offline`` (default: on unless ``smoothing``) and the other options are `track_videos`'.
+    ``progress`` prints one line per finished video with the time left, on stderr.
+    """
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    from monohand import _corpus
+
+    if offline is None:
+        offline = not smoothing
+    if smoothing and offline:
+        raise ValueError("smoothing is the causal filter: it does not go with offline=True")
+    os.makedirs(out_dir, exist_ok=True)
+    if isinstance(paths_or_df, daft.DataFrame):
+        cols = [path_column] + ([intrinsics_column] if intrinsics_column else [])
+        videos = paths_or_df.select(*cols).to_pylist()
+    else:
+        videos = [{path_column: str(p)} for p in paths_or_df]
+    summary: List[Dict[str, Any]] = []
+    todo: List[Dict[str, Any]] = []
+    for v in videos:
+        try:
+            done = _corpus.summary_of_done(out_dir, _corpus.video_id(v[path_column]))
+        except OSError:
+            done = None
+        if done is None:
+            todo.append(v)
+        else:
+            summary.append(done)
+    if progress:
+        print(f"monohand: {len(videos)} videos, {len(summary)} already done", file=sys.stderr)
+    if todo:
+        if workers is None and daft.get_or_infer_runner_type() == "native":
+            workers = os.cpu_count() or 1
+        tracker_cls = daft.cls(max_concurrency=workers, use_process=False)(_CorpusTracker)
+        tracker = tracker_cls(out_dir, hands, model_dir, smoothing, offline)
+        df = daft.from_pylist(todo).into_batches(1)
+        args = [df[path_column]] + ([df[intrinsics_column]] if intrinsics_column else [])
+        results = df.select(tracker.track(*args).alias("_summary"))
+        start = time.monotonic()
+        for k, r in enumerate(results.iter_rows(), 1):
+            row = json.loads(r["_summary"])
+            summary.append(row)
+            if progress:
+                spent = time.monotonic() - start
+                left = spent / k * (len(todo) - k)
+                what = f"{row['frames']} frames" if row["status"] == "done" else row.get("reason")
+                print(
+                    f"monohand: [{k}/{len(todo)}] {row['path']}: {row['status']} ({what}); "
+                    f"{spent:.0f} s spent, about {left:.0f} s left",
+                    file=sys.stderr,
+                )
+    order = {v[path_column]: i for i, v in enumerate(videos)}
+    summary.sort(key=lambda r: order.get(r.get("path"), len(order)))
+    table = pa.Table.from_pylist([_summary_row(r) for r in summary], schema=_summary_schema())
+    tmp = os.path.join(out_dir, f".{_corpus.SUMMARY_FILE}.{os.getpid()}.tmp")
+    pq.write_table(table, tmp)
+    os.replace(tmp, os.path.join(out_dir, _corpus.SUMMARY_FILE))
+    return table
+
+
+def _summary_schema() -> Any:
+    import pyarrow as pa
+
+    camera = pa.struct(
+        [("fx", pa.float64()), ("fy", pa.float64()), ("cx", pa.float64()), ("cy", pa.float64()),
+         ("width", pa.int64()), ("height", pa.int64())]
+    )
+    return pa.schema(
+        [
+            ("path", pa.string()),
+            ("video_id", pa.string()),
+            ("status", pa.string()),
+            ("reason", pa.string()),
+            ("camera", camera),
+            ("camera_source", pa.string()),
+            ("frames", pa.int64()),
+            ("frames_with_hands", pa.int64()),
+            ("hands", pa.int64()),
+            ("mean_reprojection_px", pa.float64()),
+            ("settings", pa.string()),
+            ("monohand_version", pa.string()),
+        ]
+    )
+
+
+def _summary_row(r: Dict[str, Any]) -> Dict[str, Any]:
+    names = _summary_schema().names
+    return {k: r.get(k) for k in names}
 
 
 @daft.cls(max_concurrency=None)
