@@ -1,7 +1,7 @@
 """`monohand.daft.track_corpus`: one Parquet file per video, complete or absent, a summary
-row per video, and a rerun after the driver is killed (SIGKILL, by its own process id) that
-gives the same files as one uninterrupted run. Real videos from real photos, Daft's native
-runner."""
+row per video; a rerun after the driver is killed (SIGKILL, by its own process id) gives the
+same files as one uninterrupted run, and a Ray worker killed mid-video has its video run
+again, once. Real videos from real photos; Daft's native runner and a local Ray."""
 
 from __future__ import annotations
 
@@ -22,8 +22,8 @@ from conftest import read_jsonl, run_cli
 HERE = Path(__file__).resolve().parent
 
 
-def job(out: Path, videos: List[str]) -> subprocess.Popen:
-    cmd = [sys.executable, str(HERE / "corpus_resume.py"), str(out), *videos]
+def job(out: Path, videos: List[str], runner: str = "native") -> subprocess.Popen:
+    cmd = [sys.executable, str(HERE / "corpus_resume.py"), runner, str(out), *videos]
     return subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
 
 
@@ -107,3 +107,26 @@ def test_a_killed_job_rerun_gives_the_uninterrupted_result(videos, tmp_path):
     got = pq.read_table(str(out / "_videos.parquet")).to_pylist()
     want = pq.read_table(str(whole / "_videos.parquet")).to_pylist()
     assert got == want
+
+
+def test_a_ray_worker_killed_mid_video_has_its_video_once(videos, tmp_path):
+    good = videos[:4]
+    whole = tmp_path / "whole"
+    finish(job(whole, good))
+    out = tmp_path / "ray"
+    p = job(out, good, "ray")
+    killed = None
+    t = time.monotonic()
+    while killed is None and p.poll() is None and time.monotonic() - t < 600:
+        # A video in progress: `.<video_id>.<worker pid>.parquet.tmp`, renamed at its end.
+        for f in out.glob(".*.parquet.tmp") if out.is_dir() else []:
+            killed = int(f.name.split(".")[2])
+            os.kill(killed, signal.SIGKILL)  # a worker of the job this test started
+            break
+        time.sleep(0.002)
+    err = finish(p)
+    assert killed is not None, "no video was seen in progress"
+    assert files(out) == files(whole), err[-2000:]
+    assert not list(out.glob(".*.tmp")), "a dead attempt's file was left"
+    summary = pq.read_table(str(out / "_videos.parquet")).to_pylist()
+    assert [r["status"] for r in summary] == ["done"] * 4

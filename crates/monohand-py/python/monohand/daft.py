@@ -336,6 +336,11 @@ def track_corpus(
                     f"{spent:.0f} s spent, about {left:.0f} s left",
                     file=sys.stderr,
                 )
+    # Temporary files of attempts that died (a killed worker whose video Ray ran again).
+    ids = {r.get("video_id") for r in summary}
+    for name in os.listdir(out_dir):
+        if name.endswith(".parquet.tmp") and name.split(".")[1] in ids:
+            os.remove(os.path.join(out_dir, name))
     order = {v[path_column]: i for i, v in enumerate(videos)}
     summary.sort(key=lambda r: order.get(r.get("path"), len(order)))
     table = pa.Table.from_pylist([_summary_row(r) for r in summary], schema=_summary_schema())
