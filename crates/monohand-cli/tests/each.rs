@@ -60,16 +60,17 @@ fn each_input_is_complete_or_absent_and_a_rerun_redoes_only_what_is_missing() {
     .unwrap();
     std::fs::write(dir.join("notes.txt"), b"not an input").unwrap();
     let out = tmp.path().join("out");
+    let job = [
+        "run",
+        "--each",
+        p(&dir),
+        "--output-dir",
+        p(&out),
+        "--hands",
+        "1",
+    ];
     let each = |extra: &[&str]| {
-        let mut args = vec![
-            "run",
-            "--each",
-            p(&dir),
-            "--output-dir",
-            p(&out),
-            "--hands",
-            "1",
-        ];
+        let mut args = job.to_vec();
         args.extend_from_slice(extra);
         monohand(&args)
     };
@@ -127,15 +128,7 @@ fn each_input_is_complete_or_absent_and_a_rerun_redoes_only_what_is_missing() {
         std::fs::remove_file(o).unwrap();
     }
     let mut child = Command::new(env!("CARGO_BIN_EXE_monohand"))
-        .args([
-            "run",
-            "--each",
-            p(&dir),
-            "--output-dir",
-            p(&out),
-            "--hands",
-            "1",
-        ])
+        .args(job)
         .stderr(std::process::Stdio::null())
         .spawn()
         .unwrap();
