@@ -105,6 +105,17 @@ fn each_input_is_complete_or_absent_and_a_rerun_redoes_only_what_is_missing() {
         .hands
         .iter()
         .any(|h| h.joints_3d_mm.is_some()));
+    // --offline smooths the videos; the photo, alone, is fitted as it is.
+    let offline = tmp.path().join("offline");
+    let mut args = job.to_vec();
+    args[4] = p(&offline);
+    args.push("--offline");
+    assert_eq!(monohand(&args).status.code(), Some(3));
+    assert_eq!(
+        records(&offline.join("photo.png.jsonl")),
+        records(&outputs[3])
+    );
+    assert_ne!(records(&offline.join("a.mkv.jsonl")), records(&outputs[0]));
 
     // A rerun skips what is done; a missing output and a stale partial file are redone.
     let want: Vec<_> = outputs.iter().map(|o| records(o)).collect();

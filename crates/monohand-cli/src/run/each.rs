@@ -71,7 +71,14 @@ fn one(
 ) -> Result<Ended> {
     let input = Input::parse(&item.input.to_string_lossy())?;
     let tracking = (input.is_video() || args.track) && !args.no_track;
-    let settings = engine_settings(args, tracking)?;
+    // The settings are checked as for a video; an image on its own has no frames around
+    // it, so --offline and --smooth apply to the videos only.
+    let mut settings = engine_settings(args, true)?;
+    settings.fit.tracking = tracking;
+    if !tracking {
+        settings.fit.offline = None;
+        settings.fit.smoothing = None;
+    }
     let source = match input.open(stall) {
         Ok(s) => s,
         Err(e) => return Ok(Ended::Failed(e.to_string())),

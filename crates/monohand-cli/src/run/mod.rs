@@ -36,7 +36,8 @@ pub(crate) struct RunArgs {
     /// A folder of videos and images, each run as its own input into --output-dir as
     /// `<file name>.jsonl`. Each file is complete or absent (written as `.partial`, renamed at
     /// the end); a rerun skips the complete ones. One line per input, then a summary; exit
-    /// status 3 if an input failed (its frames stay in the `.partial` file).
+    /// status 3 if an input failed (its frames stay in the `.partial` file). --offline and
+    /// --smooth apply to its videos.
     #[arg(long, value_name = "DIR", requires = "output_dir", conflicts_with_all = ["input", "views", "overlay", "gltf", "show", "format", "output"])]
     pub each: Option<PathBuf>,
     /// Where --each writes.
