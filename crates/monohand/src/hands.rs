@@ -173,7 +173,7 @@ pub struct HandsFitter<T = ()> {
     notes: Vec<Note>,
     /// With [`FitSettings::offline`]: the frames fitted but not yet written, and the causal
     /// fits of the last ones written.
-    ahead: VecDeque<(FittedFrame, T)>,
+    ahead: VecDeque<(FittedFrame, T, CausalFrame)>,
     behind: VecDeque<CausalFrame>,
 }
 
@@ -291,22 +291,24 @@ impl<T> HandsFitter<T> {
         let Some(settings) = self.settings.offline else {
             return fitted;
         };
-        self.ahead.extend(fitted);
+        // Each frame's causal fits are taken once, as it enters the window.
+        self.ahead.extend(fitted.into_iter().map(|(f, p)| {
+            let c = causal(&f);
+            (f, p, c)
+        }));
         let mut out = Vec::new();
         while self.ahead.len() > settings.lag || (end && !self.ahead.is_empty()) {
-            let Some((mut frame, payload)) = self.ahead.pop_front() else {
+            let Some((mut frame, payload, own)) = self.ahead.pop_front() else {
                 break;
             };
-            let own = causal(&frame);
-            let nexts: Vec<CausalFrame> = self
-                .ahead
-                .iter()
-                .take(settings.lag)
-                .map(|(f, _)| causal(f))
-                .collect();
             let window = Window {
                 behind: &self.behind,
-                ahead: nexts.iter().collect(),
+                ahead: self
+                    .ahead
+                    .iter()
+                    .take(settings.lag)
+                    .map(|(_, _, c)| c)
+                    .collect(),
             };
             let refits: Vec<_> = frame
                 .hands

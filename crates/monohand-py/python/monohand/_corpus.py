@@ -134,9 +134,7 @@ def track_one(
     if reprojection:
         row["mean_reprojection_px"] = sum(reprojection) / len(reprojection)
     if row["status"] == "done":
-        meta = dict(schema.metadata or {})
-        meta[SUMMARY_KEY] = json.dumps(row, sort_keys=True).encode()
-        writer.add_key_value_metadata({SUMMARY_KEY.decode(): meta[SUMMARY_KEY].decode()})
+        writer.add_key_value_metadata({SUMMARY_KEY.decode(): json.dumps(row, sort_keys=True)})
         writer.close()
         os.replace(tmp, output_path(out_dir, vid))
     else:

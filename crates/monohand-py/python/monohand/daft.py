@@ -134,6 +134,15 @@ def _camera(intrinsics: Optional[Dict[str, Any]]) -> Optional[monohand.Camera]:
     )
 
 
+def _offline(offline: Optional[bool], smoothing: bool) -> bool:
+    """Corpora are tracked offline by nature, unless the causal filter is asked for."""
+    if offline is None:
+        offline = not smoothing
+    if smoothing and offline:
+        raise ValueError("smoothing is the causal filter: it does not go with offline=True")
+    return offline
+
+
 class _VideoTracker:
     """Tracks whole videos. The networks are loaded once per instance (`monohand.Models`)
     and shared by the session of each video it tracks."""
@@ -145,10 +154,7 @@ class _VideoTracker:
         smoothing: bool = False,
         offline: Optional[bool] = None,
     ):
-        if offline is None:  # corpora are offline by nature, unless the causal filter is asked
-            offline = not smoothing
-        if smoothing and offline:
-            raise ValueError("smoothing is the causal filter: it does not go with offline=True")
+        offline = _offline(offline, smoothing)
         self.models = monohand.Models(hands=hands, tracking=True, model_dir=model_dir)
         self.hands = hands
         self.smoothing = smoothing
@@ -292,10 +298,7 @@ def track_corpus(
 
     from monohand import _corpus
 
-    if offline is None:
-        offline = not smoothing
-    if smoothing and offline:
-        raise ValueError("smoothing is the causal filter: it does not go with offline=True")
+    offline = _offline(offline, smoothing)
     os.makedirs(out_dir, exist_ok=True)
     if isinstance(paths_or_df, daft.DataFrame):
         cols = [path_column] + ([intrinsics_column] if intrinsics_column else [])
