@@ -1,10 +1,11 @@
 //! `monohand detect`: hands (box, score, side, 21 keypoints) and heads in images.
 
+use crate::progress::Terminal;
 use crate::vision::ModelArgs;
 use anyhow::{bail, Result};
 use clap::Args;
-use monohand::engine::detect::detect_images;
-use monohand::engine::{Input, JsonlSink, Observer, Sink};
+use monohand::engine::detect::{detect_images, image_files};
+use monohand::engine::{JsonlSink, Sink};
 use std::path::PathBuf;
 
 /// Arguments of `monohand detect`.
@@ -25,33 +26,20 @@ pub(crate) struct DetectArgs {
     pub models: ModelArgs,
 }
 
-/// The image files behind the inputs, in frame order (the engine's reading of a name).
-fn expand_inputs(inputs: &[PathBuf]) -> Result<Vec<PathBuf>> {
-    let mut files = Vec::new();
-    for input in inputs {
-        match Input::parse(&input.to_string_lossy())? {
-            Input::Images(found) => files.extend(found),
-            Input::Video(_) => bail!(
-                "{}: not an image; `monohand run` reads videos",
-                input.display()
-            ),
-        }
-    }
-    Ok(files)
-}
-
 pub(crate) fn run(args: &DetectArgs) -> Result<()> {
-    let files = expand_inputs(&args.inputs)?;
+    let files = image_files(&args.inputs)?;
     if args.threads == Some(0) {
         bail!("--threads must be at least 1");
     }
     let pipeline = args.models.pipeline(1)?;
-    let out: Box<dyn Sink> = if args.output.as_os_str() == "-" {
-        Box::new(JsonlSink::stdout())
-    } else {
-        Box::new(JsonlSink::create(&args.output)?)
-    };
-    let report = detect_images(&pipeline, &files, args.threads, &mut [out], &Terminal)?;
+    let out: Box<dyn Sink> = Box::new(JsonlSink::open(&args.output)?);
+    let report = detect_images(
+        &pipeline,
+        &files,
+        args.threads,
+        &mut [out],
+        &Terminal::without_bar(),
+    )?;
     let n = report.frames;
     crate::say(&format!(
         "{n} images, {} hands, {} unreadable, {:.1} images/s",
@@ -59,17 +47,8 @@ pub(crate) fn run(args: &DetectArgs) -> Result<()> {
         report.unreadable,
         n as f64 / report.seconds.max(1e-9)
     ));
-    if report.unreadable > 0 && report.unreadable == n {
+    if report.nothing_readable() {
         bail!("none of the {n} images could be read");
     }
     Ok(())
-}
-
-/// Ctrl-C stops the job after the images in flight.
-struct Terminal;
-
-impl Observer for Terminal {
-    fn cancelled(&self) -> bool {
-        crate::interrupted()
-    }
 }

@@ -1,14 +1,10 @@
 //! `monohand eval`: accuracy against a 3D hand dataset, as a table and a report folder.
 
-use anyhow::{bail, Context, Result};
+use anyhow::{bail, Result};
 use clap::{Args, ValueEnum};
 use monohand_core::prelude::*;
-use monohand_eval::evaluate::evaluated_joints;
 use monohand_eval::plan::{self, Plan, Selection};
-use monohand_eval::report::Report;
-use monohand_eval::{
-    evaluate, evaluate_full, Dataset, EvalSettings, ProjectedLabels, SkeletonChoice, ViewMode,
-};
+use monohand_eval::{Dataset, EvalSettings, SkeletonChoice, ViewMode};
 use std::path::PathBuf;
 use std::sync::Arc;
 
@@ -48,9 +44,8 @@ pub(crate) enum Skeleton {
 /// Arguments of `monohand eval`.
 #[derive(Debug, Args)]
 pub(crate) struct EvalArgs {
-    /// The dataset: a manifest (.jsonl, or a folder holding manifest.jsonl; format in
-    /// docs/evaluation.md) or an STB folder (labels/*_BB.mat; every sequence found is
-    /// evaluated).
+    /// The dataset: a manifest (.jsonl, or a folder with manifest.jsonl) or an STB folder
+    /// (labels/*_BB.mat), see docs/evaluation.md.
     #[arg(long, value_name = "PATH")]
     pub dataset: PathBuf,
     /// lift: 3D lifting on ground-truth 2D; full: the whole pipeline on the images.
@@ -59,9 +54,8 @@ pub(crate) struct EvalArgs {
     /// Cameras to fit with: left (mono), stereo, or both on the same frames.
     #[arg(long, value_enum, default_value_t = Views::Both)]
     pub views: Views,
-    /// Gaussian noise (standard deviation, pixels per coordinate) added to the
-    /// ground-truth 2D keypoints in the lift stage; several values separated by
-    /// commas give one run each (e.g. 0,2,5).
+    /// Lift stage: Gaussian noise (pixels per coordinate) on the 2D keypoints; one run per
+    /// comma-separated value (e.g. 0,2,5).
     #[arg(
         long = "noise-px",
         value_name = "S",
@@ -69,8 +63,7 @@ pub(crate) struct EvalArgs {
         default_value = "0"
     )]
     pub noise_px: Vec<f64>,
-    /// Lift stage: this many joints per view, chosen at random, are given
-    /// confidence 0 (missing).
+    /// Lift stage: this many joints per view, drawn at random, are missing.
     #[arg(long, value_name = "N", default_value_t = 0)]
     pub drop_joints: usize,
     /// Seed of the noise and dropped-joint draws.
@@ -79,19 +72,17 @@ pub(crate) struct EvalArgs {
     /// Weights of the network's 3D cues and of the temporal term (the fit's defaults).
     #[command(flatten)]
     pub cues: crate::hand_args::CueArgs,
-    /// Warm-start each fit from the previous frame of the sequence (default:
-    /// every frame from scratch, as single-image methods are evaluated).
+    /// Warm-start each fit from the previous frame (default: every frame from scratch).
     #[arg(long)]
     pub track: bool,
     /// With --track: the offline smoother of `run --offline`.
     #[arg(long, requires = "track")]
     pub offline: bool,
-    /// Learn the hand's proportions (size kept) from the network's 3D over this many first
-    /// frames of each sequence, then fit the rest with them (docs/accuracy.md).
+    /// Learn the hand's proportions from the network's 3D over this many first frames of
+    /// each sequence (docs/accuracy.md).
     #[arg(long, value_name = "N")]
     pub proportion_frames: Option<usize>,
-    /// Hand model: subject (fitted to each sequence's ground truth: an oracle
-    /// hand size) or default (average adult hand times --hand-scale).
+    /// Hand model.
     #[arg(long, value_enum, default_value_t = Skeleton::Subject)]
     pub skeleton: Skeleton,
     /// Scale of the default hand model (with --skeleton default).
@@ -103,16 +94,13 @@ pub(crate) struct EvalArgs {
     /// Use at most this many frames in all (after --step).
     #[arg(long, value_name = "N")]
     pub max_frames: Option<usize>,
-    /// Also print the table for the first and the second half of each sequence (the
-    /// report always has it): a setting chosen on a dataset should help on both.
+    /// Also print the table for each half of each sequence (a setting should help on both).
     #[arg(long)]
     pub halves: bool,
-    /// Write a report folder: report.md (settings, table, plots), errors.csv (raw
-    /// per-frame errors), PNG plots.
+    /// Write a report folder: report.md, errors.csv (per-frame errors), PNG plots.
     #[arg(long, value_name = "DIR")]
     pub report: Option<PathBuf>,
-    /// Also write the frames evaluated (after --step/--max-frames) as a manifest, to
-    /// convert a natively read dataset such as STB.
+    /// Also write the frames evaluated as a manifest (to convert e.g. STB).
     #[arg(long, value_name = "OUT.jsonl")]
     pub write_manifest: Option<PathBuf>,
     /// The networks of --stage full.
@@ -175,45 +163,20 @@ pub(crate) fn run(args: &EvalArgs) -> Result<()> {
         monohand_eval::manifest::write_manifest(out, &ds)?;
         tracing::info!("manifest written to {}", out.display());
     }
-    let mask = evaluated_joints(ds.root);
-    let mut report = Report::new(&ds, plan.stage.describe(), mask);
-    report.settings = plan.settings_rows(&ds);
     eprintln!(
         "evaluating {} ({} frames) ...",
         args.dataset.display(),
         ds.frames.len()
     );
-    let settings = &plan.settings;
-    if let plan::Stage::Lift {
-        noise_px,
-        drop_joints,
-        seed,
-    } = &plan.stage
-    {
-        for &noise in noise_px {
-            let mut source = ProjectedLabels::new(noise, *drop_joints, *seed)?;
-            let (runs, notes) = evaluate(&ds, &mut source, settings, Some(noise))
-                .with_context(|| format!("evaluating with {noise} px noise"))?;
-            report.runs.extend(runs);
-            report.skeletons = notes;
+    let networks = match plan.stage {
+        plan::Stage::Full => {
+            let pipeline = args.models.pipeline(monohand::refine_passes(args.track))?;
+            let (models, options) = args.models.options(0);
+            Some((Arc::new(pipeline), models.describe(&options.landmarks)))
         }
-    } else {
-        let pipeline = Arc::new(args.models.pipeline(monohand::refine_passes(args.track))?);
-        let description = format!(
-            "MediaPipe 0.10.14 palm detector ({:?}) + hand landmarks ({:?}{}) in tract",
-            args.models.palm_model,
-            args.models.landmark_model,
-            if args.models.no_mirror_pass {
-                ", one pass per crop"
-            } else {
-                ", mean of each crop and its mirror image"
-            }
-        );
-        let (runs, notes) = evaluate_full(&ds, &pipeline, &description, settings)
-            .context("evaluating the full pipeline")?;
-        report.runs.extend(runs);
-        report.skeletons = notes;
-    }
+        plan::Stage::Lift { .. } => None,
+    };
+    let report = plan.run(&ds, networks.as_ref().map(|(p, d)| (p, d.as_str())))?;
     println!(
         "monohand {} eval: {} ({}), stage {}, root {}, {} evaluated joints",
         env!("CARGO_PKG_VERSION"),
@@ -221,7 +184,7 @@ pub(crate) fn run(args: &EvalArgs) -> Result<()> {
         args.dataset.display(),
         plan.stage.as_str(),
         ds.root.as_str(),
-        mask.iter().filter(|&&m| m).count()
+        report.mask.iter().filter(|&&m| m).count()
     );
     print!("{}", report.table());
     if args.halves {

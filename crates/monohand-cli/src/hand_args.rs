@@ -9,25 +9,19 @@ use std::path::PathBuf;
 /// Hand model and fitting options.
 #[derive(Debug, Clone, Args)]
 pub(crate) struct HandModelArgs {
-    /// Size of the hand: a factor on the default adult hand model (hand length ~185 mm;
-    /// e.g. 0.9 for a small hand; the absolute depth scales with it), or "auto" to measure
-    /// it over the first frames (`--scale-frames`); "auto" needs two or more calibrated
-    /// views: with one camera the size is not observable and the default is kept (see
-    /// docs/accuracy.md).
+    /// Size of the hand: a factor on the default adult hand (~185 mm; the depth scales with
+    /// it), or "auto" to measure it with two or more calibrated views (docs/accuracy.md).
     #[arg(long, value_name = "S|auto", default_value = "1.0")]
     pub hand_scale: HandScale,
     /// Frames used by --hand-scale auto.
     #[arg(long, value_name = "N", default_value_t = 30)]
     pub scale_frames: usize,
-    /// JSON file with the subject's 20 bone lengths in mm (a plain array or
-    /// {"bone_lengths_mm": [...]}, per finger thumb..little: wrist-to-base, then
-    /// three phalanges). Applied after --hand-scale.
+    /// JSON file with the subject's 20 bone lengths in mm (docs/accuracy.md), applied after
+    /// --hand-scale.
     #[arg(long, value_name = "FILE.json")]
     pub bone_lengths: Option<PathBuf>,
-    /// Learn each hand's proportions (the size kept) from the keypoint network's metric 3D
-    /// over this many first frames, then fit every frame with them; `run` keeps these
-    /// frames back until then, and says whether the estimate settled. Off by default: on
-    /// real frames with 3D labels it made the 3D worse (docs/accuracy.md).
+    /// Learn each hand's proportions (size kept) from the network's 3D over this many first
+    /// frames (off by default: it made the 3D worse, docs/accuracy.md).
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u64).range(1..))]
     pub proportion_frames: Option<u64>,
     /// Keypoints with a confidence below this are ignored (paper: 0.1).
@@ -44,29 +38,23 @@ pub(crate) struct HandModelArgs {
 /// Weights of the terms the fit adds to the paper's 2D cost (docs/accuracy.md).
 #[derive(Debug, Clone, Copy, Args)]
 pub(crate) struct CueArgs {
-    /// Weight of the keypoint network's metric 3D (MediaPipe's world landmarks) as bone
-    /// directions; 0 fits the 2D keypoints alone, as the paper.
+    /// Weight of the network's metric 3D (world landmarks) as bone directions; 0: off.
     #[arg(long, value_name = "W", default_value_t = FitOptions::default().cost.world_weight)]
     pub world_weight: f64,
-    /// Weight of the keypoint network's relative depth (MediaPipe's landmark z) as bone
-    /// directions; 0 turns it off.
+    /// Weight of the network's relative depth (landmark z) as bone directions; 0: off.
     #[arg(long, value_name = "W", default_value_t = FitOptions::default().cost.depth_weight)]
     pub depth_weight: f64,
-    /// Weight of the pull of each tracked fit towards where constant velocity puts the
-    /// joints (from the last two frames); 0 turns it off.
+    /// Weight of the pull of a tracked fit towards constant velocity; 0: off.
     #[arg(long, value_name = "W", default_value_t = FitOptions::default().tracking.temporal_weight)]
     pub temporal_weight: f64,
-    /// With one camera: move each output joint along its viewing ray this share of
-    /// the way to its depth in the network's metric 3D (placed rigidly on the fit);
-    /// 0 keeps the skeleton's depths.
+    /// One camera: move each joint along its ray this share of the way to its depth in
+    /// the network's metric 3D; 0: the skeleton's depths.
     #[arg(long, value_name = "W", default_value_t = FitOptions::default().fusion.fuse_world)]
     pub fuse_world: f64,
-    /// The same with the network's relative depth (landmark z); the two shares sum
-    /// to at most 1.
+    /// The same with the relative depth (landmark z); the two shares sum to at most 1.
     #[arg(long, value_name = "W", default_value_t = FitOptions::default().fusion.fuse_depth)]
     pub fuse_depth: f64,
-    /// With one camera: then move each output joint this share of the way towards its
-    /// 2D keypoint's viewing ray (at its depth); 0 keeps the skeleton's pixels.
+    /// One camera: then move each joint this share of the way to its keypoint's ray.
     #[arg(long, value_name = "W", default_value_t = FitOptions::default().fusion.fuse_pixels)]
     pub fuse_pixels: f64,
 }

@@ -85,14 +85,9 @@ pub(crate) fn run(args: &LiftArgs) -> Result<()> {
         tracking: args.track,
         proportion_frames: args.hand.proportion_frames.map(|n| n as usize),
     };
-    let out: Box<dyn Sink> = if args.output.as_os_str() == "-" {
-        Box::new(JsonlSink::stdout())
-    } else {
-        Box::new(JsonlSink::create(&args.output)?)
-    };
-    let report = lift_keypoints(&views, cameras, settings, &mut [out], &Terminal)
-        .map_err(crate::run::engine_error)?;
-    if report.frames > 0 && report.unreadable == report.frames {
+    let out: Box<dyn Sink> = Box::new(JsonlSink::open(&args.output)?);
+    let report = lift_keypoints(&views, cameras, settings, &mut [out], &Terminal)?;
+    if report.nothing_readable() {
         bail!(
             "none of the {} input frame(s) could be read (see the warnings above); the output has only empty frames",
             report.frames

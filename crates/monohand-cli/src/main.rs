@@ -1,13 +1,6 @@
-//! `monohand`: hands in images, video and 2D keypoint files to absolute 3D hand poses.
-//!
-//! ```text
-//! monohand detect photos/ --output hands.jsonl
-//! monohand models fetch
-//! monohand lift --camera cam.json --openpose json_dir/ --output poses.jsonl
-//! monohand lift --camera left.yml --openpose L/ --camera right.yml --openpose R/ --output -
-//! monohand camera --width 1280 --height 720 > cam.json
-//! monohand eval --dataset ../shared/data/stb_b1counting --noise-px 0,2,5 --report stb_report/
-//! ```
+//! `monohand`: hands in images, video and 2D keypoint files to absolute 3D hand poses
+//! (README.md and docs/pipeline.md show each command). Argument parsing, the choice of
+//! sinks and the exit statuses; the work is the library's.
 
 mod detect;
 mod eval;
@@ -20,6 +13,7 @@ mod vision;
 
 use anyhow::{Context, Result};
 use clap::{Args, Parser, Subcommand};
+use monohand::engine::EngineError;
 use monohand_core::prelude::*;
 use std::io::IsTerminal;
 use std::path::PathBuf;
@@ -48,69 +42,46 @@ enum Command {
     /// images; write one JSON Lines record per image (docs/output-format.md).
     Detect(detect::DetectArgs),
     /// Hands in images, a video, a webcam or a calibrated multi-camera rig to absolute 3D
-    /// joints: detection, 21 keypoints and the 3D fit for every hand in every frame.
-    ///
-    /// Videos are tracked (crops from the last keypoints, fits from the last pose, stable
-    /// hand ids); images are treated one by one on all cores. Output: JSON Lines (default),
-    /// CSV or OpenPose JSON; optionally overlays and an animated glTF of the 3D hands.
+    /// joints: detection, 21 keypoints and the 3D fit for every hand in every frame
+    /// (videos tracked, images one by one; docs/pipeline.md).
     Run(Box<run::RunArgs>),
     /// Fetch or list the MediaPipe networks (downloaded with pip, checked, cached).
     Models(models::ModelsArgs),
-    /// Fit the hand model to 2D keypoints and write 3D poses as JSON Lines.
-    ///
-    /// Give one --camera per view and, in the same order, one --openpose (or one
-    /// --jsonl) per view. Frames are matched by index across views; each hand side
-    /// is fitted jointly over all views in which it appears. Output joints are in
-    /// the first camera's frame, in millimetres (schema: docs/output-format.md).
+    /// Fit the hand model to 2D keypoints and write 3D poses as JSON Lines: one --camera
+    /// and, in the same order, one --openpose (or --jsonl) per view; frames matched by index.
     Lift(LiftArgs),
-    /// Print the JSON of a generic camera for footage of unknown origin.
-    ///
-    /// Principal point at the image centre, square pixels, and a 60 degree
-    /// horizontal field of view unless --hfov says otherwise (typical of webcams
-    /// and phones in video mode). A wrong guess scales the recovered depth by
-    /// tan(guess/2) / tan(true/2): calibrate the camera for absolute accuracy.
+    /// Print the JSON of a generic camera for footage of unknown origin (centred, square
+    /// pixels, --hfov; a wrong guess scales the depth: docs/calibration.md).
     Camera(CameraArgs),
-    /// Measure accuracy on a 3D hand dataset: print a table, optionally write a report.
-    ///
-    /// The dataset is a manifest (docs/evaluation.md) or an STB folder. --stage lift
-    /// fits ground-truth 2D keypoints (projected labels, optional noise and dropped
-    /// joints), mono and stereo on the same frames; the table gives absolute,
-    /// root-relative, aligned (Zimmermann & Brox) and Procrustes-aligned errors,
-    /// per-axis errors, AUC of the 3D PCK over 20-50 mm, 2D errors, detection rate
-    /// and fps. --report DIR writes report.md, errors.csv and PNG plots.
+    /// Measure accuracy on a 3D hand dataset (a manifest or an STB folder): print a table,
+    /// optionally write a report (docs/evaluation.md).
     Eval(eval::EvalArgs),
 }
 
 /// Arguments of `monohand lift`.
 #[derive(Debug, Args)]
 pub(crate) struct LiftArgs {
-    /// Camera calibration of a view (repeat once per view, in view order): the
-    /// project JSON, the WACV'18 JSON, or OpenCV FileStorage YAML/XML (see
-    /// docs/calibration.md). Extrinsics of view i map camera 1's frame into camera
-    /// i (X_i = R X_1 + t, mm); camera 1 should have none.
+    /// Camera calibration of a view, once per view in view order (formats and extrinsics:
+    /// docs/calibration.md).
     #[arg(long = "camera", value_name = "FILE", required = true)]
     pub cameras: Vec<PathBuf>,
-    /// OpenPose --write_json output of a view: a directory of *_keypoints.json
-    /// files (one per frame, natural name order) or a single file (repeat once per
-    /// view, in the order of --camera).
+    /// OpenPose --write_json output of a view (a folder of *_keypoints.json or one file),
+    /// once per view in the order of --camera.
     #[arg(
         long = "openpose",
         value_name = "DIR_OR_FILE",
         conflicts_with = "jsonl"
     )]
     pub openpose: Vec<PathBuf>,
-    /// 2D keypoints of a view as JSON Lines in the output schema (only "side" and
-    /// "keypoints_2d" needed per hand; frames matched by their "frame" field).
-    /// Repeat once per view, in the order of --camera.
+    /// 2D keypoints of a view as JSON Lines in the output schema ("side" and
+    /// "keypoints_2d" per hand), once per view in the order of --camera.
     #[arg(long = "jsonl", value_name = "IN.jsonl")]
     pub jsonl: Vec<PathBuf>,
-    /// Where to write the poses (JSON Lines, one line per frame, flushed as it
-    /// goes); "-" for standard output.
+    /// Where to write the poses (JSON Lines, one line per frame); "-" for standard output.
     #[arg(short, long, value_name = "OUT.jsonl")]
     pub output: PathBuf,
-    /// Track: start each frame's fit from the previous frame's pose (one tracker
-    /// per hand side), refitting from scratch when the warm start fits badly.
-    /// Faster and steadier on video; leave off for unrelated images.
+    /// Start each frame's fit from the previous frame's pose (video; not for unrelated
+    /// images).
     #[arg(long)]
     pub track: bool,
     #[command(flatten)]
@@ -138,17 +109,7 @@ fn camera_command(args: &CameraArgs) -> Result<()> {
             args.width, args.height, args.hfov
         )
     })?;
-    let mut json = monohand_io::calibration::camera_to_json(&camera);
-    if let Some(o) = json.as_object_mut() {
-        o.insert("hfov_deg".into(), serde_json::json!(args.hfov));
-        o.insert(
-            "comment".into(),
-            serde_json::json!(
-                "generic camera: principal point at the image centre, square pixels, no distortion; \
-                 depth is only as right as the field of view"
-            ),
-        );
-    }
+    let json = monohand_io::calibration::generic_camera_json(&camera, args.hfov);
     println!("{json:#}");
     Ok(())
 }
@@ -158,19 +119,13 @@ fn camera_command(args: &CameraArgs) -> Result<()> {
 pub(crate) mod exit {
     /// Everything was read and written.
     pub const OK: u8 = 0;
-    /// An error: bad arguments or input found before anything was written, or a failure
-    /// inside (a stage that panicked); the message says which.
+    /// Bad arguments or input found before anything was written, or a failure inside.
     pub const FAILED: u8 = 1;
-    /// `run`: the input ended with an error after some good frames (a damaged video,
-    /// ffmpeg killed, a source that stopped delivering); the outputs are complete and
-    /// valid up to there.
+    /// `run`: the input ended with an error after some good frames.
     pub const INPUT_ENDED_EARLY: u8 = 3;
-    /// `run`: an output could not be written (a full disk, a folder that cannot be
-    /// written); the run stopped, the other outputs were closed, every file holds whole
-    /// frames only.
+    /// `run`: an output could not be written; every file holds whole frames only.
     pub const OUTPUT_FAILED: u8 = 4;
-    /// Stopped by SIGINT (Ctrl-C), SIGTERM or SIGHUP after closing every file (128 + 2,
-    /// the shell's convention for Ctrl-C); a second signal kills at once, also 130.
+    /// Stopped by SIGINT (Ctrl-C), SIGTERM or SIGHUP after closing every file (128 + 2).
     pub const INTERRUPTED: u8 = 130;
 }
 
@@ -264,7 +219,8 @@ fn main() -> ExitCode {
         Ok(code) => ExitCode::from(code),
         Err(e) => {
             eprintln!("error: {e:#}");
-            if e.downcast_ref::<run::OutputFailed>().is_some() {
+            // A failed output has its own status (the library's error says what was kept).
+            if matches!(e.downcast_ref(), Some(EngineError::Output { .. })) {
                 ExitCode::from(exit::OUTPUT_FAILED)
             } else {
                 ExitCode::from(exit::FAILED)

@@ -1,8 +1,39 @@
-//! A progress bar with frames per second on long runs, drawn only when stderr is a
-//! terminal (and not with --quiet).
+//! The terminal's side of a job, with a progress bar with frames per second on long runs,
+//! drawn only when stderr is a terminal (and not with --quiet).
 
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use monohand::engine::{Observer, RunReport};
 use std::io::IsTerminal;
+
+/// The CLI's side of a job: Ctrl-C and the window's Q cancel it, the progress bar follows
+/// it, and the library's notes go to stderr with their flag.
+pub(crate) struct Terminal {
+    /// The bar (none for `detect`).
+    pub progress: Progress,
+}
+
+impl Terminal {
+    /// Without a bar.
+    pub fn without_bar() -> Terminal {
+        Terminal {
+            progress: Progress { bar: None },
+        }
+    }
+}
+
+impl Observer for Terminal {
+    fn cancelled(&self) -> bool {
+        crate::interrupted()
+    }
+
+    fn frame_written(&self, report: &RunReport) {
+        self.progress.tick(report.frames, report.hands);
+    }
+
+    fn note(&self, note: &monohand::Note) {
+        crate::say(&crate::flagged(note));
+    }
+}
 
 /// Progress of a run over frames.
 pub(crate) struct Progress {

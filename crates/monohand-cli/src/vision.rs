@@ -3,7 +3,7 @@
 
 use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
-use monohand_vision::heatmap::HeatmapModelConfig;
+use monohand_vision::heatmap::{parse_input_size, HeatmapModelConfig};
 use monohand_vision::{HandPipeline, ModelOptions, ModelStore, ModelVariant, PipelineOptions};
 use std::path::PathBuf;
 
@@ -37,8 +37,7 @@ pub(crate) enum KeypointFormat {
 #[derive(Debug, Clone, Args)]
 pub(crate) struct ModelArgs {
     /// Folder of the cached MediaPipe weights (default: $MONOHAND_MODEL_DIR, else
-    /// $XDG_CACHE_HOME/monohand/models, else ~/.cache/monohand/models). Fetched there with
-    /// pip on first use.
+    /// ~/.cache/monohand/models), fetched with pip on first use.
     #[arg(long, value_name = "DIR", global = true)]
     pub model_dir: Option<PathBuf>,
     /// Palm detector size.
@@ -59,14 +58,12 @@ pub(crate) struct ModelArgs {
     /// Images are selfie-mirrored (front cameras): swap left and right.
     #[arg(long)]
     pub mirrored: bool,
-    /// Run the landmark network once per crop, without the second pass on the crop's
-    /// mirror image that is averaged in by default (faster: the mirror pass doubles the
-    /// landmark network's time, run on a second core when there is one; it lowers the 3D
-    /// error, see docs/accuracy.md).
+    /// Read each crop once, without the mirror-image pass (faster, higher 3D error:
+    /// docs/accuracy.md).
     #[arg(long)]
     pub no_mirror_pass: bool,
-    /// An ONNX keypoint network to use instead of MediaPipe's landmark model (MediaPipe's
-    /// still tells the side and presence; one-sided networks get mirrored crops).
+    /// An ONNX keypoint network instead of MediaPipe's landmark model (which still gives
+    /// the side and presence).
     #[arg(long, value_name = "MODEL.onnx", requires = "keypoint_format")]
     pub keypoint_model: Option<PathBuf>,
     /// Output format of --keypoint-model.
@@ -95,8 +92,8 @@ impl ModelArgs {
         Ok(ModelStore::new(self.model_dir.clone())?)
     }
 
-    /// Builds the front end (fetching the weights if needed).
-    pub fn pipeline(&self, refine_passes: usize) -> Result<HandPipeline> {
+    /// Which networks, and their options.
+    pub fn options(&self, refine_passes: usize) -> (ModelOptions, PipelineOptions) {
         let models = ModelOptions {
             model_dir: self.model_dir.clone(),
             palm: self.palm_model.into(),
@@ -114,11 +111,21 @@ impl ModelArgs {
             },
             ..PipelineOptions::default()
         };
+        (models, options)
+    }
+
+    /// Builds the front end (fetching the weights if needed).
+    pub fn pipeline(&self, refine_passes: usize) -> Result<HandPipeline> {
+        let (models, options) = self.options(refine_passes);
         let pipeline = match (&self.keypoint_model, self.keypoint_format) {
             (Some(path), Some(KeypointFormat::Heatmap)) => {
-                let (w, h) = parse_size(&self.keypoint_input)?;
                 let config = HeatmapModelConfig {
-                    input_size: (w, h),
+                    input_size: parse_input_size(&self.keypoint_input).with_context(|| {
+                        format!(
+                            "size {:?} is not WxH with positive integers",
+                            self.keypoint_input
+                        )
+                    })?,
                     trained_side: self.keypoint_trained_side.map(|s| match s {
                         SideArg::Left => monohand_core::hand_model::HandSide::Left,
                         SideArg::Right => monohand_core::hand_model::HandSide::Right,
@@ -133,30 +140,5 @@ impl ModelArgs {
         };
         pipeline
             .context("could not set up the hand networks (--hands, --min-presence, --model-dir)")
-    }
-}
-
-fn parse_size(s: &str) -> Result<(usize, usize)> {
-    let parse = |t: &str| t.trim().parse::<usize>().ok().filter(|&n| n > 0);
-    match s.split_once(['x', 'X']) {
-        Some((w, h)) => match (parse(w), parse(h)) {
-            (Some(w), Some(h)) => Ok((w, h)),
-            _ => bail!("size {s:?} is not WxH with positive integers"),
-        },
-        None => bail!("size {s:?} is not WxH"),
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn sizes_parse_or_explain() {
-        assert_eq!(parse_size("368x368").unwrap(), (368, 368));
-        assert_eq!(parse_size("256X192").unwrap(), (256, 192));
-        assert!(parse_size("368").is_err());
-        assert!(parse_size("0x5").is_err());
-        assert!(parse_size("ax5").is_err());
     }
 }

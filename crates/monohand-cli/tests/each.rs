@@ -6,7 +6,7 @@
 mod common;
 use common::*;
 use monohand_io::jsonl::{read_jsonl, FrameRecord};
-use monohand_testkit::{ffmpeg, hand_png};
+use monohand_testkit::{hand_png, photo_clip};
 use std::path::Path;
 use std::process::Command;
 use std::time::{Duration, Instant};
@@ -14,23 +14,7 @@ use std::time::{Duration, Instant};
 /// `n` frames of the shared photo seen by a camera panning by `dx` pixels a frame.
 fn clip(out: &Path, n: usize, dx: usize) {
     let crop = format!("crop=560:420:'10+{dx}*n':20");
-    ffmpeg(&[
-        "-loop",
-        "1",
-        "-framerate",
-        "30",
-        "-i",
-        p(&hand_png()),
-        "-vf",
-        &crop,
-        "-frames:v",
-        &n.to_string(),
-        "-c:v",
-        "mpeg4",
-        "-q:v",
-        "2",
-        p(out),
-    ]);
+    photo_clip(out, n, Some(&crop), &["-q:v", "2"]);
 }
 
 fn records(path: &Path) -> Vec<FrameRecord> {

@@ -10,7 +10,7 @@ mod common;
 
 use common::{monohand, networks_ready, p};
 use monohand_io::jsonl::{read_jsonl, FrameRecord};
-use monohand_testkit::{decodable_frames, hand_png};
+use monohand_testkit::{decodable_frames, hand_png, photo_clip};
 use monohand_vision::models::{sha256_hex, ModelFile};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
@@ -24,20 +24,8 @@ const INTERRUPTED: i32 = 130;
 /// `n` frames (600x450, 30 fps, MPEG-4 in Matroska) of the shared photo seen by a camera
 /// that pans in a circle, made by ffmpeg.
 fn moving_video(n: usize, out: &Path) {
-    let status = Command::new("ffmpeg")
-        .args(["-v", "error", "-y", "-loop", "1", "-framerate", "30", "-i"])
-        .arg(hand_png())
-        .args([
-            "-vf",
-            "crop=600:450:'20+15*sin(2*PI*t)':'15+10*cos(2*PI*t)'",
-            "-frames:v",
-        ])
-        .arg(n.to_string())
-        .args(["-c:v", "mpeg4", "-q:v", "2"])
-        .arg(out)
-        .status()
-        .expect("ffmpeg is not installed (apt-get install ffmpeg)");
-    assert!(status.success(), "ffmpeg could not make the test video");
+    let circle = "crop=600:450:'20+15*sin(2*PI*t)':'15+10*cos(2*PI*t)'";
+    photo_clip(out, n, Some(circle), &["-q:v", "2"]);
 }
 
 fn spawn(args: &[&str]) -> Child {

@@ -12,7 +12,7 @@ use common::{monohand, networks_ready, ok, p};
 use monohand_core::prelude::*;
 use monohand_io::calibration::write_camera_json;
 use monohand_io::jsonl::read_jsonl;
-use monohand_testkit::{ffmpeg, hand_png};
+use monohand_testkit::{ffmpeg, hand_png, photo_clip};
 
 /// A portrait phone video (stored 640x480 with rotation metadata): decoded upright; a
 /// calibration of the stored frames is refused, saying why, before anything is written;
@@ -22,21 +22,7 @@ fn a_rotated_phone_video_is_upright_and_a_landscape_calibration_is_refused() {
     let dir = tempfile::tempdir().unwrap();
     let land = dir.path().join("land.mp4");
     let phone = dir.path().join("phone.mp4");
-    ffmpeg(&[
-        "-loop",
-        "1",
-        "-framerate",
-        "30",
-        "-i",
-        p(&hand_png()),
-        "-frames:v",
-        "3",
-        "-c:v",
-        "mpeg4",
-        "-q:v",
-        "2",
-        p(&land),
-    ]);
+    photo_clip(&land, 3, None, &["-q:v", "2"]);
     ffmpeg(&[
         "-i",
         p(&land),

@@ -51,6 +51,15 @@ pub enum EvalError {
         /// The operating-system error.
         error: std::io::Error,
     },
+    /// A step of an evaluation failed; `context` says which.
+    #[error("{context}")]
+    Context {
+        /// What was being done.
+        context: String,
+        /// What went wrong.
+        #[source]
+        source: Box<EvalError>,
+    },
     /// A plot could not be drawn.
     #[error("{}: cannot draw plot: {message}", path.display())]
     Plot {
@@ -69,6 +78,13 @@ impl EvalError {
         EvalError::Core {
             context: context.into(),
             error,
+        }
+    }
+
+    pub(crate) fn context(self, context: impl Into<String>) -> EvalError {
+        EvalError::Context {
+            context: context.into(),
+            source: Box::new(self),
         }
     }
 

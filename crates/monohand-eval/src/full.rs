@@ -182,7 +182,7 @@ fn run_sequence(
     let mut sinks: Vec<Box<dyn Sink>> = vec![Box::new(Keep(Arc::clone(&records)))];
     let report = engine
         .run(sources, &mut sinks, &Quiet)
-        .map_err(|e| EvalError::Detector(e.to_string()))?;
+        .map_err(|e| EvalError::Detector(monohand::engine::chain(&e)))?;
     drop(sinks);
     let records = Arc::try_unwrap(records)
         .map_err(|_| EvalError::Detector("the engine kept its sink".into()))?

@@ -3,7 +3,10 @@
 
 use crate::dataset::Dataset;
 use crate::error::{EvalError, EvalResult};
-use crate::evaluate::{EvalSettings, SkeletonChoice};
+use crate::evaluate::{evaluate, evaluated_joints, EvalSettings, ProjectedLabels, SkeletonChoice};
+use crate::report::Report;
+use monohand::HandPipeline;
+use std::sync::Arc;
 
 /// The keypoints the fits get.
 #[derive(Debug, Clone, PartialEq)]
@@ -95,6 +98,51 @@ impl Plan {
             ));
         }
         Ok(before - dataset.frames.len())
+    }
+
+    /// Runs the plan over `dataset` (after [`Plan::select`]) into a report with its settings
+    /// lines: each noise level of the lift stage, or the full stage through the engine with
+    /// `networks` (the pipeline, and its description for the report; the full stage only).
+    pub fn run(
+        &self,
+        dataset: &Dataset,
+        networks: Option<(&Arc<HandPipeline>, &str)>,
+    ) -> EvalResult<Report> {
+        let mask = evaluated_joints(dataset.root);
+        let mut report = Report::new(dataset, self.stage.describe(), mask);
+        report.settings = self.settings_rows(dataset);
+        let settings = &self.settings;
+        match (&self.stage, networks) {
+            (
+                Stage::Lift {
+                    noise_px,
+                    drop_joints,
+                    seed,
+                },
+                _,
+            ) => {
+                for &noise in noise_px {
+                    let mut source = ProjectedLabels::new(noise, *drop_joints, *seed)?;
+                    let (runs, notes) = evaluate(dataset, &mut source, settings, Some(noise))
+                        .map_err(|e| e.context(format!("evaluating with {noise} px noise")))?;
+                    report.runs.extend(runs);
+                    report.skeletons = notes;
+                }
+            }
+            (Stage::Full, Some((pipeline, description))) => {
+                let (runs, notes) =
+                    crate::full::evaluate_full(dataset, pipeline, description, settings)
+                        .map_err(|e| e.context("evaluating the full pipeline"))?;
+                report.runs.extend(runs);
+                report.skeletons = notes;
+            }
+            (Stage::Full, None) => {
+                return Err(EvalError::Settings(
+                    "the full stage needs the networks".into(),
+                ))
+            }
+        }
+        Ok(report)
     }
 
     /// The settings lines of the report, for `dataset` (after [`Plan::select`]).

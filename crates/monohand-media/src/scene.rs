@@ -31,7 +31,7 @@ use crate::video::RgbImage;
 use monohand_core::bbox::BBox;
 use monohand_core::camera::Camera;
 use monohand_core::hand_model::{BONES, NUM_JOINTS, WRIST};
-use monohand_io::jsonl::HandRecord;
+use monohand_io::jsonl::{FrameRecord, HandRecord};
 use monohand_io::palette::{side_color, Rgb, FINGER_COLORS};
 use nalgebra::{Point2, Vector3};
 
@@ -246,6 +246,19 @@ impl SceneRenderer {
     /// it. `None`: not shown.
     pub fn set_camera_source(&mut self, source: Option<&str>) {
         self.camera_source = source.map(|s| format!("CAMERA {}", s.to_uppercase()));
+    }
+
+    /// Draws a frame's record on `frame` ([`SceneRenderer::draw`]), labelled with the source
+    /// of the camera its record names.
+    pub fn draw_record(
+        &mut self,
+        frame: &mut RgbImage,
+        record: &FrameRecord,
+        cameras: &[Camera],
+        layers: &Layers,
+    ) {
+        self.set_camera_source(record.cameras.first().map(|c| c.source.name()));
+        self.draw(frame, &record.hands, cameras, layers);
     }
 
     /// Draws `hands` on `frame` with the chosen layers. `cameras[0]` is the camera of

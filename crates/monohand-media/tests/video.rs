@@ -6,7 +6,7 @@ use monohand_io::IoError;
 use monohand_media::video::{
     probe, Encoder, FfmpegTools, RgbImage, VideoInput, VideoReader, VideoWriter,
 };
-use monohand_testkit::{ffmpeg, hand_png};
+use monohand_testkit::{ffmpeg, hand_png, photo_clip};
 use std::path::Path;
 
 const FRAMES: usize = 20;
@@ -269,23 +269,8 @@ fn variable_frame_rate_keeps_the_stream_clock() {
     let vfr = dir.path().join("vfr.mkv");
     // The option's name in this ffmpeg (`-vsync` is gone from FFmpeg 7.0).
     let sync = FfmpegTools::default().features().fps_mode_option();
-    ffmpeg(&[
-        "-loop",
-        "1",
-        "-framerate",
-        "30",
-        "-i",
-        hand_png().to_str().unwrap(),
-        "-vf",
-        "scale=64:48,setpts='if(lt(N,5),N/30,(N+10)/30)/TB'",
-        "-frames:v",
-        "8",
-        "-c:v",
-        "mpeg4",
-        sync,
-        "vfr",
-        vfr.to_str().unwrap(),
-    ]);
+    let pause = "scale=64:48,setpts='if(lt(N,5),N/30,(N+10)/30)/TB'";
+    photo_clip(&vfr, 8, Some(pause), &[sync, "vfr"]);
     let frames = read_all(&vfr);
     let times: Vec<f64> = frames.iter().map(|f| f.0).collect();
     let want = [0.0, 0.033, 0.067, 0.1, 0.133, 0.5, 0.533, 0.567];

@@ -865,7 +865,7 @@ impl PyFrameStream {
         let result = py
             .detach(|| worker.join())
             .map_err(|_| MonohandError::new_err("the engine's thread failed"))?;
-        let report = result.map_err(|e| MonohandError::new_err(e.to_string()))?;
+        let report = result.map_err(|e| MonohandError::new_err(monohand::engine::chain(&e)))?;
         let input_error = report.input_error.clone();
         self.report = Some(report);
         match input_error {

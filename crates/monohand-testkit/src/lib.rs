@@ -3,7 +3,7 @@
 //! Test helpers shared by monohand's test suites (a dev-dependency only, never
 //! published): the paths of the shared data (`../shared/data` beside the repository,
 //! which CI always has) and of its sample files, and the system tools the tests drive
-//! (`ffmpeg`, `ffprobe`).
+//! (`ffmpeg`, `ffprobe`), with the clips the video tests make from the shared photo.
 //!
 //! Missing data or a missing tool fails the calling test with a message that says what
 //! is missing and where it was looked for.
@@ -72,6 +72,31 @@ pub fn ffmpeg(args: &[&str]) {
         "ffmpeg {args:?}: {}",
         String::from_utf8_lossy(&out.stderr)
     );
+}
+
+/// A clip of `frames` frames at 30 fps made by ffmpeg from the shared photo ([`hand_png`]):
+/// a camera panning over it when `filter` moves a `crop=` window (e.g.
+/// `crop=560:420:'10+4*n':20`), any other video filter, or the photo as it is (`None`);
+/// encoded as MPEG-4 with the output `options` (e.g. `-q:v 2`) into `out`, whose extension
+/// picks the container. Fails the test if ffmpeg fails.
+pub fn photo_clip(out: &Path, frames: usize, filter: Option<&str>, options: &[&str]) {
+    let photo = hand_png();
+    let n = frames.to_string();
+    let mut args = vec![
+        "-loop",
+        "1",
+        "-framerate",
+        "30",
+        "-i",
+        photo.to_str().unwrap(),
+    ];
+    if let Some(filter) = filter {
+        args.extend(["-vf", filter]);
+    }
+    args.extend(["-frames:v", &n, "-c:v", "mpeg4"]);
+    args.extend(options);
+    args.push(out.to_str().unwrap());
+    ffmpeg(&args);
 }
 
 /// Frames in a video file as ffprobe decodes them (`ffprobe -count_frames`); fails the test

@@ -522,7 +522,7 @@ mod versus_tract {
     #[test]
     fn gives_the_bits_of_tracts_conv() {
         for kernel in Kernel::supported() {
-            if kernel == Kernel::Portable {
+            if kernel == Kernel::PORTABLE {
                 // tract's own kernels use FMA where the CPU has it; the portable product
                 // multiplies and adds.
                 continue;

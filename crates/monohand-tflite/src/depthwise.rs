@@ -184,25 +184,23 @@ fn run(
 ) {
     #[cfg(target_arch = "x86_64")]
     {
-        use crate::pointwise::Kernel;
+        use crate::pointwise::{Isa, Kernel};
         let kernel = Kernel::best();
-        if kernel != Kernel::Portable {
+        if kernel != Kernel::PORTABLE {
             let sized = src.len() >= g.h * g.w * g.c
                 && k.len() >= g.kh * g.kw * g.c
                 && b.len() >= g.c
                 && g.rows.0 <= g.rows.1
                 && g.rows.1 <= g.oh
                 && dst.len() >= (g.rows.1 - g.rows.0) * g.ow * g.c;
-            match kernel {
-                // SAFETY: `Kernel::best` returns `Avx512` only on a CPU with AVX-512F (and
-                // VL), which is what `avx512::run` is compiled for, and `sized` checked the
+            match kernel.isa() {
+                // SAFETY: a `Kernel` has `Avx512` only on a CPU with AVX-512F (and VL),
+                // detected at run time, which is what `avx512::run` is compiled for, and `sized` checked the
                 // slices against the geometry as its contract asks.
-                Kernel::Avx512 if blocked && sized => unsafe {
-                    avx512::run(g, src, k, b, dst, act)
-                },
+                Isa::Avx512 if blocked && sized => unsafe { avx512::run(g, src, k, b, dst, act) },
                 // SAFETY: the kernel is `Avx2Fma` here (`Portable` returned above, `Avx512`
-                // took the arm above), which `Kernel::best` returns only on a CPU with AVX2
-                // and FMA; the slices are `sized` as above.
+                // took the arm above), which a `Kernel` is only on a CPU with AVX2 and FMA;
+                // the slices are `sized` as above.
                 _ if blocked && sized => unsafe { avx2::run(g, src, k, b, dst, act) },
                 // SAFETY: `run_avx2_fma` needs AVX2 and FMA only. The kernel is `Avx2Fma`
                 // (detected with AVX2 and FMA) or `Avx512`, detected with AVX-512F, which
@@ -871,9 +869,9 @@ mod tests {
     #[cfg(target_arch = "x86_64")]
     #[test]
     fn the_simd_kernels_are_bit_identical_to_the_portable_loop() {
-        use crate::pointwise::Kernel;
+        use crate::pointwise::{Isa, Kernel};
         let kernels = Kernel::supported();
-        if !kernels.contains(&Kernel::Avx2Fma) {
+        if !kernels.iter().any(|k| k.isa() == Isa::Avx2Fma) {
             eprintln!("no AVX2 + FMA on this CPU: only the portable loop runs here");
             return;
         }
@@ -899,13 +897,13 @@ mod tests {
                 unsafe { run_avx2_fma(&g, &x, &k, &b, &mut portable, act) };
                 for &kernel in &kernels {
                     let mut fast = vec![f32::NAN; oh * ow * c];
-                    match kernel {
-                        Kernel::Portable => continue,
+                    match kernel.isa() {
+                        Isa::Portable => continue,
                         // SAFETY: the CPU has the kernel's features (`supported`); the
                         // buffers have the geometry's sizes, all of its rows (`square_geometry`).
-                        Kernel::Avx2Fma => unsafe { avx2::run(&g, &x, &k, &b, &mut fast, act) },
+                        Isa::Avx2Fma => unsafe { avx2::run(&g, &x, &k, &b, &mut fast, act) },
                         // SAFETY: as above.
-                        Kernel::Avx512 => unsafe { avx512::run(&g, &x, &k, &b, &mut fast, act) },
+                        Isa::Avx512 => unsafe { avx512::run(&g, &x, &k, &b, &mut fast, act) },
                     }
                     let differ = fast
                         .iter()
@@ -925,7 +923,7 @@ mod tests {
 #[cfg(all(test, target_arch = "x86_64"))]
 mod speed {
     use super::*;
-    use crate::pointwise::Kernel;
+    use crate::pointwise::{Isa, Kernel};
 
     /// Microseconds per call of each SIMD kernel the CPU runs, side by side, on the
     /// hand-landmark lite shapes (best of 7):
@@ -958,22 +956,22 @@ mod speed {
                 for _ in 0..7 {
                     let t = std::time::Instant::now();
                     for _ in 0..n {
-                        match kernel {
-                            Kernel::Portable => continue,
+                        match kernel.isa() {
+                            Isa::Portable => continue,
                             // SAFETY: the CPU has the kernel's features (`supported`); the
                             // buffers have the geometry's sizes, all of its rows.
-                            Kernel::Avx2Fma => unsafe {
+                            Isa::Avx2Fma => unsafe {
                                 avx2::run(&g, &x, &k, &b, &mut out, (0.0, 6.0))
                             },
                             // SAFETY: as above.
-                            Kernel::Avx512 => unsafe {
+                            Isa::Avx512 => unsafe {
                                 avx512::run(&g, &x, &k, &b, &mut out, (0.0, 6.0))
                             },
                         }
                     }
                     best = best.min(t.elapsed().as_secs_f64() / n as f64);
                 }
-                if kernel != Kernel::Portable {
+                if kernel != Kernel::PORTABLE {
                     line += &format!("  {}: {:7.1} us", kernel.name(), best * 1e6);
                 }
             }

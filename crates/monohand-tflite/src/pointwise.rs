@@ -179,7 +179,7 @@ impl PointwiseConv {
     /// hand-landmark shapes, and slower than tract's own kernels), so the importer only uses
     /// this operator when this is true.
     pub fn fast_kernel_available() -> bool {
-        Kernel::best() != Kernel::Portable
+        Kernel::best() != Kernel::PORTABLE
     }
 
     /// Whether a residual input is added (see [`with_residual`](Self::with_residual)).
@@ -329,68 +329,90 @@ impl TypedOp for PointwiseConv {
     }
 }
 
-/// A micro-kernel implementation.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(crate) enum Kernel {
-    /// Plain Rust, any CPU.
-    Portable,
-    /// `std::arch` AVX2 + FMA intrinsics.
-    #[cfg(target_arch = "x86_64")]
-    Avx2Fma,
-    /// `std::arch` AVX-512F + VL intrinsics.
-    #[cfg(target_arch = "x86_64")]
-    Avx512,
+pub(crate) use kernel::{Isa, Kernel};
+
+/// The kernel type, in a module of its own so that nothing else can make one.
+mod kernel {
+    /// The instruction set of a micro-kernel.
+    #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+    pub(crate) enum Isa {
+        /// Plain Rust, any CPU.
+        Portable,
+        /// `std::arch` AVX2 + FMA intrinsics.
+        #[cfg(target_arch = "x86_64")]
+        Avx2Fma,
+        /// `std::arch` AVX-512F + VL intrinsics.
+        #[cfg(target_arch = "x86_64")]
+        Avx512,
+    }
+
+    /// A micro-kernel that this CPU runs. Its field is private: a `Kernel` is made only by
+    /// run-time detection ([`Kernel::supported`], [`Kernel::best`]), or is the portable one,
+    /// so holding one shows that the CPU has the features of its [`Isa`] — what the
+    /// `unsafe` calls of the intrinsics behind it rely on.
+    #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+    pub(crate) struct Kernel(Isa);
+
+    impl Kernel {
+        /// The portable kernel (any CPU).
+        pub(crate) const PORTABLE: Kernel = Kernel(Isa::Portable);
+
+        /// Its instruction set (which the CPU has).
+        pub(crate) fn isa(self) -> Isa {
+            self.0
+        }
+
+        /// The name `MONOHAND_KERNEL` selects this kernel by.
+        pub(crate) fn name(self) -> &'static str {
+            match self.0 {
+                Isa::Portable => "portable",
+                #[cfg(target_arch = "x86_64")]
+                Isa::Avx2Fma => "avx2",
+                #[cfg(target_arch = "x86_64")]
+                Isa::Avx512 => "avx512",
+            }
+        }
+
+        /// Every kernel this CPU runs, slowest first (detected at run time).
+        pub(crate) fn supported() -> Vec<Kernel> {
+            #[allow(unused_mut)]
+            let mut v = vec![Kernel::PORTABLE];
+            #[cfg(target_arch = "x86_64")]
+            {
+                if std::arch::is_x86_feature_detected!("avx2")
+                    && std::arch::is_x86_feature_detected!("fma")
+                {
+                    v.push(Kernel(Isa::Avx2Fma));
+                }
+                if std::arch::is_x86_feature_detected!("avx512f")
+                    && std::arch::is_x86_feature_detected!("avx512vl")
+                {
+                    v.push(Kernel(Isa::Avx512));
+                }
+            }
+            v
+        }
+
+        /// The fastest kernel this CPU runs, or the one `MONOHAND_KERNEL` names if the CPU
+        /// runs it (decided once per process).
+        pub(crate) fn best() -> Kernel {
+            static BEST: std::sync::OnceLock<Kernel> = std::sync::OnceLock::new();
+            *BEST.get_or_init(|| {
+                let supported = Kernel::supported();
+                let forced = std::env::var("MONOHAND_KERNEL").ok();
+                let forced = supported
+                    .iter()
+                    .copied()
+                    .find(|k| forced.as_deref() == Some(k.name()));
+                forced
+                    .or_else(|| supported.last().copied())
+                    .unwrap_or(Kernel::PORTABLE)
+            })
+        }
+    }
 }
 
 impl Kernel {
-    /// The name `MONOHAND_KERNEL` selects this kernel by.
-    pub(crate) fn name(self) -> &'static str {
-        match self {
-            Kernel::Portable => "portable",
-            #[cfg(target_arch = "x86_64")]
-            Kernel::Avx2Fma => "avx2",
-            #[cfg(target_arch = "x86_64")]
-            Kernel::Avx512 => "avx512",
-        }
-    }
-
-    /// Every kernel this CPU runs, slowest first.
-    pub(crate) fn supported() -> Vec<Kernel> {
-        #[allow(unused_mut)]
-        let mut v = vec![Kernel::Portable];
-        #[cfg(target_arch = "x86_64")]
-        {
-            if std::arch::is_x86_feature_detected!("avx2")
-                && std::arch::is_x86_feature_detected!("fma")
-            {
-                v.push(Kernel::Avx2Fma);
-            }
-            if std::arch::is_x86_feature_detected!("avx512f")
-                && std::arch::is_x86_feature_detected!("avx512vl")
-            {
-                v.push(Kernel::Avx512);
-            }
-        }
-        v
-    }
-
-    /// The fastest kernel this CPU runs, or the one `MONOHAND_KERNEL` names if the CPU runs
-    /// it (decided once per process).
-    pub(crate) fn best() -> Kernel {
-        static BEST: std::sync::OnceLock<Kernel> = std::sync::OnceLock::new();
-        *BEST.get_or_init(|| {
-            let supported = Kernel::supported();
-            let forced = std::env::var("MONOHAND_KERNEL").ok();
-            let forced = supported
-                .iter()
-                .copied()
-                .find(|k| forced.as_deref() == Some(k.name()));
-            forced
-                .or_else(|| supported.last().copied())
-                .unwrap_or(Kernel::Portable)
-        })
-    }
-
     /// Every kernel this CPU runs.
     #[cfg(test)]
     fn available() -> Vec<Kernel> {
@@ -399,18 +421,18 @@ impl Kernel {
 
     /// Rows per micro-tile.
     fn rows(self) -> usize {
-        match self {
+        match self.isa() {
             #[cfg(target_arch = "x86_64")]
-            Kernel::Avx512 => MR512,
+            Isa::Avx512 => MR512,
             _ => MR,
         }
     }
 
     /// Weight panels per micro-tile.
     fn panels(self) -> usize {
-        match self {
+        match self.isa() {
             #[cfg(target_arch = "x86_64")]
-            Kernel::Avx512 => 2,
+            Isa::Avx512 => 2,
             _ => 1,
         }
     }
@@ -418,12 +440,12 @@ impl Kernel {
     /// The tile function for `m` rows and `width` channels (`1 <= m <= self.rows()`,
     /// `1 <= width <= NR · self.panels()`).
     fn tile(self, m: usize, width: usize) -> TileFn {
-        match self {
-            Kernel::Portable => tile_portable,
+        match self.isa() {
+            Isa::Portable => tile_portable,
             #[cfg(target_arch = "x86_64")]
-            Kernel::Avx2Fma => avx2::tile(m, width.div_ceil(8)),
+            Isa::Avx2Fma => avx2::tile(m, width.div_ceil(8)),
             #[cfg(target_arch = "x86_64")]
-            Kernel::Avx512 => avx512::tile(m, width),
+            Isa::Avx512 => avx512::tile(m, width),
         }
     }
 }
@@ -499,9 +521,8 @@ impl Job<'_> {
         if self.rows >= ROWS_TO_SPLIT {
             team.pieces(self.rows, mr, work, split, &|rows| {
                 // SAFETY: `out` holds the output (checked) and is borrowed mutably here; the
-                // pieces' rows do not overlap and are within `0..self.rows`. The kernel is
-                // one the CPU supports: every caller of `compute` passes `Kernel::best()` or
-                // one of `Kernel::supported()`.
+                // pieces' rows do not overlap and are within `0..self.rows`. The CPU has the
+                // kernel's features: a `Kernel` is only made by run-time detection.
                 unsafe { self.run_part(base.ptr(), kernel, rows, 0..panels) };
                 Ok(())
             })
@@ -521,8 +542,8 @@ impl Job<'_> {
     /// [`check`](Self::check) passed for an output of `self.rows·cout` values at `out` (valid
     /// for writes), `rows` and `panels` are within the output (`rows.end <= self.rows`,
     /// `panels.end <= cout.div_ceil(NR)`), nothing else reads or writes that part of it
-    /// meanwhile, and the CPU has the features of `kernel` (it is `Kernel::best()` or one of
-    /// `Kernel::supported()`).
+    /// meanwhile. (The CPU has the features of `kernel`: a [`Kernel`] is only made by
+    /// run-time detection.)
     unsafe fn run_part(
         &self,
         out: *mut f32,
@@ -592,9 +613,13 @@ impl Job<'_> {
 }
 
 /// The epilogue on one value of channel `j` of the tile's row `i`.
+///
+/// # Safety
+/// `t` satisfies `Tile`'s contract, `i < t.m` and `j < t.width` (it reads the bias and the
+/// slope of channel `j` and the residual of row `i`, channel `j`).
 #[inline(always)]
-fn epilogue_scalar(t: &Tile, acc: f32, i: usize, j: usize) -> f32 {
-    // SAFETY: i < m and j < width, within `Tile`'s contract.
+unsafe fn epilogue_scalar(t: &Tile, acc: f32, i: usize, j: usize) -> f32 {
+    // SAFETY: i < m and j < width within `Tile`'s contract (this function's contract).
     unsafe {
         let mut y = (acc + *t.bias.add(j)).max(t.act.0).min(t.act.1);
         if !t.res.is_null() {
@@ -632,7 +657,8 @@ unsafe fn tile_portable(t: &Tile) {
     }
     for (i, acc) in acc.iter().enumerate().take(t.m) {
         for (j, &acc) in acc.iter().enumerate().take(t.width) {
-            let y = epilogue_scalar(t, acc, i, j);
+            // SAFETY: `t` satisfies `Tile`'s contract (ours), i < m and j < width (`take`).
+            let y = unsafe { epilogue_scalar(t, acc, i, j) };
             // SAFETY: i < m rows and j < width channels of the output (`take`).
             unsafe { *t.out.add(i * t.ldo + j) = y };
         }

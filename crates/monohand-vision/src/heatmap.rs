@@ -64,6 +64,13 @@ pub fn decode_heatmaps(
     Some(out)
 }
 
+/// The input size of a network written `WxH` (e.g. `368x368`, `256X192`), both positive.
+pub fn parse_input_size(s: &str) -> Option<(usize, usize)> {
+    let parse = |t: &str| t.trim().parse::<usize>().ok().filter(|&n| n > 0);
+    let (w, h) = s.split_once(['x', 'X'])?;
+    Some((parse(w)?, parse(h)?))
+}
+
 #[cfg(feature = "onnx")]
 pub use onnx_model::{HeatmapModelConfig, OnnxHeatmapEstimator};
 
@@ -194,6 +201,15 @@ mod onnx_model {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn input_sizes_are_w_x_h_with_positive_integers() {
+        assert_eq!(parse_input_size("368x368"), Some((368, 368)));
+        assert_eq!(parse_input_size("256X192"), Some((256, 192)));
+        for bad in ["368", "0x5", "ax5", "5x", ""] {
+            assert_eq!(parse_input_size(bad), None, "{bad:?}");
+        }
+    }
 
     #[test]
     fn symmetric_peak_is_at_cell_centre_and_skewed_peak_moves() {

@@ -249,6 +249,23 @@ pub struct ModelOptions {
     pub detect_heads: bool,
 }
 
+impl ModelOptions {
+    /// What these networks are, for a report: MediaPipe's release, the two networks' sizes,
+    /// and whether each crop's mirror image is averaged in (`landmarks`).
+    pub fn describe(&self, landmarks: &LandmarkOptions) -> String {
+        format!(
+            "MediaPipe 0.10.14 palm detector ({:?}) + hand landmarks ({:?}{}) in tract",
+            self.palm,
+            self.landmark,
+            if landmarks.mirror_pass {
+                ", mean of each crop and its mirror image"
+            } else {
+                ", one pass per crop"
+            }
+        )
+    }
+}
+
 /// Thresholds and behaviour of the pipeline.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PipelineOptions {

@@ -1,21 +1,15 @@
 //! `run --each DIR --output-dir OUT`: every video and image of a folder as its own input,
 //! each into `OUT/<file name>.jsonl`, complete or absent ([`monohand::engine::corpus`]).
 
-use super::{engine_error, engine_settings, stall_timeout, Outcome, RunArgs, Terminal};
-use anyhow::{bail, Context, Result};
-use monohand::engine::corpus::{corpus, CorpusItem};
-use monohand::engine::{Engine, Input, JsonlSink, Sink};
+use super::{engine_settings, stall_timeout, Outcome, RunArgs};
+use crate::progress::Terminal;
+use anyhow::{bail, Result};
+use monohand::engine::corpus::{corpus, CorpusItem, Ended};
+use monohand::engine::{Engine, Input};
 use monohand::HandPipeline;
 use std::collections::HashMap;
 use std::path::Path;
 use std::sync::Arc;
-
-/// How one input ended.
-enum Ended {
-    Done,
-    Failed(String),
-    Interrupted,
-}
 
 pub(super) fn run(args: &RunArgs, dir: &Path, out: &Path) -> Result<Outcome> {
     if args.cameras.len() > 1 {
@@ -43,7 +37,7 @@ pub(super) fn run(args: &RunArgs, dir: &Path, out: &Path) -> Result<Outcome> {
                 failed += 1;
                 crate::say(&format!("{name}: failed: {why}"));
             }
-            Ended::Interrupted => {
+            Ended::Cancelled => {
                 crate::say(&format!("{name}: interrupted; a rerun redoes it"));
                 return Ok(Outcome::Interrupted);
             }
@@ -71,14 +65,8 @@ fn one(
 ) -> Result<Ended> {
     let input = Input::parse(&item.input.to_string_lossy())?;
     let tracking = (input.is_video() || args.track) && !args.no_track;
-    // The settings are checked as for a video; an image on its own has no frames around
-    // it, so --offline and --smooth apply to the videos only.
-    let mut settings = engine_settings(args, true)?;
-    settings.fit.tracking = tracking;
-    if !tracking {
-        settings.fit.offline = None;
-        settings.fit.smoothing = None;
-    }
+    // The settings are checked as for a video; --offline and --smooth apply to the videos.
+    let settings = engine_settings(args, true)?.tracking(tracking);
     let source = match input.open(stall) {
         Ok(s) => s,
         Err(e) => return Ok(Ended::Failed(e.to_string())),
@@ -92,41 +80,10 @@ fn one(
         }
     };
     let engine = Engine::new(pipeline, cameras.to_vec(), settings)?;
-    let sources = vec![source];
-    if let Err(e) = engine.check_sources(&sources) {
-        return Ok(Ended::Failed(e.to_string()));
-    }
-    let partial = item.partial();
-    let mut sinks: Vec<Box<dyn Sink>> = vec![Box::new(
-        JsonlSink::create(&partial).with_context(|| format!("{}", partial.display()))?,
-    )];
     let terminal = Terminal {
-        progress: crate::progress::Progress::new(sources[0].len_hint()),
+        progress: crate::progress::Progress::new(source.len_hint()),
     };
-    let report = engine
-        .run(sources, &mut sinks, &terminal)
-        .map_err(engine_error)?;
+    let ended = item.run(&engine, source, &terminal)?;
     terminal.progress.finish();
-    drop(sinks);
-    if report.cancelled {
-        return Ok(Ended::Interrupted);
-    }
-    if let Some(e) = report.input_error {
-        return Ok(Ended::Failed(format!(
-            "{e} (its {} good frames are in {})",
-            report.frames,
-            partial.display()
-        )));
-    }
-    if report.frames > 0 && report.unreadable == report.frames {
-        return Ok(Ended::Failed("no frame could be read".into()));
-    }
-    item.commit().with_context(|| {
-        format!(
-            "renaming {} to {}",
-            partial.display(),
-            item.output.display()
-        )
-    })?;
-    Ok(Ended::Done)
+    Ok(ended)
 }

@@ -11,10 +11,11 @@ mod show;
 mod show;
 
 use crate::hand_args::HandModelArgs;
+use crate::progress::Terminal;
 use crate::vision::ModelArgs;
 use anyhow::{bail, Context, Result};
 use clap::Args;
-use monohand::engine::{Engine, EngineError, EngineSettings, FrameSource, Input, RunReport};
+use monohand::engine::{Engine, EngineSettings, FrameSource, Input, RunReport};
 use monohand::{FitSettings, HandScale, OfflineSettings};
 use monohand_core::filtering::OneEuroParams;
 use outputs::{GltfStyle, OutputFormat};
@@ -33,38 +34,29 @@ pub(crate) struct RunArgs {
     /// same order); frames are matched by index across views.
     #[arg(long = "view", value_name = "INPUT", conflicts_with = "input")]
     pub views: Vec<String>,
-    /// A folder of videos and images, each run as its own input into --output-dir as
-    /// `<file name>.jsonl`. Each file is complete or absent (written as `.partial`, renamed at
-    /// the end); a rerun skips the complete ones. One line per input, then a summary; exit
-    /// status 3 if an input failed (its frames stay in the `.partial` file). --offline and
-    /// --smooth apply to its videos.
+    /// A folder of videos and images, each run into --output-dir as `<file name>.jsonl`,
+    /// complete or absent; a rerun skips the complete ones (docs/pipeline.md).
     #[arg(long, value_name = "DIR", requires = "output_dir", conflicts_with_all = ["input", "views", "overlay", "gltf", "show", "format", "output"])]
     pub each: Option<PathBuf>,
     /// Where --each writes.
     #[arg(long, value_name = "OUT", requires = "each")]
     pub output_dir: Option<PathBuf>,
-    /// Camera calibration (project JSON, WACV'18 JSON or OpenCV YAML/XML; see
-    /// docs/calibration.md), one per view. Without it a generic camera (60 degree
-    /// horizontal field of view) is assumed for the image size, and said once.
+    /// Camera calibration, one per view (docs/calibration.md). Without it: the photo's
+    /// EXIF focal length, else a generic 60 degree camera, said once.
     #[arg(long = "camera", value_name = "FILE")]
     pub cameras: Vec<PathBuf>,
-    /// Where to write the hands ("-" for standard output), one record per frame, flushed
-    /// as it goes.
+    /// Where to write the hands, one record per frame ("-" for standard output).
     #[arg(short, long, value_name = "FILE", default_value = "-")]
     pub output: PathBuf,
-    /// Format of --output: JSON Lines (docs/output-format.md), CSV (one row per hand per
-    /// frame), or OpenPose JSON (--output is then a folder, one file per frame).
+    /// Format of --output (openpose: --output is a folder, one file per frame).
     #[arg(long, value_enum, default_value = "jsonl")]
     pub format: OutputFormat,
-    /// Draw the 2D keypoints and the fitted 3D model on the frames: a video file
-    /// (.mp4/.mkv/.avi/.mov/.webm, through ffmpeg), a folder of PNG images, or, for an
-    /// input of one image, an image file (.png/.jpg).
+    /// Draw the hands on the frames: a video (.mp4/.mkv/.avi/.mov/.webm), a folder of PNG
+    /// images, or for one input image an image file (.png/.jpg).
     #[arg(long, value_name = "OUT.mp4|DIR|OUT.png")]
     pub overlay: Option<PathBuf>,
-    /// What the overlay (and --show) draws, comma-separated: `bones` (the fitted model as
-    /// shaded 3D capsules, nearer over farther), `top` (an inset seen from above with a mm
-    /// scale), `labels` (side, id, score, distance), `keypoints` (the network's 2D
-    /// skeleton), `model` (the fitted model as thin projected lines).
+    /// What the overlay and --show draw, comma-separated: bones, top, labels, keypoints,
+    /// model (docs/visualisation.md).
     #[arg(
         long,
         value_name = "LAYER,..",
@@ -72,23 +64,18 @@ pub(crate) struct RunArgs {
         default_value = "bones,top,labels"
     )]
     pub layers: Vec<monohand_media::scene::Layer>,
-    /// Show the frames live in a window with the overlay (--layers), the frame rate and
-    /// each hand's id, side and distance. Keys: Space pause, . step, 1-5 toggle layers
-    /// (keypoints, model, bones, top, labels), Q quit; closing the window stops the run
-    /// like Ctrl-C. Needs the `show` feature (on by default) and a display.
+    /// Show the frames live in a window with the overlay (keys: Space pause, . step, 1-5
+    /// layers, Q quit; docs/visualisation.md). Needs a display.
     #[arg(long)]
     pub show: bool,
-    /// Write the 3D hands as an animated glTF binary (.glb) that Blender or any glTF
-    /// viewer plays.
+    /// Write the 3D hands as an animated glTF binary (.glb).
     #[arg(long, value_name = "OUT.glb")]
     pub gltf: Option<PathBuf>,
-    /// How --gltf draws each hand: a real hand mesh posed by the fit (the WebXR generic
-    /// hand, MIT), or the 21 joints and 20 bones as sticks.
+    /// How --gltf draws each hand.
     #[arg(long, value_enum, value_name = "STYLE", default_value = "skinned")]
     pub gltf_hand: GltfStyle,
-    /// Track on video (default for videos and webcams): the next crop comes from the last
-    /// keypoints, the detector runs only when a hand is lost or every --detect-every
-    /// frames, the 3D fit starts from the last pose, and hands keep their id.
+    /// Track (default for videos and webcams): crops and fits from the last frame, hands
+    /// keep their id (docs/pipeline.md).
     #[arg(long, overrides_with = "no_track")]
     pub track: bool,
     /// Treat every frame on its own (default for images).
@@ -97,12 +84,10 @@ pub(crate) struct RunArgs {
     /// While tracking, look for new hands every N frames.
     #[arg(long, value_name = "N", default_value_t = 10)]
     pub detect_every: usize,
-    /// Smooth the 3D joints over time with a One Euro filter (video only; off by default:
-    /// it trades a little lag for less jitter).
+    /// Smooth the 3D joints over time with a One Euro filter (a little lag, less jitter).
     #[arg(long, conflicts_with = "offline")]
     pub smooth: bool,
-    /// Files and corpora: refit each frame with the frames after it too (no lag in the
-    /// motion, less shake; each frame is written a few frames later). Needs tracking.
+    /// Refit each frame with the frames after it too (files; less shake). Needs tracking.
     #[arg(long)]
     pub offline: bool,
     /// One Euro filter: minimum cutoff frequency, Hz (lower: smoother when still).
@@ -114,8 +99,7 @@ pub(crate) struct RunArgs {
     /// Stop after this many frames.
     #[arg(long, value_name = "N")]
     pub max_frames: Option<u64>,
-    /// A video or webcam that delivers no frame for this many seconds counts as stalled:
-    /// it is closed, the outputs are finished and the run exits with status 3.
+    /// A video or webcam that delivers no frame for this many seconds is closed (status 3).
     #[arg(long, value_name = "SECS", default_value_t = monohand_media::video::DEFAULT_STALL_TIMEOUT.as_secs_f64())]
     pub stall_timeout: f64,
     /// Worker threads for independent images (default: all cores; 1: one core).
@@ -139,56 +123,6 @@ pub(crate) enum Outcome {
     /// Stopped by SIGINT (Ctrl-C), SIGTERM or SIGHUP; the outputs are complete up to the
     /// last frame.
     Interrupted,
-}
-
-/// An output failed mid-run (a full disk, a folder that cannot be written): the error's
-/// context, so that `main` can give it its own exit status.
-#[derive(Debug)]
-pub(crate) struct OutputFailed {
-    /// Frames every output holds in full.
-    pub frames: u64,
-}
-
-impl std::fmt::Display for OutputFailed {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(
-            f,
-            "an output could not be written after {} frame(s); the run stopped, the other \
-             outputs were closed and every file holds whole frames only",
-            self.frames
-        )
-    }
-}
-
-/// An engine error for `main`: a failed output carries [`OutputFailed`] (its own exit
-/// status).
-pub(crate) fn engine_error(e: EngineError) -> anyhow::Error {
-    match e {
-        EngineError::Output { frames, source } => {
-            anyhow::Error::from_boxed(source).context(OutputFailed { frames })
-        }
-        e => e.into(),
-    }
-}
-
-/// The CLI's side of a run: Ctrl-C and the window's Q cancel it, the progress bar follows
-/// it, and the engine's notes go to stderr.
-struct Terminal {
-    progress: crate::progress::Progress,
-}
-
-impl monohand::engine::Observer for Terminal {
-    fn cancelled(&self) -> bool {
-        crate::interrupted()
-    }
-
-    fn frame_written(&self, report: &RunReport) {
-        self.progress.tick(report.frames, report.hands);
-    }
-
-    fn note(&self, note: &monohand::Note) {
-        crate::say(&crate::flagged(note));
-    }
 }
 
 pub(crate) fn run(args: &RunArgs) -> Result<Outcome> {
@@ -239,9 +173,7 @@ pub(crate) fn run(args: &RunArgs) -> Result<Outcome> {
     let terminal = Terminal {
         progress: crate::progress::Progress::new(total),
     };
-    let report = engine
-        .run(sources, &mut sinks, &terminal)
-        .map_err(engine_error)?;
+    let report = engine.run(sources, &mut sinks, &terminal)?;
     terminal.progress.finish();
     summarise(&report)
 }
@@ -297,20 +229,7 @@ fn stall_timeout(args: &RunArgs) -> Result<std::time::Duration> {
 
 /// Says what the run did, and how it ended.
 fn summarise(report: &RunReport) -> Result<Outcome> {
-    let mean_rep = match report.mean_reprojection_px() {
-        Some(e) => format!("{e:.2} px"),
-        None => "-".into(),
-    };
-    crate::say(&format!(
-        "{} frames ({} with hands, {} unreadable), {} hands ({} in 3D), mean reprojection error {mean_rep}, {:.1} fps{}",
-        report.frames,
-        report.frames_with_hands,
-        report.unreadable,
-        report.hands,
-        report.hands_3d,
-        report.frames as f64 / report.seconds.max(1e-9),
-        if report.cancelled { " (interrupted)" } else { "" }
-    ));
+    crate::say(&report.summary());
     if let Some(e) = &report.input_error {
         if report.frames == 0 {
             bail!("{e}");
@@ -320,7 +239,7 @@ fn summarise(report: &RunReport) -> Result<Outcome> {
             report.frames
         ));
     }
-    if report.frames > 0 && report.unreadable == report.frames {
+    if report.nothing_readable() {
         bail!("none of the {} frames could be read", report.frames);
     }
     Ok(if report.cancelled {

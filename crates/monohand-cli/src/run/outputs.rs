@@ -59,14 +59,11 @@ pub(crate) fn create(
             .map_err(|e| anyhow!("--overlay {e}"))?,
         ),
     };
-    let stdout = args.output.as_os_str() == "-";
     let poses: Box<dyn Sink> = match args.format {
-        OutputFormat::Jsonl if stdout => Box::new(JsonlSink::stdout()),
-        OutputFormat::Jsonl => Box::new(JsonlSink::create(&args.output)?),
-        OutputFormat::Csv if stdout => Box::new(CsvSink::stdout()?),
-        OutputFormat::Csv => Box::new(CsvSink::create(&args.output)?),
+        OutputFormat::Jsonl => Box::new(JsonlSink::open(&args.output)?),
+        OutputFormat::Csv => Box::new(CsvSink::open(&args.output)?),
         OutputFormat::Openpose => {
-            if stdout {
+            if args.output.as_os_str() == "-" {
                 anyhow::bail!(
                     "--format openpose writes one file per frame: give a folder as --output"
                 );

@@ -1,19 +1,12 @@
-//! `run --show`: a live window with the overlay, the frame rate and, per hand, its id,
-//! side and distance (the overlay's labels). Keys: Space pauses and resumes, `.` or → steps
-//! one frame while paused, 1-5 toggle the layers (keypoints, model, bones, top view,
-//! labels), Q or Esc quits. Quitting or closing the window ends the run as Ctrl-C does:
-//! the current frame is finished and every output closed.
-//!
-//! A still image (one input image) stays on screen until the window is closed or Q.
-//!
-//! The window is minifb's (X11 loaded at run time: no system library is linked); it is
-//! behind the `show` cargo feature (on by default).
+//! `run --show`: a live window with the overlay and the frame rate; its keys and its still
+//! image are described in docs/visualisation.md. Quitting ends the run as Ctrl-C does. The
+//! window is minifb's (X11 loaded at run time), behind the `show` cargo feature.
 
 use anyhow::{anyhow, Result};
 use minifb::{Key, KeyRepeat, Window, WindowOptions};
 use monohand_core::camera::Camera;
 use monohand_io::jsonl::FrameRecord;
-use monohand_media::overlay::draw_label;
+use monohand_media::live::{draw_status, to_0rgb, FrameRate};
 use monohand_media::scene::{Layer, Layers, SceneRenderer};
 use monohand_vision::RgbImage;
 use std::time::{Duration, Instant};
@@ -26,13 +19,11 @@ pub(crate) struct Show {
     paused: bool,
     /// Set by `.` while paused: let one frame through.
     step: bool,
-    /// Frame times of the last second, for the rate shown.
-    times: std::collections::VecDeque<Instant>,
+    /// The rate shown.
+    rate: FrameRate,
     /// Layers, toggled by the keys 1-5.
     layers: Layers,
     renderer: SceneRenderer,
-    /// Size of the frames shown.
-    size: (usize, usize),
 }
 
 impl Show {
@@ -47,10 +38,9 @@ impl Show {
             buffer: Vec::new(),
             paused: false,
             step: false,
-            times: Default::default(),
+            rate: FrameRate::default(),
             layers,
             renderer: SceneRenderer::default(),
-            size: (0, 0),
         })
     }
 
@@ -63,48 +53,19 @@ impl Show {
         record: &FrameRecord,
         cameras: &[Camera],
     ) -> Result<bool> {
-        let now = Instant::now();
-        self.times.push_back(now);
-        while self
-            .times
-            .front()
-            .is_some_and(|t| now.duration_since(*t) > Duration::from_secs(1))
-        {
-            self.times.pop_front();
-        }
-        let fps = if self.times.len() > 1 {
-            let span = now.duration_since(self.times[0]).as_secs_f64();
-            (self.times.len() - 1) as f64 / span.max(1e-9)
-        } else {
-            0.0
-        };
+        let fps = self.rate.tick(Instant::now());
         let (w, h) = (image.width() as usize, image.height() as usize);
-        self.size = (w, h);
         self.step = false;
         let mut drawn: Option<Layers> = None;
         loop {
             if drawn != Some(self.layers) {
                 let mut frame = image.clone();
-                let source = record.cameras.first().map(|c| c.source.name());
-                self.renderer.set_camera_source(source);
                 self.renderer
-                    .draw(&mut frame, &record.hands, cameras, &self.layers);
-                let scale = ((w.max(h) as f64 / 640.0).round() as usize).max(1);
+                    .draw_record(&mut frame, record, cameras, &self.layers);
                 let state = if self.paused { "  PAUSED" } else { "" };
-                draw_label(
-                    &mut frame,
-                    &format!("{fps:.1} FPS  FRAME {}{state}", record.frame),
-                    [4.0, 4.0],
-                    scale,
-                    [255, 255, 255],
-                    [0, 0, 0],
-                );
-                self.buffer.clear();
-                self.buffer.extend(
-                    frame
-                        .pixels()
-                        .map(|p| (p.0[0] as u32) << 16 | (p.0[1] as u32) << 8 | p.0[2] as u32),
-                );
+                let status = format!("{fps:.1} FPS  FRAME {}{state}", record.frame);
+                draw_status(&mut frame, &status);
+                to_0rgb(&frame, &mut self.buffer);
                 drawn = Some(self.layers);
             }
             if self.window.is_none() {

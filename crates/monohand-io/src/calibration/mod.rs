@@ -658,6 +658,24 @@ pub fn camera_to_json(camera: &Camera) -> Value {
     Value::Object(o)
 }
 
+/// The project JSON of a generic camera made for a field of view (see
+/// [`Camera::with_hfov`]): [`camera_to_json`] with the `hfov_deg` it was made for and a
+/// comment saying what it assumes.
+pub fn generic_camera_json(camera: &Camera, hfov_deg: f64) -> Value {
+    let mut json = camera_to_json(camera);
+    if let Some(o) = json.as_object_mut() {
+        o.insert("hfov_deg".into(), json!(hfov_deg));
+        o.insert(
+            "comment".into(),
+            json!(
+                "generic camera: principal point at the image centre, square pixels, no distortion; \
+                 depth is only as right as the field of view"
+            ),
+        );
+    }
+    json
+}
+
 /// Writes a camera as the project JSON (pretty-printed, see [`camera_to_json`]).
 pub fn write_camera_json(path: impl AsRef<Path>, camera: &Camera) -> IoResult<()> {
     let path = path.as_ref();

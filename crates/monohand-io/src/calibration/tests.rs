@@ -170,6 +170,21 @@ fn monohand_json_round_trip() {
 }
 
 #[test]
+fn a_generic_camera_reads_back_with_its_field_of_view_noted() {
+    let cam = Camera::with_hfov(1280, 720, 70.0).unwrap();
+    let json = generic_camera_json(&cam, 70.0);
+    assert_eq!(json["hfov_deg"], 70.0);
+    assert!(json["comment"]
+        .as_str()
+        .unwrap()
+        .starts_with("generic camera"));
+    let back = parse_calibration(&json.to_string(), "cam.json")
+        .unwrap()
+        .camera;
+    assert_eq!(back.intrinsics, cam.intrinsics);
+}
+
+#[test]
 fn bad_json_cameras_name_file_and_field() {
     let base = r#""fy": 800, "cx": 320, "cy": 240, "width": 640, "height": 480"#;
     let e = err(&format!("{{{base}}}"));

@@ -3,7 +3,7 @@
 //! a rerun after a crash or a kill skips what is done and redoes the rest.
 
 use super::overlay_paths::{has_extension, IMAGE_EXTENSIONS, VIDEO_EXTENSIONS};
-use super::{EngineError, EngineResult};
+use super::{Engine, EngineError, EngineResult, FrameSource, JsonlSink, Observer, Sink};
 use std::path::{Path, PathBuf};
 
 /// One input of a folder, and where its records go.
@@ -32,6 +32,63 @@ impl CorpusItem {
     pub fn commit(&self) -> std::io::Result<()> {
         std::fs::rename(self.partial(), &self.output)
     }
+
+    /// Runs `source` through `engine` into the partial file and, if the input ended well,
+    /// gives the records their name. An input that cannot be used or ends early is an
+    /// ending ([`Ended::Failed`], its good frames kept in the partial file); what concerns
+    /// the whole job (a file that cannot be written or renamed) is an error.
+    pub fn run(
+        &self,
+        engine: &Engine,
+        source: Box<dyn FrameSource>,
+        observer: &dyn Observer,
+    ) -> EngineResult<Ended> {
+        let sources = vec![source];
+        if let Err(e) = engine.check_sources(&sources) {
+            return Ok(Ended::Failed(e.to_string()));
+        }
+        let partial = self.partial();
+        let io =
+            |what: String, e: &dyn std::fmt::Display| EngineError::Input(format!("{what}: {e}"));
+        let sink =
+            JsonlSink::create(&partial).map_err(|e| io(partial.display().to_string(), &e))?;
+        let mut sinks: Vec<Box<dyn Sink>> = vec![Box::new(sink)];
+        let report = engine.run(sources, &mut sinks, observer)?;
+        drop(sinks);
+        if report.cancelled {
+            return Ok(Ended::Cancelled);
+        }
+        if let Some(e) = report.input_error {
+            return Ok(Ended::Failed(format!(
+                "{e} (its {} good frames are in {})",
+                report.frames,
+                partial.display()
+            )));
+        }
+        if report.nothing_readable() {
+            return Ok(Ended::Failed("no frame could be read".into()));
+        }
+        self.commit().map_err(|e| {
+            let what = format!(
+                "renaming {} to {}",
+                partial.display(),
+                self.output.display()
+            );
+            io(what, &e)
+        })?;
+        Ok(Ended::Done)
+    }
+}
+
+/// How one input of a folder ended ([`CorpusItem::run`]).
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum Ended {
+    /// Its records are complete, under their name.
+    Done,
+    /// It could not be used or ended early: why.
+    Failed(String),
+    /// The observer cancelled the run; a rerun redoes the input.
+    Cancelled,
 }
 
 /// The videos and images directly in `dir` (file-name order; other files are left alone),

@@ -3,13 +3,33 @@
 //! images are independent, so the networks run on all cores, a chunk at a time, and the
 //! records are written in order.
 
-use super::{thread_pool, EngineResult, Observer, Output, RunReport, Sink, Writer};
+use super::{
+    thread_pool, EngineError, EngineResult, Input, Observer, Output, RunReport, Sink, Writer,
+};
 use crate::records::detections_record;
 use monohand_io::jsonl::FrameRecord;
 use monohand_vision::HandPipeline;
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
+
+/// The image files behind `inputs` (images and folders of images, each read as
+/// [`Input::parse`] reads it), in frame order; a video is refused.
+pub fn image_files(inputs: &[PathBuf]) -> EngineResult<Vec<PathBuf>> {
+    let mut files = Vec::new();
+    for input in inputs {
+        match Input::parse(&input.to_string_lossy())? {
+            Input::Images(found) => files.extend(found),
+            Input::Video(_) => {
+                return Err(EngineError::Input(format!(
+                    "{}: not an image; `monohand run` reads videos",
+                    input.display()
+                )))
+            }
+        }
+    }
+    Ok(files)
+}
 
 /// Detects the hands of every image in `files` (in order) into `sinks`, and closes them.
 /// An unreadable image gets a record with its error; `threads` as in

@@ -24,7 +24,7 @@ mod sinks;
 mod source;
 
 pub use sinks::{CsvSink, GltfSink, JsonlSink, OpenPoseSink, Output, OverlaySink, Sink, SinkError};
-pub use source::{CallerFrames, FrameSource, ImageFiles, Input, SourceFrame, VideoSource};
+pub use source::{chain, CallerFrames, FrameSource, ImageFiles, Input, SourceFrame, VideoSource};
 
 /// Overlay file-name conventions (which names are videos, which one image).
 pub mod overlay_paths {
@@ -51,8 +51,12 @@ pub enum EngineError {
     /// The settings are inconsistent.
     #[error(transparent)]
     Session(#[from] crate::SessionError),
-    /// A sink could not write; the others were closed and hold `frames` whole frames.
-    #[error("{source}")]
+    /// A sink could not write; the others were closed and hold `frames` whole frames. (The
+    /// message is the consequence; the sink's error is its [`std::error::Error::source`].)
+    #[error(
+        "an output could not be written after {frames} frame(s); the run stopped, the other \
+         outputs were closed and every file holds whole frames only"
+    )]
     Output {
         /// Frames every sink holds in full.
         frames: u64,
@@ -94,6 +98,19 @@ impl Default for EngineSettings {
             max_frames: None,
             threads: None,
         }
+    }
+}
+
+impl EngineSettings {
+    /// These settings with tracking on or off. Frames not tracked (images on their own) have
+    /// no frames around them, so they are neither smoothed nor refitted offline.
+    pub fn tracking(mut self, on: bool) -> EngineSettings {
+        self.fit.tracking = on;
+        if !on {
+            self.fit.offline = None;
+            self.fit.smoothing = None;
+        }
+        self
     }
 }
 
@@ -164,6 +181,30 @@ impl RunReport {
     /// The mean reprojection error of the hands with 3D, pixels.
     pub fn mean_reprojection_px(&self) -> Option<f64> {
         (self.hands_3d > 0).then(|| self.reprojection_sum_px / self.hands_3d as f64)
+    }
+
+    /// Whether frames were written and none of them could be read.
+    pub fn nothing_readable(&self) -> bool {
+        self.frames > 0 && self.unreadable == self.frames
+    }
+
+    /// One line saying what the run did: frames, hands, the mean reprojection error, the
+    /// frame rate, and whether it was interrupted.
+    pub fn summary(&self) -> String {
+        let mean_rep = match self.mean_reprojection_px() {
+            Some(e) => format!("{e:.2} px"),
+            None => "-".into(),
+        };
+        format!(
+            "{} frames ({} with hands, {} unreadable), {} hands ({} in 3D), mean reprojection error {mean_rep}, {:.1} fps{}",
+            self.frames,
+            self.frames_with_hands,
+            self.unreadable,
+            self.hands,
+            self.hands_3d,
+            self.frames as f64 / self.seconds.max(1e-9),
+            if self.cancelled { " (interrupted)" } else { "" }
+        )
     }
 }
 

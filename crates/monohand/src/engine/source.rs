@@ -282,8 +282,8 @@ where
     }
 }
 
-/// An error and its causes, `outer: inner: ...`.
-pub(crate) fn chain(e: &dyn std::error::Error) -> String {
+/// An error and its causes, `outer: inner: ...` (each cause once).
+pub fn chain(e: &dyn std::error::Error) -> String {
     let mut s = e.to_string();
     let mut cause = e.source();
     while let Some(c) = cause {

@@ -27,6 +27,14 @@ impl CsvSink {
             "<stdout>",
         )?))
     }
+
+    /// [`CsvSink::create`], or [`CsvSink::stdout`] for the path `-`.
+    pub fn open(path: &Path) -> IoResult<CsvSink> {
+        match path.as_os_str() == "-" {
+            true => CsvSink::stdout(),
+            false => CsvSink::create(path),
+        }
+    }
 }
 
 impl Sink for CsvSink {

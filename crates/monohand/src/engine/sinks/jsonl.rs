@@ -19,6 +19,14 @@ impl JsonlSink {
     pub fn stdout() -> JsonlSink {
         JsonlSink(JsonlWriter::stdout())
     }
+
+    /// [`JsonlSink::create`], or [`JsonlSink::stdout`] for the path `-`.
+    pub fn open(path: &Path) -> IoResult<JsonlSink> {
+        match path.as_os_str() == "-" {
+            true => Ok(JsonlSink::stdout()),
+            false => JsonlSink::create(path),
+        }
+    }
 }
 
 impl Sink for JsonlSink {

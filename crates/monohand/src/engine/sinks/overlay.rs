@@ -104,10 +104,8 @@ impl Sink for OverlaySink {
         let record = frame.record;
         self.canvas.clone_from(image);
         let (w, h) = self.canvas.dimensions();
-        let source = record.cameras.first().map(|c| c.source.name());
-        self.renderer.set_camera_source(source);
         self.renderer
-            .draw(&mut self.canvas, &record.hands, frame.cameras, &self.layers);
+            .draw_record(&mut self.canvas, record, frame.cameras, &self.layers);
         match &mut self.target {
             Target::Video { path, fps, writer } => {
                 if writer.is_none() {

@@ -7,6 +7,8 @@
 //! 21 points are compared. The sequence is a left hand.
 #![allow(clippy::unwrap_used, clippy::expect_used)] // a failed test or bench is a panic
 
+// The geometry core's test helpers (random poses, projection, the STB rig), shared by path.
+#[path = "../../monohand-core/tests/common/mod.rs"]
 mod common;
 use common::*;
 use monohand_core::hand_model::fit_skeleton;

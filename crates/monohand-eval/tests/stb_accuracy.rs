@@ -1,24 +1,18 @@
 //! Keypoints on the STB stereo benchmark frame `BB_left_0.png` against its 3D ground truth
-//! projected with the left Bumblebee camera.
+//! projected with the left Bumblebee camera. Needs `../shared/data` and the MediaPipe
+//! weights (fetched with pip on first use): without them the test fails.
 #![allow(clippy::unwrap_used, clippy::expect_used)] // a failed test or bench is a panic
 
-mod common;
-
+use monohand::vision::{HandPipeline, ModelOptions, PipelineOptions};
 use monohand_core::hand_model::{HandSide, JOINT_NAMES};
 use monohand_eval::stb::{stb_cameras, StbSequence};
-use monohand_vision::{HandPipeline, ModelOptions, PipelineOptions};
+use monohand_testkit::stb_dir;
 
 #[test]
 fn stb_frame0_keypoints_match_projected_ground_truth() {
-    let Some(image) = common::shared("stb_b1counting/images/B1Counting/BB_left_0.png") else {
-        return;
-    };
-    let Some(stb) = common::shared("stb_b1counting") else {
-        return;
-    };
-    let Some(store) = common::models() else {
-        return;
-    };
+    let stb = stb_dir();
+    let image = stb.join("images/B1Counting/BB_left_0.png");
+    assert!(image.is_file(), "{} not found", image.display());
     // Frame 0's labels in our joint order (index 0 is STB's palm centre, not a wrist, so
     // it is not compared) and the left Bumblebee camera.
     let truth = StbSequence::load(stb.join("labels/B1Counting_BB.mat"))
@@ -26,10 +20,7 @@ fn stb_frame0_keypoints_match_projected_ground_truth() {
         .frames[0]
         .joints;
     let (camera, _) = stb_cameras(stb.join("camera_params.json")).expect("STB cameras");
-    let models = ModelOptions {
-        model_dir: Some(store.dir().to_path_buf()),
-        ..Default::default()
-    };
+    let models = ModelOptions::default();
     for (label, refine) in [
         ("single pass (MediaPipe)", 0),
         ("one re-crop pass (default)", 1),

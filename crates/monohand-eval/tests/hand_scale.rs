@@ -8,6 +8,8 @@
 //! closer to the labels than with the default size.
 #![allow(clippy::unwrap_used, clippy::expect_used)] // a failed test or bench is a panic
 
+// The geometry core's test helpers (random poses, projection, the STB rig), shared by path.
+#[path = "../../monohand-core/tests/common/mod.rs"]
 mod common;
 use common::*;
 use monohand_core::fitting::estimate_hand_scale;
