@@ -409,8 +409,9 @@ def run_sizes(a):
     sep = "|---|---|---|"
     for label, _ in bins:
         head += (f" {label}: like for like | ratio | {label}: defaults |"
-                 f" {label}: `vision` ms, like for like | {label}: `vision` ms, defaults |")
-        sep += "---|---|---|---|---|"
+                 f" {label}: `vision` ms, like for like | {label}: `vision` ms, defaults |"
+                 f" {label}: CPU ms / frame, like for like | {label}: CPU ms / frame, defaults |")
+        sep += "---|---|---|---|---|---|---|"
     lines += [head, sep]
     summary = {}
     for size, r in rows.items():
@@ -424,8 +425,11 @@ def run_sizes(a):
             f2 = statistics.median(x["fps"] for x in dft)
             v1 = statistics.median(x["vision_ms"] for x in lfl)
             v2 = statistics.median(x["vision_ms"] for x in dft)
+            c1 = statistics.median(x["cpu_ms"] for x in lfl)
+            c2 = statistics.median(x["cpu_ms"] for x in dft)
             line += (f" {f1:.1f} ({' / '.join('%.1f' % x['fps'] for x in lfl)}) | {f1 / mp:.2f} |"
-                     f" {f2:.1f} ({' / '.join('%.1f' % x['fps'] for x in dft)}) | {v1:.1f} | {v2:.1f} |")
+                     f" {f2:.1f} ({' / '.join('%.1f' % x['fps'] for x in dft)}) | {v1:.1f} | {v2:.1f} |"
+                     f" {c1:.1f} | {c2:.1f} |")
             summary[size][label] = {"like for like": lfl, "defaults": dft}
         lines.append(line)
     report = "\n".join(lines) + "\n"
