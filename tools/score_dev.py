@@ -4,12 +4,16 @@ labels, as `monohand eval` does: absolute, wrist-relative, centroid-aligned and 
 aligned MPJPE, and jitter (mean joint acceleration over three consecutive scored frames, with
 the labels' own on the same frames), over all frames and over each half (0-145, 146-291).
 
-    python3 tools/score_dev.py RECORDS.jsonl [--first-frame N] [--gauss SIGMA]
+    python3 tools/score_dev.py RECORDS.jsonl [--first-frame N] [--gauss SIGMA] [--scale S]
 
 Record k is label frame N + k (N: the first frame given to tools/dev_video.py --frames).
 `--gauss SIGMA` first puts the scored joints through a Gaussian filter over time (SIGMA in
 frames, truncated at 3 SIGMA, renormalised at gaps and ends): the baseline an offline
 smoother has to beat.
+`--scale S`: the video was scaled S times (e.g. 2 for 2560x1440, run with the camera scaled
+the same way): the 2D keypoints are scaled back to 1280x720 before they are scored. The "2D"
+column is the mean distance in 1280x720 pixels between the scored hand's 2D keypoints and
+the 3D labels projected by the dev camera.
 Per frame the left hand with the highest mean keypoint confidence is scored. Needs numpy.
 """
 
@@ -47,8 +51,9 @@ def metrics(pred: np.ndarray, gt: np.ndarray) -> dict[str, float]:
     }
 
 
-def summary(rows: list[tuple[int, np.ndarray, np.ndarray]]) -> dict[str, float]:
+def summary(rows: list[tuple[int, np.ndarray, np.ndarray]], errors_2d: dict[int, float]) -> dict[str, float]:
     out = {k: float(np.mean([metrics(p, g)[k] for _, p, g in rows])) for k in ("abs", "wrist-rel", "centroid", "PA")}
+    out["2D"] = float(np.mean([errors_2d[f] for f, _, _ in rows]))
     by_frame = {f: (p, g) for f, p, g in rows}
     acc, gt_acc = [], []
     for f in sorted(by_frame):
@@ -79,9 +84,13 @@ def main() -> None:
     ap.add_argument("records", type=Path)
     ap.add_argument("--first-frame", type=int, default=0)
     ap.add_argument("--gauss", type=float, default=0.0)
+    ap.add_argument("--scale", type=float, default=1.0)
     args = ap.parse_args()
-    labels = {f["frame"]: np.array(f["joints_3d_mm"]) for f in json.loads((DEV / "labels.json").read_text())["frames"]}
+    dev = json.loads((DEV / "labels.json").read_text())
+    cam = dev["camera"]
+    labels = {f["frame"]: np.array(f["joints_3d_mm"]) for f in dev["frames"]}
     rows = []
+    errors_2d = {}
     for line in args.records.read_text().splitlines():
         rec = json.loads(line)
         frame = args.first_frame + rec["frame"]
@@ -89,6 +98,11 @@ def main() -> None:
         if frame not in labels or not hands:
             continue
         best = max(hands, key=lambda h: sum(p[2] for p in h["keypoints_2d"]))
+        # Pixel centres at 1280x720 (the first pixel's centre at 0 at every scale).
+        uv = (np.array(best["keypoints_2d"])[:, :2] + 0.5) / args.scale - 0.5
+        g = labels[frame]
+        proj = np.stack([cam["fx"] * g[:, 0] / g[:, 2] + cam["cx"], cam["fy"] * g[:, 1] / g[:, 2] + cam["cy"]], axis=1)
+        errors_2d[frame] = float(np.linalg.norm(uv - proj, axis=1).mean())
         rows.append((frame, np.array(best["joints_3d_mm"]), labels[frame]))
     if args.gauss > 0:
         rows = gaussian(rows, args.gauss)
@@ -97,12 +111,12 @@ def main() -> None:
         "frames 0-145": [r for r in rows if r[0] <= 145],
         "frames 146-291": [r for r in rows if r[0] >= 146],
     }
-    keys = ["frames", "abs", "wrist-rel", "centroid", "PA", "jitter", "labels' jitter"]
+    keys = ["frames", "2D", "abs", "wrist-rel", "centroid", "PA", "jitter", "labels' jitter"]
     print("| part | " + " | ".join(keys) + " |")
     print("|---" * (len(keys) + 1) + "|")
     for name, part in parts.items():
         if part:
-            s = summary(part)
+            s = summary(part, errors_2d)
             print(f"| {name} | " + " | ".join(f"{s[k]:.2f}" if k != "frames" else str(s[k]) for k in keys) + " |")
 
 

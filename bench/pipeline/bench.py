@@ -10,6 +10,12 @@ the video). Two subcommands:
   bench.py compare VIDEO --monohand BIN --rounds R --out DIR
       alternates MediaPipe and monohand runs, R rounds, and prints the tables (also written
       to DIR/report.md).
+  bench.py sizes VIDEO... --monohand BIN [--baseline BIN] --rounds R --out DIR
+      the same clip at several frame sizes (one video per size): per size and round,
+      MediaPipe `max_num_hands=1`, then monohand like for like (`--hands 1 --no-heads
+      --no-mirror-pass`) and with its defaults, each also with the baseline binary when
+      given (e.g. main's, "before"), alternating; one table of fps, ratios and `vision` ms
+      per frame, with the load average before each round (also DIR/sizes.md).
 
 Timing:
   * MediaPipe: `Hands(...)` is constructed first (graph and models loaded, not timed); the
@@ -350,6 +356,90 @@ def make_report(a, results, startup):
     return "\n".join(lines)
 
 
+LIKE_FOR_LIKE = ["--hands", "1", "--no-heads", "--no-mirror-pass"]
+
+
+def frame_size(video):
+    p = subprocess.run(["ffprobe", "-v", "error", "-select_streams", "v:0", "-show_entries",
+                        "stream=width,height", "-of", "csv=p=0", video],
+                       capture_output=True, text=True, check=True)
+    w, h = p.stdout.strip().split(",")[:2]
+    return f"{w}x{h}"
+
+
+def mean_vision_ms(path):
+    _, tim = load_monohand(path)
+    vis = [t["vision"] for t in tim if "vision" in t]
+    return sum(vis) / len(vis) if vis else float("nan")
+
+
+def run_sizes(a):
+    os.makedirs(a.out, exist_ok=True)
+    bins = [("after", a.monohand)] + ([("before", a.baseline)] if a.baseline else [])
+    rows = {}
+    for video in a.videos:
+        size = frame_size(video)
+        r = rows[size] = {"video": video, "load": [], "mp": [], "runs": {}}
+        startup = {}
+        for label, binary in bins:
+            b = argparse.Namespace(monohand=binary, video=video, cpus=a.cpus)
+            startup[label] = monohand_startup_cpu(b, os.path.join(a.out, "startup.jsonl"))
+        for k in range(a.rounds):
+            r["load"].append(os.getloadavg()[0])
+            mp = mediapipe_once(argparse.Namespace(video=video, cpus=a.cpus), 1,
+                                os.path.join(a.out, f"mp1_{size}.json"))
+            r["mp"].append(mp["fps"])
+            print(f"{size} round {k + 1}: mediapipe max_num_hands=1: {mp['fps']:.1f} fps",
+                  file=sys.stderr)
+            # Alternate the binaries within each configuration, the first of them by round.
+            order = bins if k % 2 == 0 else bins[::-1]
+            for mode, extra in [("like for like", LIKE_FOR_LIKE), ("defaults", [])]:
+                for label, binary in order:
+                    b = argparse.Namespace(monohand=binary, video=video, cpus=a.cpus)
+                    out = os.path.join(a.out, f"{label}_{mode.replace(' ', '_')}_{size}.jsonl")
+                    res = monohand_once(b, extra, out, startup[label])
+                    res["vision_ms"] = mean_vision_ms(out)
+                    r["runs"].setdefault((label, mode), []).append(res)
+                    print(f"{size} round {k + 1}: {label} {mode}: {res['fps']:.1f} fps, "
+                          f"vision {res['vision_ms']:.1f} ms", file=sys.stderr)
+    lines = [f"{a.rounds} rounds per size, alternating; CPUs: {a.cpus or 'all (no pinning)'}; "
+             "fps are medians over rounds, `vision` the median over rounds of the mean ms per "
+             "frame of monohand's vision stage.", ""]
+    head = "| frame size | load (1 min) | MediaPipe `max_num_hands=1` |"
+    sep = "|---|---|---|"
+    for label, _ in bins:
+        head += (f" {label}: like for like | ratio | {label}: defaults |"
+                 f" {label}: `vision` ms, like for like | {label}: `vision` ms, defaults |"
+                 f" {label}: CPU ms / frame, like for like | {label}: CPU ms / frame, defaults |")
+        sep += "---|---|---|---|---|---|---|"
+    lines += [head, sep]
+    summary = {}
+    for size, r in rows.items():
+        mp = statistics.median(r["mp"])
+        line = (f"| {size} | {min(r['load']):.1f}-{max(r['load']):.1f} | {mp:.1f} "
+                f"({' / '.join('%.1f' % x for x in r['mp'])}) |")
+        summary[size] = {"mediapipe_fps": r["mp"], "load": r["load"]}
+        for label, _ in bins:
+            lfl, dft = r["runs"][(label, "like for like")], r["runs"][(label, "defaults")]
+            f1 = statistics.median(x["fps"] for x in lfl)
+            f2 = statistics.median(x["fps"] for x in dft)
+            v1 = statistics.median(x["vision_ms"] for x in lfl)
+            v2 = statistics.median(x["vision_ms"] for x in dft)
+            c1 = statistics.median(x["cpu_ms"] for x in lfl)
+            c2 = statistics.median(x["cpu_ms"] for x in dft)
+            line += (f" {f1:.1f} ({' / '.join('%.1f' % x['fps'] for x in lfl)}) | {f1 / mp:.2f} |"
+                     f" {f2:.1f} ({' / '.join('%.1f' % x['fps'] for x in dft)}) | {v1:.1f} | {v2:.1f} |"
+                     f" {c1:.1f} | {c2:.1f} |")
+            summary[size][label] = {"like for like": lfl, "defaults": dft}
+        lines.append(line)
+    report = "\n".join(lines) + "\n"
+    with open(os.path.join(a.out, "sizes.json"), "w") as f:
+        json.dump(summary, f, indent=1)
+    with open(os.path.join(a.out, "sizes.md"), "w") as f:
+        f.write(report)
+    print(report)
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     sub = ap.add_subparsers(dest="cmd", required=True)
@@ -363,9 +453,19 @@ def main():
     c.add_argument("--rounds", type=int, default=3)
     c.add_argument("--out", required=True)
     c.add_argument("--cpus", help="run everything under taskset -c CPUS (e.g. 0)")
+    z = sub.add_parser("sizes")
+    z.add_argument("videos", nargs="+")
+    z.add_argument("--monohand", required=True)
+    z.add_argument("--baseline", help="a second monohand binary (e.g. main's), run alike")
+    z.add_argument("--rounds", type=int, default=3)
+    z.add_argument("--out", required=True)
+    z.add_argument("--cpus", help="run everything under taskset -c CPUS (e.g. 0)")
     a = ap.parse_args()
     if a.cmd == "mediapipe":
         run_mediapipe(a)
+    elif a.cmd == "sizes":
+        a.videos = [os.path.abspath(v) for v in a.videos]
+        run_sizes(a)
     else:
         a.video = os.path.abspath(a.video)
         run_compare(a)

@@ -53,6 +53,7 @@ def main():
     ap.add_argument("--frames", type=int, default=300)
     ap.add_argument("--fps", type=int, default=30)
     ap.add_argument("--codec", choices=list(CODECS), default="ffv1")
+    ap.add_argument("--size", help="WxH: ffmpeg scales the frames to this size (bicubic) as it encodes")
     a = ap.parse_args()
     img = cv2.imread(a.photo, cv2.IMREAD_COLOR)
     if img is None:
@@ -64,6 +65,7 @@ def main():
     enc = subprocess.Popen(
         ["ffmpeg", "-v", "error", "-y", "-f", "rawvideo", "-pix_fmt", "bgr24",
          "-s", f"{w}x{h}", "-r", str(a.fps), "-i", "-",
+         *(["-vf", "scale=%s:%s:flags=bicubic" % tuple(a.size.split("x"))] if a.size else []),
          *CODECS[a.codec][0],
          a.out],
         stdin=subprocess.PIPE,
@@ -77,7 +79,7 @@ def main():
     enc.stdin.close()
     if enc.wait() != 0:
         raise SystemExit("ffmpeg failed to encode the video")
-    print(f"{a.out}: {n} frames {w}x{h}, {CODECS[a.codec][1]}")
+    print(f"{a.out}: {n} frames {a.size or f'{w}x{h}'}, {CODECS[a.codec][1]}")
 
 
 if __name__ == "__main__":

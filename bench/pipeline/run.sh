@@ -6,6 +6,7 @@
 # docs/performance.md.
 #
 # Usage: bench/pipeline/run.sh [--rounds N] [--frames N] [--cpus LIST] [--codec C]
+#                              [--size WxH[,WxH...]] [--baseline BIN]
 #   --rounds N   alternating rounds (default 3); fps are the median over rounds
 #   --frames N   length of the video (default 300, 640x480 at 30 fps)
 #   --cpus LIST  run both tools under `taskset -c LIST` (default: no pinning, whole machine)
@@ -13,6 +14,13 @@
 #                with 4 slices, so the decoder can use both cores), ffv1-1slice (the same
 #                pixels in one slice, as measured until 2026-11-24: its decoding takes one
 #                core, 7.6-8.7 ms per frame) or h264 (CRF 18, as cameras write: 1.6 ms per frame)
+#   --size LIST  frame sizes, e.g. 640x480,1920x1080,3840x2160: the clip is scaled to each
+#                with ffmpeg, and `bench.py sizes` runs MediaPipe (max_num_hands=1), monohand
+#                like for like and monohand with its defaults at each size, alternating
+#                (one table: $OUT/sizes.md). The size bench of docs/performance.md is
+#                  bench/pipeline/run.sh --codec h264 --frames 150 --rounds 3 \
+#                      --size 640x480,1280x720,1920x1080,3840x2160 --baseline MAIN_BIN
+#   --baseline BIN  with --size: a second monohand binary (e.g. main's), run alike ("before")
 # Environment: PHOTO (default ../shared/data/images/pinto/hand.png beside the repo),
 #   OUT (default target/pipeline-bench), CARGO_TARGET_DIR (default target), PYTHON (the
 #   interpreter that creates the virtual environment, default python3; MediaPipe 0.10.14
@@ -20,13 +28,15 @@
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 root=$(pwd)
-rounds=3 frames=300 cpus="" codec=ffv1
+rounds=3 frames=300 cpus="" codec=ffv1 sizes="" baseline=""
 while [ $# -gt 0 ]; do
     case "$1" in
         --rounds) rounds=$2; shift 2 ;;
         --frames) frames=$2; shift 2 ;;
         --cpus) cpus=$2; shift 2 ;;
         --codec) codec=$2; shift 2 ;;
+        --size) sizes=$2; shift 2 ;;
+        --baseline) baseline=$2; shift 2 ;;
         *) echo "unknown option $1 (see the header of $0)" >&2; exit 2 ;;
     esac
 done
@@ -67,6 +77,24 @@ esac
 if [ ! -f "$video" ]; then
     echo "== video $video" >&2
     "$venv/bin/python" bench/pipeline/make_video.py "$PHOTO" "$video" --frames "$frames" --codec "$codec" >&2
+fi
+
+if [ -n "$sizes" ]; then
+    videos=()
+    for size in ${sizes//,/ }; do
+        scaled=${video%.*}_$size.${video##*.}
+        if [ ! -f "$scaled" ]; then
+            echo "== video $scaled" >&2
+            "$venv/bin/python" bench/pipeline/make_video.py "$PHOTO" "$scaled" --frames "$frames" \
+                --codec "$codec" --size "$size" >&2
+        fi
+        videos+=("$scaled")
+    done
+    echo "== run ($rounds rounds per size)" >&2
+    "$venv/bin/python" bench/pipeline/bench.py sizes "${videos[@]}" --monohand "$monohand" \
+        ${baseline:+--baseline "$baseline"} --rounds "$rounds" --out "$OUT" ${cpus:+--cpus "$cpus"}
+    echo "== wrote $OUT/sizes.md, $OUT/sizes.json" >&2
+    exit 0
 fi
 
 echo "== run ($rounds rounds)" >&2

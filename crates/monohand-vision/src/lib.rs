@@ -38,6 +38,7 @@ pub mod models;
 pub mod network;
 pub mod palm;
 pub mod pipeline;
+mod reduce;
 pub mod sensor_db;
 pub mod ssd;
 /// The `.tflite` importer (the `monohand-tflite` crate).

@@ -3,8 +3,12 @@
 //! Every output pixel centre is mapped through `crop → image` and the image is sampled
 //! bilinearly, then normalised as `value · scale + offset`. There is no intermediate resized or rotated copy.
 //! When one output pixel covers more than 2 image pixels (a 4000-pixel photo squeezed into
-//! 192 pixels) the footprint is supersampled on an `n x n` grid (n ≤ 8) so the detector does
-//! not see aliasing; for ordinary crops n = 1 and the warp is plain bilinear, as MediaPipe's.
+//! 192 pixels, a hand filling a 4K frame) the part of the image under the crop is first
+//! reduced by box filtering (`2^k x 2^k` block means, [`crate::reduce`]) and sampled
+//! bilinearly from there, so the network does not see aliasing and the cost does not grow
+//! with the frame; for ordinary crops the warp is plain bilinear from the image, as
+//! MediaPipe's. (Before issue 34 the footprint was supersampled on an `n x n` grid, n ≤ 8:
+//! [`warp_into_supersampled`].)
 //!
 //! A rotated crop (every hand crop) is sampled eight output pixels at a time with AVX2 where
 //! the CPU has it (chosen at run time): gathers of the four neighbours and the same f32
@@ -114,6 +118,12 @@ pub fn warp_into(
 }
 
 /// [`warp_into`] with a choice of what is read outside the image.
+///
+/// A crop whose output pixel covers at most [`PLAIN_BILINEAR_UP_TO`] image pixels is plain
+/// bilinear from the image. A smaller one is bilinear from a box-filtered reduction of the
+/// image ([`crate::reduce`]): the `2^k x 2^k` averages of the pixels (`2^k` the largest power
+/// of two not above the footprint), made only over the part of the image the crop covers,
+/// so its cost does not grow with the footprint (docs/performance.md, issue 34).
 pub fn warp_into_with_border(
     img: &RgbImage,
     crop_to_image: &Affine2,
@@ -124,25 +134,84 @@ pub fn warp_into_with_border(
     out: &mut [f32],
 ) {
     debug_assert!(out.len() >= out_w * out_h * 3);
+    let src = Src::of(img);
+    let size = (out_w, out_h);
+    match crate::reduce::level_for(crop_to_image.scale()) {
+        None => warp_plain(src, &crop_to_image.0, size, 1, norm, border, out),
+        Some(k) => crate::reduce::with_region(src, &crop_to_image.0, size, k, |level, m| {
+            warp_plain(level, m, size, 1, norm, border, out)
+        }),
+    }
+}
+
+/// The warp as it was before the reductions (issue 34): each output pixel's footprint
+/// supersampled on an `n x n` grid (`n` the footprint rounded, 2 to 8) when it covers more
+/// than [`PLAIN_BILINEAR_UP_TO`] image pixels. Kept to measure the reductions against
+/// (`examples/antialias.rs`); the pipeline does not use it.
+pub fn warp_into_supersampled(
+    img: &RgbImage,
+    crop_to_image: &Affine2,
+    out_w: usize,
+    out_h: usize,
+    norm: Normalization,
+    border: Border,
+    out: &mut [f32],
+) {
+    debug_assert!(out.len() >= out_w * out_h * 3);
     let n = crop_to_image.scale();
-    let n = if n > 2.0 {
+    let n = if n > PLAIN_BILINEAR_UP_TO {
         (n.round() as usize).clamp(2, 8)
     } else {
         1
     };
-    let m = crop_to_image.0;
-    if m[0][1] == 0.0 && m[1][0] == 0.0 {
-        let size = (out_w, out_h);
-        return warp_axis_aligned(img, &m, size, n, norm, border, out, Simd::best());
+    let size = (out_w, out_h);
+    warp_plain(Src::of(img), &crop_to_image.0, size, n, norm, border, out)
+}
+
+/// The largest footprint (image pixels per output pixel, along a side) sampled plainly
+/// bilinearly from the image, as MediaPipe does; above it the image is box-filtered first.
+pub const PLAIN_BILINEAR_UP_TO: f64 = 2.0;
+
+/// An RGB image borrowed as bytes: `w x h` pixels, rows of `w * 3` bytes, no padding.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Src<'a> {
+    pub(crate) raw: &'a [u8],
+    pub(crate) w: usize,
+    pub(crate) h: usize,
+}
+
+impl<'a> Src<'a> {
+    pub(crate) fn of(img: &'a RgbImage) -> Src<'a> {
+        Src {
+            raw: img.as_raw(),
+            w: img.width() as usize,
+            h: img.height() as usize,
+        }
     }
-    let out_size = (out_w, out_h);
-    warp_rotated(img, &m, out_size, n, norm, border, out, Simd::best());
+}
+
+/// The axis-aligned or the general warp of `img` by `m` with `n x n` sub-samples per output
+/// pixel, with the best row loop of this CPU.
+#[allow(clippy::too_many_arguments)]
+fn warp_plain(
+    img: Src,
+    m: &[[f64; 3]; 2],
+    size: (usize, usize),
+    n: usize,
+    norm: Normalization,
+    border: Border,
+    out: &mut [f32],
+) {
+    if m[0][1] == 0.0 && m[1][0] == 0.0 {
+        return warp_axis_aligned(img, m, size, n, norm, border, out, Simd::best());
+    }
+    warp_rotated(img, m, size, n, norm, border, out, Simd::best());
 }
 
 /// The general warp (`n x n` sub-samples per output pixel), with the row loop `simd`.
 #[allow(clippy::too_many_arguments)]
 fn warp_rotated(
-    img: &RgbImage,
+    img: Src,
     m: &[[f64; 3]; 2],
     (out_w, out_h): (usize, usize),
     n: usize,
@@ -151,8 +220,8 @@ fn warp_rotated(
     out: &mut [f32],
     simd: Simd,
 ) {
-    let (w, h) = (img.width() as i32, img.height() as i32);
-    let raw = img.as_raw().as_slice();
+    let (w, h) = (img.w as i32, img.h as i32);
+    let raw = img.raw;
     let (scale, offset) = (norm.scale / (n * n) as f32, norm.offset);
     // Sub-sample offsets inside an output pixel, and the image-space step per output column.
     let offsets: Vec<(f64, f64)> = (0..n * n)
@@ -579,7 +648,7 @@ fn axis_taps(
 /// same bits).
 #[allow(clippy::too_many_arguments)]
 fn warp_axis_aligned(
-    img: &RgbImage,
+    img: Src,
     m: &[[f64; 3]; 2],
     (out_w, out_h): (usize, usize),
     n: usize,
@@ -588,8 +657,8 @@ fn warp_axis_aligned(
     out: &mut [f32],
     simd: Simd,
 ) {
-    let (w, h) = (img.width() as usize, img.height() as usize);
-    let raw = img.as_raw().as_slice();
+    let (w, h) = (img.w, img.h);
+    let raw = img.raw;
     let xs = axis_taps(out_w, n, m[0][0], m[0][2], w, border);
     let ys = axis_taps(out_h, n, m[1][1], m[1][2], h, border);
     let scale = norm.scale / (n * n) as f32;
@@ -781,8 +850,26 @@ mod tests {
                     let mut a = vec![0.0f32; size * size * 3];
                     let mut b = vec![1.0f32; size * size * 3];
                     let norm = Normalization::UNIT;
-                    warp_rotated(&img, &m, (size, size), n, norm, border, &mut a, Simd::None);
-                    warp_rotated(&img, &m, (size, size), n, norm, border, &mut b, simd);
+                    warp_rotated(
+                        Src::of(&img),
+                        &m,
+                        (size, size),
+                        n,
+                        norm,
+                        border,
+                        &mut a,
+                        Simd::None,
+                    );
+                    warp_rotated(
+                        Src::of(&img),
+                        &m,
+                        (size, size),
+                        n,
+                        norm,
+                        border,
+                        &mut b,
+                        simd,
+                    );
                     let bits = |v: &[f32]| v.iter().map(|f| f.to_bits()).collect::<Vec<_>>();
                     assert!(
                         bits(&a) == bits(&b),
@@ -824,8 +911,17 @@ mod tests {
                         let mut a = vec![0.0f32; size * size * 3];
                         let mut b = vec![1.0f32; size * size * 3];
                         let sz = (size, size);
-                        warp_axis_aligned(&img, &m, sz, n, norm, border, &mut a, Simd::None);
-                        warp_axis_aligned(&img, &m, sz, n, norm, border, &mut b, simd);
+                        warp_axis_aligned(
+                            Src::of(&img),
+                            &m,
+                            sz,
+                            n,
+                            norm,
+                            border,
+                            &mut a,
+                            Simd::None,
+                        );
+                        warp_axis_aligned(Src::of(&img), &m, sz, n, norm, border, &mut b, simd);
                         let bits = |v: &[f32]| v.iter().map(|f| f.to_bits()).collect::<Vec<_>>();
                         assert!(bits(&a) == bits(&b), "{iw}x{ih} -> {size} {m:?} {border:?}");
                         checked += 1;
@@ -834,6 +930,135 @@ mod tests {
             }
         }
         assert_eq!(checked, 60);
+    }
+
+    /// Each output pixel the mean of `img`'s pixels over its footprint (replicated border),
+    /// from `n x n` point samples of the pixels (piecewise constant): the exact area
+    /// average as `n` grows.
+    fn area_average(img: &RgbImage, m: &Affine2, size: usize, n: usize) -> Vec<f32> {
+        let (w, h) = (img.width() as i64, img.height() as i64);
+        let mut out = vec![0f32; size * size * 3];
+        for (k, px) in out.chunks_exact_mut(3).enumerate() {
+            let (col, row) = ((k % size) as f64, (k / size) as f64);
+            let mut acc = [0f64; 3];
+            for s in 0..n * n {
+                let u = col + ((s % n) as f64 + 0.5) / n as f64;
+                let v = row + ((s / n) as f64 + 0.5) / n as f64;
+                let [x, y] = m.apply([u, v]);
+                let p = img.get_pixel(
+                    (x.floor() as i64).clamp(0, w - 1) as u32,
+                    (y.floor() as i64).clamp(0, h - 1) as u32,
+                );
+                for c in 0..3 {
+                    acc[c] += p[c] as f64;
+                }
+            }
+            for c in 0..3 {
+                px[c] = (acc[c] / (n * n) as f64) as f32;
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn shrinking_a_pixel_checkerboard_gives_its_mean_without_moire() {
+        // A checkerboard of single pixels: its area average over any footprint of several
+        // pixels is mid-grey. One bilinear sample per output pixel reads moiré; the
+        // reduction reads grey.
+        let img = RgbImage::from_fn(900, 700, |x, y| {
+            let v = if (x + y) % 2 == 0 { 250 } else { 10 };
+            image::Rgb([v, v, v])
+        });
+        let size = 40;
+        let norm = Normalization {
+            scale: 1.0,
+            offset: 0.0,
+        };
+        for footprint in [3.0, 5.5, 12.0, 16.0] {
+            let roi = RotatedRect {
+                center: [450.0, 350.0],
+                width: footprint * size as f64,
+                height: footprint * size as f64,
+                rotation: 0.4,
+            };
+            let m = roi.crop_to_image(size, size);
+            let reference = area_average(&img, &m, size, 32);
+            let mut new = vec![0f32; size * size * 3];
+            warp_into_with_border(&img, &m, size, size, norm, Border::Replicate, &mut new);
+            let mut plain = vec![0f32; size * size * 3];
+            let one = Src::of(&img);
+            warp_plain(
+                one,
+                &m.0,
+                (size, size),
+                1,
+                norm,
+                Border::Replicate,
+                &mut plain,
+            );
+            let worst = |v: &[f32]| {
+                v.iter()
+                    .zip(&reference)
+                    .map(|(a, b)| (a - b).abs())
+                    .fold(0f32, f32::max)
+            };
+            assert!(worst(&new) < 8.0, "footprint {footprint}: {}", worst(&new));
+            assert!(
+                worst(&plain) > 60.0,
+                "footprint {footprint}: {}",
+                worst(&plain)
+            );
+        }
+    }
+
+    #[test]
+    fn crops_up_to_the_plain_footprint_are_sampled_as_before() {
+        let img = RgbImage::from_fn(211, 157, |x, y| {
+            image::Rgb([(x * 7 + y * 3) as u8, (x * y) as u8, (x ^ (y * 5)) as u8])
+        });
+        for (footprint, rotation) in [(0.5, 0.3), (1.0, 0.0), (1.9, 2.0), (2.0, 0.0), (2.0, 1.0)] {
+            let roi = RotatedRect {
+                center: [100.0, 80.0],
+                width: footprint * 48.0,
+                height: footprint * 48.0,
+                rotation,
+            };
+            let m = roi.crop_to_image(48, 48);
+            let mut a = vec![0f32; 48 * 48 * 3];
+            let mut b = vec![1f32; 48 * 48 * 3];
+            let norm = Normalization::UNIT;
+            warp_into_with_border(&img, &m, 48, 48, norm, Border::Replicate, &mut a);
+            warp_into_supersampled(&img, &m, 48, 48, norm, Border::Replicate, &mut b);
+            let bits = |v: &[f32]| v.iter().map(|f| f.to_bits()).collect::<Vec<_>>();
+            assert!(bits(&a) == bits(&b), "footprint {footprint}");
+        }
+    }
+
+    #[test]
+    fn a_flat_image_stays_flat_through_the_reduction() {
+        let img = RgbImage::from_pixel(333, 251, image::Rgb([200, 17, 90]));
+        for (footprint, rotation) in [(2.5, 0.0), (4.0, 0.7), (7.3, -2.0), (30.0, 0.0)] {
+            let roi = RotatedRect {
+                center: [166.0, 125.0],
+                width: footprint * 8.0,
+                height: footprint * 8.0,
+                rotation,
+            };
+            let mut out = vec![0f32; 8 * 8 * 3];
+            let norm = Normalization {
+                scale: 1.0,
+                offset: 0.0,
+            };
+            let m = roi.crop_to_image(8, 8);
+            warp_into_with_border(&img, &m, 8, 8, norm, Border::Replicate, &mut out);
+            for px in out.chunks_exact(3) {
+                assert!(
+                    (px[0] - 200.0).abs() < 1e-3 && (px[1] - 17.0).abs() < 1e-3,
+                    "{px:?}"
+                );
+                assert!((px[2] - 90.0).abs() < 1e-3, "footprint {footprint}: {px:?}");
+            }
+        }
     }
 
     #[test]

@@ -49,7 +49,9 @@ mod tools;
 mod writer;
 
 pub use probe::{parse_probe_json, probe, probe_with, VideoInfo, DEFAULT_FPS, MAX_FRAME_PIXELS};
-pub use reader::{reader_args, VideoFrame, VideoInput, VideoReader, DEFAULT_STALL_TIMEOUT};
+pub use reader::{
+    reader_args, FrameRecycler, VideoFrame, VideoInput, VideoReader, DEFAULT_STALL_TIMEOUT,
+};
 pub use tools::{FfmpegFeatures, FfmpegTools};
 pub use writer::{writer_args, Encoder, VideoWriter};
 

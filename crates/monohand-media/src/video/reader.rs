@@ -235,7 +235,26 @@ impl std::fmt::Debug for VideoReader {
     }
 }
 
+/// Hands frames a [`VideoReader`] returned back to it for reuse, from any thread: the
+/// reader then decodes into those buffers instead of allocating (and zeroing) a new one
+/// per frame, which at 3840x2160 is 25 MB per frame (docs/performance.md, issue 34).
+#[derive(Clone, Debug)]
+pub struct FrameRecycler(SyncSender<Vec<u8>>);
+
+impl FrameRecycler {
+    /// Gives `image`'s buffer back to the reader (dropped if the reader already holds two
+    /// spare buffers, or has ended, or the size is not the video's).
+    pub fn recycle(&self, image: RgbImage) {
+        let _ = self.0.try_send(image.into_raw());
+    }
+}
+
 impl VideoReader {
+    /// A handle that gives frames back to this reader for reuse ([`FrameRecycler`]).
+    pub fn recycler(&self) -> FrameRecycler {
+        FrameRecycler(self.spare.clone())
+    }
+
     /// Probes the input and starts decoding it.
     pub fn open(input: &VideoInput) -> IoResult<VideoReader> {
         VideoReader::open_with(&FfmpegTools::default(), input)

@@ -395,6 +395,9 @@ impl Engine {
         let detect_every = self.settings.detect_every;
         let observer = out.observer;
         let panic_at = injected_network_panic();
+        // The first view's frames go back to its reader once the networks are done with
+        // them (unless a sink keeps them): no new frame buffer per frame.
+        let recycler = sources.first().and_then(|s| s.recycler());
         std::thread::scope(|scope| {
             let (raw_tx, raw_rx) = sync_channel::<RawFrame>(4);
             let (vis_tx, vis_rx) = sync_channel::<(VisionFrame, Extra)>(4);
@@ -438,14 +441,19 @@ impl Engine {
                         .collect();
                     let mut f = stage.process(raw.index, raw.timestamp_s, &images);
                     f.focal = raw.focal;
+                    let first = raw.images.into_iter().next().and_then(Result::ok);
+                    let image = match (keep_image, first, &recycler) {
+                        (true, image, _) => image,
+                        (false, Some(image), Some(r)) => {
+                            r.recycle(image);
+                            None
+                        }
+                        _ => None,
+                    };
                     let extra = Extra {
                         source: raw.source,
                         is_video: tracking,
-                        image: if keep_image {
-                            raw.images.into_iter().next().and_then(Result::ok)
-                        } else {
-                            None
-                        },
+                        image,
                         decode_ms: raw.decode_ms,
                     };
                     if vis_tx.send((f, extra)).is_err() {

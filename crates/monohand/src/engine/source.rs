@@ -2,7 +2,7 @@
 //! (through [`monohand_media::video`]), or a caller's own frames.
 
 use super::{EngineError, EngineResult};
-use monohand_media::video::{VideoInput, VideoReader};
+use monohand_media::video::{FrameRecycler, VideoInput, VideoReader};
 use monohand_vision::image_io::{images_in_folder, load_photo, ExifFocal, IMAGE_EXTENSIONS};
 use monohand_vision::RgbImage;
 use std::path::{Path, PathBuf};
@@ -47,6 +47,10 @@ pub trait FrameSource: Send {
     /// The display rotation of a video (phone metadata, degrees; its frames come upright).
     fn rotation_deg(&self) -> i32 {
         0
+    }
+    /// Where frames done with can be given back for reuse (videos: the reader's buffers).
+    fn recycler(&self) -> Option<FrameRecycler> {
+        None
     }
 }
 
@@ -235,6 +239,10 @@ impl FrameSource for VideoSource {
 
     fn rotation_deg(&self) -> i32 {
         self.reader.as_ref().map_or(0, |r| r.info().rotation_deg)
+    }
+
+    fn recycler(&self) -> Option<FrameRecycler> {
+        self.reader.as_ref().map(|r| r.recycler())
     }
 }
 
