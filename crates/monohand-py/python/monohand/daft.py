@@ -34,6 +34,7 @@ from daft import DataType, Expression
 import monohand
 
 __all__ = [
+    "CorpusOutputError",
     "FRAME_DTYPE",
     "HAND_DTYPE",
     "HANDS_DTYPE",
@@ -262,6 +263,12 @@ class _CorpusTracker:
         return json.dumps(_corpus.track_one(path, self.out_dir, session, self.offline, self.settings, hand_struct))
 
 
+class CorpusOutputError(OSError):
+    """`track_corpus` could not write to its ``out_dir`` (a full disk, a folder that cannot
+    be written): the job stopped. ``errno`` is the write's (``errno.ENOSPC`` for a full
+    disk); the videos finished before it are kept, and a rerun resumes from them."""
+
+
 def track_corpus(
     paths_or_df: Union[daft.DataFrame, Iterable[str]],
     out_dir: str,
@@ -329,6 +336,8 @@ def track_corpus(
         start = time.monotonic()
         for k, r in enumerate(results.iter_rows(), 1):
             row = json.loads(r["_summary"])
+            if row["status"] == _corpus.OUTPUT_FAILED:
+                _stop_on_output(row["reason"], row.get("errno"), out_dir, summary)
             summary.append(row)
             if progress:
                 spent = time.monotonic() - start
@@ -348,9 +357,29 @@ def track_corpus(
     summary.sort(key=lambda r: order.get(r.get("path"), len(order)))
     table = pa.Table.from_pylist([_summary_row(r) for r in summary], schema=_summary_schema())
     tmp = os.path.join(out_dir, f".{_corpus.SUMMARY_FILE}.{os.getpid()}.tmp")
-    pq.write_table(table, tmp)
+    try:
+        pq.write_table(table, tmp)
+    except OSError as e:
+        if os.path.exists(tmp):
+            os.remove(tmp)
+        _stop_on_output(f"{tmp}: {e}", e.errno, out_dir, summary)
     os.replace(tmp, os.path.join(out_dir, _corpus.SUMMARY_FILE))
     return table
+
+
+def _stop_on_output(reason: str, code: Optional[int], out_dir: str, summary: List[Dict[str, Any]]) -> None:
+    """Raises `CorpusOutputError` for a write that failed (``reason``: the file and the
+    OSError's text; ``code``: its errno), saying what is kept."""
+    import errno
+
+    done = sum(1 for r in summary if r.get("status") == "done")
+    full = " (the disk is full)" if code == errno.ENOSPC else ""
+    raise CorpusOutputError(
+        code or errno.EIO,
+        f"monohand: the corpus output could not be written{full}: {reason}. The job stopped; "
+        f"the {done} videos finished are kept in {out_dir}, and rerunning the job there "
+        "resumes from them.",
+    )
 
 
 def _summary_schema() -> Any:
