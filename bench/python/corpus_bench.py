@@ -194,6 +194,7 @@ def corpus(args: argparse.Namespace) -> None:
     listing.write_text("\n".join(str(v) for v in videos))
     total = args.videos * args.frames
     ways = ["single `run`s", "corpus, native, 1 worker", "corpus, native, 2 workers", "corpus, local Ray, 2 workers"]
+    ways = [w for k, w in enumerate(ways) if k == 0 or str(k) in args.ways.split(",")]
     times: Dict[str, List[float]] = {w: [] for w in ways}
     memory: Dict[str, List[float]] = {w: [] for w in ways}
     loads: List[float] = []
@@ -216,7 +217,7 @@ def corpus(args: argparse.Namespace) -> None:
                 res = corpus_job(runner, workers, out, listing)
                 assert res["frames"] == total, res
                 times[way].append(res["seconds"])
-                memory[way].append(max(res["workers_mib"]))
+                memory[way].append(max(res["workers_mib"], default=float("nan")))
                 print(f"trackers: {res['names']}; peaks {[round(m) for m in res['workers_mib']]} MiB; "
                       f"the job's process {res['vmhwm_kib'] / 1024:.0f} MiB", file=sys.stderr)
             print(f"round {r + 1}, {way}: {total / times[way][-1]:.1f} frames/s", file=sys.stderr)
@@ -239,6 +240,8 @@ def main() -> None:
     ap.add_argument("--videos", type=int, default=None, help="default: 200 (corpus) or 8 (--every-way)")
     ap.add_argument("--frames", type=int, default=None, help="default: 30 (corpus) or 60 (--every-way)")
     ap.add_argument("--rounds", type=int, default=2, help="corpus: rounds of the ways, in turn")
+    ap.add_argument("--ways", default="1,2,3",
+                    help="corpus: which corpus jobs beside the single runs: 1 native with 1 worker, 2 with 2, 3 Ray")
     ap.add_argument("--clips", default=None, help="corpus: the folder of the clips (made there if missing)")
     ap.add_argument("--make-clips-only", action="store_true", help="corpus: make the clips and stop")
     args = ap.parse_args()

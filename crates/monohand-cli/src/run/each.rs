@@ -1,7 +1,9 @@
 //! `run --each DIR --output-dir OUT`: every video and image of a folder as its own input,
 //! each into `OUT/<file name>.jsonl`, complete or absent ([`monohand::engine::corpus`]).
 
-use super::{engine_error, engine_settings, stall_timeout, Outcome, RunArgs, Terminal};
+use super::{
+    engine_error, engine_settings, stall_timeout, Outcome, OutputFailed, RunArgs, Terminal,
+};
 use anyhow::{bail, Context, Result};
 use monohand::engine::corpus::{corpus, CorpusItem};
 use monohand::engine::{Engine, Input, JsonlSink, Sink};
@@ -34,7 +36,21 @@ pub(super) fn run(args: &RunArgs, dir: &Path, out: &Path) -> Result<Outcome> {
             crate::say(&format!("{name}: already done, skipped"));
             continue;
         }
-        match one(args, item, &cameras, stall, &mut pipelines)? {
+        let ended = match one(args, item, &cameras, stall, &mut pipelines) {
+            Ok(ended) => ended,
+            Err(e) => {
+                if e.downcast_ref::<OutputFailed>().is_some() {
+                    crate::say(&format!(
+                        "{name}: stopped, its output could not be written; the {} complete \
+                         outputs in {} are kept, and a rerun goes on from them",
+                        done + skipped,
+                        out.display()
+                    ));
+                }
+                return Err(e);
+            }
+        };
+        match ended {
             Ended::Done => {
                 done += 1;
                 crate::say(&format!("{name}: done, {}", item.output.display()));
@@ -97,9 +113,10 @@ fn one(
         return Ok(Ended::Failed(e.to_string()));
     }
     let partial = item.partial();
-    let mut sinks: Vec<Box<dyn Sink>> = vec![Box::new(
-        JsonlSink::create(&partial).with_context(|| format!("{}", partial.display()))?,
-    )];
+    let sink = JsonlSink::create(&partial)
+        .with_context(|| format!("{}", partial.display()))
+        .context(OutputFailed { frames: 0 })?;
+    let mut sinks: Vec<Box<dyn Sink>> = vec![Box::new(sink)];
     let terminal = Terminal {
         progress: crate::progress::Progress::new(sources[0].len_hint()),
     };
