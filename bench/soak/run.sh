@@ -3,11 +3,16 @@
 # overlay video and the glTF export on, the resident memory sampled every few seconds.
 # Not part of .ci/run (it takes most of an hour). Results: docs/performance.md, "Soak".
 #
-# Usage: bench/soak/run.sh [--minutes M] [--size WxH] [--every S]
+# Usage: bench/soak/run.sh [--minutes M] [--size WxH] [--segment S] [--every S] [--video-only]
 #   --minutes M  length of the video (default 60)
 #   --size WxH   frame size (default 320x240: the same frame count as an hour at full size
 #                but cheaper to decode and encode; the networks' crops are the same size)
+#   --segment S  seconds of each photo's clip (default M*60/6: each photo once); shorter
+#                clips are made once and their sequence repeated (stream copy) up to M
+#                minutes, which makes a long video in a fraction of the encoding time
 #   --every S    memory sampling period in seconds (default 5)
+#   --video-only make the video (if it is not there yet), print its path and stop
+#                (bench/python/corpus_memory.py uses it)
 # Environment: OUT (default target/soak), CARGO_TARGET_DIR (default target), SHARED (default
 #   ../shared beside the repository).
 #
@@ -23,12 +28,14 @@
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 root=$(pwd)
-minutes=60 size=320x240 every=5
+minutes=60 size=320x240 every=5 video_only= segment=
 while [ $# -gt 0 ]; do
     case "$1" in
         --minutes) minutes=$2; shift 2 ;;
         --size) size=$2; shift 2 ;;
         --every) every=$2; shift 2 ;;
+        --segment) segment=$2; shift 2 ;;
+        --video-only) video_only=1; shift ;;
         *) echo "unknown option $1 (see the header of $0)" >&2; exit 2 ;;
     esac
 done
@@ -47,9 +54,16 @@ photos=(
     "$SHARED/data/images/wilor/$(ls "$SHARED/data/images/wilor" | grep -iE '\.(jpg|png)$' | head -1)"
     "$SHARED/data/images/interwild/$(ls "$SHARED/data/images/interwild" | grep -iE '\.(jpg|png)$' | head -1)"
 )
-seg_s=$((minutes * 60 / ${#photos[@]}))
-frames_in=$((seg_s * 30 * ${#photos[@]}))
+seg_s=${segment:-$((minutes * 60 / ${#photos[@]}))}
+cycle_s=$((seg_s * ${#photos[@]}))
+if [ $((minutes * 60 % cycle_s)) -ne 0 ]; then
+    echo "--segment $seg_s: six segments must divide $minutes minutes" >&2
+    exit 2
+fi
+repeats=$((minutes * 60 / cycle_s))
+frames_in=$((minutes * 60 * 30))
 video="$OUT/soak_${minutes}min_${size}.mp4"
+[ -n "$segment" ] && video="$OUT/soak_${minutes}min_${size}_${seg_s}s.mp4"
 if [ ! -s "$video" ]; then
     echo "== making $video ($frames_in frames)" >&2
     list="$OUT/segments.txt"
@@ -62,10 +76,18 @@ if [ ! -s "$video" ]; then
         ffmpeg -loglevel error -y -loop 1 -framerate 30 -i "$p" -t "$seg_s" -vf \
             "scale=${w}*2:${h}*2:force_original_aspect_ratio=increase,crop=${w}*2:${h}*2,crop=w=iw*0.7:h=ih*0.7:x='(iw-ow)/2*(1+0.9*sin(t/7))':y='(ih-oh)/2*(1+0.9*cos(t/5))',scale=${w}:${h},setsar=1,format=yuv420p" \
             -r 30 -c:v libx264 -preset ultrafast -g 60 "$seg"
-        echo "file '$seg'" >> "$list"
+    done
+    for _ in $(seq "$repeats"); do
+        for i in "${!photos[@]}"; do
+            echo "file '$OUT/seg_$i.mp4'" >> "$list"
+        done
     done
     ffmpeg -loglevel error -y -f concat -safe 0 -i "$list" -c copy "$video"
     rm -f "$OUT"/seg_*.mp4 "$list"
+fi
+if [ -n "$video_only" ]; then
+    echo "$video"
+    exit 0
 fi
 
 cargo build --release -q -p monohand-cli

@@ -162,3 +162,123 @@ fn each_needs_a_folder_of_inputs_and_an_output_folder() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("no videos"), "{err}");
 }
+
+/// A small filesystem of its own (tmpfs, `size` bytes) mounted at `dir`, unmounted when
+/// dropped: a disk that really fills up. Mounting needs root, as CI has; without it the test
+/// fails and says so.
+struct SmallDisk(std::path::PathBuf);
+
+impl SmallDisk {
+    fn mount(dir: &Path, size: u64) -> Self {
+        std::fs::create_dir_all(dir).unwrap();
+        let out = Command::new("mount")
+            .args(["-t", "tmpfs", "-o", &format!("size={size}"), "tmpfs"])
+            .arg(dir)
+            .output()
+            .expect("the mount command is missing");
+        assert!(
+            out.status.success(),
+            "could not mount a {size}-byte tmpfs at {} (the full-disk test needs root, as CI has): {}",
+            dir.display(),
+            String::from_utf8_lossy(&out.stderr)
+        );
+        SmallDisk(dir.to_path_buf())
+    }
+
+    /// Gives the disk `size` bytes, keeping its files.
+    fn resize(&self, size: u64) {
+        let out = Command::new("mount")
+            .args(["-o", &format!("remount,size={size}")])
+            .arg(&self.0)
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    }
+}
+
+impl Drop for SmallDisk {
+    fn drop(&mut self) {
+        let _ = Command::new("umount").arg(&self.0).status();
+    }
+}
+
+#[test]
+fn a_full_disk_stops_the_job_with_status_4_and_keeps_the_finished_outputs() {
+    const PAGE: u64 = 4096;
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("clips");
+    std::fs::create_dir(&dir).unwrap();
+    let names = ["a.mkv", "b.mkv", "c.mkv"];
+    for (k, name) in names.iter().enumerate() {
+        clip(&dir.join(name), 8, k + 1);
+    }
+    let job = |out: &Path| {
+        monohand(&[
+            "run",
+            "--each",
+            p(&dir),
+            "--output-dir",
+            p(out),
+            "--hands",
+            "1",
+        ])
+    };
+    let roomy = tmp.path().join("roomy");
+    ok(&job(&roomy));
+    let size = |n: &str| {
+        std::fs::metadata(roomy.join(format!("{n}.jsonl")))
+            .unwrap()
+            .len()
+    };
+    // Room for a.mkv's records (and 1 KiB for their timings differing), a page more, and
+    // not for b.mkv's as well: the disk fills up during b.mkv.
+    let room = (size("a.mkv") + 1024).div_ceil(PAGE) * PAGE + PAGE;
+    assert!(size("b.mkv") > 2 * PAGE + 1024, "{} bytes", size("b.mkv"));
+    let out = tmp.path().join("small");
+    let disk = SmallDisk::mount(&out, room);
+
+    let full = job(&out);
+    let said = String::from_utf8_lossy(&full.stderr).to_string();
+    assert_eq!(full.status.code(), Some(4), "{said}");
+    assert!(said.contains("No space left on device"), "{said}");
+    assert!(said.contains("a.mkv: done"), "{said}");
+    assert!(said.contains("b.mkv: stopped"), "{said}");
+    assert!(said.contains("the 1 complete outputs"), "{said}");
+    assert_eq!(
+        records(&out.join("a.mkv.jsonl")),
+        records(&roomy.join("a.mkv.jsonl"))
+    );
+    // Nothing half-written under a final name; the partial file holds whole records.
+    assert!(!out.join("b.mkv.jsonl").exists());
+    assert!(!out.join("c.mkv.jsonl").exists());
+    let partial = out.join("b.mkv.jsonl.partial");
+    if partial.exists() {
+        let text = std::fs::read_to_string(&partial).unwrap();
+        assert!(text.is_empty() || text.ends_with('\n'));
+        let frames = records(&partial);
+        assert!(frames.len() < 8, "{}", frames.len());
+    }
+
+    // Room again: the rerun keeps a.mkv's output and does the rest.
+    disk.resize(16 << 20);
+    let rerun = job(&out);
+    let said = String::from_utf8_lossy(&rerun.stderr).to_string();
+    ok(&rerun);
+    assert!(said.contains("a.mkv: already done"), "{said}");
+    assert!(
+        said.contains("3 inputs: 2 done, 1 already done, 0 failed"),
+        "{said}"
+    );
+    for n in names {
+        let name = format!("{n}.jsonl");
+        assert_eq!(
+            records(&out.join(&name)),
+            records(&roomy.join(&name)),
+            "{n}"
+        );
+    }
+}

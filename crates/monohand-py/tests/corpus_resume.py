@@ -1,5 +1,6 @@
 """`monohand.daft.track_corpus` over the videos given, into OUT (the job the resume tests kill),
-on Daft's native runner or on a local Ray of 2 CPUs.
+on Daft's native runner or on a local Ray of 2 CPUs. Exit status 4 if the output could not
+be written (`CorpusOutputError`, said on stderr).
 
     python corpus_resume.py native|ray OUT VIDEO...
 """
@@ -18,9 +19,14 @@ else:
     daft.set_runner_native()
 import monohand.daft as mhd  # noqa: E402
 
-mhd.track_corpus(sys.argv[3:], sys.argv[2], workers=1 if sys.argv[1] == "native" else None)
+code = 0
+try:
+    mhd.track_corpus(sys.argv[3:], sys.argv[2], workers=1 if sys.argv[1] == "native" else None)
+except mhd.CorpusOutputError as e:
+    print(f"errno {e.errno}: {e}", file=sys.stderr)
+    code = 4  # as `monohand run`: an output could not be written
 if sys.argv[1] == "ray":
     ray.shutdown()
 sys.stdout.flush()
 sys.stderr.flush()
-os._exit(0)  # Daft's native runner can crash the interpreter as it exits (corpus_job.py)
+os._exit(code)  # Daft's native runner can crash the interpreter as it exits (corpus_job.py)

@@ -1,7 +1,8 @@
 """`monohand.daft.track_corpus`: one Parquet file per video, complete or absent, a summary
 row per video; a rerun after the driver is killed (SIGKILL, by its own process id) gives the
 same files as one uninterrupted run, and a Ray worker killed mid-video has its video run
-again, once. Real videos from real photos; Daft's native runner and a local Ray."""
+again, once; a full disk stops the job with a clear error and keeps the finished videos.
+Real videos from real photos; Daft's native runner and a local Ray."""
 
 from __future__ import annotations
 
@@ -10,8 +11,9 @@ import signal
 import subprocess
 import sys
 import time
+from contextlib import contextmanager
 from pathlib import Path
-from typing import Dict, List
+from typing import Dict, Iterator, List
 
 import numpy as np
 import pyarrow.parquet as pq
@@ -101,8 +103,11 @@ def test_a_killed_job_rerun_gives_the_uninterrupted_result(videos, tmp_path):
         os.kill(p.pid, signal.SIGKILL)  # the job this test started, by its own id
     p.communicate()
     assert not (out / "_videos.parquet").exists() or p.returncode == 0
+    finished = len([f for f in out.glob("*.parquet") if not f.name.startswith("_") and "partial" not in f.name])
+    assert finished >= 1
     err = finish(job(out, videos))
-    assert "already done" in err
+    # The finished videos are skipped, not done again.
+    assert f"{len(videos)} videos, {finished} already done" in err, err[-4000:]
     assert files(out) == files(whole)
     got = pq.read_table(str(out / "_videos.parquet")).to_pylist()
     want = pq.read_table(str(whole / "_videos.parquet")).to_pylist()
@@ -121,12 +126,66 @@ def test_a_ray_worker_killed_mid_video_has_its_video_once(videos, tmp_path):
         # A video in progress: `.<video_id>.<worker pid>.parquet.tmp`, renamed at its end.
         for f in out.glob(".*.parquet.tmp") if out.is_dir() else []:
             killed = int(f.name.split(".")[2])
+            name = Path(f"/proc/{killed}/cmdline").read_bytes().decode(errors="replace")
             os.kill(killed, signal.SIGKILL)  # a worker of the job this test started
             break
         time.sleep(0.002)
     err = finish(p)
     assert killed is not None, "no video was seen in progress"
+    # The tracker ran as a Ray actor, which Ray restarts and whose task it retries
+    # (track_corpus' max_retries), not in Daft's own worker.
+    assert name.startswith("ray::UDFActor"), name
     assert files(out) == files(whole), err[-2000:]
     assert not list(out.glob(".*.tmp")), "a dead attempt's file was left"
     summary = pq.read_table(str(out / "_videos.parquet")).to_pylist()
     assert [r["status"] for r in summary] == ["done"] * 4
+
+
+@contextmanager
+def small_disk(path: Path, size: int) -> Iterator[None]:
+    """A filesystem of its own (tmpfs, ``size`` bytes) at ``path``, unmounted at the end: a
+    disk that really fills up. Mounting needs root, as CI has; without it the test fails."""
+    path.mkdir(parents=True, exist_ok=True)
+    out = subprocess.run(["mount", "-t", "tmpfs", "-o", f"size={size}", "tmpfs", str(path)],
+                         capture_output=True, text=True)
+    assert out.returncode == 0, (
+        f"could not mount a {size}-byte tmpfs at {path} (the full-disk test needs root, as CI has): {out.stderr}"
+    )
+    try:
+        yield
+    finally:
+        subprocess.run(["umount", str(path)], check=False)
+
+
+def test_a_full_disk_stops_the_job_clearly_and_keeps_the_finished_videos(videos, tmp_path):
+    page = 4096
+    good = videos[:4]
+    whole = tmp_path / "whole"
+    finish(job(whole, good))
+    want = files(whole)
+    sizes = [(whole / name).stat().st_size for name in want]
+    # Room for any one video's file (1 KiB spare) and a page more; not for all four.
+    room = -(-(max(sizes) + 1024) // page) * page + page
+    assert sum(sizes) > room + 2 * page, sizes
+    out = tmp_path / "small"
+    with small_disk(out, room):
+        p = job(out, good)
+        _, err = p.communicate(timeout=900)
+        assert p.returncode == 4, err[-4000:]
+        assert "errno 28" in err and "No space left on device" in err and "the disk is full" in err, err[-4000:]
+        assert "videos finished are kept in" in err, err[-4000:]
+        # What is under a final name is complete: the uninterrupted run's file.
+        kept = files(out)
+        assert 1 <= len(kept) < len(good), sorted(kept)
+        for name, rows in kept.items():
+            assert rows == want[name], name
+        assert not list(out.glob(".*.tmp")), "a half-written file was left"
+        assert not list(out.glob("*.partial.parquet"))
+        # Room again (the files kept): the rerun does the rest, as one uninterrupted run.
+        grow = subprocess.run(["mount", "-o", f"remount,size={64 << 20}", str(out)], capture_output=True, text=True)
+        assert grow.returncode == 0, grow.stderr
+        err = finish(job(out, good))
+        assert f"{len(good)} videos, {len(kept)} already done" in err, err[-4000:]
+        assert files(out) == want
+        got = pq.read_table(str(out / "_videos.parquet")).to_pylist()
+        assert got == pq.read_table(str(whole / "_videos.parquet")).to_pylist()

@@ -5,7 +5,7 @@ use super::{engine_settings, stall_timeout, Outcome, RunArgs};
 use crate::progress::Terminal;
 use anyhow::{bail, Result};
 use monohand::engine::corpus::{corpus, CorpusItem, Ended};
-use monohand::engine::{Engine, Input};
+use monohand::engine::{Engine, EngineError, Input};
 use monohand::HandPipeline;
 use std::collections::HashMap;
 use std::path::Path;
@@ -28,7 +28,21 @@ pub(super) fn run(args: &RunArgs, dir: &Path, out: &Path) -> Result<Outcome> {
             crate::say(&format!("{name}: already done, skipped"));
             continue;
         }
-        match one(args, item, &cameras, stall, &mut pipelines)? {
+        let ended = match one(args, item, &cameras, stall, &mut pipelines) {
+            Ok(ended) => ended,
+            Err(e) => {
+                if matches!(e.downcast_ref(), Some(EngineError::Output { .. })) {
+                    crate::say(&format!(
+                        "{name}: stopped, its output could not be written; the {} complete \
+                         outputs in {} are kept, and a rerun goes on from them",
+                        done + skipped,
+                        out.display()
+                    ));
+                }
+                return Err(e);
+            }
+        };
+        match ended {
             Ended::Done => {
                 done += 1;
                 crate::say(&format!("{name}: done, {}", item.output.display()));

@@ -5,6 +5,9 @@ held in memory whole. The file is written under a temporary name and renamed whe
 has ended well; a video that fails half-way keeps its good frames in `<video_id>.partial.parquet`.
 Each finished file carries its summary row in its Parquet metadata, so that a rerun can skip
 the video and still give its row in `_videos.parquet`.
+
+An output that cannot be written (a full disk) is not the video's fault: the temporary file
+is removed and the row says `OUTPUT_FAILED`, which stops the job (`monohand.daft`).
 """
 
 from __future__ import annotations
@@ -22,6 +25,13 @@ ROW_GROUP = 2000
 SUMMARY_KEY = b"monohand.summary"
 #: The summary file of a corpus job.
 SUMMARY_FILE = "_videos.parquet"
+#: The status of a video whose output could not be written (never in the summary: the
+#: job stops on it).
+OUTPUT_FAILED = "output-failed"
+
+
+class _WriteFailed(Exception):
+    """Writing the video's file failed (its cause: the OSError)."""
 
 
 def video_id(path: str) -> str:
@@ -42,7 +52,8 @@ def summary_of_done(out_dir: str, vid: str) -> Optional[Dict[str, Any]]:
     path = output_path(out_dir, vid)
     if not os.path.isfile(path):
         return None
-    meta = pq.read_schema(path).metadata or {}
+    # The file's key-value metadata (`read_schema` gives the Arrow schema's, without it).
+    meta = pq.read_metadata(path).metadata or {}
     raw = meta.get(SUMMARY_KEY)
     return None if raw is None else json.loads(raw)
 
@@ -99,48 +110,83 @@ def track_one(
     row["video_id"] = vid
     schema = frame_schema()
     tmp = os.path.join(out_dir, f".{vid}.{os.getpid()}.parquet.tmp")
-    writer = pq.ParquetWriter(tmp, schema)
     batch: List[Dict[str, Any]] = []
-    reprojection: List[float] = []
+    # Running totals only: nothing per frame outlives its row group.
+    reprojection_sum, reprojection_n = 0.0, 0
+    writer = None
 
     def flush() -> None:
         if batch:
-            writer.write_table(pa.Table.from_pylist(batch, schema=schema), row_group_size=ROW_GROUP)
+            try:
+                writer.write_table(pa.Table.from_pylist(batch, schema=schema), row_group_size=ROW_GROUP)
+            except OSError as e:
+                raise _WriteFailed(tmp) from e
             batch.clear()
 
     try:
-        with session() as s, s.track(path, offline=offline) as video:
-            for frame in video:
-                hands = [hand_struct(h) for h in frame.hands]
-                if row["camera"] is None and frame.cameras:
-                    cam = dict(frame.cameras[0])
-                    row["camera_source"] = cam.pop("source", None)
-                    cam.pop("reason", None)
-                    row["camera"] = cam
-                batch.append(
-                    {"path": path, "video_id": vid, "frame": frame.index, "time_s": frame.time_s,
-                     "hands": hands, "error": frame.error}
-                )
-                row["frames"] += 1
-                row["frames_with_hands"] += bool(hands)
-                row["hands"] += len(hands)
-                reprojection += [h["reprojection_error_px"] for h in hands if h["reprojection_error_px"] is not None]
-                if len(batch) >= ROW_GROUP:
-                    flush()
-        row["status"] = "done"
-    except (monohand.MonohandError, ValueError, OSError) as e:
-        row["reason"] = str(e) if path in str(e) else f"{path}: {e}"
-    flush()
-    if reprojection:
-        row["mean_reprojection_px"] = sum(reprojection) / len(reprojection)
+        try:
+            writer = pq.ParquetWriter(tmp, schema)
+        except OSError as e:
+            raise _WriteFailed(tmp) from e
+        try:
+            with session() as s, s.track(path, offline=offline) as video:
+                for frame in video:
+                    hands = [hand_struct(h) for h in frame.hands]
+                    if row["camera"] is None and frame.cameras:
+                        cam = dict(frame.cameras[0])
+                        row["camera_source"] = cam.pop("source", None)
+                        cam.pop("reason", None)
+                        row["camera"] = cam
+                    batch.append(
+                        {"path": path, "video_id": vid, "frame": frame.index, "time_s": frame.time_s,
+                         "hands": hands, "error": frame.error}
+                    )
+                    row["frames"] += 1
+                    row["frames_with_hands"] += bool(hands)
+                    row["hands"] += len(hands)
+                    for h in hands:
+                        if h["reprojection_error_px"] is not None:
+                            reprojection_sum += h["reprojection_error_px"]
+                            reprojection_n += 1
+                    if len(batch) >= ROW_GROUP:
+                        flush()
+            row["status"] = "done"
+        except (monohand.MonohandError, ValueError, OSError) as e:
+            row["reason"] = str(e) if path in str(e) else f"{path}: {e}"
+        flush()
+        if reprojection_n:
+            row["mean_reprojection_px"] = reprojection_sum / reprojection_n
+        try:
+            if row["status"] == "done":
+                writer.add_key_value_metadata({SUMMARY_KEY.decode(): json.dumps(row, sort_keys=True)})
+            writer.close()
+        except OSError as e:
+            raise _WriteFailed(tmp) from e
+    except _WriteFailed as e:
+        # Not the video's fault, and every later video would fail the same way.
+        _discard(writer, tmp)
+        row["status"] = OUTPUT_FAILED
+        row["reason"] = f"{e.args[0]}: {e.__cause__}"
+        row["errno"] = getattr(e.__cause__, "errno", None)
+        return row
     if row["status"] == "done":
-        writer.add_key_value_metadata({SUMMARY_KEY.decode(): json.dumps(row, sort_keys=True)})
-        writer.close()
         os.replace(tmp, output_path(out_dir, vid))
+    elif row["frames"] > 0:
+        os.replace(tmp, os.path.join(out_dir, f"{vid}.partial.parquet"))
     else:
-        writer.close()
-        if row["frames"] > 0:
-            os.replace(tmp, os.path.join(out_dir, f"{vid}.partial.parquet"))
-        else:
-            os.remove(tmp)
+        os.remove(tmp)
     return row
+
+
+def _discard(writer: Any, tmp: str) -> None:
+    """Closes a writer whose file could not be written and removes the file: it is not
+    valid Parquet (no footer), and on a full disk its space is better given back."""
+    if writer is not None:
+        try:
+            writer.close()
+        except OSError:
+            pass
+    try:
+        os.remove(tmp)
+    except OSError:
+        pass

@@ -34,10 +34,12 @@ from daft import DataType, Expression
 import monohand
 
 __all__ = [
+    "CorpusOutputError",
     "FRAME_DTYPE",
     "HAND_DTYPE",
     "HANDS_DTYPE",
     "INTRINSICS_DTYPE",
+    "MAX_RETRIES",
     "HandImages",
     "VideoTracker",
     "hand_struct",
@@ -262,6 +264,17 @@ class _CorpusTracker:
         return json.dumps(_corpus.track_one(path, self.out_dir, session, self.offline, self.settings, hand_struct))
 
 
+#: `track_corpus`'s default for ``max_retries``: a video whose tracker dies (on Ray) is
+#: run again up to this many times (Ray's own default for tasks).
+MAX_RETRIES = 3
+
+
+class CorpusOutputError(OSError):
+    """`track_corpus` could not write to its ``out_dir`` (a full disk, a folder that cannot
+    be written): the job stopped. ``errno`` is the write's (``errno.ENOSPC`` for a full
+    disk); the videos finished before it are kept, and a rerun resumes from them."""
+
+
 def track_corpus(
     paths_or_df: Union[daft.DataFrame, Iterable[str]],
     out_dir: str,
@@ -274,6 +287,7 @@ def track_corpus(
     offline: Optional[bool] = None,
     workers: Optional[int] = None,
     progress: bool = True,
+    max_retries: int = MAX_RETRIES,
 ) -> Any:
     """Tracks every video of a corpus into ``out_dir``, one Parquet file per video, and
     returns the summary (a pyarrow Table, also written as ``out_dir/_videos.parquet``).
@@ -292,6 +306,15 @@ def track_corpus(
 
     ``offline`` (default: on unless ``smoothing``) and the other options are `track_videos`'.
     ``progress`` prints one line per finished video with the time left, on stderr.
+
+    ``max_retries`` (default `MAX_RETRIES`, on Ray): how many times Ray starts a tracker
+    again whose process died (killed, out of memory, its node lost) and reruns the video it
+    had: the trackers run as Ray actors with ``max_restarts`` and ``max_task_retries`` set
+    to it; -1 is without end. Past that, Daft 0.7.26 does not fail the job but waits (seen
+    with 0: still waiting after 10 minutes), so keep it at 1 or more.
+
+    A write that fails (a full disk) raises `CorpusOutputError` and stops the job; the
+    finished videos are kept.
     """
     import pyarrow as pa
     import pyarrow.parquet as pq
@@ -299,6 +322,8 @@ def track_corpus(
     from monohand import _corpus
 
     offline = _offline(offline, smoothing)
+    if max_retries < -1:
+        raise ValueError(f"max_retries must be -1 (without end) or at least 0, not {max_retries}")
     os.makedirs(out_dir, exist_ok=True)
     if isinstance(paths_or_df, daft.DataFrame):
         cols = [path_column] + ([intrinsics_column] if intrinsics_column else [])
@@ -319,9 +344,12 @@ def track_corpus(
     if progress:
         print(f"monohand: {len(videos)} videos, {len(summary)} already done", file=sys.stderr)
     if todo:
-        if workers is None and daft.get_or_infer_runner_type() == "native":
+        on_ray = daft.get_or_infer_runner_type() == "ray"
+        if workers is None and not on_ray:
             workers = os.cpu_count() or 1
-        tracker_cls = daft.cls(max_concurrency=workers, use_process=False)(_CorpusTracker)
+        # On Ray, Ray's own fault tolerance for the trackers' actors (see the docstring).
+        ray_options = {"max_restarts": max_retries, "max_task_retries": max_retries} if on_ray else None
+        tracker_cls = daft.cls(max_concurrency=workers, use_process=False, ray_options=ray_options)(_CorpusTracker)
         tracker = tracker_cls(out_dir, hands, model_dir, smoothing, offline)
         df = daft.from_pylist(todo).into_batches(1)
         args = [df[path_column]] + ([df[intrinsics_column]] if intrinsics_column else [])
@@ -329,6 +357,8 @@ def track_corpus(
         start = time.monotonic()
         for k, r in enumerate(results.iter_rows(), 1):
             row = json.loads(r["_summary"])
+            if row["status"] == _corpus.OUTPUT_FAILED:
+                _stop_on_output(row["reason"], row.get("errno"), out_dir, summary)
             summary.append(row)
             if progress:
                 spent = time.monotonic() - start
@@ -348,9 +378,29 @@ def track_corpus(
     summary.sort(key=lambda r: order.get(r.get("path"), len(order)))
     table = pa.Table.from_pylist([_summary_row(r) for r in summary], schema=_summary_schema())
     tmp = os.path.join(out_dir, f".{_corpus.SUMMARY_FILE}.{os.getpid()}.tmp")
-    pq.write_table(table, tmp)
+    try:
+        pq.write_table(table, tmp)
+    except OSError as e:
+        if os.path.exists(tmp):
+            os.remove(tmp)
+        _stop_on_output(f"{tmp}: {e}", e.errno, out_dir, summary)
     os.replace(tmp, os.path.join(out_dir, _corpus.SUMMARY_FILE))
     return table
+
+
+def _stop_on_output(reason: str, code: Optional[int], out_dir: str, summary: List[Dict[str, Any]]) -> None:
+    """Raises `CorpusOutputError` for a write that failed (``reason``: the file and the
+    OSError's text; ``code``: its errno), saying what is kept."""
+    import errno
+
+    done = sum(1 for r in summary if r.get("status") == "done")
+    full = " (the disk is full)" if code == errno.ENOSPC else ""
+    raise CorpusOutputError(
+        code or errno.EIO,
+        f"monohand: the corpus output could not be written{full}: {reason}. The job stopped; "
+        f"the {done} videos finished are kept in {out_dir}, and rerunning the job there "
+        "resumes from them.",
+    )
 
 
 def _summary_schema() -> Any:

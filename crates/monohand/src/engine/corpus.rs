@@ -48,10 +48,14 @@ impl CorpusItem {
             return Ok(Ended::Failed(e.to_string()));
         }
         let partial = self.partial();
-        let io =
-            |what: String, e: &dyn std::fmt::Display| EngineError::Input(format!("{what}: {e}"));
+        // An output that cannot be made or renamed (a full disk, no permission) stops the
+        // job: it is an output error, as in `run`, with what was written kept.
+        let output = |what: String, e: std::io::Error| EngineError::Output {
+            frames: 0,
+            source: format!("{what}: {e}").into(),
+        };
         let sink =
-            JsonlSink::create(&partial).map_err(|e| io(partial.display().to_string(), &e))?;
+            JsonlSink::create(&partial).map_err(|e| output(partial.display().to_string(), e))?;
         let mut sinks: Vec<Box<dyn Sink>> = vec![Box::new(sink)];
         let report = engine.run(sources, &mut sinks, observer)?;
         drop(sinks);
@@ -74,7 +78,7 @@ impl CorpusItem {
                 partial.display(),
                 self.output.display()
             );
-            io(what, &e)
+            output(what, e)
         })?;
         Ok(Ended::Done)
     }
