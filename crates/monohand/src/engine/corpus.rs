@@ -50,12 +50,12 @@ impl CorpusItem {
         let partial = self.partial();
         // An output that cannot be made or renamed (a full disk, no permission) stops the
         // job: it is an output error, as in `run`, with what was written kept.
-        let output = |what: String, e: std::io::Error| EngineError::Output {
+        let output = |what: String, e: &dyn std::fmt::Display| EngineError::Output {
             frames: 0,
             source: format!("{what}: {e}").into(),
         };
         let sink =
-            JsonlSink::create(&partial).map_err(|e| output(partial.display().to_string(), e))?;
+            JsonlSink::create(&partial).map_err(|e| output(partial.display().to_string(), &e))?;
         let mut sinks: Vec<Box<dyn Sink>> = vec![Box::new(sink)];
         let report = engine.run(sources, &mut sinks, observer)?;
         drop(sinks);
@@ -78,7 +78,7 @@ impl CorpusItem {
                 partial.display(),
                 self.output.display()
             );
-            output(what, e)
+            output(what, &e)
         })?;
         Ok(Ended::Done)
     }
