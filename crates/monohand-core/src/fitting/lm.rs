@@ -18,7 +18,7 @@ use crate::kinematics::{
     finger_of, forward_kinematics, forward_kinematics_with_jacobian, LOCAL_DOF,
 };
 use crate::observation::{Keypoints2d, NetworkCues};
-use nalgebra::{Matrix2x3, Matrix3, SMatrix, SVector, UnitQuaternion, Vector2, Vector3};
+use nalgebra::{Matrix2, Matrix2x3, Matrix3, SMatrix, SVector, UnitQuaternion, Vector2, Vector3};
 
 pub(crate) type Mat26 = SMatrix<f64, NUM_DOF, NUM_DOF>;
 pub(crate) type Vec26 = SVector<f64, NUM_DOF>;
@@ -448,8 +448,8 @@ impl HandFitter {
                 if x.z <= 1.0 {
                     return None;
                 }
-                let du = k.fx * x.x / x.z + k.cx - v.targets[j][0];
-                let dv = k.fy * x.y / x.z + k.cy - v.targets[j][1];
+                let du = (k.fx * x.x / x.z + k.cx - v.targets[j][0]) * v.mrad_per_px[0];
+                let dv = (k.fy * x.y / x.z + k.cy - v.targets[j][1]) * v.mrad_per_px[1];
                 cost += w * w * (du * du + dv * dv);
             }
             for cue in 0..NUM_CUES {
@@ -492,11 +492,13 @@ impl HandFitter {
                 }
                 let (uv, pj): (Vector2<f64>, Matrix2x3<f64>) =
                     v.camera.pinhole_project_with_jacobian(&x);
-                let res = w * (uv - Vector2::new(v.targets[j][0], v.targets[j][1]));
+                // Milliradians: `S = diag(1000 / fx, 1000 / fy)`.
+                let s = Matrix2::from_diagonal(&Vector2::from(v.mrad_per_px));
+                let res = s * (uv - Vector2::new(v.targets[j][0], v.targets[j][1])) * w;
                 cost += res.norm_squared();
-                // The block is `M jac_j` with `M = w P R` (2x3): it adds `MᵀM` and
+                // The block is `M jac_j` with `M = w S P R` (2x3): it adds `MᵀM` and
                 // `Mᵀ res` to joint j's 3x3 form, applied to `jac_j` once below.
-                let m: Matrix2x3<f64> = pj * r * w;
+                let m: Matrix2x3<f64> = s * pj * r * w;
                 forms[j].add(&m.tr_mul(&m), &m.tr_mul(&res));
             }
             // Bone directions from the network's cues: the child's 10 local

@@ -112,8 +112,9 @@ pub struct CostSettings {
     /// Weight of the network's metric 3D ([`NetworkCues::world_mm`]): each
     /// bone adds `w p^k L (d_model - d_world)` (mm, `L` the bone's length, `d`
     /// unit directions, `p^k` the smaller confidence weight of its two joints)
-    /// beside the pixel residuals. 0 turns the cue off. Chosen on the
-    /// development set, see `docs/accuracy.md`.
+    /// beside the keypoint residuals `p^k (x - u) 1000 / f` (milliradians, so
+    /// that the balance does not depend on the resolution). 0 turns the cue
+    /// off. Chosen on the development set, see `docs/accuracy.md`.
     pub world_weight: f64,
     /// Weight of the network's relative depth ([`NetworkCues::depth_px`]),
     /// the same bone-direction residual with the direction taken from
@@ -135,10 +136,13 @@ impl Default for CostSettings {
             confidence_power: 3.0,
             min_joints: 4,
             // Chosen on the development set (hand_graph_cnn_dev, 292 frames, tracked):
-            // docs/accuracy.md has the table that chose them.
-            world_weight: 1.0,
-            // 1.5 since the relative depth is MediaPipe's own (normalize_z, 2026-11-25).
-            depth_weight: 1.5,
+            // docs/accuracy.md has the table that chose them. They were chosen as 1 and
+            // 1.5 with the keypoints weighed in pixels; the keypoints are now weighed in
+            // milliradians, and 1000 / 923.7 (the dev camera's focal length) converts the
+            // weights without changing the fit there (docs/accuracy.md, "The frame's
+            // resolution").
+            world_weight: 1.08,
+            depth_weight: 1.62,
             cue_segment_weights: cue_segment_weights_from(&CUE_BONE_ERROR_DEG),
         }
     }
@@ -182,8 +186,9 @@ impl CostSettings {
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct TrackingSettings {
     /// In tracking, refit from scratch when the warm-started fit's mean
-    /// reprojection error exceeds this (pixels).
-    pub tracking_reset_px: f64,
+    /// reprojection error exceeds this angle (milliradians: pixels times 1000 over
+    /// the focal length, so that the rule does not change with the resolution).
+    pub tracking_reset_mrad: f64,
     /// Weight of the pull in tracking towards where constant velocity puts the
     /// joints (from the last two frames): every joint adds `w (X - X_predicted)`
     /// (mm). 0 turns it off.
@@ -193,9 +198,10 @@ pub struct TrackingSettings {
 impl Default for TrackingSettings {
     fn default() -> Self {
         TrackingSettings {
-            tracking_reset_px: 5.0,
-            // Chosen on the development set, as the cue weights (docs/accuracy.md).
-            temporal_weight: 0.1,
+            tracking_reset_mrad: RESET_MRAD,
+            // Chosen on the development set, as the cue weights (docs/accuracy.md): 0.1
+            // in pixels, converted alike.
+            temporal_weight: 0.108,
         }
     }
 }
@@ -203,6 +209,7 @@ impl Default for TrackingSettings {
 impl TrackingSettings {
     /// Checks the numbers.
     pub fn validate(&self) -> CoreResult<()> {
+        check_weight("tracking_reset_mrad", self.tracking_reset_mrad)?;
         check_weight("temporal_weight", self.temporal_weight)
     }
 }
@@ -261,6 +268,10 @@ impl FusionSettings {
         Ok(())
     }
 }
+
+/// Default of [`TrackingSettings::tracking_reset_mrad`]: 5 pixels, as before the
+/// fit measured angles, at the dev camera's focal length (923.7 px).
+const RESET_MRAD: f64 = 5.4;
 
 /// A weight must be finite and not negative.
 fn check_weight(name: &str, w: f64) -> CoreResult<()> {

@@ -43,6 +43,13 @@ pub(crate) struct PreparedView {
     pub targets: [[f64; 2]; NUM_JOINTS],
     /// `p^k`, or 0 for dropped joints.
     pub weights: [f64; NUM_JOINTS],
+    /// Milliradians per pixel along x and y (`1000 / fx`, `1000 / fy`). The solver
+    /// measures reprojection residuals as angles: the same keypoint error in the
+    /// image is the same angle at any resolution, so the balance of the keypoints
+    /// against the millimetre terms (the network's bone directions, the tracking
+    /// pull) does not change when the video is scaled. Without those terms the
+    /// minimiser is the paper's pixel cost's.
+    pub mrad_per_px: [f64; 2],
     /// Target unit direction of each bone in this camera's frame, from the
     /// network's cues: `[0]` metric 3D, `[1]` relative depth.
     pub bone_targets: [[Vector3<f64>; NUM_BONES]; NUM_CUES],
@@ -74,6 +81,10 @@ impl PreparedView {
             raw: [[0.0; 2]; NUM_JOINTS],
             targets: [[0.0; 2]; NUM_JOINTS],
             weights: [0.0; NUM_JOINTS],
+            mrad_per_px: [
+                1000.0 / v.camera.intrinsics.fx,
+                1000.0 / v.camera.intrinsics.fy,
+            ],
             bone_targets: [[Vector3::zeros(); NUM_BONES]; NUM_CUES],
             bone_weights: [[0.0; NUM_BONES]; NUM_CUES],
         };

@@ -4,10 +4,19 @@ use crate::error::CoreResult;
 use crate::hand_model::{HandPose, HandSkeleton, NUM_JOINTS};
 use nalgebra::Vector3;
 
+/// The views' mean focal length, pixels (the mean of `fx` and `fy` over the views).
+fn mean_focal_px(views: &[View]) -> f64 {
+    let sum: f64 = views
+        .iter()
+        .map(|v| 0.5 * (v.camera.intrinsics.fx + v.camera.intrinsics.fy))
+        .sum();
+    sum / views.len().max(1) as f64
+}
+
 /// Fits a hand frame after frame, starting each fit from the previous solution.
 ///
 /// If the warm-started fit is poor (not converged, or mean reprojection error
-/// above [`TrackingSettings::tracking_reset_px`]) a fit from scratch is also run and
+/// above [`TrackingSettings::tracking_reset_mrad`]) a fit from scratch is also run and
 /// the one with the lower cost kept, so large jumps between frames recover. Frames with too few joints return the error and keep the
 /// last pose for the next frame.
 ///
@@ -15,7 +24,7 @@ use nalgebra::Vector3;
 /// where constant velocity puts it (`2 x(t-1) - x(t-2)`; from the third frame
 /// of a track on), so a hand moving steadily is not held back.
 ///
-/// [`TrackingSettings::tracking_reset_px`]: crate::fitting::TrackingSettings::tracking_reset_px
+/// [`TrackingSettings::tracking_reset_mrad`]: crate::fitting::TrackingSettings::tracking_reset_mrad
 /// [`TrackingSettings::temporal_weight`]: crate::fitting::TrackingSettings::temporal_weight
 #[derive(Debug, Clone)]
 pub struct HandTracker {
@@ -45,9 +54,10 @@ impl HandTracker {
                     _ => None,
                 };
                 let warm = self.fitter.fit_from_towards(views, &prev, predicted)?;
-                if !warm.converged
-                    || warm.reprojection_error_px > self.fitter.options().tracking.tracking_reset_px
-                {
+                let reset_px = self.fitter.options().tracking.tracking_reset_mrad
+                    * mean_focal_px(views)
+                    / 1000.0;
+                if !warm.converged || warm.reprojection_error_px > reset_px {
                     let cold = self.fitter.fit(views)?;
                     if cold.cost < warm.cost {
                         cold
