@@ -240,8 +240,8 @@ fn temporal_term_follows_steady_motion() {
     assert!(worst < 0.3, "worst mean joint error {worst} mm");
 }
 
-/// The camera and keypoints of a video scaled `s` times (pixel-centre convention:
-/// `c' = s (c + 0.5) - 0.5`).
+/// The camera and keypoints of a video scaled `s` times (the camera by
+/// [`Camera::scaled_to`], the keypoints by its pixel-centre convention).
 fn scaled(
     cam: &Camera,
     kp: &Keypoints2d,
@@ -249,15 +249,9 @@ fn scaled(
     s: f64,
 ) -> (Camera, Keypoints2d, NetworkCues) {
     let k = &cam.intrinsics;
-    let big = Camera::pinhole(
-        k.fx * s,
-        k.fy * s,
-        s * (k.cx + 0.5) - 0.5,
-        s * (k.cy + 0.5) - 0.5,
-        (k.width as f64 * s) as u32,
-        (k.height as f64 * s) as u32,
-    )
-    .unwrap();
+    let big = cam
+        .scaled_to((k.width as f64 * s) as u32, (k.height as f64 * s) as u32)
+        .unwrap();
     let mut kp = *kp;
     for p in kp.points.iter_mut() {
         p[0] = s * (p[0] + 0.5) - 0.5;

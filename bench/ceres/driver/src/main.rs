@@ -157,6 +157,21 @@ fn cost(sk: &HandSkeleton, cam: &Camera, kp: &Keypoints2d, pose: &HandPose, o: &
     c
 }
 
+/// monohand reports its cost with the keypoint residuals in milliradians (`px 1000 / f`);
+/// in px² for the comparison (this driver's cost and Ceres' are in pixels). Needs one focal
+/// length for both axes, as the STB camera has.
+fn px2_from_mrad2(cost: f64, cam: &Camera) -> Res<f64> {
+    let k = &cam.intrinsics;
+    if (k.fx - k.fy).abs() > 1e-9 * k.fx {
+        return Err(format!(
+            "fx {} and fy {} differ: costs in px² are not comparable",
+            k.fx, k.fy
+        )
+        .into());
+    }
+    Ok(cost * (k.fx / 1000.0).powi(2))
+}
+
 fn mean_error(sk: &HandSkeleton, pose: &HandPose, truth: &[Vector3<f64>; NUM_JOINTS]) -> f64 {
     let x = forward_kinematics(sk, pose);
     x.iter()
@@ -267,7 +282,7 @@ fn run() -> Res<()> {
                 let b = best.ok_or("no start")?;
                 Ok((iters, b.pose, b.cost))
             })?;
-            check_cost(c, cost(&sk, &cam, kp, &pose, &opts))?;
+            check_cost(px2_from_mrad2(c, &cam)?, cost(&sk, &cam, kp, &pose, &opts))?;
             scratch.ours_lm.push(Outcome {
                 time_ns: t,
                 iterations: iters,
@@ -307,7 +322,10 @@ fn run() -> Res<()> {
                 );
             }
             let (t, r) = timed(args.repeats, || Ok(lm_warm.fit_from(&views, &prev)?))?;
-            check_cost(r.cost, cost(&sk, &cam, kp, &r.pose, &opts))?;
+            check_cost(
+                px2_from_mrad2(r.cost, &cam)?,
+                cost(&sk, &cam, kp, &r.pose, &opts),
+            )?;
             warm.ours_lm.push(Outcome {
                 time_ns: t,
                 iterations: r.iterations,
