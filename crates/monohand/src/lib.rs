@@ -41,7 +41,8 @@ pub use fit::{
     HAND_SCALE_RANGE,
 };
 pub use hands::{
-    CameraOrigin, FitSettings, FittedFrame, HandsFitter, TrackedHand, FORGET_AFTER_FRAMES,
+    CameraOrigin, FitSettings, FittedFrame, HandsFitter, TrackedHand, DEPTH_FILTER,
+    FORGET_AFTER_FRAMES,
 };
 pub use lifter::{LiftedHand, Lifter};
 pub use notes::{Note, NoteTopic};

@@ -246,3 +246,67 @@ fn a_failing_sink_stops_the_run_and_the_others_are_closed() {
     assert_eq!(good.finished.load(Ordering::Relaxed), 1);
     assert_eq!(bad.finished.load(Ordering::Relaxed), 1);
 }
+
+#[test]
+fn the_depth_filter_steadies_the_distance_and_keeps_every_joint_on_its_ray() {
+    let input = frames(30);
+    let pipeline = Arc::new(Session::load_pipeline(&SessionOptions::default()).expect("networks"));
+    let run = |depth_filter: bool| {
+        let mut settings = EngineSettings::default();
+        if !depth_filter {
+            settings.fit.depth_filter = None;
+        }
+        let engine = Engine::new(Arc::clone(&pipeline), Vec::new(), settings).expect("engine");
+        let sink = Collect::default();
+        let mut sinks: Vec<Box<dyn Sink>> = vec![Box::new(sink.clone())];
+        engine
+            .run(vec![source(input.clone())], &mut sinks, &Quiet)
+            .expect("run");
+        let records = sink.records.lock().unwrap().clone();
+        records
+    };
+    let (on, off) = (run(true), run(false));
+    assert_eq!(on.len(), 30);
+    // The mean distance of the first hand, per frame, with and without the filter.
+    let mut depths: Vec<(f64, f64)> = Vec::new();
+    for (k, (a, b)) in on.iter().zip(&off).enumerate() {
+        assert_eq!(a.hands.len(), b.hands.len(), "frame {k}");
+        for (ha, hb) in a.hands.iter().zip(&b.hands) {
+            assert_eq!(ha.keypoints_2d, hb.keypoints_2d, "frame {k}");
+            let (Some(ja), Some(jb)) = (ha.joints_3d_mm, hb.joints_3d_mm) else {
+                continue;
+            };
+            // The camera is at the origin (no calibration): the same ray is the same
+            // direction from it.
+            for (x, y) in ja.iter().zip(&jb) {
+                let (nx, ny) = (norm(x), norm(y));
+                let cross = [
+                    x[1] * y[2] - x[2] * y[1],
+                    x[2] * y[0] - x[0] * y[2],
+                    x[0] * y[1] - x[1] * y[0],
+                ];
+                assert!(norm(&cross) < 1e-9 * nx * ny, "frame {k}: a joint left its ray");
+            }
+        }
+        let mean_z = |j: &[[f64; 3]; 21]| j.iter().map(|x| x[2]).sum::<f64>() / 21.0;
+        if let (Some(ha), Some(hb)) = (a.hands.first(), b.hands.first()) {
+            if let (Some(ja), Some(jb)) = (ha.joints_3d_mm, hb.joints_3d_mm) {
+                depths.push((mean_z(&ja), mean_z(&jb)));
+            }
+        }
+    }
+    assert!(depths.len() >= 25, "{} frames with a hand", depths.len());
+    let shake = |pick: fn(&(f64, f64)) -> f64| {
+        depths
+            .windows(3)
+            .map(|w| (pick(&w[0]) - 2.0 * pick(&w[1]) + pick(&w[2])).abs())
+            .sum::<f64>()
+    };
+    let (filtered, raw) = (shake(|d| d.0), shake(|d| d.1));
+    println!("depth second differences: {filtered:.1} mm filtered, {raw:.1} mm raw");
+    assert!(filtered < 0.7 * raw, "{filtered} against {raw}");
+}
+
+fn norm(x: &[f64; 3]) -> f64 {
+    (x[0] * x[0] + x[1] * x[1] + x[2] * x[2]).sqrt()
+}

@@ -90,6 +90,10 @@ pub(crate) struct RunArgs {
     /// Refit each frame with the frames after it too (files; less shake). Needs tracking.
     #[arg(long)]
     pub offline: bool,
+    /// Do not filter each hand's distance from the camera over time (on by default when
+    /// tracking with one camera: less shake in depth, the pixels unchanged; docs/accuracy.md).
+    #[arg(long)]
+    pub no_depth_filter: bool,
     /// One Euro filter: minimum cutoff frequency, Hz (lower: smoother when still).
     #[arg(long, value_name = "HZ", default_value_t = OneEuroParams::default().min_cutoff)]
     pub smooth_min_cutoff: f64,
@@ -209,6 +213,7 @@ fn engine_settings(args: &RunArgs, tracking: bool) -> Result<EngineSettings> {
                 beta: args.smooth_beta,
                 ..Default::default()
             }),
+            depth_filter: (!args.no_depth_filter).then_some(monohand::DEPTH_FILTER),
             offline: args.offline.then(OfflineSettings::default),
         },
         detect_every: args.detect_every,
