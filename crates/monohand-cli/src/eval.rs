@@ -78,6 +78,9 @@ pub(crate) struct EvalArgs {
     /// With --track: the offline smoother of `run --offline`.
     #[arg(long, requires = "track")]
     pub offline: bool,
+    /// Full stage: without `run`'s depth filter (docs/accuracy.md).
+    #[arg(long)]
+    pub no_depth_filter: bool,
     /// Learn the hand's proportions from the network's 3D over this many first frames of
     /// each sequence (docs/accuracy.md).
     #[arg(long, value_name = "N")]
@@ -149,6 +152,7 @@ pub(crate) fn run(args: &EvalArgs) -> Result<()> {
             fit_options: args.cues.apply(FitOptions::default()),
             proportion_frames: args.proportion_frames,
             offline: args.offline,
+            depth_filter: !args.no_depth_filter,
         },
     };
     let left_out = plan.select(&mut ds)?;

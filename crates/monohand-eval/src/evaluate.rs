@@ -87,6 +87,9 @@ pub struct EvalSettings {
     pub proportion_frames: Option<usize>,
     /// The full stage with the offline smoother (tracking only).
     pub offline: bool,
+    /// The full stage, tracking with one camera: `run`'s depth filter
+    /// ([`monohand::DEPTH_FILTER`]; on by default, as in `run`).
+    pub depth_filter: bool,
 }
 
 impl Default for EvalSettings {
@@ -99,6 +102,7 @@ impl Default for EvalSettings {
             fit_options: FitOptions::default(),
             proportion_frames: None,
             offline: false,
+            depth_filter: true,
         }
     }
 }

@@ -159,6 +159,7 @@ fn run_sequence(
             tracking: settings.track,
             proportion_frames: settings.proportion_frames,
             offline: settings.offline.then(monohand::OfflineSettings::default),
+            depth_filter: settings.depth_filter.then_some(monohand::DEPTH_FILTER),
             ..FitSettings::default()
         },
         detect_every: DETECT_EVERY,

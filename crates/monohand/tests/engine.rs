@@ -285,7 +285,10 @@ fn the_depth_filter_steadies_the_distance_and_keeps_every_joint_on_its_ray() {
                     x[2] * y[0] - x[0] * y[2],
                     x[0] * y[1] - x[1] * y[0],
                 ];
-                assert!(norm(&cross) < 1e-9 * nx * ny, "frame {k}: a joint left its ray");
+                assert!(
+                    norm(&cross) < 1e-9 * nx * ny,
+                    "frame {k}: a joint left its ray"
+                );
             }
         }
         let mean_z = |j: &[[f64; 3]; 21]| j.iter().map(|x| x[2]).sum::<f64>() / 21.0;
