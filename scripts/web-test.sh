@@ -21,6 +21,10 @@ photo="$shared/data/images/pinto/hand.png"
 [ -f "$photo" ] || { echo "web-test: $photo is missing (the shared data)" >&2; exit 1; }
 
 scripts/web-build.sh
+# The JavaScript bindings (src/js.rs) exist only for wasm32: lint them there (the workspace's
+# clippy is native).
+CARGO_TARGET_WASM32_UNKNOWN_UNKNOWN_RUSTFLAGS="-C target-feature=+simd128" \
+  cargo clippy -q -p monohand-web --target wasm32-unknown-unknown --lib -- -D warnings
 cargo build --release -q -p monohand-cli --bin monohand
 bin="${CARGO_TARGET_DIR:-target}/release/monohand"
 
