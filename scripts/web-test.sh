@@ -43,6 +43,19 @@ ffmpeg -v error -y -framerate 30 -i "$out/frames/%04d.png" -f rawvideo -pix_fmt 
 node --experimental-websocket web/test/run.mjs --web web --clip "$out/clip.rgba" --size 640x480 \
   --fps 30 --out "$out/web.jsonl" --screenshot "$out/screenshot.png" \
   ${CHROMIUM:+--chromium "$CHROMIUM"} 2> "$out/chromium.log" | tail -n 1 > "$out/timings.json"
+# Weights cut short, and missing: the page says so (which file, what is wrong).
+mkdir -p "$out/bad-weights"
+head -c 100000 web/weights/palm_detection_full.tflite > "$out/bad-weights/palm_detection_full.tflite"
+cp web/weights/hand_landmark_full.tflite "$out/bad-weights/"
+bad() {
+  node --experimental-websocket web/test/run.mjs --web web --clip "$out/clip.rgba" --size 640x480 \
+    --out /dev/null --extra "$out/bad-weights" --query "$1" --expect-error "$2" \
+    ${CHROMIUM:+--chromium "$CHROMIUM"} 2>> "$out/chromium.log" | tail -n 1 ||
+    { echo "web-test: with weights at $1 the page did not say \"$2\" (see $out/chromium.log)" >&2; return 1; }
+}
+bad "&weights=/extra/" "the palm detector weights (100000 bytes" > "$out/bad-cut.json"
+bad "&weights=/missing/" "cannot fetch the palm detector weights" > "$out/bad-missing.json"
+
 status=0
 node web/test/compare.mjs "$out/native.jsonl" "$out/web.jsonl" > "$out/compare.json" || status=$?
 node -e '
@@ -50,7 +63,8 @@ const t = JSON.parse(require("fs").readFileSync(process.argv[1], "utf8"));
 const c = JSON.parse(require("fs").readFileSync(process.argv[2], "utf8"));
 console.log(`web: ${c.frames} frames, ${c.hands_3d} hands in 3D, ${(1000 / t.mean_ms_after_first).toFixed(1)} fps in Chromium (MediaPipe web: not measured yet)`);
 console.log(`  vs native: max ${c.max_px.toFixed(4)} px, ${c.max_mm.toFixed(4)} mm; ${c.failures} differences beyond 0.5 px / 2 mm`);
+console.log(`  weights cut short or missing: the page says so (${process.argv[3]})`);
 console.log(`  load ${t.load_ms.toFixed(0)} ms, first frame done ${t.first_frame_ms.toFixed(0)} ms after the page started loading the networks, median ${t.median_ms_after_first.toFixed(1)} ms a frame`);
-' "$out/timings.json" "$out/compare.json"
+' "$out/timings.json" "$out/compare.json" "$out/bad-cut.json, $out/bad-missing.json"
 [ "$status" -eq 0 ] || { echo "web-test: the browser's records differ from native (see $out/compare.json and the lines above)" >&2; cat "$out/compare.json" >&2; }
 exit "$status"

@@ -5,6 +5,8 @@
 //
 //   node --experimental-websocket run.mjs --web DIR --clip FILE.rgba --size WxH --fps N \
 //        --out records.jsonl --screenshot shot.png [--chromium PATH] [--timeout SECS]
+//        [--extra DIR (served as /extra/)] [--query '&weights=/extra/' (added to the page's URL)]
+//        [--expect-error TEXT: the page must fail with a message containing TEXT]
 
 import { spawn } from 'node:child_process';
 import { createReadStream, mkdtempSync, rmSync, statSync, writeFileSync } from 'node:fs';
@@ -30,8 +32,11 @@ const TYPES = {
 const webRoot = resolve(args.web);
 const server = createServer((req, res) => {
   const path = decodeURIComponent(new URL(req.url, 'http://x').pathname);
-  const file = path === '/clip.rgba' ? resolve(args.clip) : normalize(join(webRoot, path));
-  if (path !== '/clip.rgba' && !file.startsWith(webRoot + sep)) {
+  const extra = args.extra && path.startsWith('/extra/');
+  const root = extra ? resolve(args.extra) : webRoot;
+  const file = path === '/clip.rgba' ? resolve(args.clip)
+    : normalize(join(root, extra ? path.slice('/extra/'.length) : path));
+  if (path !== '/clip.rgba' && !file.startsWith(root + sep)) {
     res.writeHead(403).end();
     return;
   }
@@ -106,7 +111,7 @@ try {
   });
   await send('Runtime.enable');
   await send('Page.enable');
-  const url = `http://127.0.0.1:${port}/test/index.html?clip=/clip.rgba&w=${w}&h=${h}&fps=${args.fps ?? 30}`;
+  const url = `http://127.0.0.1:${port}/test/index.html?clip=/clip.rgba&w=${w}&h=${h}&fps=${args.fps ?? 30}${args.query ?? ''}`;
   await send('Page.navigate', { url });
   const deadline = Date.now() + timeoutS * 1000;
   let result = null;
@@ -119,6 +124,15 @@ try {
     });
     if (r.result.value) result = JSON.parse(r.result.value);
   }
+  if (args['expect-error'] !== undefined) {
+    // The page must have said what went wrong, in these words.
+    if (!result.error?.includes(args['expect-error'])) {
+      throw new Error(`expected the page to fail with "${args['expect-error']}", got ${JSON.stringify(result.error ?? 'no error')}`);
+    }
+    console.log(JSON.stringify({ error: result.error }));
+    ws.close();
+    process.exitCode = 0;
+  } else {
   if (result.error) throw new Error(`the page failed: ${result.error}`);
   writeFileSync(args.out, result.records.map((r) => JSON.stringify(r)).join('\n') + '\n');
   if (args.screenshot) {
@@ -139,6 +153,7 @@ try {
     user_agent: result.userAgent,
   }));
   ws.close();
+  }
 } finally {
   cleanup();
 }

@@ -2,7 +2,7 @@
 // a clip (one file, frames one after the other, as ffmpeg's `-f rawvideo -pix_fmt rgba`
 // writes them), draws the last frame with its keypoints, and leaves the records and the
 // timings in `window.monohandResult` for the driver (run.mjs) to read.
-// URL parameters: clip (the .rgba file), w, h, fps.
+// URL parameters: clip (the .rgba file), w, h, fps, weights (their folder; default ../weights/).
 
 import { createTracker } from '../monohand.js';
 
@@ -44,7 +44,7 @@ async function main() {
   const h = Number(params.get('h'));
   const fps = Number(params.get('fps') ?? 30);
   const t0 = performance.now();
-  const tracker = await createTracker({ weights: '../weights/' });
+  const tracker = await createTracker({ weights: params.get('weights') ?? '../weights/' });
   const loadMs = performance.now() - t0;
   say('networks loaded; reading the clip...');
   const response = await fetch(params.get('clip'));
