@@ -429,8 +429,9 @@ fn load_net(store: &ModelStore, file: ModelFile) -> Result<TfliteNet> {
 
 /// The weights of a pipeline's networks as bytes, each with the name it is known by in
 /// errors: read from the cache by [`HandPipeline::new`], or handed in by a caller without
-/// a file system (the browser, `monohand-web`). Checked against the pinned checksums with
-/// [`ModelFile::check`] first.
+/// a file system (the browser, `monohand-web`). The caller checks them against the pinned
+/// checksums first ([`ModelFile::check`], or [`ModelFile::sha256`] to tell which file
+/// they are).
 #[derive(Debug, Clone, Copy)]
 pub struct NetworkBytes<'a> {
     /// The palm detector's `.tflite` file.
