@@ -425,22 +425,28 @@ impl JsonlWriter {
     /// Writes one frame as one line and flushes it. Non-finite numbers are
     /// refused (JSON has no NaN) with the hand and field named.
     pub fn write_frame(&mut self, frame: &FrameRecord) -> IoResult<()> {
-        for (i, h) in frame.hands.iter().enumerate() {
-            if let Some(field) = h.non_finite_field() {
-                return Err(IoError::field(
-                    self.out.name(),
-                    format!("frame {} hands[{i}].{field}", frame.frame),
-                    "contains a non-finite number",
-                ));
-            }
-        }
-        let mut line =
-            serde_json::to_string(frame).map_err(|e| IoError::json(self.out.name(), &e))?;
+        let mut line = frame_json(frame, self.out.name())?;
         line.push('\n');
         self.out.append(line.as_bytes())?;
         self.lines += 1;
         Ok(())
     }
+}
+
+/// One frame as one line of JSON Lines, without the newline: what [`JsonlWriter`] writes
+/// (and the browser build hands to the page). Non-finite numbers are refused (JSON has no
+/// NaN) with the hand and field named; `name` names the output in errors.
+pub fn frame_json(frame: &FrameRecord, name: &str) -> IoResult<String> {
+    for (i, h) in frame.hands.iter().enumerate() {
+        if let Some(field) = h.non_finite_field() {
+            return Err(IoError::field(
+                name,
+                format!("frame {} hands[{i}].{field}", frame.frame),
+                "contains a non-finite number",
+            ));
+        }
+    }
+    serde_json::to_string(frame).map_err(|e| IoError::json(name, &e))
 }
 
 /// Parses JSON Lines text; blank lines are skipped. `file` names it in errors,

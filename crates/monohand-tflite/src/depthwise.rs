@@ -210,11 +210,15 @@ fn run(
             return;
         }
     }
+    // Only the x86 kernels have a register-blocked variant to choose.
+    #[cfg(not(target_arch = "x86_64"))]
+    let _ = blocked;
     kernel::<false>(g, src, k, b, dst, act);
 }
 
 /// Valid kernel rows (or columns) `[k0, k1)` of an output pixel whose window starts at
 /// input coordinate `start` on an axis of `size` pixels.
+#[cfg(target_arch = "x86_64")]
 #[inline(always)]
 fn valid(start: isize, size: usize, k: usize) -> (usize, usize) {
     let k0 = (-start).max(0) as usize;
@@ -223,6 +227,7 @@ fn valid(start: isize, size: usize, k: usize) -> (usize, usize) {
 }
 
 /// The window of one output pixel, for the register-blocked kernels.
+#[cfg(target_arch = "x86_64")]
 #[derive(Clone, Copy)]
 struct Window {
     /// Index of the output pixel (`oy · ow + ox`).
@@ -235,6 +240,7 @@ struct Window {
     kx: (usize, usize),
 }
 
+#[cfg(target_arch = "x86_64")]
 impl Window {
     /// Offset in the input of channel 0 of tap `(ky, kx)`, which must be a valid tap
     /// (`ky >= ky0` and `kx >= kx0` keep the coordinates >= 0).
@@ -245,6 +251,7 @@ impl Window {
 }
 
 /// Calls `f` with each output pixel's window, row by row.
+#[cfg(target_arch = "x86_64")]
 #[inline(always)]
 fn each_window(g: &Geometry, mut f: impl FnMut(Window)) {
     for oy in g.rows.0..g.rows.1 {

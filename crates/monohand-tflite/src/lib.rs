@@ -96,7 +96,10 @@ pub fn list_operators(bytes: &[u8]) -> Result<Vec<(String, usize)>, ImportError>
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct ImportOptions {
     /// Translate depthwise convolutions to [`NhwcDepthwise`] (channels-innermost, vectorised)
-    /// instead of tract's generic grouped `Conv`. Default: true.
+    /// instead of tract's generic grouped `Conv`. Default: true, except on WebAssembly,
+    /// where only the portable loop exists and tract's `Conv` (its `simd128` kernels) made a
+    /// tracked frame 1.4-1.6x faster in Chromium (docs/performance.md, "monohand in the
+    /// browser").
     pub fast_depthwise: bool,
     /// Translate PRELU with constant per-channel slopes to one [`ChannelPrelu`] pass instead
     /// of four tract element-wise ops. Default: true.
@@ -136,7 +139,7 @@ pub struct ImportOptions {
 impl Default for ImportOptions {
     fn default() -> Self {
         ImportOptions {
-            fast_depthwise: true,
+            fast_depthwise: !cfg!(target_family = "wasm"),
             fused_prelu: true,
             fast_pointwise: true,
             fused_pointwise_epilogue: true,

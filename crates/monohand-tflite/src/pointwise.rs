@@ -440,6 +440,9 @@ impl Kernel {
     /// The tile function for `m` rows and `width` channels (`1 <= m <= self.rows()`,
     /// `1 <= width <= NR · self.panels()`).
     fn tile(self, m: usize, width: usize) -> TileFn {
+        // Only the x86 kernels have a function per tile shape.
+        #[cfg(not(target_arch = "x86_64"))]
+        let _ = (m, width);
         match self.isa() {
             Isa::Portable => tile_portable,
             #[cfg(target_arch = "x86_64")]

@@ -52,5 +52,5 @@ pub use models::{ModelFile, ModelStore};
 pub use network::{NetOutputs, NetState, TfliteNet};
 pub use pipeline::{
     DetectedHand, DetectedHead, Detections, HandDetector, HandKeypoints, HandPipeline, HandRegion,
-    KeypointEstimator, ModelOptions, ModelVariant, PipelineOptions,
+    KeypointEstimator, ModelOptions, ModelVariant, NetworkBytes, PipelineOptions,
 };

@@ -85,6 +85,20 @@ impl ModelFile {
             .unwrap_or(self.wheel_path())
     }
 
+    /// Whether `bytes` are this file: its pinned checksum, else [`VisionError::Checksum`]
+    /// naming `origin` (where the bytes came from).
+    pub fn check(self, bytes: &[u8], origin: &Path) -> Result<()> {
+        let found = sha256_hex(bytes);
+        if found != self.sha256() {
+            return Err(VisionError::Checksum {
+                path: origin.into(),
+                expected: self.sha256().into(),
+                found,
+            });
+        }
+        Ok(())
+    }
+
     /// Pinned SHA-256 of the file (lower-case hex), computed from the 0.10.14 wheel.
     pub fn sha256(self) -> &'static str {
         match self {
@@ -190,14 +204,8 @@ impl ModelStore {
                 path.display()
             ))
         })?;
-        let (bytes, found) = read()?;
-        if found != file.sha256() {
-            return Err(VisionError::Checksum {
-                path,
-                expected: file.sha256().into(),
-                found,
-            });
-        }
+        let (bytes, _) = read()?;
+        file.check(&bytes, &path)?;
         Ok(bytes)
     }
 

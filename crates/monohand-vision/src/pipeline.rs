@@ -249,6 +249,24 @@ pub struct ModelOptions {
     pub detect_heads: bool,
 }
 
+impl ModelVariant {
+    /// The palm detector's file of this variant.
+    pub fn palm_file(self) -> ModelFile {
+        match self {
+            ModelVariant::Full => ModelFile::PalmDetectionFull,
+            ModelVariant::Lite => ModelFile::PalmDetectionLite,
+        }
+    }
+
+    /// The landmark network's file of this variant.
+    pub fn landmark_file(self) -> ModelFile {
+        match self {
+            ModelVariant::Full => ModelFile::HandLandmarkFull,
+            ModelVariant::Lite => ModelFile::HandLandmarkLite,
+        }
+    }
+}
+
 impl ModelOptions {
     /// What these networks are, for a report: MediaPipe's release, the two networks' sizes,
     /// and whether each crop's mirror image is averaged in (`landmarks`).
@@ -404,16 +422,24 @@ impl std::fmt::Debug for HandPipeline {
     }
 }
 
-fn landmark_file(v: ModelVariant) -> ModelFile {
-    match v {
-        ModelVariant::Full => ModelFile::HandLandmarkFull,
-        ModelVariant::Lite => ModelFile::HandLandmarkLite,
-    }
-}
-
 fn load_net(store: &ModelStore, file: ModelFile) -> Result<TfliteNet> {
     let bytes = store.load(file)?;
     TfliteNet::from_bytes(&bytes, &store.path_of(file))
+}
+
+/// The weights of a pipeline's networks as bytes, each with the name it is known by in
+/// errors: read from the cache by [`HandPipeline::new`], or handed in by a caller without
+/// a file system (the browser, `monohand-web`). The caller checks them against the pinned
+/// checksums first ([`ModelFile::check`], or [`ModelFile::sha256`] to tell which file
+/// they are).
+#[derive(Debug, Clone, Copy)]
+pub struct NetworkBytes<'a> {
+    /// The palm detector's `.tflite` file.
+    pub palm: (&'a [u8], &'a Path),
+    /// The landmark network's `.tflite` file.
+    pub landmark: (&'a [u8], &'a Path),
+    /// The face detector's `.tflite` file, when heads are wanted.
+    pub face: Option<(&'a [u8], &'a Path)>,
 }
 
 impl HandPipeline {
@@ -422,25 +448,48 @@ impl HandPipeline {
     pub fn new(models: &ModelOptions, options: PipelineOptions) -> Result<Self> {
         options.validate()?;
         let store = ModelStore::new(models.model_dir.clone())?;
-        let palm_file = match models.palm {
-            ModelVariant::Full => ModelFile::PalmDetectionFull,
-            ModelVariant::Lite => ModelFile::PalmDetectionLite,
+        let load = |file: ModelFile| -> Result<(Vec<u8>, PathBuf)> {
+            Ok((store.load(file)?, store.path_of(file)))
         };
-        let lm_file = landmark_file(models.landmark);
-        let detector = PalmDetector::new(load_net(&store, palm_file)?, options.palm)?;
-        let model = LandmarkModel::new(load_net(&store, lm_file)?, options.landmarks)?;
+        let palm = load(models.palm.palm_file())?;
+        let landmark = load(models.landmark.landmark_file())?;
+        let face = if models.detect_heads {
+            Some(load(ModelFile::FaceDetectionShortRange)?)
+        } else {
+            None
+        };
+        HandPipeline::from_bytes(
+            NetworkBytes {
+                palm: (&palm.0, &palm.1),
+                landmark: (&landmark.0, &landmark.1),
+                face: face.as_ref().map(|(b, p)| (b.as_slice(), p.as_path())),
+            },
+            options,
+        )
+    }
+
+    /// MediaPipe's palm detector + landmark model (+ BlazeFace when `nets.face` is given)
+    /// from the networks' bytes: what [`HandPipeline::new`] builds once it has read them.
+    pub fn from_bytes(nets: NetworkBytes<'_>, options: PipelineOptions) -> Result<Self> {
+        options.validate()?;
+        let detector = PalmDetector::new(
+            TfliteNet::from_bytes(nets.palm.0, nets.palm.1)?,
+            options.palm,
+        )?;
+        let model = LandmarkModel::new(
+            TfliteNet::from_bytes(nets.landmark.0, nets.landmark.1)?,
+            options.landmarks,
+        )?;
         let estimator = MediaPipeKeypoints {
             model,
             mirrored_input: options.mirrored_input,
             refine_passes: options.refine_passes,
         };
-        let face = if models.detect_heads {
-            Some(FaceDetector::new(load_net(
-                &store,
-                ModelFile::FaceDetectionShortRange,
-            )?)?)
-        } else {
-            None
+        let face = match nets.face {
+            Some((bytes, origin)) => {
+                Some(FaceDetector::new(TfliteNet::from_bytes(bytes, origin)?)?)
+            }
+            None => None,
         };
         Ok(HandPipeline {
             detector: Box::new(detector),
@@ -464,7 +513,7 @@ impl HandPipeline {
         let mut p = HandPipeline::new(models, options)?;
         let store = ModelStore::new(models.model_dir.clone())?;
         let model = LandmarkModel::new(
-            load_net(&store, landmark_file(models.landmark))?,
+            load_net(&store, models.landmark.landmark_file())?,
             options.landmarks,
         )?;
         p.side_source = Some(MediaPipeKeypoints {

@@ -1,9 +1,9 @@
 //! Stages 1 and 2 over every view, with MediaPipe's crop tracking and hand identities.
 
+use crate::clock::Instant;
 use monohand_vision::image_io::ExifFocal;
 use monohand_vision::{Detections, HandPipeline, RgbImage};
 use std::sync::Arc;
-use std::time::Instant;
 
 /// Identity of a tracked hand, unique within a session.
 pub type HandId = u64;

@@ -2,6 +2,7 @@
 //! association, smoothing and the hand size.
 
 use crate::association::{associate, Candidate};
+use crate::clock::Instant;
 use crate::crops::{HandId, VisionFrame};
 use crate::fit::{fit_views, learn_proportions, FitOutcome};
 use crate::notes::{Note, NoteTopic};
@@ -16,7 +17,6 @@ use monohand_vision::DetectedHand;
 use nalgebra::Vector3;
 use std::collections::HashMap;
 use std::collections::VecDeque;
-use std::time::Instant;
 
 /// A hand is forgotten (its tracker, side vote and filter dropped) after this many frames
 /// unseen.

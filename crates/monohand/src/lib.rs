@@ -23,6 +23,7 @@
 #![deny(missing_docs)]
 
 pub mod association;
+mod clock;
 mod crops;
 pub mod engine;
 mod error;

@@ -103,3 +103,29 @@ pub fn fitted_record(done: &FittedFrame, source: Option<String>) -> FrameRecord 
     }
     record
 }
+
+/// [`fitted_record`] with the frame's time (`with_time`: a video's frames) and the stage
+/// timings: `decode` (when the caller decoded the frame), `vision` and `fit`. What
+/// `monohand run` writes, and the browser build (monohand-web) too.
+pub fn timed_record(
+    done: &FittedFrame,
+    source: Option<String>,
+    with_time: bool,
+    decode_ms: Option<f64>,
+) -> FrameRecord {
+    let mut record = fitted_record(done, source);
+    if with_time {
+        record.time_s = Some(done.vision.time_s);
+    }
+    record.timings_ms = Some(
+        decode_ms
+            .map(|ms| ("decode".to_string(), ms))
+            .into_iter()
+            .chain([
+                ("vision".to_string(), done.vision.vision_ms),
+                ("fit".to_string(), done.fit_ms),
+            ])
+            .collect(),
+    );
+    record
+}

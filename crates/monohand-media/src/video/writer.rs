@@ -202,7 +202,8 @@ impl VideoWriter {
     }
 
     fn close(&mut self) -> IoResult<()> {
-        drop(self.stdin.take());
+        // Dropping the pipe closes it: ffmpeg sees the end of its input.
+        self.stdin = None;
         let Some(mut child) = self.child.take() else {
             return Ok(());
         };

@@ -648,21 +648,12 @@ impl<'s, 'o> Writer<'s, 'o> {
 
 /// The output record of a fitted frame, with its time (video) and stage timings.
 fn record(done: &FittedFrame, extra: &Extra) -> FrameRecord {
-    let vision = &done.vision;
-    let mut record = crate::records::fitted_record(done, extra.source.clone());
-    if extra.is_video {
-        record.time_s = Some(vision.time_s);
-    }
-    record.timings_ms = Some(
-        [
-            ("decode".to_string(), extra.decode_ms),
-            ("vision".to_string(), vision.vision_ms),
-            ("fit".to_string(), done.fit_ms),
-        ]
-        .into_iter()
-        .collect(),
-    );
-    record
+    crate::records::timed_record(
+        done,
+        extra.source.clone(),
+        extra.is_video,
+        Some(extra.decode_ms),
+    )
 }
 
 /// Fits and writes every frame that comes out of the networks.

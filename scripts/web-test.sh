@@ -1,0 +1,70 @@
+#!/usr/bin/env bash
+# monohand in a real browser (issue 31): builds the WebAssembly module (scripts/web-build.sh),
+# makes a clip of the shared photo seen by a moving camera (ffmpeg: zoom 1.25x, a pan and a
+# turn of up to 8.6 degrees, 640x480), runs it through the page in headless Chromium and
+# through native `monohand run` (tracking, as a video), and compares the two frame by frame:
+# the same hands, 2D keypoints within 0.5 px and 3D joints within 2 mm. Prints one line:
+#   web: N frames, M hands in 3D, F fps in Chromium (MediaPipe web: not measured yet)
+# and exits 1 if the records differ. The records, the timings and a screenshot of the page
+# (the last frame with its keypoints; look at it) are left in $WEB_TEST_OUT
+# (default target/web-test).
+#
+# Needs: rustup and cargo, ffmpeg, node (20+), chromium (/usr/bin/chromium or $CHROMIUM),
+# the shared data (../shared, or $MONOHAND_SHARED) and the networks in the cache
+# (`monohand models fetch`). No npm package is used.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+frames="${WEB_TEST_FRAMES:-60}"
+out="${WEB_TEST_OUT:-${CARGO_TARGET_DIR:-target}/web-test}"
+shared="${MONOHAND_SHARED:-$(cd .. && pwd)/shared}"
+photo="$shared/data/images/pinto/hand.png"
+[ -f "$photo" ] || { echo "web-test: $photo is missing (the shared data)" >&2; exit 1; }
+
+scripts/web-build.sh
+# The JavaScript bindings (src/js.rs) exist only for wasm32: lint them there (the workspace's
+# clippy is native).
+CARGO_TARGET_WASM32_UNKNOWN_UNKNOWN_RUSTFLAGS="-C target-feature=+simd128" \
+  cargo clippy -q -p monohand-web --target wasm32-unknown-unknown --lib -- -D warnings
+cargo build --release -q -p monohand-cli --bin monohand
+bin="${CARGO_TARGET_DIR:-target}/release/monohand"
+
+rm -rf "$out"
+mkdir -p "$out/frames"
+# The camera's motion: frame n of a 60-frame period, zoomed 1.25x so that the pan never
+# leaves the photo, then turned about the centre (black corners).
+motion="scale=800:600,crop=640:480:x='60+50*sin(2*PI*n/60)':y='60+40*sin(2*PI*n/45)',rotate='0.15*sin(2*PI*n/60)':fillcolor=black"
+ffmpeg -v error -y -loop 1 -framerate 30 -i "$photo" -vf "$motion" -frames:v "$frames" \
+  "$out/frames/%04d.png"
+# The same pixels, raw RGBA, one frame after the other: what the page reads into ImageData.
+ffmpeg -v error -y -framerate 30 -i "$out/frames/%04d.png" -f rawvideo -pix_fmt rgba "$out/clip.rgba"
+
+"$bin" run "$out/frames" --track --hands 2 --no-heads -o "$out/native.jsonl" 2> "$out/native.log"
+
+node --experimental-websocket web/test/run.mjs --web web --clip "$out/clip.rgba" --size 640x480 \
+  --fps 30 --out "$out/web.jsonl" --screenshot "$out/screenshot.png" \
+  ${CHROMIUM:+--chromium "$CHROMIUM"} 2> "$out/chromium.log" | tail -n 1 > "$out/timings.json"
+# Weights cut short, and missing: the page says so (which file, what is wrong).
+mkdir -p "$out/bad-weights"
+head -c 100000 web/weights/palm_detection_full.tflite > "$out/bad-weights/palm_detection_full.tflite"
+cp web/weights/hand_landmark_full.tflite "$out/bad-weights/"
+bad() {
+  node --experimental-websocket web/test/run.mjs --web web --clip "$out/clip.rgba" --size 640x480 \
+    --out /dev/null --extra "$out/bad-weights" --query "$1" --expect-error "$2" \
+    ${CHROMIUM:+--chromium "$CHROMIUM"} 2>> "$out/chromium.log" | tail -n 1 ||
+    { echo "web-test: with weights at $1 the page did not say \"$2\" (see $out/chromium.log)" >&2; return 1; }
+}
+bad "&weights=/extra/" "the palm detector weights (100000 bytes" > "$out/bad-cut.json"
+bad "&weights=/missing/" "cannot fetch the palm detector weights" > "$out/bad-missing.json"
+
+status=0
+node web/test/compare.mjs "$out/native.jsonl" "$out/web.jsonl" > "$out/compare.json" || status=$?
+node -e '
+const t = JSON.parse(require("fs").readFileSync(process.argv[1], "utf8"));
+const c = JSON.parse(require("fs").readFileSync(process.argv[2], "utf8"));
+console.log(`web: ${c.frames} frames, ${c.hands_3d} hands in 3D, ${(1000 / t.mean_ms_after_first).toFixed(1)} fps in Chromium (MediaPipe web: not measured yet)`);
+console.log(`  vs native: max ${c.max_px.toFixed(4)} px, ${c.max_mm.toFixed(4)} mm; ${c.failures} differences beyond 0.5 px / 2 mm`);
+console.log(`  weights cut short or missing: the page says so (${process.argv[3]})`);
+console.log(`  load ${t.load_ms.toFixed(0)} ms, first frame done ${t.first_frame_ms.toFixed(0)} ms after the page started loading the networks, median ${t.median_ms_after_first.toFixed(1)} ms a frame`);
+' "$out/timings.json" "$out/compare.json" "$out/bad-cut.json, $out/bad-missing.json"
+[ "$status" -eq 0 ] || { echo "web-test: the browser's records differ from native (see $out/compare.json and the lines above)" >&2; cat "$out/compare.json" >&2; }
+exit "$status"

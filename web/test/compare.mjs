@@ -1,0 +1,56 @@
+// Compares the page's records with native `monohand run`'s on the same frames, to the
+// issue's tolerances: 2D keypoints within 0.5 px, 3D joints within 2 mm, the same hands
+// (count, side, id) in every frame. Prints one line per failure and a summary as JSON on
+// its last line; exits 1 if anything differs beyond the tolerances.
+//
+//   node compare.mjs native.jsonl web.jsonl
+
+import { readFileSync } from 'node:fs';
+
+const PX = 0.5;
+const MM = 2.0;
+
+const read = (file) => readFileSync(file, 'utf8').split('\n').filter((l) => l.trim()).map((l) => JSON.parse(l));
+const [nativeFile, webFile] = process.argv.slice(2);
+const native = read(nativeFile);
+const web = read(webFile);
+const failures = [];
+let hands3d = 0;
+let maxPx = 0;
+let maxMm = 0;
+
+const maxDiff = (a, b, dims) => {
+  let m = 0;
+  for (let j = 0; j < a.length; j++) for (let d = 0; d < dims; d++) m = Math.max(m, Math.abs(a[j][d] - b[j][d]));
+  return m;
+};
+
+if (native.length !== web.length) failures.push(`${native.length} native frames, ${web.length} in the browser`);
+for (let i = 0; i < Math.min(native.length, web.length); i++) {
+  const [n, w] = [native[i], web[i]];
+  if (n.frame !== w.frame) failures.push(`record ${i}: frame ${n.frame} native, ${w.frame} in the browser`);
+  if (n.hands.length !== w.hands.length) {
+    failures.push(`frame ${n.frame}: ${n.hands.length} hands native, ${w.hands.length} in the browser`);
+    continue;
+  }
+  n.hands.forEach((hn, k) => {
+    const hw = w.hands[k];
+    const where = `frame ${n.frame} hand ${k}`;
+    if (hn.side !== hw.side || hn.id !== hw.id) failures.push(`${where}: ${hn.side} #${hn.id} native, ${hw.side} #${hw.id} in the browser`);
+    const px = maxDiff(hn.keypoints_2d, hw.keypoints_2d, 2);
+    maxPx = Math.max(maxPx, px);
+    if (!(px <= PX)) failures.push(`${where}: keypoints differ by ${px.toFixed(3)} px (at most ${PX})`);
+    if (!hn.joints_3d_mm !== !hw.joints_3d_mm) {
+      failures.push(`${where}: 3D ${hn.joints_3d_mm ? '' : 'not '}fitted natively, ${hw.joints_3d_mm ? '' : 'not '}in the browser`);
+    } else if (hn.joints_3d_mm) {
+      hands3d += 1;
+      const mm = maxDiff(hn.joints_3d_mm, hw.joints_3d_mm, 3);
+      maxMm = Math.max(maxMm, mm);
+      if (!(mm <= MM)) failures.push(`${where}: 3D joints differ by ${mm.toFixed(3)} mm (at most ${MM})`);
+    }
+  });
+}
+for (const f of failures.slice(0, 20)) console.error(f);
+if (failures.length > 20) console.error(`... and ${failures.length - 20} more`);
+console.log(JSON.stringify({ frames: web.length, hands_3d: hands3d, max_px: maxPx, max_mm: maxMm, failures: failures.length }));
+process.exit(failures.length ? 1 : 0);
