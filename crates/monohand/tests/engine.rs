@@ -67,6 +67,17 @@ fn engine(pipeline: &Arc<HandPipeline>) -> Engine {
     Engine::new(Arc::clone(pipeline), Vec::new(), EngineSettings::default()).expect("engine")
 }
 
+/// Runs `engine` over `input` into one collecting sink and returns its records.
+fn records_of(engine: &Engine, input: &[(RgbImage, f64)]) -> Vec<FrameRecord> {
+    let sink = Collect::default();
+    let mut sinks: Vec<Box<dyn Sink>> = vec![Box::new(sink.clone())];
+    engine
+        .run(vec![source(input.to_vec())], &mut sinks, &Quiet)
+        .expect("run");
+    let records = sink.records.lock().unwrap().clone();
+    records
+}
+
 fn without_timings(mut r: FrameRecord) -> FrameRecord {
     r.timings_ms = None;
     r
@@ -124,14 +135,8 @@ fn offline_runs_write_every_frame_in_order_with_the_same_hands() {
     let input = frames(30);
     let pipeline = Arc::new(Session::load_pipeline(&SessionOptions::default()).expect("networks"));
     let run = |offline: bool| {
-        let sink = Collect::default();
-        let mut sinks: Vec<Box<dyn Sink>> = vec![Box::new(sink.clone())];
         let engine = engine(&pipeline).with_offline(offline).expect("engine");
-        engine
-            .run(vec![source(input.clone())], &mut sinks, &Quiet)
-            .expect("run");
-        let records = sink.records.lock().unwrap().clone();
-        records
+        records_of(&engine, &input)
     };
     let (causal, offline) = (run(false), run(true));
     assert_eq!(offline.len(), 30, "the last frames are written at the end");
@@ -257,13 +262,7 @@ fn the_depth_filter_steadies_the_distance_and_keeps_every_joint_on_its_ray() {
             settings.fit.depth_filter = None;
         }
         let engine = Engine::new(Arc::clone(&pipeline), Vec::new(), settings).expect("engine");
-        let sink = Collect::default();
-        let mut sinks: Vec<Box<dyn Sink>> = vec![Box::new(sink.clone())];
-        engine
-            .run(vec![source(input.clone())], &mut sinks, &Quiet)
-            .expect("run");
-        let records = sink.records.lock().unwrap().clone();
-        records
+        records_of(&engine, &input)
     };
     let (on, off) = (run(true), run(false));
     assert_eq!(on.len(), 30);
