@@ -2,8 +2,9 @@
 
 The frames stream from `Session.track` into row groups of `ROW_GROUP` frames, so no video is
 held in memory whole. Frames are turned into Arrow every `CHUNK` frames, so at most that many
-are Python objects at once; a row group waits as compact Arrow columns. The file is written under a temporary name and renamed when the video
-has ended well; a video that fails half-way keeps its good frames in `<video_id>.partial.parquet`.
+are Python objects at once; a row group waits as compact Arrow columns. The file is written
+under a temporary name and renamed when the video has ended well; a video that fails
+half-way keeps its good frames in `<video_id>.partial.parquet`.
 Each finished file carries its summary row in its Parquet metadata, so that a rerun can skip
 the video and still give its row in `_videos.parquet`.
 
