@@ -2,7 +2,8 @@
 //!
 //! No codec library is linked: [`VideoReader`] runs
 //! `ffmpeg -i INPUT -f rawvideo -pix_fmt rgb24 -` and reads packed RGB frames
-//! from its standard output; [`VideoWriter`] runs
+//! from its standard output (for 8-bit 4:2:0 video, the commonest kind, `-pix_fmt
+//! yuv420p`, converted to RGB on its reading thread: half the bytes, see [`Yuv420`]); [`VideoWriter`] runs
 //! `ffmpeg -f rawvideo -pix_fmt rgb24 -s WxH -r FPS -i - ... OUT` and writes
 //! frames to its standard input; [`probe`] asks `ffprobe` for the size, frame
 //! rate, frame count and codec of the first video stream. Anything ffmpeg can
@@ -36,8 +37,8 @@
 //!
 //! The code is in one file per concern: `tools.rs` (finding the executables and what
 //! they support), `probe.rs` (ffprobe and [`VideoInfo`]), `reader.rs` ([`VideoReader`],
-//! [`VideoInput`]) and `writer.rs` ([`VideoWriter`]); everything public is re-exported
-//! here.
+//! [`VideoInput`]), `yuv.rs` (4:2:0 YUV to RGB) and `writer.rs` ([`VideoWriter`]);
+//! everything public is re-exported here.
 //!
 //! [`probe`]: fn@probe
 //! [`IoError::ToolMissing`]: monohand_io::IoError::ToolMissing
@@ -47,6 +48,7 @@ mod probe;
 mod reader;
 mod tools;
 mod writer;
+mod yuv;
 
 pub use probe::{parse_probe_json, probe, probe_with, VideoInfo, DEFAULT_FPS, MAX_FRAME_PIXELS};
 pub use reader::{
@@ -54,6 +56,7 @@ pub use reader::{
 };
 pub use tools::{FfmpegFeatures, FfmpegTools};
 pub use writer::{writer_args, Encoder, VideoWriter};
+pub use yuv::{yuv420_frame_len, yuv420_to_rgb, Yuv420, YuvMatrix};
 
 /// The one image type of the project: packed 8-bit RGB, rows top to bottom (the `image`
 /// crate's buffer, which the vision front end takes too).

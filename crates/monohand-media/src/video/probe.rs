@@ -31,6 +31,12 @@ pub struct VideoInfo {
     /// Display rotation in degrees from the stream's metadata (phone videos);
     /// the reader's frames are already rotated, so this is informational.
     pub rotation_deg: i32,
+    /// The decoder's pixel format, e.g. `yuv420p` (8-bit 4:2:0), if ffprobe names one.
+    pub pix_fmt: Option<String>,
+    /// The stream's YUV matrix as ffprobe names it (`bt709`, `smpte170m`, ...), if stated.
+    pub color_space: Option<String>,
+    /// The stream's range as ffprobe names it (`tv`: limited, `pc`: full), if stated.
+    pub color_range: Option<String>,
 }
 
 impl VideoInfo {
@@ -118,6 +124,9 @@ pub fn parse_probe_json(text: &str, name: &str) -> IoResult<VideoInfo> {
         frame_count,
         codec,
         rotation_deg,
+        pix_fmt: str_field("pix_fmt").map(str::to_string),
+        color_space: str_field("color_space").map(str::to_string),
+        color_range: str_field("color_range").map(str::to_string),
     })
 }
 
@@ -145,7 +154,7 @@ pub fn probe_with(tools: &FfmpegTools, input: &VideoInput) -> IoResult<VideoInfo
         .map(String::from)
         .to_vec();
     args.push(
-        "stream=width,height,r_frame_rate,nb_frames,codec_name:stream_tags=rotate:stream_side_data=rotation"
+        "stream=width,height,r_frame_rate,nb_frames,codec_name,pix_fmt,color_space,color_range:stream_tags=rotate:stream_side_data=rotation"
             .into(),
     );
     args.extend(["-of".into(), "json".into()]);
@@ -196,8 +205,12 @@ mod tests {
     fn probe_json_is_parsed() {
         let j = r#"{"programs": [], "streams": [{"codec_name": "h264", "width": 1920,
             "height": 1080, "r_frame_rate": "30000/1001", "nb_frames": "300",
+            "pix_fmt": "yuv420p", "color_space": "bt709", "color_range": "tv",
             "side_data_list": [{"rotation": -90}]}]}"#;
         let info = parse_probe_json(j, "p.mp4").unwrap();
+        assert_eq!(info.pix_fmt.as_deref(), Some("yuv420p"));
+        assert_eq!(info.color_space.as_deref(), Some("bt709"));
+        assert_eq!(info.color_range.as_deref(), Some("tv"));
         assert_eq!((info.width, info.height), (1080, 1920));
         assert_eq!(info.rotation_deg, -90);
         assert!((info.fps.unwrap() - 29.97).abs() < 0.01);
@@ -213,6 +226,7 @@ mod tests {
         assert_eq!(info.fps, None);
         assert_eq!(info.fps_or_default(), DEFAULT_FPS);
         assert_eq!(info.frame_count, None);
+        assert_eq!((info.pix_fmt, info.color_space), (None, None));
         let e = parse_probe_json(r#"{"streams": []}"#, "a.wav")
             .unwrap_err()
             .to_string();

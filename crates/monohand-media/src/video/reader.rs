@@ -1,10 +1,12 @@
-//! Decoding: [`VideoReader`] runs `ffmpeg` on a [`VideoInput`] and reads packed RGB
-//! frames from its standard output, with each frame's time from the `showinfo` filter and
+//! Decoding: [`VideoReader`] runs `ffmpeg` on a [`VideoInput`] and reads its frames from
+//! its standard output (8-bit 4:2:0 streams as decoded, converted to RGB here; others as
+//! packed RGB), with each frame's time from the `showinfo` filter and
 //! a stall timeout ([`DEFAULT_STALL_TIMEOUT`]); ffmpeg's standard error is drained on a
 //! thread (for the writer too).
 
 use super::probe::{probe_with, VideoInfo};
 use super::tools::{own_process_group, spawn_error, FfmpegFeatures, FfmpegTools};
+use super::yuv::{yuv420_frame_len, yuv420_to_rgb, Yuv420};
 use super::RgbImage;
 use monohand_io::{IoError, IoResult};
 use std::io::Read;
@@ -150,7 +152,7 @@ pub const DEFAULT_STALL_TIMEOUT: Duration = Duration::from_secs(30);
 
 /// What the thread that reads ffmpeg's output hands over.
 enum Pumped {
-    /// One whole frame of packed RGB.
+    /// One whole frame of packed RGB (converted from ffmpeg's planes where it sent YUV).
     Frame(Vec<u8>),
     /// ffmpeg's output ended, after this many bytes of an incomplete frame.
     End(usize),
@@ -181,37 +183,63 @@ fn widen_pipe(_stdout: &ChildStdout) {}
 
 fn pump_frames(
     mut stdout: ChildStdout,
-    frame_len: usize,
+    (width, height): (usize, usize),
+    yuv: Option<Yuv420>,
 ) -> (Receiver<Pumped>, SyncSender<Vec<u8>>) {
     let (tx, rx) = sync_channel::<Pumped>(1);
     let (back_tx, back_rx) = sync_channel::<Vec<u8>>(2);
-    std::thread::spawn(move || loop {
-        let mut buf = back_rx
-            .try_recv()
-            .ok()
-            .filter(|b| b.len() == frame_len)
-            .unwrap_or_else(|| vec![0u8; frame_len]);
-        let mut filled = 0;
-        while filled < frame_len {
-            match stdout.read(&mut buf[filled..]) {
-                Ok(0) => break,
-                Ok(n) => filled += n,
-                Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
-                Err(e) => {
-                    let _ = tx.send(Pumped::Failed(e));
-                    return;
+    let frame_len = width * height * 3;
+    let wire_len = wire_frame_len((width, height), yuv);
+    std::thread::spawn(move || {
+        // What ffmpeg writes, when it is not the RGB itself: one frame's planes, reused.
+        let mut planes = match yuv {
+            Some(_) => vec![0u8; wire_len],
+            None => Vec::new(),
+        };
+        loop {
+            let mut buf = back_rx
+                .try_recv()
+                .ok()
+                .filter(|b| b.len() == frame_len)
+                .unwrap_or_else(|| vec![0u8; frame_len]);
+            let wire = match yuv {
+                Some(_) => &mut planes[..],
+                None => &mut buf[..],
+            };
+            let mut filled = 0;
+            while filled < wire_len {
+                match stdout.read(&mut wire[filled..]) {
+                    Ok(0) => break,
+                    Ok(n) => filled += n,
+                    Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+                    Err(e) => {
+                        let _ = tx.send(Pumped::Failed(e));
+                        return;
+                    }
                 }
             }
-        }
-        if filled < frame_len {
-            let _ = tx.send(Pumped::End(filled));
-            return;
-        }
-        if tx.send(Pumped::Frame(buf)).is_err() {
-            return;
+            if filled < wire_len {
+                let _ = tx.send(Pumped::End(filled));
+                return;
+            }
+            if let Some(layout) = yuv {
+                // Both lengths are the ones the conversion checks, so it always converts.
+                let _ = yuv420_to_rgb(&planes, (width, height), layout, &mut buf);
+            }
+            if tx.send(Pumped::Frame(buf)).is_err() {
+                return;
+            }
         }
     });
     (rx, back_tx)
+}
+
+/// The bytes of one frame on ffmpeg's output: 4:2:0 planes or packed RGB.
+fn wire_frame_len((width, height): (usize, usize), yuv: Option<Yuv420>) -> usize {
+    match yuv {
+        Some(_) => yuv420_frame_len(width, height),
+        None => width * height * 3,
+    }
 }
 
 /// Decodes a video to RGB frames with an `ffmpeg` child process.
@@ -240,6 +268,8 @@ pub struct VideoReader {
     name: String,
     next_index: u64,
     done: bool,
+    /// The bytes of one frame on ffmpeg's output (for the message about a frame cut short).
+    wire_len: usize,
 }
 
 impl std::fmt::Debug for VideoReader {
@@ -281,7 +311,11 @@ impl VideoReader {
     /// [`VideoReader::open`] with explicit tool paths.
     pub fn open_with(tools: &FfmpegTools, input: &VideoInput) -> IoResult<VideoReader> {
         let info = probe_with(tools, input)?;
-        let args = reader_args(input, tools.features());
+        // 8-bit 4:2:0 streams come as they are decoded and are converted on the reading
+        // thread (half the bytes through the pipe, no conversion in ffmpeg; `yuv.rs`).
+        let yuv = Yuv420::of_stream(&info);
+        let pix_fmt = yuv.map_or("rgb24", |l| l.pix_fmt());
+        let args = reader_args(input, tools.features(), pix_fmt);
         let mut child = own_process_group(Command::new(&tools.ffmpeg).args(&args))
             .stdin(Stdio::null())
             .stdout(Stdio::piped())
@@ -298,7 +332,8 @@ impl VideoReader {
         };
         widen_pipe(&stdout);
         // parse_probe_json caps the size at MAX_FRAME_PIXELS.
-        let (frames, spare) = pump_frames(stdout, info.width * info.height * 3);
+        let (frames, spare) = pump_frames(stdout, (info.width, info.height), yuv);
+        let wire_len = wire_frame_len((info.width, info.height), yuv);
         let (times_tx, times) = std::sync::mpsc::channel();
         Ok(VideoReader {
             child,
@@ -312,6 +347,7 @@ impl VideoReader {
             name: input.name(),
             next_index: 0,
             done: false,
+            wire_len,
         })
     }
 
@@ -348,7 +384,7 @@ impl VideoReader {
             let why = format!("{}x{} is too large", self.info.width, self.info.height);
             return Err(self.end_error(why));
         };
-        let len = self.info.width * self.info.height * 3;
+        let len = self.wire_len;
         let received = match self.frames.get_mut() {
             Ok(rx) => rx.recv_timeout(self.stall_timeout),
             Err(poisoned) => poisoned.into_inner().recv_timeout(self.stall_timeout),
@@ -477,13 +513,14 @@ impl Drop for VideoReader {
     }
 }
 
-/// The ffmpeg arguments that decode `input` to packed RGB on standard output: every
+/// The ffmpeg arguments that decode `input` to raw frames of `pix_fmt` (`rgb24`, or the
+/// stream's own 4:2:0 format, see [`Yuv420`]) on standard output: every
 /// decoded frame once (`-fps_mode passthrough`, or `-vsync passthrough` for an ffmpeg
 /// before 5.1: no frame duplicated or dropped to make a variable frame rate constant),
 /// each frame's presentation time logged by the `showinfo` filter (`-v level+info`;
 /// [`VideoReader`] reads it and keeps only the error lines for messages), without the
 /// filter's per-frame checksums where `features` allows.
-pub fn reader_args(input: &VideoInput, features: FfmpegFeatures) -> Vec<String> {
+pub fn reader_args(input: &VideoInput, features: FfmpegFeatures, pix_fmt: &str) -> Vec<String> {
     let mut args: Vec<String> = ["-hide_banner", "-nostdin", "-nostats", "-v", "level+info"]
         .map(String::from)
         .to_vec();
@@ -505,7 +542,7 @@ pub fn reader_args(input: &VideoInput, features: FfmpegFeatures) -> Vec<String> 
             "-f",
             "rawvideo",
             "-pix_fmt",
-            "rgb24",
+            pix_fmt,
             "-",
         ]
         .map(String::from),
@@ -531,7 +568,7 @@ mod tests {
             VideoInput::File(PathBuf::from("webcam:x.mp4"))
         );
         let old = FfmpegFeatures::default();
-        let args = reader_args(&VideoInput::parse("a b.mp4"), old);
+        let args = reader_args(&VideoInput::parse("a b.mp4"), old, "rgb24");
         let i = args.iter().position(|a| a == "-i").unwrap();
         assert_eq!(args[i + 1], "a b.mp4");
         assert!(args.ends_with(&["rgb24".to_string(), "-".to_string()]));
@@ -542,7 +579,7 @@ mod tests {
             showinfo_checksum_option: true,
             fps_mode: true,
         };
-        let args = reader_args(&VideoInput::parse("a b.mp4"), new);
+        let args = reader_args(&VideoInput::parse("a b.mp4"), new, "yuv420p");
         assert!(args.contains(&"showinfo=checksum=0".to_string()));
         let mode = args.iter().position(|a| a == "-fps_mode").unwrap();
         assert_eq!(args[mode + 1], "passthrough");
