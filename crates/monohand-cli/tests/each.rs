@@ -6,7 +6,7 @@
 mod common;
 use common::*;
 use monohand_io::jsonl::{read_jsonl, FrameRecord};
-use monohand_testkit::{hand_png, photo_clip};
+use monohand_testkit::{hand_png, photo_clip, run_ok};
 use std::path::Path;
 use std::process::Command;
 use std::time::{Duration, Instant};
@@ -171,31 +171,25 @@ struct SmallDisk(std::path::PathBuf);
 impl SmallDisk {
     fn mount(dir: &Path, size: u64) -> Self {
         std::fs::create_dir_all(dir).unwrap();
-        let out = Command::new("mount")
-            .args(["-t", "tmpfs", "-o", &format!("size={size}"), "tmpfs"])
-            .arg(dir)
-            .output()
-            .expect("the mount command is missing");
-        assert!(
-            out.status.success(),
-            "could not mount a {size}-byte tmpfs at {} (the full-disk test needs root, as CI has): {}",
-            dir.display(),
-            String::from_utf8_lossy(&out.stderr)
+        run_ok(
+            Command::new("mount")
+                .args(["-t", "tmpfs", "-o", &format!("size={size}"), "tmpfs"])
+                .arg(dir),
+            &format!(
+                "could not mount a {size}-byte tmpfs at {} (the full-disk test needs root, as CI has)",
+                dir.display()
+            ),
         );
         SmallDisk(dir.to_path_buf())
     }
 
     /// Gives the disk `size` bytes, keeping its files.
     fn resize(&self, size: u64) {
-        let out = Command::new("mount")
-            .args(["-o", &format!("remount,size={size}")])
-            .arg(&self.0)
-            .output()
-            .unwrap();
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
+        run_ok(
+            Command::new("mount")
+                .args(["-o", &format!("remount,size={size}")])
+                .arg(&self.0),
+            &format!("could not resize the tmpfs at {}", self.0.display()),
         );
     }
 }

@@ -12,7 +12,7 @@ fn bench(c: &mut Criterion) {
         matrix: YuvMatrix::Bt709,
         full_range: false,
     };
-    for (w, h) in [(1920, 1080), (3840, 2160)] {
+    for (w, h) in [(640, 480), (1920, 1080), (3840, 2160)] {
         // Smooth content (a gradient), as decoded video is; the cost does not depend on it.
         let planes: Vec<u8> = (0..yuv420_frame_len(w, h))
             .map(|i| (i % 251) as u8)

