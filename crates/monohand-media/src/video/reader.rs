@@ -385,6 +385,7 @@ impl VideoReader {
             return Err(self.end_error(why));
         };
         let len = self.wire_len;
+        let len_rgb = self.info.width * self.info.height * 3;
         let received = match self.frames.get_mut() {
             Ok(rx) => rx.recv_timeout(self.stall_timeout),
             Err(poisoned) => poisoned.into_inner().recv_timeout(self.stall_timeout),
@@ -393,7 +394,11 @@ impl VideoReader {
             Ok(Pumped::Frame(buf)) => match RgbImage::from_raw(w, h, buf) {
                 Some(image) => {
                     let old = std::mem::replace(frame, image).into_raw();
-                    let _ = self.spare.try_send(old);
+                    // Only a frame's worth of bytes is worth keeping: `next_frame` swaps
+                    // in an empty image, which would take a spare's place for nothing.
+                    if old.len() == len_rgb {
+                        let _ = self.spare.try_send(old);
+                    }
                     let index = self.next_index;
                     self.next_index += 1;
                     // showinfo logs a frame before ffmpeg writes it, so its time is there.
