@@ -5,9 +5,11 @@
 # through native `monohand run` (tracking, as a video), and compares the two frame by frame:
 # the same hands, 2D keypoints within 0.5 px and 3D joints within 2 mm. Prints one line:
 #   web: N frames, M hands in 3D, F fps in Chromium (MediaPipe web: not measured yet)
-# and exits 1 if the records differ. The records, the timings and a screenshot of the page
-# (the last frame with its keypoints; look at it) are left in $WEB_TEST_OUT
-# (default target/web-test).
+# and exits 1 if the records differ. Then the demo page (web/index.html) tracks the same clip
+# from Chromium's fake camera (a .y4m file behind getUserMedia) and must find a hand in 3D in
+# most camera frames, and must say so when the camera is denied or absent. The records, the
+# timings and screenshots (the test page's last frame and the demo page's overlay on the
+# camera stream; look at them) are left in $WEB_TEST_OUT (default target/web-test).
 #
 # Needs: rustup and cargo, ffmpeg, node (20+), chromium (/usr/bin/chromium or $CHROMIUM),
 # the shared data (../shared, or $MONOHAND_SHARED) and the networks in the cache
@@ -56,6 +58,24 @@ bad() {
 bad "&weights=/extra/" "the palm detector weights (100000 bytes" > "$out/bad-cut.json"
 bad "&weights=/missing/" "cannot fetch the palm detector weights" > "$out/bad-missing.json"
 
+# The camera stream: the same frames as a .y4m file played by Chromium's fake camera into
+# the demo page (web/index.html?start=camera: getUserMedia, a <video>, a canvas, the
+# tracker, the overlay), until it has tracked as many camera frames as the clip has. Not
+# frame-exact (the camera's frames are YUV 4:2:0 and come at its own pace): the page must
+# find a hand in 3D in most of them. Then the camera denied, and no camera at all: the page
+# says so.
+ffmpeg -v error -y -framerate 30 -i "$out/frames/%04d.png" -pix_fmt yuv420p "$out/clip.y4m"
+camera() {
+  node --experimental-websocket web/test/camera.mjs --web web ${CHROMIUM:+--chromium "$CHROMIUM"} "$@" \
+    2>> "$out/chromium.log" | tail -n 1
+}
+camera --y4m "$out/clip.y4m" --frames "$frames" --screenshot "$out/camera.png" > "$out/camera.json" ||
+  { echo "web-test: the demo page did not find the hand in the camera stream (see $out/camera.json, $out/chromium.log)" >&2; exit 1; }
+camera --deny --expect-error "The camera was denied" --screenshot "$out/camera-denied.png" > "$out/camera-denied.json" ||
+  { echo "web-test: with the camera denied the demo page did not say so (see $out/chromium.log)" >&2; exit 1; }
+camera --no-device --expect-error "No camera was found" > "$out/camera-none.json" ||
+  { echo "web-test: without a camera the demo page did not say so (see $out/chromium.log)" >&2; exit 1; }
+
 status=0
 node web/test/compare.mjs "$out/native.jsonl" "$out/web.jsonl" > "$out/compare.json" || status=$?
 node -e '
@@ -64,7 +84,9 @@ const c = JSON.parse(require("fs").readFileSync(process.argv[2], "utf8"));
 console.log(`web: ${c.frames} frames, ${c.hands_3d} hands in 3D, ${(1000 / t.mean_ms_after_first).toFixed(1)} fps in Chromium (MediaPipe web: not measured yet)`);
 console.log(`  vs native: max ${c.max_px.toFixed(4)} px, ${c.max_mm.toFixed(4)} mm; ${c.failures} differences beyond 0.5 px / 2 mm`);
 console.log(`  weights cut short or missing: the page says so (${process.argv[3]})`);
+const cam = JSON.parse(require("fs").readFileSync(process.argv[4], "utf8"));
+console.log(`  camera stream (fake camera, demo page): ${cam.frames} frames tracked, ${cam.frames_with_hand_3d} with a hand in 3D, median ${cam.median_ms_after_first.toFixed(1)} ms a frame; camera denied or absent: the page says so`);
 console.log(`  load ${t.load_ms.toFixed(0)} ms, first frame done ${t.first_frame_ms.toFixed(0)} ms after the page started loading the networks, median ${t.median_ms_after_first.toFixed(1)} ms a frame`);
-' "$out/timings.json" "$out/compare.json" "$out/bad-cut.json, $out/bad-missing.json"
+' "$out/timings.json" "$out/compare.json" "$out/bad-cut.json, $out/bad-missing.json" "$out/camera.json"
 [ "$status" -eq 0 ] || { echo "web-test: the browser's records differ from native (see $out/compare.json and the lines above)" >&2; cat "$out/compare.json" >&2; }
 exit "$status"

@@ -1,0 +1,79 @@
+// Drives the camera test: the demo page (web/index.html?start=camera) in headless Chromium
+// with a fake camera that plays a .y4m clip (`--use-fake-device-for-media-stream
+// --use-file-for-fake-video-capture`), until the page has tracked `--frames` frames of the
+// camera stream; writes a screenshot of the overlay and prints the page's counts as JSON on
+// its last line. Exits 1 if the page failed or found a hand in 3D in fewer than half of them.
+//
+// With `--expect-error TEXT` the page must fail to open the camera with a message that
+// contains TEXT, and track nothing: with `--deny`, the camera's permission denied
+// (DevTools' Browser.setPermission); with `--no-device`, no fake camera (a machine
+// without one).
+//
+//   node --experimental-websocket camera.mjs --web DIR --y4m clip.y4m --frames N \
+//        --screenshot shot.png [--chromium PATH] [--timeout SECS]
+//   node --experimental-websocket camera.mjs --web DIR (--deny | --no-device) --expect-error TEXT [...]
+
+import { writeFileSync } from 'node:fs';
+import { launch, parseArgs, serve } from './chromium.mjs';
+
+const args = parseArgs();
+if (!args.web) throw new Error('--web is required');
+const deny = 'deny' in args;
+const expectError = 'expect-error' in args;
+if (!expectError && !args.y4m) throw new Error('--y4m is required (or --expect-error)');
+const frames = Number(args.frames ?? 30);
+const timeoutS = Number(args.timeout ?? 600);
+
+const server = await serve({ mounts: { '/': args.web } });
+let browser = null;
+try {
+  // The fake camera; its permission is granted (the fake UI accepts) unless --deny.
+  // With --no-device, no camera at all (the machine's, which a test machine has none of).
+  const flags = [];
+  if (!('no-device' in args)) flags.push('--use-fake-device-for-media-stream');
+  if (args.y4m) flags.push(`--use-file-for-fake-video-capture=${args.y4m}`);
+  if (!deny) flags.push('--use-fake-ui-for-media-stream');
+  browser = await launch({ chromium: args.chromium, flags });
+  const origin = `http://127.0.0.1:${server.port}`;
+  if (deny) {
+    await browser.send('Browser.setPermission', {
+      permission: { name: 'camera' }, setting: 'denied', origin,
+    });
+  }
+  await browser.send('Page.navigate', { url: `${origin}/index.html?start=camera` });
+  const state = 'JSON.stringify(window.monohandDemo ?? null)';
+  if (expectError) {
+    const demo = await browser.waitFor(
+      `(d => d && d.state === 'error' ? JSON.stringify({ ...d, shown: document.getElementById('message').textContent }) : null)(window.monohandDemo)`,
+      timeoutS, 'the page without a camera');
+    if (!demo.shown.includes(args['expect-error'] ?? '')) {
+      throw new Error(`expected the page to say "${args['expect-error']}", it says ${JSON.stringify(demo.shown)}`);
+    }
+    if (demo.frames !== 0) throw new Error(`the page had no camera, yet ${demo.frames} frames were tracked`);
+    if (args.screenshot) writeFileSync(args.screenshot, await browser.screenshot());
+    console.log(JSON.stringify({ message: demo.shown }));
+  } else {
+    const demo = await browser.waitFor(
+      `(d => d && (d.state === 'error' || d.frames >= ${frames}) ? ${state} : null)(window.monohandDemo)`,
+      timeoutS, `the demo page (${frames} camera frames)`);
+    if (demo.state === 'error') throw new Error(`the page failed: ${demo.message}`);
+    // The screenshot: the frame last tracked, with its overlay.
+    if (args.screenshot) writeFileSync(args.screenshot, await browser.screenshot());
+    const ms = [...demo.frameMs].slice(1).sort((a, b) => a - b);
+    const result = {
+      frames: demo.frames,
+      frames_with_hand_3d: demo.framesWithHand3d,
+      hands_3d: demo.hands3d,
+      median_ms_after_first: ms[Math.floor(ms.length / 2)] ?? null,
+      message: demo.message,
+    };
+    console.log(JSON.stringify(result));
+    if (!(2 * demo.framesWithHand3d > demo.frames)) {
+      console.error(`camera test: a hand in 3D in only ${demo.framesWithHand3d} of ${demo.frames} camera frames`);
+      process.exitCode = 1;
+    }
+  }
+} finally {
+  browser?.close();
+  server.close();
+}
