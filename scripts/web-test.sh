@@ -4,7 +4,8 @@
 # turn of up to 8.6 degrees, 640x480), runs it through the page in headless Chromium and
 # through native `monohand run` (tracking, as a video), and compares the two frame by frame:
 # the same hands, 2D keypoints within 0.5 px and 3D joints within 2 mm. Prints one line:
-#   web: N frames, M hands in 3D, F fps in Chromium (MediaPipe web: not measured yet)
+#   web: N frames, M hands in 3D, F fps in Chromium (MediaPipe web: G fps)
+# (F and G from the side-by-side benchmark, web/bench: the same clip, one hand, alternating)
 # and exits 1 if the records differ. Then the demo page (web/index.html) tracks the same clip
 # from Chromium's fake camera (a .y4m file behind getUserMedia) and must find a hand in 3D in
 # most camera frames, and must say so when the camera is denied or absent. The records, the
@@ -13,7 +14,7 @@
 #
 # Needs: rustup and cargo, ffmpeg, node (20+), chromium (/usr/bin/chromium or $CHROMIUM),
 # the shared data (../shared, or $MONOHAND_SHARED) and the networks in the cache
-# (`monohand models fetch`). No npm package is used.
+# (`monohand models fetch`). npm installs the benchmark's one package (web/bench, pinned).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 frames="${WEB_TEST_FRAMES:-60}"
@@ -76,17 +77,29 @@ camera --deny --expect-error "The camera was denied" --screenshot "$out/camera-d
 camera --no-device --expect-error "No camera was found" > "$out/camera-none.json" ||
   { echo "web-test: without a camera the demo page did not say so (see $out/chromium.log)" >&2; exit 1; }
 
+# Side by side (web/bench): the same RGBA clip through monohand (one hand) and through
+# @mediapipe/hands 0.4.1675469240 (npm, pinned in web/bench/package-lock.json; SIMD build,
+# maxNumHands 1, modelComplexity 1), alternating, WEB_BENCH_ROUNDS rounds (default 2). The
+# fps are printed, never asserted.
+npm ci --prefix web/bench --no-audit --no-fund --loglevel=error > /dev/null
+node --experimental-websocket web/bench/run.mjs --web web --clip "$out/clip.rgba" --size 640x480 \
+  --fps 30 --rounds "${WEB_BENCH_ROUNDS:-2}" ${CHROMIUM:+--chromium "$CHROMIUM"} \
+  2>> "$out/chromium.log" | tail -n 1 > "$out/bench.json"
+
 status=0
 node web/test/compare.mjs "$out/native.jsonl" "$out/web.jsonl" > "$out/compare.json" || status=$?
 node -e '
 const t = JSON.parse(require("fs").readFileSync(process.argv[1], "utf8"));
 const c = JSON.parse(require("fs").readFileSync(process.argv[2], "utf8"));
-console.log(`web: ${c.frames} frames, ${c.hands_3d} hands in 3D, ${(1000 / t.mean_ms_after_first).toFixed(1)} fps in Chromium (MediaPipe web: not measured yet)`);
+const b = JSON.parse(require("fs").readFileSync(process.argv[5], "utf8"));
+console.log(`web: ${c.frames} frames, ${c.hands_3d} hands in 3D, ${b.monohand.fps.toFixed(1)} fps in Chromium (MediaPipe web: ${b.mediapipe.fps.toFixed(1)} fps)`);
 console.log(`  vs native: max ${c.max_px.toFixed(4)} px, ${c.max_mm.toFixed(4)} mm; ${c.failures} differences beyond 0.5 px / 2 mm`);
 console.log(`  weights cut short or missing: the page says so (${process.argv[3]})`);
 const cam = JSON.parse(require("fs").readFileSync(process.argv[4], "utf8"));
 console.log(`  camera stream (fake camera, demo page): ${cam.frames} frames tracked, ${cam.frames_with_hand_3d} with a hand in 3D, median ${cam.median_ms_after_first.toFixed(1)} ms a frame; camera denied or absent: the page says so`);
-console.log(`  load ${t.load_ms.toFixed(0)} ms, first frame done ${t.first_frame_ms.toFixed(0)} ms after the page started loading the networks, median ${t.median_ms_after_first.toFixed(1)} ms a frame`);
-' "$out/timings.json" "$out/compare.json" "$out/bad-cut.json, $out/bad-missing.json" "$out/camera.json"
+const r = (x) => x.map((v) => v.toFixed(1)).join(", ");
+console.log(`  side by side (web/bench, one hand, ${b.rounds} rounds alternating): monohand ${r(b.monohand.per_round_fps)} fps (median ${b.monohand.median_ms.toFixed(1)} ms), @mediapipe/hands ${r(b.mediapipe.per_round_fps)} fps (median ${b.mediapipe.median_ms.toFixed(1)} ms; ${b.mediapipe.files.filter((f) => f.endsWith(".wasm")).join(", ")}; its WebGL on ${b.webgl_renderer})`);
+console.log(`  test page: ${(1000 / t.mean_ms_after_first).toFixed(1)} fps; load ${t.load_ms.toFixed(0)} ms, first frame done ${t.first_frame_ms.toFixed(0)} ms after the page started loading the networks, median ${t.median_ms_after_first.toFixed(1)} ms a frame`);
+' "$out/timings.json" "$out/compare.json" "$out/bad-cut.json, $out/bad-missing.json" "$out/camera.json" "$out/bench.json"
 [ "$status" -eq 0 ] || { echo "web-test: the browser's records differ from native (see $out/compare.json and the lines above)" >&2; cat "$out/compare.json" >&2; }
 exit "$status"
