@@ -8,7 +8,9 @@
 # (F and G from the side-by-side benchmark, web/bench: the same clip, one hand, alternating)
 # and exits 1 if the records differ. Then the demo page (web/index.html) tracks the same clip
 # from Chromium's fake camera (a .y4m file behind getUserMedia) and must find a hand in 3D in
-# most camera frames, and must say so when the camera is denied or absent. The records, the
+# most camera frames, give its records as JSON Lines with its download button, and say what
+# is wrong when the camera is denied or absent, the weights are cut short or missing, or the
+# browser has no WebAssembly. web/monohand.d.ts is type-checked. The records, the
 # timings and screenshots (the test page's last frame and the demo page's overlay on the
 # camera stream; look at them) are left in $WEB_TEST_OUT (default target/web-test).
 #
@@ -46,19 +48,6 @@ ffmpeg -v error -y -framerate 30 -i "$out/frames/%04d.png" -f rawvideo -pix_fmt 
 node --experimental-websocket web/test/run.mjs --web web --clip "$out/clip.rgba" --size 640x480 \
   --fps 30 --out "$out/web.jsonl" --screenshot "$out/screenshot.png" \
   ${CHROMIUM:+--chromium "$CHROMIUM"} 2> "$out/chromium.log" | tail -n 1 > "$out/timings.json"
-# Weights cut short, and missing: the page says so (which file, what is wrong).
-mkdir -p "$out/bad-weights"
-head -c 100000 web/weights/palm_detection_full.tflite > "$out/bad-weights/palm_detection_full.tflite"
-cp web/weights/hand_landmark_full.tflite "$out/bad-weights/"
-bad() {
-  node --experimental-websocket web/test/run.mjs --web web --clip "$out/clip.rgba" --size 640x480 \
-    --out /dev/null --extra "$out/bad-weights" --query "$1" --expect-error "$2" \
-    ${CHROMIUM:+--chromium "$CHROMIUM"} 2>> "$out/chromium.log" | tail -n 1 ||
-    { echo "web-test: with weights at $1 the page did not say \"$2\" (see $out/chromium.log)" >&2; return 1; }
-}
-bad "&weights=/extra/" "the palm detector weights (100000 bytes" > "$out/bad-cut.json"
-bad "&weights=/missing/" "cannot fetch the palm detector weights" > "$out/bad-missing.json"
-
 # The camera stream: the same frames as a .y4m file played by Chromium's fake camera into
 # the demo page (web/index.html?start=camera: getUserMedia, a <video>, a canvas, the
 # tracker, the overlay), until it has tracked as many camera frames as the clip has. Not
@@ -70,12 +59,31 @@ camera() {
   node --experimental-websocket web/test/camera.mjs --web web ${CHROMIUM:+--chromium "$CHROMIUM"} "$@" \
     2>> "$out/chromium.log" | tail -n 1
 }
-camera --y4m "$out/clip.y4m" --frames "$frames" --screenshot "$out/camera.png" > "$out/camera.json" ||
+camera --y4m "$out/clip.y4m" --frames "$frames" --screenshot "$out/camera.png" \
+  --download "$out/camera.jsonl" > "$out/camera.json" ||
   { echo "web-test: the demo page did not find the hand in the camera stream (see $out/camera.json, $out/chromium.log)" >&2; exit 1; }
 camera --deny --expect-error "The camera was denied" --screenshot "$out/camera-denied.png" > "$out/camera-denied.json" ||
   { echo "web-test: with the camera denied the demo page did not say so (see $out/chromium.log)" >&2; exit 1; }
 camera --no-device --expect-error "No camera was found" > "$out/camera-none.json" ||
   { echo "web-test: without a camera the demo page did not say so (see $out/chromium.log)" >&2; exit 1; }
+# Weights cut short, and missing, and a browser without WebAssembly (V8's --jitless): the
+# demo page says what is wrong (which file, what to do) instead of staying blank.
+mkdir -p "$out/bad-weights"
+head -c 100000 web/weights/palm_detection_full.tflite > "$out/bad-weights/palm_detection_full.tflite"
+cp web/weights/hand_landmark_full.tflite "$out/bad-weights/"
+bad() {
+  camera --extra "$out/bad-weights" --query "&weights=$1" --expect-error "$2" ||
+    { echo "web-test: with weights at $1 the demo page did not say \"$2\" (see $out/chromium.log)" >&2; return 1; }
+}
+bad /extra/ "the palm detector weights (100000 bytes" > "$out/bad-cut.json"
+bad /missing/ "cannot fetch the palm detector weights" > "$out/bad-missing.json"
+camera --js-flags=--jitless --expect-error "This browser cannot run WebAssembly" > "$out/no-wasm.json" ||
+  { echo "web-test: in a browser without WebAssembly the demo page did not say so (see $out/chromium.log)" >&2; exit 1; }
+# The npm package's TypeScript types (web/monohand.d.ts), checked by the compiler pinned in
+# web/package-lock.json against a use of every part of them (web/test/types.ts).
+npm ci --prefix web --no-audit --no-fund --loglevel=error > /dev/null
+web/node_modules/.bin/tsc -p web/tsconfig.json ||
+  { echo "web-test: web/monohand.d.ts does not type-check (tsc -p web/tsconfig.json)" >&2; exit 1; }
 
 # Side by side (web/bench): the same RGBA clip through monohand (one hand) and through
 # @mediapipe/hands 0.4.1675469240 (npm, pinned in web/bench/package-lock.json; SIMD build,
@@ -94,12 +102,12 @@ const c = JSON.parse(require("fs").readFileSync(process.argv[2], "utf8"));
 const b = JSON.parse(require("fs").readFileSync(process.argv[5], "utf8"));
 console.log(`web: ${c.frames} frames, ${c.hands_3d} hands in 3D, ${b.monohand.fps.toFixed(1)} fps in Chromium (MediaPipe web: ${b.mediapipe.fps.toFixed(1)} fps)`);
 console.log(`  vs native: max ${c.max_px.toFixed(4)} px, ${c.max_mm.toFixed(4)} mm; ${c.failures} differences beyond 0.5 px / 2 mm`);
-console.log(`  weights cut short or missing: the page says so (${process.argv[3]})`);
+console.log(`  weights cut short or missing, no WebAssembly: the demo page says so (${process.argv[3]})`);
 const cam = JSON.parse(require("fs").readFileSync(process.argv[4], "utf8"));
-console.log(`  camera stream (fake camera, demo page): ${cam.frames} frames tracked, ${cam.frames_with_hand_3d} with a hand in 3D, median ${cam.median_ms_after_first.toFixed(1)} ms a frame; camera denied or absent: the page says so`);
+console.log(`  camera stream (fake camera, demo page): ${cam.frames} frames tracked, ${cam.frames_with_hand_3d} with a hand in 3D, median ${cam.median_ms_after_first.toFixed(1)} ms a frame, ${cam.downloaded_frames} records downloaded as JSON Lines; camera denied or absent: the page says so`);
 const r = (x) => x.map((v) => v.toFixed(1)).join(", ");
 console.log(`  side by side (web/bench, one hand, ${b.rounds} rounds alternating): monohand ${r(b.monohand.per_round_fps)} fps (median ${b.monohand.median_ms.toFixed(1)} ms), @mediapipe/hands ${r(b.mediapipe.per_round_fps)} fps (median ${b.mediapipe.median_ms.toFixed(1)} ms; ${b.mediapipe.files.filter((f) => f.endsWith(".wasm")).join(", ")}; its WebGL on ${b.webgl_renderer})`);
 console.log(`  test page: ${(1000 / t.mean_ms_after_first).toFixed(1)} fps; load ${t.load_ms.toFixed(0)} ms, first frame done ${t.first_frame_ms.toFixed(0)} ms after the page started loading the networks, median ${t.median_ms_after_first.toFixed(1)} ms a frame`);
-' "$out/timings.json" "$out/compare.json" "$out/bad-cut.json, $out/bad-missing.json" "$out/camera.json" "$out/bench.json"
+' "$out/timings.json" "$out/compare.json" "$out/bad-cut.json, $out/bad-missing.json, $out/no-wasm.json" "$out/camera.json" "$out/bench.json"
 [ "$status" -eq 0 ] || { echo "web-test: the browser's records differ from native (see $out/compare.json and the lines above)" >&2; cat "$out/compare.json" >&2; }
 exit "$status"

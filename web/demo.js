@@ -1,6 +1,8 @@
 // The demo page (web/index.html): the webcam or a video file in, the tracked hands drawn
 // over it in 3D (web/overlay.js), the fps, and the records to download as JSON Lines.
-// Every failure ends in a message on the page that says what is wrong and what to do.
+// Every failure ends in a message on the page that says what is wrong and what to do: an
+// unsupported browser, weights missing or corrupt, a camera denied, absent or busy, a video
+// the browser cannot play.
 //
 // URL parameters: `weights` (the weights' folder, default ./weights/), `start=camera`
 // (start the camera at once, without the button; the browser test uses it).
@@ -9,7 +11,7 @@
 // web/test/camera.mjs): `state` ('loading', 'ready', 'running', 'stopped' or 'error'),
 // `message`, `frames` (frames tracked), `framesWithHand3d`, `hands3d`, `frameMs`.
 
-import { createTracker } from './monohand.js';
+import { createTracker, unsupportedReason } from './monohand.js';
 import { drawOverlay } from './overlay.js';
 
 const $ = (id) => document.getElementById(id);
@@ -145,6 +147,18 @@ function trackVideo(video, { live, label }) {
   return { stop };
 }
 
+/** The records so far as JSON Lines (docs/output-format.md), one frame a line. */
+function download() {
+  const text = records.map((r) => JSON.stringify(r)).join('\n') + '\n';
+  const a = document.createElement('a');
+  a.href = URL.createObjectURL(new Blob([text], { type: 'application/x-ndjson' }));
+  a.download = 'monohand-hands.jsonl';
+  document.body.append(a);
+  a.click();
+  a.remove();
+  setTimeout(() => URL.revokeObjectURL(a.href), 10000);
+}
+
 async function startTracker() {
   // A new session for each source: identities and the fit's warm start begin afresh.
   tracker = await createTracker({ weights: params.get('weights') ?? './weights/' });
@@ -198,9 +212,9 @@ async function openFile(file) {
 }
 
 async function main() {
-  if (typeof WebAssembly !== 'object') {
-    say('This browser cannot run WebAssembly, which monohand needs. Use a current Chrome, '
-      + 'Edge, Firefox or Safari.', { error: true });
+  const unsupported = unsupportedReason();
+  if (unsupported) {
+    say(unsupported, { error: true });
     return;
   }
   try {
@@ -213,6 +227,7 @@ async function main() {
   say('Ready: start the camera or open a video file.');
   $('camera').onclick = () => startCamera().catch((e) => say(`The camera failed: ${e.message}`, { error: true }));
   $('stop').onclick = () => running?.stop();
+  $('download').onclick = download;
   $('file').onchange = (event) => {
     const file = event.target.files?.[0];
     if (file) openFile(file).catch((e) => say(`The video failed: ${e.message}`, { error: true }));

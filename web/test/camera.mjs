@@ -7,13 +7,21 @@
 // With `--expect-error TEXT` the page must fail to open the camera with a message that
 // contains TEXT, and track nothing: with `--deny`, the camera's permission denied
 // (DevTools' Browser.setPermission); with `--no-device`, no fake camera (a machine
-// without one).
+// without one); with bad weights (`--extra`, `--query`) or `--js-flags=--jitless` (a
+// browser without WebAssembly), the tracker cannot start.
 //
 //   node --experimental-websocket camera.mjs --web DIR --y4m clip.y4m --frames N \
-//        --screenshot shot.png [--chromium PATH] [--timeout SECS]
+//        --screenshot shot.png [--download records.jsonl] [--chromium PATH] [--timeout SECS]
+//        [--extra DIR (served as /extra/)] [--query '&weights=/extra/' (added to the URL)]
+//        [--js-flags FLAGS (V8's, e.g. --jitless: no WebAssembly)]
 //   node --experimental-websocket camera.mjs --web DIR (--deny | --no-device) --expect-error TEXT [...]
+//
+// `--download` presses the page's download button and checks the JSON Lines it gives: the
+// frames in order, at least as many as the page had tracked.
 
-import { writeFileSync } from 'node:fs';
+import { existsSync, mkdtempSync, readFileSync, rmSync, writeFileSync } from 'node:fs';
+import { tmpdir } from 'node:os';
+import { join } from 'node:path';
 import { launch, parseArgs, serve } from './chromium.mjs';
 
 const args = parseArgs();
@@ -24,7 +32,9 @@ if (!expectError && !args.y4m) throw new Error('--y4m is required (or --expect-e
 const frames = Number(args.frames ?? 30);
 const timeoutS = Number(args.timeout ?? 600);
 
-const server = await serve({ mounts: { '/': args.web } });
+const mounts = { '/': args.web };
+if (args.extra) mounts['/extra/'] = args.extra;
+const server = await serve({ mounts });
 let browser = null;
 try {
   // The fake camera; its permission is granted (the fake UI accepts) unless --deny.
@@ -33,6 +43,7 @@ try {
   if (!('no-device' in args)) flags.push('--use-fake-device-for-media-stream');
   if (args.y4m) flags.push(`--use-file-for-fake-video-capture=${args.y4m}`);
   if (!deny) flags.push('--use-fake-ui-for-media-stream');
+  if (args['js-flags']) flags.push(`--js-flags=${args['js-flags']}`);
   browser = await launch({ chromium: args.chromium, flags });
   const origin = `http://127.0.0.1:${server.port}`;
   if (deny) {
@@ -40,7 +51,7 @@ try {
       permission: { name: 'camera' }, setting: 'denied', origin,
     });
   }
-  await browser.send('Page.navigate', { url: `${origin}/index.html?start=camera` });
+  await browser.send('Page.navigate', { url: `${origin}/index.html?start=camera${args.query ?? ''}` });
   const state = 'JSON.stringify(window.monohandDemo ?? null)';
   if (expectError) {
     const demo = await browser.waitFor(
@@ -67,6 +78,22 @@ try {
       median_ms_after_first: ms[Math.floor(ms.length / 2)] ?? null,
       message: demo.message,
     };
+    if (args.download) {
+      // The page's download button: the records so far as JSON Lines, one frame a line.
+      const dir = mkdtempSync(join(tmpdir(), 'monohand-web-download-'));
+      await browser.send('Browser.setDownloadBehavior', { behavior: 'allow', downloadPath: dir });
+      await browser.evaluate("document.getElementById('download').click()");
+      const file = join(dir, 'monohand-hands.jsonl');
+      for (let i = 0; i < 60 && !existsSync(file); i++) await new Promise((ok) => setTimeout(ok, 500));
+      if (!existsSync(file)) throw new Error('the download button gave no monohand-hands.jsonl');
+      const lines = readFileSync(file, 'utf8').split('\n').filter(Boolean).map((l) => JSON.parse(l));
+      rmSync(dir, { recursive: true, force: true });
+      if (lines.length < demo.frames || lines.some((r, i) => r.frame !== i || !Array.isArray(r.hands))) {
+        throw new Error(`the downloaded records are not the page's frames in order (${lines.length} lines, ${demo.frames} frames tracked before)`);
+      }
+      writeFileSync(args.download, lines.map((r) => JSON.stringify(r)).join('\n') + '\n');
+      result.downloaded_frames = lines.length;
+    }
     console.log(JSON.stringify(result));
     if (!(2 * demo.framesWithHand3d > demo.frames)) {
       console.error(`camera test: a hand in 3D in only ${demo.framesWithHand3d} of ${demo.frames} camera frames`);

@@ -9,11 +9,14 @@ import { createServer } from 'node:http';
 import { tmpdir } from 'node:os';
 import { extname, join, normalize, resolve, sep } from 'node:path';
 
-/** The command line's `--name value` pairs as an object. */
+/** The command line's `--name value` and `--name=value` pairs as an object. */
 export function parseArgs(argv = process.argv.slice(2)) {
   const args = {};
   for (let i = 0; i < argv.length; i++) {
-    if (argv[i].startsWith('--')) args[argv[i].slice(2)] = argv[i + 1];
+    if (!argv[i].startsWith('--')) continue;
+    const eq = argv[i].indexOf('=');
+    if (eq > 0) args[argv[i].slice(2, eq)] = argv[i].slice(eq + 1);
+    else args[argv[i].slice(2)] = argv[i + 1];
   }
   return args;
 }

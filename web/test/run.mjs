@@ -5,8 +5,6 @@
 //
 //   node --experimental-websocket run.mjs --web DIR --clip FILE.rgba --size WxH --fps N \
 //        --out records.jsonl --screenshot shot.png [--chromium PATH] [--timeout SECS]
-//        [--extra DIR (served as /extra/)] [--query '&weights=/extra/' (added to the page's URL)]
-//        [--expect-error TEXT: the page must fail with a message containing TEXT]
 
 import { writeFileSync } from 'node:fs';
 import { launch, parseArgs, serve } from './chromium.mjs';
@@ -18,40 +16,30 @@ for (const need of ['web', 'clip', 'size', 'out']) {
 const [w, h] = args.size.split('x').map(Number);
 const timeoutS = Number(args.timeout ?? 900);
 
-const mounts = { '/': args.web };
-if (args.extra) mounts['/extra/'] = args.extra;
-const server = await serve({ mounts, files: { '/clip.rgba': args.clip } });
+const server = await serve({ mounts: { '/': args.web }, files: { '/clip.rgba': args.clip } });
 let browser = null;
 try {
   browser = await launch({ chromium: args.chromium });
-  const url = `http://127.0.0.1:${server.port}/test/index.html?clip=/clip.rgba&w=${w}&h=${h}&fps=${args.fps ?? 30}${args.query ?? ''}`;
+  const url = `http://127.0.0.1:${server.port}/test/index.html?clip=/clip.rgba&w=${w}&h=${h}&fps=${args.fps ?? 30}`;
   await browser.send('Page.navigate', { url });
   const result = await browser.waitFor(
     'window.monohandResult ? JSON.stringify(window.monohandResult) : null', timeoutS);
-  if (args['expect-error'] !== undefined) {
-    // The page must have said what went wrong, in these words.
-    if (!result.error?.includes(args['expect-error'])) {
-      throw new Error(`expected the page to fail with "${args['expect-error']}", got ${JSON.stringify(result.error ?? 'no error')}`);
-    }
-    console.log(JSON.stringify({ error: result.error }));
-  } else {
-    if (result.error) throw new Error(`the page failed: ${result.error}`);
-    writeFileSync(args.out, result.records.map((r) => JSON.stringify(r)).join('\n') + '\n');
-    if (args.screenshot) writeFileSync(args.screenshot, await browser.screenshot());
-    const ms = result.frameMs;
-    const after = ms.slice(1);
-    const mean = (a) => a.reduce((s, x) => s + x, 0) / Math.max(1, a.length);
-    const sorted = [...after].sort((a, b) => a - b);
-    console.log(JSON.stringify({
-      frames: ms.length,
-      load_ms: result.loadMs,
-      first_frame_ms: result.firstFrameMs,
-      mean_ms_after_first: mean(after),
-      median_ms_after_first: sorted[Math.floor(sorted.length / 2)] ?? null,
-      notes: result.notes,
-      user_agent: result.userAgent,
-    }));
-  }
+  if (result.error) throw new Error(`the page failed: ${result.error}`);
+  writeFileSync(args.out, result.records.map((r) => JSON.stringify(r)).join('\n') + '\n');
+  if (args.screenshot) writeFileSync(args.screenshot, await browser.screenshot());
+  const ms = result.frameMs;
+  const after = ms.slice(1);
+  const mean = (a) => a.reduce((s, x) => s + x, 0) / Math.max(1, a.length);
+  const sorted = [...after].sort((a, b) => a - b);
+  console.log(JSON.stringify({
+    frames: ms.length,
+    load_ms: result.loadMs,
+    first_frame_ms: result.firstFrameMs,
+    mean_ms_after_first: mean(after),
+    median_ms_after_first: sorted[Math.floor(sorted.length / 2)] ?? null,
+    notes: result.notes,
+    user_agent: result.userAgent,
+  }));
 } finally {
   browser?.close();
   server.close();
