@@ -9,6 +9,7 @@
 // URL parameters: clip (the .rgba file), w, h, fps, rounds (default 2).
 
 import { createTracker } from '../monohand.js';
+import { readClip } from '../test/clip.js';
 
 const status = document.getElementById('status');
 const say = (text) => { status.textContent = text; };
@@ -18,17 +19,6 @@ const h = Number(params.get('h'));
 const fps = Number(params.get('fps') ?? 30);
 const rounds = Number(params.get('rounds') ?? 2);
 
-async function readClip() {
-  const response = await fetch(params.get('clip'));
-  if (!response.ok) throw new Error(`cannot fetch the clip: HTTP ${response.status}`);
-  const bytes = await response.arrayBuffer();
-  const size = w * h * 4;
-  if (!(size > 0) || bytes.byteLength % size !== 0) {
-    throw new Error(`the clip has ${bytes.byteLength} bytes, not a whole number of ${w}x${h} RGBA frames`);
-  }
-  return { bytes, size, n: bytes.byteLength / size };
-}
-
 const nextTask = () => new Promise((resolve) => setTimeout(resolve, 0));
 
 async function monohandRound(clip) {
@@ -37,7 +27,7 @@ async function monohandRound(clip) {
   let found = 0;
   for (let i = 0; i < clip.n; i++) {
     const t = performance.now();
-    const image = new ImageData(new Uint8ClampedArray(clip.bytes, i * clip.size, clip.size), w, h);
+    const image = clip.frame(i);
     const frames = tracker.track(image, i / fps);
     ms.push(performance.now() - t);
     for (const f of frames) if (f.hands.some((hand) => hand.joints_3d_mm)) found += 1;
@@ -69,7 +59,7 @@ async function mediapipeRound(clip, canvas) {
   for (let i = 0; i < clip.n; i++) {
     lastResults = null;
     const t = performance.now();
-    ctx.putImageData(new ImageData(new Uint8ClampedArray(clip.bytes, i * clip.size, clip.size), w, h), 0, 0);
+    ctx.putImageData(clip.frame(i), 0, 0);
     await mediapipe.send({ image: canvas });
     ms.push(performance.now() - t);
     if (lastResults?.multiHandLandmarks?.length) found += 1;
@@ -99,7 +89,7 @@ function webglRenderer() {
 }
 
 async function main() {
-  const clip = await readClip();
+  const clip = await readClip(params.get('clip'), w, h);
   const canvas = document.getElementById('view');
   canvas.width = w;
   canvas.height = h;

@@ -6,6 +6,7 @@
 
 import { createTracker } from '../monohand.js';
 import { drawOverlay } from '../overlay.js';
+import { readClip } from './clip.js';
 
 const status = document.getElementById('status');
 const say = (text) => { status.textContent = text; };
@@ -28,19 +29,13 @@ async function main() {
   const tracker = await createTracker({ weights: params.get('weights') ?? '../weights/' });
   const loadMs = performance.now() - t0;
   say('networks loaded; reading the clip...');
-  const response = await fetch(params.get('clip'));
-  if (!response.ok) throw new Error(`cannot fetch the clip: HTTP ${response.status}`);
-  const bytes = await response.arrayBuffer();
-  const size = w * h * 4;
-  if (!(size > 0) || bytes.byteLength % size !== 0) {
-    throw new Error(`the clip has ${bytes.byteLength} bytes, not a whole number of ${w}x${h} RGBA frames`);
-  }
-  const n = bytes.byteLength / size;
+  const clip = await readClip(params.get('clip'), w, h);
+  const n = clip.n;
   const records = [];
   const frameMs = [];
   let image = null;
   for (let i = 0; i < n; i++) {
-    image = new ImageData(new Uint8ClampedArray(bytes, i * size, size), w, h);
+    image = clip.frame(i);
     const t = performance.now();
     records.push(...tracker.track(image, i / fps));
     frameMs.push(performance.now() - t);
