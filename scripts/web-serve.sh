@@ -8,10 +8,13 @@
 # Open the address in a browser, press "Start camera" (or open a video file). Browsers give
 # the camera only to pages served over https or from localhost, so open it as localhost on
 # this machine (not by another machine's address over plain http). Needs what web-build.sh
-# needs, and python3 (its http.server). Stop with Ctrl-C.
+# needs, npm (three.js for the 3D view, and TypeScript, from web/package-lock.json) and
+# python3 (its http.server). Stop with Ctrl-C.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/web-build.sh
+# three.js for the page's 3D view (pinned in web/package-lock.json; the page works without).
+npm ci --prefix web --no-audit --no-fund --loglevel=error > /dev/null
 port="${PORT:-8000}"
 echo "web-serve: the demo page is at http://localhost:$port/ (Ctrl-C stops)"
 exec python3 -m http.server "$port" --bind 127.0.0.1 --directory web

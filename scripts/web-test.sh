@@ -52,9 +52,11 @@ node --experimental-websocket web/test/run.mjs --web web --clip "$out/clip.rgba"
 # the demo page (web/index.html?start=camera: getUserMedia, a <video>, a canvas, the
 # tracker, the overlay), until it has tracked as many camera frames as the clip has. Not
 # frame-exact (the camera's frames are YUV 4:2:0 and come at its own pace): the page must
-# find a hand in 3D in most of them. Then the camera denied, and no camera at all: the page
-# says so.
+# find a hand in 3D in most of them, and its three.js view must show the skinned hand. Then
+# the camera denied, and no camera at all: the page says so.
 ffmpeg -v error -y -framerate 30 -i "$out/frames/%04d.png" -pix_fmt yuv420p "$out/clip.y4m"
+# The demo's three.js (its 3D view) and TypeScript (below), pinned in web/package-lock.json.
+npm ci --prefix web --no-audit --no-fund --loglevel=error > /dev/null
 camera() {
   node --experimental-websocket web/test/camera.mjs --web web ${CHROMIUM:+--chromium "$CHROMIUM"} "$@" \
     2>> "$out/chromium.log" | tail -n 1
@@ -81,7 +83,6 @@ camera --js-flags=--jitless --expect-error "This browser cannot run WebAssembly"
   { echo "web-test: in a browser without WebAssembly the demo page did not say so (see $out/chromium.log)" >&2; exit 1; }
 # The npm package's TypeScript types (web/monohand.d.ts), checked by the compiler pinned in
 # web/package-lock.json against a use of every part of them (web/test/types.ts).
-npm ci --prefix web --no-audit --no-fund --loglevel=error > /dev/null
 web/node_modules/.bin/tsc -p web/tsconfig.json ||
   { echo "web-test: web/monohand.d.ts does not type-check (tsc -p web/tsconfig.json)" >&2; exit 1; }
 
@@ -104,7 +105,7 @@ console.log(`web: ${c.frames} frames, ${c.hands_3d} hands in 3D, ${b.monohand.fp
 console.log(`  vs native: max ${c.max_px.toFixed(4)} px, ${c.max_mm.toFixed(4)} mm; ${c.failures} differences beyond 0.5 px / 2 mm`);
 console.log(`  weights cut short or missing, no WebAssembly: the demo page says so (${process.argv[3]})`);
 const cam = JSON.parse(require("fs").readFileSync(process.argv[4], "utf8"));
-console.log(`  camera stream (fake camera, demo page): ${cam.frames} frames tracked, ${cam.frames_with_hand_3d} with a hand in 3D, median ${cam.median_ms_after_first.toFixed(1)} ms a frame, ${cam.downloaded_frames} records downloaded as JSON Lines; camera denied or absent: the page says so`);
+console.log(`  camera stream (fake camera, demo page): ${cam.frames} frames tracked, ${cam.frames_with_hand_3d} with a hand in 3D (the three.js hand drawn in ${cam.hand3d_view_frames}), median ${cam.median_ms_after_first.toFixed(1)} ms a frame, ${cam.downloaded_frames} records downloaded as JSON Lines; camera denied or absent: the page says so`);
 const r = (x) => x.map((v) => v.toFixed(1)).join(", ");
 console.log(`  side by side (web/bench, one hand, ${b.rounds} rounds alternating): monohand ${r(b.monohand.per_round_fps)} fps (median ${b.monohand.median_ms.toFixed(1)} ms), @mediapipe/hands ${r(b.mediapipe.per_round_fps)} fps (median ${b.mediapipe.median_ms.toFixed(1)} ms; ${b.mediapipe.files.filter((f) => f.endsWith(".wasm")).join(", ")}; its WebGL on ${b.webgl_renderer})`);
 console.log(`  test page: ${(1000 / t.mean_ms_after_first).toFixed(1)} fps; load ${t.load_ms.toFixed(0)} ms, first frame done ${t.first_frame_ms.toFixed(0)} ms after the page started loading the networks, median ${t.median_ms_after_first.toFixed(1)} ms a frame`);

@@ -9,7 +9,9 @@
 //
 // The page's state is in `window.monohandDemo` (read by the browser test,
 // web/test/camera.mjs): `state` ('loading', 'ready', 'running', 'stopped' or 'error'),
-// `message`, `frames` (frames tracked), `framesWithHand3d`, `hands3d`, `frameMs`.
+// `message`, `frames` (frames tracked), `framesWithHand3d`, `hands3d`, `frameMs`,
+// `hand3dFrames` (frames the three.js view drew a hand in), `hand3d` (why there is no such
+// view, if there is none).
 
 import { createTracker, unsupportedReason } from './monohand.js';
 import { drawOverlay } from './overlay.js';
@@ -18,6 +20,7 @@ const $ = (id) => document.getElementById(id);
 const params = new URLSearchParams(location.search);
 const demo = {
   state: 'loading', message: '', frames: 0, framesWithHand3d: 0, hands3d: 0, frameMs: [],
+  hand3dFrames: 0, hand3d: '',
 };
 window.monohandDemo = demo;
 
@@ -52,6 +55,7 @@ export function cameraMessage(e) {
 }
 
 let tracker = null;
+let handView = null;
 let records = [];
 let running = null; // { video, stop() }
 
@@ -60,7 +64,7 @@ const ctx = canvas.getContext('2d', { willReadFrequently: true });
 
 function resetRecords() {
   records = [];
-  Object.assign(demo, { frames: 0, framesWithHand3d: 0, hands3d: 0, frameMs: [] });
+  Object.assign(demo, { frames: 0, framesWithHand3d: 0, hands3d: 0, frameMs: [], hand3dFrames: 0 });
   $('download').disabled = true;
 }
 
@@ -110,7 +114,10 @@ function trackVideo(video, { live, label }) {
         demo.hands3d += n;
         if (n > 0) demo.framesWithHand3d += 1;
       }
-      if (done.length) drawOverlay(ctx, done[done.length - 1]);
+      if (done.length) {
+        drawOverlay(ctx, done[done.length - 1]);
+        if (handView && handView.update(done[done.length - 1]) > 0) demo.hand3dFrames += 1;
+      }
       recent.push(performance.now());
       while (recent.length > 30) recent.shift();
       const fps = recent.length > 1 ? (1000 * (recent.length - 1)) / (recent[recent.length - 1] - recent[0]) : 0;
@@ -222,6 +229,16 @@ async function main() {
   } catch (e) {
     say(`The tracker could not start: ${e.message}`, { error: true });
     return;
+  }
+  // The 3D view is an extra: without three.js or WebGL the page says why and goes on.
+  try {
+    const { HandView } = await import('./hand3d.js');
+    handView = new HandView($('hand3d'));
+  } catch (e) {
+    $('hand3d').hidden = true;
+    demo.hand3d = `No 3D view: ${e.message}. It needs WebGL and three.js in web/node_modules `
+      + '(npm ci in web/; scripts/web-serve.sh does it).';
+    $('hand3d-note').textContent = demo.hand3d;
   }
   demo.state = 'ready';
   say('Ready: start the camera or open a video file.');

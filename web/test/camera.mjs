@@ -2,7 +2,8 @@
 // with a fake camera that plays a .y4m clip (`--use-fake-device-for-media-stream
 // --use-file-for-fake-video-capture`), until the page has tracked `--frames` frames of the
 // camera stream; writes a screenshot of the overlay and prints the page's counts as JSON on
-// its last line. Exits 1 if the page failed or found a hand in 3D in fewer than half of them.
+// its last line. Exits 1 if the page failed, found a hand in 3D in fewer than half of them,
+// or its three.js view (web/hand3d.js) drew no hand.
 //
 // With `--expect-error TEXT` the page must fail to open the camera with a message that
 // contains TEXT, and track nothing: with `--deny`, the camera's permission denied
@@ -44,7 +45,8 @@ try {
   if (args.y4m) flags.push(`--use-file-for-fake-video-capture=${args.y4m}`);
   if (!deny) flags.push('--use-fake-ui-for-media-stream');
   if (args['js-flags']) flags.push(`--js-flags=${args['js-flags']}`);
-  browser = await launch({ chromium: args.chromium, flags });
+  // WebGL (software) for the demo's three.js view.
+  browser = await launch({ chromium: args.chromium, flags, webgl: true });
   const origin = `http://127.0.0.1:${server.port}`;
   if (deny) {
     await browser.send('Browser.setPermission', {
@@ -75,6 +77,7 @@ try {
       frames: demo.frames,
       frames_with_hand_3d: demo.framesWithHand3d,
       hands_3d: demo.hands3d,
+      hand3d_view_frames: demo.hand3dFrames,
       median_ms_after_first: ms[Math.floor(ms.length / 2)] ?? null,
       message: demo.message,
     };
@@ -95,6 +98,10 @@ try {
       result.downloaded_frames = lines.length;
     }
     console.log(JSON.stringify(result));
+    if (demo.hand3d || demo.hand3dFrames === 0) {
+      console.error(`camera test: the demo page's 3D view showed no hand: ${demo.hand3d || 'no frame drawn'}`);
+      process.exitCode = 1;
+    }
     if (!(2 * demo.framesWithHand3d > demo.frames)) {
       console.error(`camera test: a hand in 3D in only ${demo.framesWithHand3d} of ${demo.frames} camera frames`);
       process.exitCode = 1;

@@ -76,7 +76,7 @@ export async function launch({ chromium = '/usr/bin/chromium', flags = [], webgl
     '--headless=new', '--no-sandbox', ...(webgl ? [] : ['--disable-gpu']), '--no-first-run',
     '--disable-extensions', '--disable-background-networking', '--disable-sync',
     '--remote-debugging-address=127.0.0.1', '--remote-debugging-port=0',
-    `--user-data-dir=${profile}`, '--window-size=700,820', ...flags, 'about:blank',
+    `--user-data-dir=${profile}`, '--window-size=1040,780', ...flags, 'about:blank',
   ], { stdio: ['ignore', 'ignore', 'pipe'] });
   let ws = null;
   const close = () => {
