@@ -64,6 +64,14 @@ camera() {
 camera --y4m "$out/clip.y4m" --frames "$frames" --screenshot "$out/camera.png" \
   --download "$out/camera.jsonl" > "$out/camera.json" ||
   { echo "web-test: the demo page did not find the hand in the camera stream (see $out/camera.json, $out/chromium.log)" >&2; exit 1; }
+# A video file, opened with the page's file input: the same frames as WebM (VP8), tracked
+# to its end; and a file that is no video: the page says it cannot play it.
+ffmpeg -v error -y -framerate 30 -i "$out/frames/%04d.png" -c:v libvpx -b:v 2M "$out/clip.webm"
+camera --video "$out/clip.webm" --screenshot "$out/video.png" > "$out/video.json" ||
+  { echo "web-test: the demo page did not track the hand in a video file (see $out/video.json, $out/chromium.log)" >&2; exit 1; }
+head -c 5000 "$out/clip.rgba" > "$out/not-a-video.mp4"
+camera --video "$out/not-a-video.mp4" --expect-error "This browser cannot play not-a-video.mp4" > "$out/video-bad.json" ||
+  { echo "web-test: the demo page did not refuse a file that is no video (see $out/chromium.log)" >&2; exit 1; }
 camera --deny --expect-error "The camera was denied" --screenshot "$out/camera-denied.png" > "$out/camera-denied.json" ||
   { echo "web-test: with the camera denied the demo page did not say so (see $out/chromium.log)" >&2; exit 1; }
 camera --no-device --expect-error "No camera was found" > "$out/camera-none.json" ||
@@ -105,10 +113,12 @@ console.log(`web: ${c.frames} frames, ${c.hands_3d} hands in 3D, ${b.monohand.fp
 console.log(`  vs native: max ${c.max_px.toFixed(4)} px, ${c.max_mm.toFixed(4)} mm; ${c.failures} differences beyond 0.5 px / 2 mm`);
 console.log(`  weights cut short or missing, no WebAssembly: the demo page says so (${process.argv[3]})`);
 const cam = JSON.parse(require("fs").readFileSync(process.argv[4], "utf8"));
+const vid = JSON.parse(require("fs").readFileSync(process.argv[6], "utf8"));
+console.log(`  video file (demo page, WebM): ${vid.frames} frames tracked, ${vid.frames_with_hand_3d} with a hand in 3D; a file that is no video: the page says so`);
 console.log(`  camera stream (fake camera, demo page): ${cam.frames} frames tracked, ${cam.frames_with_hand_3d} with a hand in 3D (the three.js hand drawn in ${cam.hand3d_view_frames}), median ${cam.median_ms_after_first.toFixed(1)} ms a frame, ${cam.downloaded_frames} records downloaded as JSON Lines; camera denied or absent: the page says so`);
 const r = (x) => x.map((v) => v.toFixed(1)).join(", ");
-console.log(`  side by side (web/bench, one hand, ${b.rounds} rounds alternating): monohand ${r(b.monohand.per_round_fps)} fps (median ${b.monohand.median_ms.toFixed(1)} ms), @mediapipe/hands ${r(b.mediapipe.per_round_fps)} fps (median ${b.mediapipe.median_ms.toFixed(1)} ms; ${b.mediapipe.files.filter((f) => f.endsWith(".wasm")).join(", ")}; its WebGL on ${b.webgl_renderer})`);
+console.log(`  side by side (web/bench, one hand, ${b.rounds > 1 ? `${b.rounds} rounds alternating` : "one round each"}): monohand ${r(b.monohand.per_round_fps)} fps (median ${b.monohand.median_ms.toFixed(1)} ms), @mediapipe/hands ${r(b.mediapipe.per_round_fps)} fps (median ${b.mediapipe.median_ms.toFixed(1)} ms; ${b.mediapipe.files.filter((f) => f.endsWith(".wasm")).join(", ")}; its WebGL on ${b.webgl_renderer})`);
 console.log(`  test page: ${(1000 / t.mean_ms_after_first).toFixed(1)} fps; load ${t.load_ms.toFixed(0)} ms, first frame done ${t.first_frame_ms.toFixed(0)} ms after the page started loading the networks, median ${t.median_ms_after_first.toFixed(1)} ms a frame`);
-' "$out/timings.json" "$out/compare.json" "$out/bad-cut.json, $out/bad-missing.json, $out/no-wasm.json" "$out/camera.json" "$out/bench.json"
+' "$out/timings.json" "$out/compare.json" "$out/bad-cut.json, $out/bad-missing.json, $out/no-wasm.json" "$out/camera.json" "$out/bench.json" "$out/video.json"
 [ "$status" -eq 0 ] || { echo "web-test: the browser's records differ from native (see $out/compare.json and the lines above)" >&2; cat "$out/compare.json" >&2; }
 exit "$status"

@@ -83,14 +83,24 @@ function trackVideo(video, { live, label }) {
   let lastTime = -1;
   let stopped = false;
   const recent = [];
-  const step = () => {
+  let lastPresented = -1;
+  const step = (_now, metadata) => {
     if (stopped) return;
     if (!live && video.ended) {
       finish();
       return;
     }
-    // A camera's frames get the page's clock; a file's its own times (frames the tracker
-    // was too slow for are skipped, and a time seen already is not tracked twice).
+    // A file plays slower while the tracker misses frames (each time a frame was skipped,
+    // 0.7 times as fast, down to a tenth), so that nearly every frame gets tracked; a
+    // camera cannot wait, and its frames that come while one is tracked are dropped.
+    if (!live && metadata?.presentedFrames !== undefined) {
+      if (lastPresented >= 0 && metadata.presentedFrames - lastPresented > 1 && video.playbackRate > 0.1) {
+        video.playbackRate = Math.max(0.1, video.playbackRate * 0.7);
+      }
+      lastPresented = metadata.presentedFrames;
+    }
+    // A camera's frames get the page's clock; a file's its own times (a time seen already
+    // is not tracked twice).
     const timeS = live ? (performance.now() - t0) / 1000 : video.currentTime;
     if (timeS > lastTime && video.readyState >= 2) {
       lastTime = timeS;
@@ -122,7 +132,8 @@ function trackVideo(video, { live, label }) {
       while (recent.length > 30) recent.shift();
       const fps = recent.length > 1 ? (1000 * (recent.length - 1)) / (recent[recent.length - 1] - recent[0]) : 0;
       $('stats').textContent = `${fps.toFixed(1)} fps (tracking ${ms.toFixed(0)} ms a frame), `
-        + `${demo.frames} frames, ${demo.framesWithHand3d} with a hand in 3D`;
+        + `${demo.frames} frames, ${demo.framesWithHand3d} with a hand in 3D`
+        + (!live && video.playbackRate < 1 ? `, playing at ${video.playbackRate.toFixed(2)}x` : '');
       $('download').disabled = records.length === 0;
       if (demo.frames === 1) showNotes();
     }
@@ -203,6 +214,8 @@ async function openFile(file) {
   const video = $('source');
   video.srcObject = null;
   video.src = URL.createObjectURL(file);
+  // The session first, so that tracking starts with the video's first frames.
+  await startTracker();
   try {
     await video.play();
   } catch (e) {
@@ -214,7 +227,6 @@ async function openFile(file) {
     say(`${file.name} has no picture this browser can decode.`, { error: true });
     return;
   }
-  await startTracker();
   running = trackVideo(video, { live: false, label: file.name });
 }
 

@@ -17,19 +17,23 @@
 //        [--js-flags FLAGS (V8's, e.g. --jitless: no WebAssembly)]
 //   node --experimental-websocket camera.mjs --web DIR (--deny | --no-device) --expect-error TEXT [...]
 //
+// `--video FILE` opens a video file with the page's file input (DevTools'
+// DOM.setFileInputFiles) instead of the camera, and waits for its end; with
+// `--expect-error` the page must refuse it with that message.
+//
 // `--download` presses the page's download button and checks the JSON Lines it gives: the
 // frames in order, at least as many as the page had tracked.
 
 import { existsSync, mkdtempSync, readFileSync, rmSync, writeFileSync } from 'node:fs';
 import { tmpdir } from 'node:os';
-import { join } from 'node:path';
+import { join, resolve } from 'node:path';
 import { launch, parseArgs, serve } from './chromium.mjs';
 
 const args = parseArgs();
 if (!args.web) throw new Error('--web is required');
 const deny = 'deny' in args;
 const expectError = 'expect-error' in args;
-if (!expectError && !args.y4m) throw new Error('--y4m is required (or --expect-error)');
+if (!expectError && !args.y4m && !args.video) throw new Error('--y4m or --video is required (or --expect-error)');
 const frames = Number(args.frames ?? 30);
 const timeoutS = Number(args.timeout ?? 600);
 
@@ -53,22 +57,31 @@ try {
       permission: { name: 'camera' }, setting: 'denied', origin,
     });
   }
-  await browser.send('Page.navigate', { url: `${origin}/index.html?start=camera${args.query ?? ''}` });
+  // A video file instead of the camera: opened with the page's file input, as a user does.
+  const video = args.video ? resolve(args.video) : null;
+  await browser.send('Page.navigate', { url: `${origin}/index.html?${video ? '' : 'start=camera'}${args.query ?? ''}` });
+  if (video) {
+    await browser.waitFor(`(d => d && (d.state === 'ready' || d.state === 'error') ? '1' : null)(window.monohandDemo)`,
+      timeoutS, 'the demo page (ready)');
+    const { root } = await browser.send('DOM.getDocument');
+    const { nodeId } = await browser.send('DOM.querySelector', { nodeId: root.nodeId, selector: '#file' });
+    await browser.send('DOM.setFileInputFiles', { files: [video], nodeId });
+  }
   const state = 'JSON.stringify(window.monohandDemo ?? null)';
   if (expectError) {
     const demo = await browser.waitFor(
       `(d => d && d.state === 'error' ? JSON.stringify({ ...d, shown: document.getElementById('message').textContent }) : null)(window.monohandDemo)`,
-      timeoutS, 'the page without a camera');
+      timeoutS, 'the page (expecting its message)');
     if (!demo.shown.includes(args['expect-error'] ?? '')) {
       throw new Error(`expected the page to say "${args['expect-error']}", it says ${JSON.stringify(demo.shown)}`);
     }
-    if (demo.frames !== 0) throw new Error(`the page had no camera, yet ${demo.frames} frames were tracked`);
+    if (demo.frames !== 0) throw new Error(`the page failed, yet ${demo.frames} frames were tracked`);
     if (args.screenshot) writeFileSync(args.screenshot, await browser.screenshot());
     console.log(JSON.stringify({ message: demo.shown }));
   } else {
     const demo = await browser.waitFor(
-      `(d => d && (d.state === 'error' || d.frames >= ${frames}) ? ${state} : null)(window.monohandDemo)`,
-      timeoutS, `the demo page (${frames} camera frames)`);
+      `(d => d && (d.state === 'error' || ${video ? "d.state === 'stopped'" : `d.frames >= ${frames}`}) ? ${state} : null)(window.monohandDemo)`,
+      timeoutS, video ? 'the demo page (to the end of the video)' : `the demo page (${frames} camera frames)`);
     if (demo.state === 'error') throw new Error(`the page failed: ${demo.message}`);
     // The screenshot: the frame last tracked, with its overlay.
     if (args.screenshot) writeFileSync(args.screenshot, await browser.screenshot());
