@@ -4,14 +4,19 @@
 # turn of up to 8.6 degrees, 640x480), runs it through the page in headless Chromium and
 # through native `monohand run` (tracking, as a video), and compares the two frame by frame:
 # the same hands, 2D keypoints within 0.5 px and 3D joints within 2 mm. Prints one line:
-#   web: N frames, M hands in 3D, F fps in Chromium (MediaPipe web: not measured yet)
-# and exits 1 if the records differ. The records, the timings and a screenshot of the page
-# (the last frame with its keypoints; look at it) are left in $WEB_TEST_OUT
-# (default target/web-test).
+#   web: N frames, M hands in 3D, F fps in Chromium (MediaPipe web: G fps)
+# (F and G from the side-by-side benchmark, web/bench: the same clip, one hand, alternating)
+# and exits 1 if the records differ. Then the demo page (web/index.html) tracks the same clip
+# from Chromium's fake camera (a .y4m file behind getUserMedia) and must find a hand in 3D in
+# most camera frames, give its records as JSON Lines with its download button, and say what
+# is wrong when the camera is denied or absent, the weights are cut short or missing, or the
+# browser has no WebAssembly. web/monohand.d.ts is type-checked. The records, the
+# timings and screenshots (the test page's last frame and the demo page's overlay on the
+# camera stream; look at them) are left in $WEB_TEST_OUT (default target/web-test).
 #
 # Needs: rustup and cargo, ffmpeg, node (20+), chromium (/usr/bin/chromium or $CHROMIUM),
 # the shared data (../shared, or $MONOHAND_SHARED) and the networks in the cache
-# (`monohand models fetch`). No npm package is used.
+# (`monohand models fetch`). npm installs the benchmark's one package (web/bench, pinned).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 frames="${WEB_TEST_FRAMES:-60}"
@@ -43,28 +48,77 @@ ffmpeg -v error -y -framerate 30 -i "$out/frames/%04d.png" -f rawvideo -pix_fmt 
 node --experimental-websocket web/test/run.mjs --web web --clip "$out/clip.rgba" --size 640x480 \
   --fps 30 --out "$out/web.jsonl" --screenshot "$out/screenshot.png" \
   ${CHROMIUM:+--chromium "$CHROMIUM"} 2> "$out/chromium.log" | tail -n 1 > "$out/timings.json"
-# Weights cut short, and missing: the page says so (which file, what is wrong).
+# The camera stream: the same frames as a .y4m file played by Chromium's fake camera into
+# the demo page (web/index.html?start=camera: getUserMedia, a <video>, a canvas, the
+# tracker, the overlay), until it has tracked as many camera frames as the clip has. Not
+# frame-exact (the camera's frames are YUV 4:2:0 and come at its own pace): the page must
+# find a hand in 3D in most of them, and its three.js view must show the skinned hand. Then
+# the camera denied, and no camera at all: the page says so.
+ffmpeg -v error -y -framerate 30 -i "$out/frames/%04d.png" -pix_fmt yuv420p "$out/clip.y4m"
+# The demo's three.js (its 3D view) and TypeScript (below), pinned in web/package-lock.json.
+npm ci --prefix web --no-audit --no-fund --loglevel=error > /dev/null
+camera() {
+  node --experimental-websocket web/test/camera.mjs --web web ${CHROMIUM:+--chromium "$CHROMIUM"} "$@" \
+    2>> "$out/chromium.log" | tail -n 1
+}
+camera --y4m "$out/clip.y4m" --frames "$frames" --screenshot "$out/camera.png" \
+  --download "$out/camera.jsonl" > "$out/camera.json" ||
+  { echo "web-test: the demo page did not find the hand in the camera stream (see $out/camera.json, $out/chromium.log)" >&2; exit 1; }
+# A video file, opened with the page's file input: the same frames as WebM (VP8), tracked
+# to its end; and a file that is no video: the page says it cannot play it.
+ffmpeg -v error -y -framerate 30 -i "$out/frames/%04d.png" -c:v libvpx -b:v 2M "$out/clip.webm"
+camera --video "$out/clip.webm" --screenshot "$out/video.png" > "$out/video.json" ||
+  { echo "web-test: the demo page did not track the hand in a video file (see $out/video.json, $out/chromium.log)" >&2; exit 1; }
+head -c 5000 "$out/clip.rgba" > "$out/not-a-video.mp4"
+camera --video "$out/not-a-video.mp4" --expect-error "This browser cannot play not-a-video.mp4" > "$out/video-bad.json" ||
+  { echo "web-test: the demo page did not refuse a file that is no video (see $out/chromium.log)" >&2; exit 1; }
+camera --deny --expect-error "The camera was denied" --screenshot "$out/camera-denied.png" > "$out/camera-denied.json" ||
+  { echo "web-test: with the camera denied the demo page did not say so (see $out/chromium.log)" >&2; exit 1; }
+camera --no-device --expect-error "No camera was found" > "$out/camera-none.json" ||
+  { echo "web-test: without a camera the demo page did not say so (see $out/chromium.log)" >&2; exit 1; }
+# Weights cut short, and missing, and a browser without WebAssembly (V8's --jitless): the
+# demo page says what is wrong (which file, what to do) instead of staying blank.
 mkdir -p "$out/bad-weights"
 head -c 100000 web/weights/palm_detection_full.tflite > "$out/bad-weights/palm_detection_full.tflite"
 cp web/weights/hand_landmark_full.tflite "$out/bad-weights/"
 bad() {
-  node --experimental-websocket web/test/run.mjs --web web --clip "$out/clip.rgba" --size 640x480 \
-    --out /dev/null --extra "$out/bad-weights" --query "$1" --expect-error "$2" \
-    ${CHROMIUM:+--chromium "$CHROMIUM"} 2>> "$out/chromium.log" | tail -n 1 ||
-    { echo "web-test: with weights at $1 the page did not say \"$2\" (see $out/chromium.log)" >&2; return 1; }
+  camera --extra "$out/bad-weights" --query "&weights=$1" --expect-error "$2" ||
+    { echo "web-test: with weights at $1 the demo page did not say \"$2\" (see $out/chromium.log)" >&2; return 1; }
 }
-bad "&weights=/extra/" "the palm detector weights (100000 bytes" > "$out/bad-cut.json"
-bad "&weights=/missing/" "cannot fetch the palm detector weights" > "$out/bad-missing.json"
+bad /extra/ "the palm detector weights (100000 bytes" > "$out/bad-cut.json"
+bad /missing/ "cannot fetch the palm detector weights" > "$out/bad-missing.json"
+camera --js-flags=--jitless --expect-error "This browser cannot run WebAssembly" > "$out/no-wasm.json" ||
+  { echo "web-test: in a browser without WebAssembly the demo page did not say so (see $out/chromium.log)" >&2; exit 1; }
+# The npm package's TypeScript types (web/monohand.d.ts), checked by the compiler pinned in
+# web/package-lock.json against a use of every part of them (web/test/types.ts).
+web/node_modules/.bin/tsc -p web/tsconfig.json ||
+  { echo "web-test: web/monohand.d.ts does not type-check (tsc -p web/tsconfig.json)" >&2; exit 1; }
+
+# Side by side (web/bench): the same RGBA clip through monohand (one hand) and through
+# @mediapipe/hands 0.4.1675469240 (npm, pinned in web/bench/package-lock.json; SIMD build,
+# maxNumHands 1, modelComplexity 1), alternating, WEB_BENCH_ROUNDS rounds (default 2). The
+# fps are printed, never asserted.
+npm ci --prefix web/bench --no-audit --no-fund --loglevel=error > /dev/null
+node --experimental-websocket web/bench/run.mjs --web web --clip "$out/clip.rgba" --size 640x480 \
+  --fps 30 --rounds "${WEB_BENCH_ROUNDS:-2}" ${CHROMIUM:+--chromium "$CHROMIUM"} \
+  2>> "$out/chromium.log" | tail -n 1 > "$out/bench.json"
 
 status=0
 node web/test/compare.mjs "$out/native.jsonl" "$out/web.jsonl" > "$out/compare.json" || status=$?
 node -e '
 const t = JSON.parse(require("fs").readFileSync(process.argv[1], "utf8"));
 const c = JSON.parse(require("fs").readFileSync(process.argv[2], "utf8"));
-console.log(`web: ${c.frames} frames, ${c.hands_3d} hands in 3D, ${(1000 / t.mean_ms_after_first).toFixed(1)} fps in Chromium (MediaPipe web: not measured yet)`);
+const b = JSON.parse(require("fs").readFileSync(process.argv[5], "utf8"));
+console.log(`web: ${c.frames} frames, ${c.hands_3d} hands in 3D, ${b.monohand.fps.toFixed(1)} fps in Chromium (MediaPipe web: ${b.mediapipe.fps.toFixed(1)} fps)`);
 console.log(`  vs native: max ${c.max_px.toFixed(4)} px, ${c.max_mm.toFixed(4)} mm; ${c.failures} differences beyond 0.5 px / 2 mm`);
-console.log(`  weights cut short or missing: the page says so (${process.argv[3]})`);
-console.log(`  load ${t.load_ms.toFixed(0)} ms, first frame done ${t.first_frame_ms.toFixed(0)} ms after the page started loading the networks, median ${t.median_ms_after_first.toFixed(1)} ms a frame`);
-' "$out/timings.json" "$out/compare.json" "$out/bad-cut.json, $out/bad-missing.json"
+console.log(`  weights cut short or missing, no WebAssembly: the demo page says so (${process.argv[3]})`);
+const cam = JSON.parse(require("fs").readFileSync(process.argv[4], "utf8"));
+const vid = JSON.parse(require("fs").readFileSync(process.argv[6], "utf8"));
+console.log(`  video file (demo page, WebM): ${vid.frames} frames tracked, ${vid.frames_with_hand_3d} with a hand in 3D; a file that is no video: the page says so`);
+console.log(`  camera stream (fake camera, demo page): ${cam.frames} frames tracked, ${cam.frames_with_hand_3d} with a hand in 3D (the three.js hand drawn in ${cam.hand3d_view_frames}), median ${cam.median_ms_after_first.toFixed(1)} ms a frame, ${cam.downloaded_frames} records downloaded as JSON Lines; camera denied or absent: the page says so`);
+const r = (x) => x.map((v) => v.toFixed(1)).join(", ");
+console.log(`  side by side (web/bench, one hand, ${b.rounds > 1 ? `${b.rounds} rounds alternating` : "one round each"}): monohand ${r(b.monohand.per_round_fps)} fps (median ${b.monohand.median_ms.toFixed(1)} ms), @mediapipe/hands ${r(b.mediapipe.per_round_fps)} fps (median ${b.mediapipe.median_ms.toFixed(1)} ms; ${b.mediapipe.files.filter((f) => f.endsWith(".wasm")).join(", ")}; its WebGL on ${b.webgl_renderer})`);
+console.log(`  test page: ${(1000 / t.mean_ms_after_first).toFixed(1)} fps; load ${t.load_ms.toFixed(0)} ms, first frame done ${t.first_frame_ms.toFixed(0)} ms after the page started loading the networks, median ${t.median_ms_after_first.toFixed(1)} ms a frame`);
+' "$out/timings.json" "$out/compare.json" "$out/bad-cut.json, $out/bad-missing.json, $out/no-wasm.json" "$out/camera.json" "$out/bench.json" "$out/video.json"
 [ "$status" -eq 0 ] || { echo "web-test: the browser's records differ from native (see $out/compare.json and the lines above)" >&2; cat "$out/compare.json" >&2; }
 exit "$status"

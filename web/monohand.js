@@ -18,6 +18,27 @@ export const DEFAULT_WEIGHTS = {
   landmark: 'hand_landmark_full.tflite',
 };
 
+// The smallest module with a SIMD instruction (v128.const, i32x4 add; as wasm-feature-detect
+// has it): a browser that validates it runs the module's simd128 code.
+const SIMD_PROBE = new Uint8Array([0, 97, 115, 109, 1, 0, 0, 0, 1, 5, 1, 96, 0, 1, 123, 3, 2, 1,
+  0, 10, 10, 1, 8, 0, 65, 0, 253, 15, 253, 98, 11]);
+
+/**
+ * Why this browser cannot run monohand, or `null` if it can: it needs WebAssembly with
+ * SIMD (Chrome and Edge 91, Firefox 89, Safari 16.4 or newer).
+ */
+export function unsupportedReason() {
+  if (typeof WebAssembly !== 'object' || typeof WebAssembly.validate !== 'function') {
+    return 'This browser cannot run WebAssembly (or it is turned off), which monohand needs: '
+      + 'use a current Chrome, Edge, Firefox or Safari.';
+  }
+  if (!WebAssembly.validate(SIMD_PROBE)) {
+    return 'This browser runs WebAssembly without SIMD, which monohand\'s networks need: use '
+      + 'Chrome or Edge 91, Firefox 89, Safari 16.4 or newer.';
+  }
+  return null;
+}
+
 async function fetchBytes(url, what) {
   let response;
   try {
@@ -62,14 +83,22 @@ export class Tracker {
 
 /**
  * Loads the WebAssembly module and the networks and starts a session. Options: `weights`
- * (the folder URL of the weights, default `./weights/`), `palm` and `landmark` (file names
+ * (the folder URL of the weights, relative to the page; default: `weights/` beside this
+ * file), `palm` and `landmark` (file names
  * in it, or `Uint8Array`s a user picked), `hands` (most hands, default 2), `detectEvery`
  * (default 10), `camera` (`{fx, fy, cx, cy, width, height}`; default: a generic 60 degree
- * camera for the frames' size).
+ * camera for the frames' size). Rejects with a message that says what is wrong for an
+ * unsupported browser ({@link unsupportedReason}), weights missing, cut short or of
+ * another network, and bad options.
  */
 export async function createTracker(options = {}) {
+  const unsupported = unsupportedReason();
+  if (unsupported) throw new Error(unsupported);
   await init();
-  const base = new URL(options.weights ?? './weights/', document.baseURI);
+  // Given: relative to the page. Default: the weights/ folder beside this file (so a copy
+  // of the package served anywhere finds its own).
+  const base = options.weights !== undefined ? new URL(options.weights, document.baseURI)
+    : new URL('./weights/', import.meta.url);
   const load = async (which, what) => {
     const given = options[which] ?? DEFAULT_WEIGHTS[which];
     return given instanceof Uint8Array ? given : fetchBytes(new URL(given, base), what);

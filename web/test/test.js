@@ -1,17 +1,15 @@
 // The browser test's page (scripts/web-test.sh): runs the tracker on the raw RGBA frames of
 // a clip (one file, frames one after the other, as ffmpeg's `-f rawvideo -pix_fmt rgba`
-// writes them), draws the last frame with its keypoints, and leaves the records and the
+// writes them), draws the last frame with the demo page's overlay (../overlay.js), and leaves the records and the
 // timings in `window.monohandResult` for the driver (run.mjs) to read.
 // URL parameters: clip (the .rgba file), w, h, fps, weights (their folder; default ../weights/).
 
 import { createTracker } from '../monohand.js';
+import { drawOverlay } from '../overlay.js';
+import { readClip } from './clip.js';
 
 const status = document.getElementById('status');
 const say = (text) => { status.textContent = text; };
-
-// MediaPipe's bones, as index pairs into the 21 keypoints.
-const BONES = [[0, 1], [1, 2], [2, 3], [3, 4], [0, 5], [5, 6], [6, 7], [7, 8], [0, 9], [9, 10],
-  [10, 11], [11, 12], [0, 13], [13, 14], [14, 15], [15, 16], [0, 17], [17, 18], [18, 19], [19, 20]];
 
 function draw(image, frame) {
   const canvas = document.getElementById('view');
@@ -19,23 +17,7 @@ function draw(image, frame) {
   canvas.height = image.height;
   const ctx = canvas.getContext('2d');
   ctx.putImageData(image, 0, 0);
-  ctx.lineWidth = 2;
-  for (const hand of frame?.hands ?? []) {
-    const k = hand.keypoints_2d;
-    ctx.strokeStyle = hand.side === 'left' ? '#3af' : '#f93';
-    for (const [a, b] of BONES) {
-      ctx.beginPath();
-      ctx.moveTo(k[a][0] + 0.5, k[a][1] + 0.5);
-      ctx.lineTo(k[b][0] + 0.5, k[b][1] + 0.5);
-      ctx.stroke();
-    }
-    if (hand.joints_3d_mm) {
-      ctx.fillStyle = '#fff';
-      ctx.font = '16px sans-serif';
-      const z = hand.joints_3d_mm[0][2];
-      ctx.fillText(`${hand.side} ${(z / 10).toFixed(1)} cm`, k[0][0] + 8, k[0][1] + 20);
-    }
-  }
+  if (frame) drawOverlay(ctx, frame);
 }
 
 async function main() {
@@ -47,19 +29,13 @@ async function main() {
   const tracker = await createTracker({ weights: params.get('weights') ?? '../weights/' });
   const loadMs = performance.now() - t0;
   say('networks loaded; reading the clip...');
-  const response = await fetch(params.get('clip'));
-  if (!response.ok) throw new Error(`cannot fetch the clip: HTTP ${response.status}`);
-  const bytes = await response.arrayBuffer();
-  const size = w * h * 4;
-  if (!(size > 0) || bytes.byteLength % size !== 0) {
-    throw new Error(`the clip has ${bytes.byteLength} bytes, not a whole number of ${w}x${h} RGBA frames`);
-  }
-  const n = bytes.byteLength / size;
+  const clip = await readClip(params.get('clip'), w, h);
+  const n = clip.n;
   const records = [];
   const frameMs = [];
   let image = null;
   for (let i = 0; i < n; i++) {
-    image = new ImageData(new Uint8ClampedArray(bytes, i * size, size), w, h);
+    image = clip.frame(i);
     const t = performance.now();
     records.push(...tracker.track(image, i / fps));
     frameMs.push(performance.now() - t);

@@ -17,6 +17,7 @@
 mod error;
 #[cfg(target_arch = "wasm32")]
 mod js;
+pub mod mesh;
 
 pub use error::WebError;
 

@@ -17,8 +17,9 @@ const BONE_HALF_WIDTH_M: f32 = 0.004;
 const BONE_WAIST: f32 = 0.2;
 
 /// From the camera frame (mm, x right, y down, z forward) to glTF (m, x right,
-/// y up, z toward the viewer).
-fn to_gltf(p: [f64; 3]) -> [f32; 3] {
+/// y up, z toward the viewer): `(x, -y, -z) / 1000`. The skinned hand's poses
+/// ([`crate::hand_mesh::HandMesh::pose`]) take joints in this frame.
+pub fn to_gltf(p: [f64; 3]) -> [f32; 3] {
     [
         (p[0] / 1000.0) as f32,
         (-p[1] / 1000.0) as f32,

@@ -15,7 +15,7 @@ mod gltf;
 mod openpose;
 
 pub use csv::{csv_header, csv_rows, CsvWriter};
-pub use gltf::{GltfHand, GltfWriter};
+pub use gltf::{to_gltf, GltfHand, GltfWriter};
 pub use openpose::{openpose_file_name, openpose_people, write_openpose_frame};
 
 /// What the tests of the formats share.

@@ -1,0 +1,96 @@
+// The demo page's 3D view: the skinned hand of `monohand run --gltf` (the WebXR generic hand
+// mesh laid on the fitted joints by monohand's own code, crates/monohand-web/src/mesh.rs),
+// drawn with three.js (web/node_modules, pinned in web/package-lock.json), seen from the
+// side, with the video camera's field of view at the origin so that the distance reads.
+// Each side's mesh is loaded once, as a binary glTF the module writes; after that each frame
+// only moves its 25 joints.
+
+import * as THREE from 'three';
+import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
+import { WebHandMesh } from './pkg/monohand_web.js';
+
+/** Numbers per mesh joint in WebHandMesh.pose: translation (3), rotation (4), scale. */
+const STRIDE = 8;
+
+export class HandView {
+  /** Draws into `canvas`; throws if the browser gives no WebGL. */
+  constructor(canvas) {
+    this.renderer = new THREE.WebGLRenderer({ canvas, antialias: true });
+    this.renderer.setSize(canvas.width, canvas.height, false);
+    this.scene = new THREE.Scene();
+    this.scene.background = new THREE.Color(0x1a1a20);
+    this.scene.add(new THREE.HemisphereLight(0xffffff, 0x445566, 2.0));
+    const sun = new THREE.DirectionalLight(0xffffff, 2.0);
+    sun.position.set(0.5, 1, 0.6);
+    this.scene.add(sun);
+    this.view = new THREE.PerspectiveCamera(35, canvas.width / canvas.height, 0.01, 20);
+    this.frustum = null;
+    this.mesh = new WebHandMesh();
+    this.loader = new GLTFLoader();
+    /** Per side: a promise while loading, then { root, bones }. */
+    this.hands = { left: null, right: null };
+  }
+
+  /** Loads the skinned mesh of `hand`'s side from a glTF of this hand alone. */
+  async load(frame, hand) {
+    const bytes = this.mesh.glb(JSON.stringify({ ...frame, hands: [hand] }));
+    const gltf = await this.loader.parseAsync(bytes.buffer.slice(bytes.byteOffset, bytes.byteOffset + bytes.byteLength), '');
+    let skinned = null;
+    gltf.scene.traverse((o) => {
+      if (o.isSkinnedMesh) skinned = o;
+      o.frustumCulled = false;
+    });
+    if (!skinned) throw new Error('the glTF has no skinned hand');
+    this.scene.add(gltf.scene);
+    return { root: gltf.scene, bones: skinned.skeleton.bones };
+  }
+
+  /** The video camera's field of view, from the record's camera, at the origin. */
+  showCamera(cam) {
+    if (this.frustum || !cam) return;
+    const fov = (2 * Math.atan(cam.height / 2 / cam.fy) * 180) / Math.PI;
+    const c = new THREE.PerspectiveCamera(fov, cam.width / cam.height, 0.005, 0.08);
+    this.frustum = new THREE.CameraHelper(c);
+    this.scene.add(this.frustum);
+  }
+
+  /** Poses and draws the first fitted hand of each side of `frame` (a record). */
+  update(frame) {
+    this.showCamera(frame.cameras?.[0]);
+    const centre = new THREE.Vector3();
+    let shown = 0;
+    for (const side of ['left', 'right']) {
+      const hand = frame.hands.find((h) => h.side === side && h.joints_3d_mm);
+      const entry = this.hands[side];
+      if (!hand || !entry || entry instanceof Promise) {
+        if (entry && !(entry instanceof Promise)) entry.root.visible = false;
+        if (hand && !entry) {
+          this.hands[side] = this.load(frame, hand).then((h) => { this.hands[side] = h; },
+            (e) => { this.hands[side] = null; console.warn(`3D view: ${e.message}`); });
+        }
+        continue;
+      }
+      const p = this.mesh.pose(side, Float64Array.from(hand.joints_3d_mm.flat()));
+      entry.root.visible = p.length > 0;
+      if (!p.length) continue;
+      entry.bones.forEach((bone, k) => {
+        const o = k * STRIDE;
+        bone.position.set(p[o], p[o + 1], p[o + 2]);
+        bone.quaternion.set(p[o + 3], p[o + 4], p[o + 5], p[o + 6]);
+        bone.scale.setScalar(p[o + 7]);
+      });
+      centre.add(new THREE.Vector3(p[0], p[1], p[2]));
+      shown += 1;
+    }
+    if (shown) {
+      // Seen from the right side and a little above, the camera's origin in view.
+      centre.divideScalar(shown);
+      const look = centre.clone().multiplyScalar(0.5);
+      const d = Math.max(0.5, centre.length() * 1.7);
+      this.view.position.set(look.x + d, look.y + 0.35 * d, look.z);
+      this.view.lookAt(look);
+    }
+    this.renderer.render(this.scene, this.view);
+    return shown;
+  }
+}

@@ -1,0 +1,137 @@
+// Types of monohand in the browser (web/monohand.js). The records are those `monohand run`
+// writes as JSON Lines, documented in docs/output-format.md; optional fields are absent
+// (never null) when unknown, and readers should ignore fields they do not know.
+
+/** A point `[x, y, z]`, millimetres, in the camera's frame (OpenCV axes: x right, y down, z forward). */
+export type Vec3 = [number, number, number];
+
+/** 21 values, one per joint, in MediaPipe's (and OpenPose's) order: 0 wrist; 1-4 thumb; 5-8 index; 9-12 middle; 13-16 ring; 17-20 little. */
+export type Joints<T> = [T, T, T, T, T, T, T, T, T, T, T, T, T, T, T, T, T, T, T, T, T];
+
+/** Where a camera came from. */
+export type CameraSource = 'file' | 'file-scaled' | 'exif' | 'exif+sensor-db' | 'generic';
+
+/** A camera's intrinsics: focal lengths and principal point, pixels, for an image size. */
+export interface Intrinsics {
+  fx: number;
+  fy: number;
+  cx: number;
+  cy: number;
+  width: number;
+  height: number;
+}
+
+/** The camera a frame's hands were fitted with (docs/output-format.md, "Camera object"). */
+export interface CameraRecord extends Intrinsics {
+  source: CameraSource;
+  /** Why this source and not a better one, when there is something to say. */
+  reason?: string;
+}
+
+/** The fitted model's parameters (docs/output-format.md, "Pose object"). */
+export interface PoseRecord {
+  /** The wrist of the posed skeleton, mm, in the camera's frame. */
+  translation_mm: Vec3;
+  /** Unit quaternion `[x, y, z, w]`: from the hand model's frame to the camera's. */
+  quaternion_xyzw: [number, number, number, number];
+  /** The 20 joint angles, radians: per finger (thumb, index, middle, ring, little) base flexion, base abduction, middle flexion, distal flexion. */
+  angles_rad: number[];
+}
+
+/** The hand's box turned with the hand (its height axis from the wrist to the fingers). */
+export interface OrientedBox {
+  center: [number, number];
+  size: [number, number];
+  /** Clockwise in the image from "fingers up", degrees. */
+  angle_deg: number;
+}
+
+/** One hand of a frame (docs/output-format.md, "Hand object"). */
+export interface HandRecord {
+  side: 'left' | 'right';
+  /** `[u, v, confidence]`: pixels (x right, y down, pixel centres at integers) and [0, 1]; confidence 0 marks a missing joint. */
+  keypoints_2d: Joints<[number, number, number]>;
+  /** The fitted joints, mm, in the camera's frame: where the hand is. Absent when the hand could not be fitted. */
+  joints_3d_mm?: Joints<Vec3>;
+  pose?: PoseRecord;
+  /** Mean pixel distance between the keypoints used and the reprojected joints. */
+  reprojection_error_px?: number;
+  /** The solver met a stopping tolerance before its iteration cap. */
+  converged?: boolean;
+  iterations?: number;
+  /** Bounds of the keypoints `[x_min, y_min, x_max, y_max]`, pixels. */
+  box?: [number, number, number, number];
+  oriented_box?: OrientedBox;
+  /** The palm detector's score, [0, 1]. */
+  score?: number;
+  /** The probability of `side` from the landmark network on this frame (the side itself is a vote over the hand's frames). */
+  side_score?: number;
+  /** The hand's identity, stable while it is tracked. */
+  id?: number;
+  /** The network's own metric 3D of the hand, mm, relative to the hand, in the image's axes. */
+  world_mm?: Joints<Vec3>;
+  /** The network's depth of each joint relative to the wrist, image pixels, negative towards the camera. */
+  depth_px?: Joints<number>;
+}
+
+/** One frame's record (docs/output-format.md, "Frame object"). */
+export interface FrameRecord {
+  /** The frame's index from 0, in the order the tracker was given them. */
+  frame: number;
+  /** The time the page gave `track`, seconds. */
+  time_s?: number;
+  /** `[width, height]`, pixels. */
+  image_size?: [number, number];
+  /** The camera the hands were fitted with. */
+  cameras?: CameraRecord[];
+  hands: HandRecord[];
+  /** Why this frame has no result. */
+  error?: string;
+  /** Processing time per stage, ms (`vision`, `fit`, ...). */
+  timings_ms?: Record<string, number>;
+}
+
+/** Options of {@link createTracker}; every one may be left out. */
+export interface TrackerOptions {
+  /** The folder the weights are fetched from, a URL relative to the page (default: the `weights/` folder beside monohand.js). */
+  weights?: string;
+  /** The palm detector's weights: a file name in `weights`, or the bytes of a file the user picked (default `palm_detection_full.tflite`). */
+  palm?: string | Uint8Array;
+  /** The hand landmark network's weights, the same way (default `hand_landmark_full.tflite`). */
+  landmark?: string | Uint8Array;
+  /** The most hands per frame (default 2). */
+  hands?: number;
+  /** Look for new hands every this many frames while tracking (default 10). */
+  detectEvery?: number;
+  /** The camera's intrinsics, for frames of its size (default: a generic 60 degree camera for the frames' size, said in the notes). */
+  camera?: Intrinsics;
+}
+
+/** Why this browser cannot run monohand (no WebAssembly, or no WebAssembly SIMD), or `null` if it can. */
+export declare function unsupportedReason(): string | null;
+
+/** The weights files the tracker loads by default (MediaPipe 0.10.14's full networks). */
+export declare const DEFAULT_WEIGHTS: { readonly palm: string; readonly landmark: string };
+
+/** A tracking session over the page's frames. Made by {@link createTracker}. */
+export declare class Tracker {
+  private constructor(inner: unknown);
+  /**
+   * Tracks the hands of one frame (an `ImageData`, e.g. from a canvas that drew a `<video>`
+   * frame) at `timeS` seconds, later than the last frame's. Returns the records of the
+   * frames now done (this one). Throws an `Error` with a message saying what is wrong for a
+   * frame whose bytes do not match its size.
+   */
+  track(imageData: ImageData, timeS: number): FrameRecord[];
+  /** The records of the frames still kept back (call once at the end of a video). */
+  finish(): FrameRecord[];
+  /** Messages for the user since the last call (the camera assumed, for one). */
+  notes(): string[];
+}
+
+/**
+ * Loads the WebAssembly module and the networks and starts a session. Rejects with an
+ * `Error` whose message says what is wrong: an unsupported browser ({@link unsupportedReason}),
+ * weights missing, cut short or of another network (naming the file), bad options.
+ */
+export declare function createTracker(options?: TrackerOptions): Promise<Tracker>;
