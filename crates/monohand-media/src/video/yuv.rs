@@ -237,6 +237,8 @@ enum Simd {
 impl Simd {
     /// Every loop this CPU can run, the fastest last.
     fn available() -> Vec<Simd> {
+        // Only x86-64 has loops to add.
+        #[cfg_attr(not(target_arch = "x86_64"), allow(unused_mut))]
         let mut all = vec![Simd::None];
         #[cfg(target_arch = "x86_64")]
         {
