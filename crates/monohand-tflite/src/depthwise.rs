@@ -187,12 +187,7 @@ fn run(
         use crate::pointwise::{Isa, Kernel};
         let kernel = Kernel::best();
         if kernel != Kernel::PORTABLE {
-            let sized = src.len() >= g.h * g.w * g.c
-                && k.len() >= g.kh * g.kw * g.c
-                && b.len() >= g.c
-                && g.rows.0 <= g.rows.1
-                && g.rows.1 <= g.oh
-                && dst.len() >= (g.rows.1 - g.rows.0) * g.ow * g.c;
+            let sized = sized(g, src, k, b, dst);
             match kernel.isa() {
                 // SAFETY: a `Kernel` has `Avx512` only on a CPU with AVX-512F (and VL),
                 // detected at run time, which is what `avx512::run` is compiled for, and `sized` checked the
@@ -210,15 +205,43 @@ fn run(
             return;
         }
     }
-    // Only the x86 kernels have a register-blocked variant to choose.
-    #[cfg(not(target_arch = "x86_64"))]
+    #[cfg(all(target_arch = "wasm32", target_feature = "simd128"))]
+    if blocked && sized(g, src, k, b, dst) {
+        // SAFETY: `sized` checked the slices against the geometry, as `simd128::run`'s
+        // contract asks (the module is built with `simd128`: nothing to detect).
+        unsafe { simd128::run(g, src, k, b, dst, act) };
+        return;
+    }
+    // Only the SIMD kernels have a register-blocked variant to choose.
+    #[cfg(not(any(
+        target_arch = "x86_64",
+        all(target_arch = "wasm32", target_feature = "simd128")
+    )))]
     let _ = blocked;
     kernel::<false>(g, src, k, b, dst, act);
 }
 
+/// Whether the slices hold what the geometry reads and writes (the register-blocked
+/// kernels' contract).
+#[cfg(any(
+    target_arch = "x86_64",
+    all(target_arch = "wasm32", target_feature = "simd128")
+))]
+fn sized(g: &Geometry, src: &[f32], k: &[f32], b: &[f32], dst: &[f32]) -> bool {
+    src.len() >= g.h * g.w * g.c
+        && k.len() >= g.kh * g.kw * g.c
+        && b.len() >= g.c
+        && g.rows.0 <= g.rows.1
+        && g.rows.1 <= g.oh
+        && dst.len() >= (g.rows.1 - g.rows.0) * g.ow * g.c
+}
+
 /// Valid kernel rows (or columns) `[k0, k1)` of an output pixel whose window starts at
 /// input coordinate `start` on an axis of `size` pixels.
-#[cfg(target_arch = "x86_64")]
+#[cfg(any(
+    target_arch = "x86_64",
+    all(target_arch = "wasm32", target_feature = "simd128")
+))]
 #[inline(always)]
 fn valid(start: isize, size: usize, k: usize) -> (usize, usize) {
     let k0 = (-start).max(0) as usize;
@@ -227,7 +250,10 @@ fn valid(start: isize, size: usize, k: usize) -> (usize, usize) {
 }
 
 /// The window of one output pixel, for the register-blocked kernels.
-#[cfg(target_arch = "x86_64")]
+#[cfg(any(
+    target_arch = "x86_64",
+    all(target_arch = "wasm32", target_feature = "simd128")
+))]
 #[derive(Clone, Copy)]
 struct Window {
     /// Index of the output pixel (`oy · ow + ox`).
@@ -240,7 +266,10 @@ struct Window {
     kx: (usize, usize),
 }
 
-#[cfg(target_arch = "x86_64")]
+#[cfg(any(
+    target_arch = "x86_64",
+    all(target_arch = "wasm32", target_feature = "simd128")
+))]
 impl Window {
     /// Offset in the input of channel 0 of tap `(ky, kx)`, which must be a valid tap
     /// (`ky >= ky0` and `kx >= kx0` keep the coordinates >= 0).
@@ -251,7 +280,10 @@ impl Window {
 }
 
 /// Calls `f` with each output pixel's window, row by row.
-#[cfg(target_arch = "x86_64")]
+#[cfg(any(
+    target_arch = "x86_64",
+    all(target_arch = "wasm32", target_feature = "simd128")
+))]
 #[inline(always)]
 fn each_window(g: &Geometry, mut f: impl FnMut(Window)) {
     for oy in g.rows.0..g.rows.1 {
@@ -420,6 +452,143 @@ mod avx2 {
                         for kx in win.kx.0..win.kx.1 {
                             let i = *src.add(win.input(g, ky, kx) + ch);
                             a = i.mul_add(*k.add((ky * g.kw + kx) * c + ch), a);
+                        }
+                    }
+                    if clamp {
+                        a = a.max(low).min(high);
+                    }
+                    *dst.add(win.pixel * c + ch) = a;
+                }
+            }
+        });
+    }
+}
+
+/// The WebAssembly `simd128` kernel: [`avx2`]'s register blocking with 4-lane vectors, 16
+/// channels per block, then blocks of 4, then the last 1-3 channels one at a time. Without
+/// fused multiply-adds in `simd128`, each tap is a product then a sum, in the portable
+/// loop's order (bias, then row by row, column by column), as the portable loop does on
+/// this target (`kernel::<false>`): the results are the same bits.
+#[cfg(all(target_arch = "wasm32", target_feature = "simd128"))]
+mod simd128 {
+    use super::{each_window, Bounds, Geometry};
+    use core::arch::wasm32::*;
+
+    /// # Safety
+    /// `g` must describe the slices, which are read and written through raw pointers at
+    /// offsets computed from it, without bounds checks: `src` holds at least `h·w·c` values,
+    /// `k` at least `kh·kw·c` and `b` at least `c`; `g.rows.0 <= g.rows.1 <= g.oh`, and `dst`
+    /// holds at least `(rows.1 - rows.0)·ow·c` values (the output rows `g.rows`). Only the
+    /// taps inside the `h x w` image are read.
+    pub(super) unsafe fn run(
+        g: &Geometry,
+        src: &[f32],
+        k: &[f32],
+        b: &[f32],
+        dst: &mut [f32],
+        act: Bounds,
+    ) {
+        let (src, k, b, dst) = (src.as_ptr(), k.as_ptr(), b.as_ptr(), dst.as_mut_ptr());
+        let mut ch = 0;
+        while ch + 16 <= g.c {
+            // SAFETY: this function's contract, and channels ch .. ch + 16 <= c.
+            unsafe { block::<4>(g, src, k, b, dst, ch, act) };
+            ch += 16;
+        }
+        while ch + 4 <= g.c {
+            // SAFETY: as above, channels ch .. ch + 4 <= c.
+            unsafe { block::<1>(g, src, k, b, dst, ch, act) };
+            ch += 4;
+        }
+        if ch < g.c {
+            // SAFETY: as above, channels ch .. c.
+            unsafe { tail(g, src, k, b, dst, ch, act) };
+        }
+    }
+
+    /// Channels `ch .. ch + 4·N` of the whole output.
+    ///
+    /// # Safety
+    /// As [`run`], with `src`, `k`, `b` and `dst` pointing to the starts of its slices, and
+    /// `ch + 4·N <= c` (the 4·N channels from `ch` are read and written, at every pixel).
+    #[inline]
+    unsafe fn block<const N: usize>(
+        g: &Geometry,
+        src: *const f32,
+        k: *const f32,
+        b: *const f32,
+        dst: *mut f32,
+        ch: usize,
+        (low, high): Bounds,
+    ) {
+        let c = g.c;
+        let clamp = low > f32::NEG_INFINITY || high < f32::INFINITY;
+        let (lo, hi) = (f32x4_splat(low), f32x4_splat(high));
+        let mut bias = [f32x4_splat(0.0); N];
+        for (r, v) in bias.iter_mut().enumerate() {
+            // SAFETY: biases ch + 4·r .. ch + 4·r + 4, and ch + 4·N <= c values of `b`;
+            // WebAssembly loads need no alignment.
+            *v = unsafe { v128_load(b.add(ch + 4 * r) as *const v128) };
+        }
+        each_window(g, |win| {
+            let mut acc = bias;
+            for ky in win.ky.0..win.ky.1 {
+                for kx in win.kx.0..win.kx.1 {
+                    // SAFETY: (ky, kx) is a valid tap of the window, so its input pixel is
+                    // inside the image (`Window::input`); channels ch .. ch + 4·N <= c of that
+                    // pixel and of the tap's weights are read.
+                    unsafe {
+                        let i = src.add(win.input(g, ky, kx) + ch);
+                        let w = k.add((ky * g.kw + kx) * c + ch);
+                        for (r, a) in acc.iter_mut().enumerate() {
+                            let x = v128_load(i.add(4 * r) as *const v128);
+                            let y = v128_load(w.add(4 * r) as *const v128);
+                            *a = f32x4_add(*a, f32x4_mul(x, y));
+                        }
+                    }
+                }
+            }
+            // SAFETY: `win.pixel` is a pixel of the output rows `dst` holds (`each_window`);
+            // its channels ch .. ch + 4·N <= c are written below.
+            let out = unsafe { dst.add(win.pixel * c + ch) };
+            for (r, a) in acc.iter().enumerate() {
+                // max(x, low) then min(., high), as the portable loop.
+                let v = if clamp {
+                    f32x4_min(f32x4_max(*a, lo), hi)
+                } else {
+                    *a
+                };
+                // SAFETY: as above: channels ch + 4·r .. ch + 4·r + 4 <= c of the pixel.
+                unsafe { v128_store(out.add(4 * r) as *mut v128, v) };
+            }
+        });
+    }
+
+    /// The last `c - ch0` (< 4) channels, one at a time.
+    ///
+    /// # Safety
+    /// As [`run`], with `src`, `k`, `b` and `dst` pointing to the starts of its slices
+    /// (channels `ch0 .. c` are read and written; none if `ch0 >= c`).
+    unsafe fn tail(
+        g: &Geometry,
+        src: *const f32,
+        k: *const f32,
+        b: *const f32,
+        dst: *mut f32,
+        ch0: usize,
+        (low, high): Bounds,
+    ) {
+        let c = g.c;
+        let clamp = low > f32::NEG_INFINITY || high < f32::INFINITY;
+        each_window(g, |win| {
+            for ch in ch0..c {
+                // SAFETY: channel ch < c of the biases, of valid taps and of the pixel.
+                unsafe {
+                    let mut a = *b.add(ch);
+                    for ky in win.ky.0..win.ky.1 {
+                        for kx in win.kx.0..win.kx.1 {
+                            let i = *src.add(win.input(g, ky, kx) + ch);
+                            a += i * *k.add((ky * g.kw + kx) * c + ch);
                         }
                     }
                     if clamp {
@@ -869,6 +1038,55 @@ mod tests {
         assert!(below && above);
     }
 
+    /// `(h, w, c, k, stride, same)` of the register-blocked kernels' tests: channel counts
+    /// that cover AVX2's blocks of 32 and 8 and its scalar tail, AVX-512's blocks of 64 and
+    /// its last blocks of 1, 2 and 3 vectors with and without a masked last vector and of 4
+    /// with one, and `simd128`'s blocks of 32 and 4 and its tail.
+    #[cfg(any(
+        target_arch = "x86_64",
+        all(target_arch = "wasm32", target_feature = "simd128")
+    ))]
+    const BLOCK_SHAPES: [(usize, usize, usize, usize, usize, bool); 11] = [
+        (9, 8, 72, 3, 1, true),
+        (10, 11, 45, 5, 2, true),
+        (8, 8, 40, 3, 2, false),
+        (7, 9, 100, 3, 1, true),
+        (6, 5, 3, 5, 1, true),
+        (9, 9, 24, 3, 1, true),
+        (6, 7, 96, 3, 2, true),
+        (5, 5, 16, 3, 1, false),
+        (6, 6, 48, 5, 1, true),
+        (7, 6, 56, 3, 1, true),
+        (6, 7, 120, 5, 2, true),
+    ];
+
+    /// The `simd128` kernel sums in the portable loop's order, a product then a sum per tap
+    /// as the portable loop does on WebAssembly: its results are the same bits. (Run by
+    /// `scripts/web-test.sh` under Node's WASI.)
+    #[cfg(all(target_arch = "wasm32", target_feature = "simd128"))]
+    #[test]
+    fn the_simd128_kernel_is_bit_identical_to_the_portable_loop() {
+        for (h, w, c, kh, s, same) in BLOCK_SHAPES {
+            let (x, k, b) = data(h * w * c, kh * kh * c, c);
+            let g = square_geometry(h, w, c, kh, s, same);
+            let (oh, ow) = (g.oh, g.ow);
+            for act in [(f32::NEG_INFINITY, f32::INFINITY), (0.0, 6.0)] {
+                let mut portable = vec![0.0; oh * ow * c];
+                kernel::<false>(&g, &x, &k, &b, &mut portable, act);
+                let mut fast = vec![f32::NAN; oh * ow * c];
+                // SAFETY: the buffers have the geometry's sizes, all of its rows
+                // (`square_geometry`).
+                unsafe { simd128::run(&g, &x, &k, &b, &mut fast, act) };
+                let differ = fast
+                    .iter()
+                    .zip(&portable)
+                    .filter(|(a, b)| a.to_bits() != b.to_bits())
+                    .count();
+                assert_eq!(differ, 0, "{h}x{w}x{c} k{kh} s{s} same {same} {act:?}");
+            }
+        }
+    }
+
     /// The AVX2 and AVX-512 kernels sum in the portable loop's order with the same fused
     /// multiply-adds: their results are the same bits. The channel counts cover AVX2's blocks
     /// of 32 and 8 and its scalar tail, and AVX-512's blocks of 64 and its last blocks of 1,
@@ -882,19 +1100,7 @@ mod tests {
             eprintln!("no AVX2 + FMA on this CPU: only the portable loop runs here");
             return;
         }
-        for (h, w, c, kh, s, same) in [
-            (9, 8, 72, 3, 1, true),
-            (10, 11, 45, 5, 2, true),
-            (8, 8, 40, 3, 2, false),
-            (7, 9, 100, 3, 1, true),
-            (6, 5, 3, 5, 1, true),
-            (9, 9, 24, 3, 1, true),
-            (6, 7, 96, 3, 2, true),
-            (5, 5, 16, 3, 1, false),
-            (6, 6, 48, 5, 1, true),
-            (7, 6, 56, 3, 1, true),
-            (6, 7, 120, 5, 2, true),
-        ] {
+        for (h, w, c, kh, s, same) in BLOCK_SHAPES {
             let (x, k, b) = data(h * w * c, kh * kh * c, c);
             let g = square_geometry(h, w, c, kh, s, same);
             let (oh, ow) = (g.oh, g.ow);

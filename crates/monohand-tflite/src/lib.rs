@@ -96,18 +96,17 @@ pub fn list_operators(bytes: &[u8]) -> Result<Vec<(String, usize)>, ImportError>
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct ImportOptions {
     /// Translate depthwise convolutions to [`NhwcDepthwise`] (channels-innermost, vectorised)
-    /// instead of tract's generic grouped `Conv`. Default: true, except on WebAssembly,
-    /// where only the portable loop exists and tract's `Conv` (its `simd128` kernels) made a
-    /// tracked frame 1.4-1.6x faster in Chromium (docs/performance.md, "monohand in the
-    /// browser").
+    /// instead of tract's generic grouped `Conv`. Default: true. (On WebAssembly it needs the
+    /// `simd128` kernel: the portable loop alone was 1.4-1.6x slower than tract's `Conv` in
+    /// Chromium; with it the two are level, docs/performance.md, "monohand in the browser".)
     pub fast_depthwise: bool,
     /// Translate PRELU with constant per-channel slopes to one [`ChannelPrelu`] pass instead
     /// of four tract element-wise ops. Default: true.
     pub fused_prelu: bool,
     /// Translate 1x1 stride-1 `CONV_2D` to [`PointwiseConv`] (weights packed at load, bias
     /// and activation applied in registers) instead of tract's generic `Conv`, on CPUs where
-    /// [`PointwiseConv::fast_kernel_available`] (x86-64 with AVX2 + FMA; elsewhere tract's
-    /// `Conv` is kept either way). Default: true.
+    /// [`PointwiseConv::fast_kernel_available`] (x86-64 with AVX2 + FMA, WebAssembly with
+    /// `simd128`; elsewhere tract's `Conv` is kept either way). Default: true.
     pub fast_pointwise: bool,
     /// With `fast_pointwise`: fold a residual `ADD` (with its activation) and/or a `PRELU`
     /// that is the only consumer of a [`PointwiseConv`]'s result into its epilogue.
@@ -139,7 +138,7 @@ pub struct ImportOptions {
 impl Default for ImportOptions {
     fn default() -> Self {
         ImportOptions {
-            fast_depthwise: !cfg!(target_family = "wasm"),
+            fast_depthwise: true,
             fused_prelu: true,
             fast_pointwise: true,
             fused_pointwise_epilogue: true,

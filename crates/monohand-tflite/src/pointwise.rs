@@ -16,8 +16,9 @@
 //! * runs a hand-written micro-kernel chosen at run time: AVX-512F + VL (8 rows x 32
 //!   channels, two panels side by side, in 16-lane registers, an 8-lane one for a last 8 or
 //!   fewer channels, masked loads and stores for the channel tail) when the CPU has it, else AVX2 + FMA (6 rows x 16 channels in 12 registers), else a
-//!   portable one. The portable one is a correct but slow fallback; the importer uses this
-//!   operator only where [`PointwiseConv::fast_kernel_available`].
+//!   portable one; in a WebAssembly module built with `simd128`, a 128-bit kernel (2 rows x
+//!   16 channels in 8 registers). The portable one is a correct but slow fallback; the
+//!   importer uses this operator only where [`PointwiseConv::fast_kernel_available`].
 //!
 //! The environment variable `MONOHAND_KERNEL` (`portable`, `avx2` or `avx512`, read once per
 //! process) forces a slower kernel than the CPU allows, to compare them in one run; a kernel
@@ -35,6 +36,13 @@ const MR: usize = 6;
 /// accumulators plus two weight vectors of the 32 registers).
 #[cfg(target_arch = "x86_64")]
 const MR512: usize = 8;
+/// Rows per micro-tile of the WebAssembly `simd128` kernel: `4·MR128` accumulators of 4
+/// lanes for a whole panel, the rows' broadcasts and one weight vector stay within the 16
+/// vector registers of an x86-64 engine. (3 rows, 16 registers in all, made a tracked frame
+/// slower in Node, 30 against 36 fps: V8 spilled; 4 rows were no faster than 3.
+/// docs/performance.md, "monohand in the browser".)
+#[cfg(all(target_arch = "wasm32", target_feature = "simd128"))]
+const MR128: usize = 2;
 /// Input bytes of one block of rows that should stay in L2 while every weight panel passes
 /// over it.
 const ROW_BLOCK_BYTES: usize = 128 * 1024;
@@ -174,7 +182,8 @@ impl PointwiseConv {
     }
 
     /// Whether this CPU runs a vectorised kernel (x86-64 with AVX2 and FMA, or AVX-512F and
-    /// AVX-512VL), and `MONOHAND_KERNEL` does not force the portable one. The portable
+    /// AVX-512VL; WebAssembly built with `simd128`), and `MONOHAND_KERNEL` does not force the
+    /// portable one. The portable
     /// fallback is correct but slow (≈ 4 GFLOP/s against ≈ 65-95 for AVX2 + FMA on the
     /// hand-landmark shapes, and slower than tract's own kernels), so the importer only uses
     /// this operator when this is true.
@@ -344,6 +353,11 @@ mod kernel {
         /// `std::arch` AVX-512F + VL intrinsics.
         #[cfg(target_arch = "x86_64")]
         Avx512,
+        /// `core::arch::wasm32` 128-bit SIMD, in a module built with `simd128` (a
+        /// WebAssembly engine either runs such a module or refuses to load it, so there is
+        /// nothing to detect at run time).
+        #[cfg(all(target_arch = "wasm32", target_feature = "simd128"))]
+        Simd128,
     }
 
     /// A micro-kernel that this CPU runs. Its field is private: a `Kernel` is made only by
@@ -370,6 +384,8 @@ mod kernel {
                 Isa::Avx2Fma => "avx2",
                 #[cfg(target_arch = "x86_64")]
                 Isa::Avx512 => "avx512",
+                #[cfg(all(target_arch = "wasm32", target_feature = "simd128"))]
+                Isa::Simd128 => "simd128",
             }
         }
 
@@ -390,6 +406,8 @@ mod kernel {
                     v.push(Kernel(Isa::Avx512));
                 }
             }
+            #[cfg(all(target_arch = "wasm32", target_feature = "simd128"))]
+            v.push(Kernel(Isa::Simd128));
             v
         }
 
@@ -424,6 +442,8 @@ impl Kernel {
         match self.isa() {
             #[cfg(target_arch = "x86_64")]
             Isa::Avx512 => MR512,
+            #[cfg(all(target_arch = "wasm32", target_feature = "simd128"))]
+            Isa::Simd128 => MR128,
             _ => MR,
         }
     }
@@ -440,8 +460,11 @@ impl Kernel {
     /// The tile function for `m` rows and `width` channels (`1 <= m <= self.rows()`,
     /// `1 <= width <= NR · self.panels()`).
     fn tile(self, m: usize, width: usize) -> TileFn {
-        // Only the x86 kernels have a function per tile shape.
-        #[cfg(not(target_arch = "x86_64"))]
+        // Only the SIMD kernels have a function per tile shape.
+        #[cfg(not(any(
+            target_arch = "x86_64",
+            all(target_arch = "wasm32", target_feature = "simd128")
+        )))]
         let _ = (m, width);
         match self.isa() {
             Isa::Portable => tile_portable,
@@ -449,6 +472,8 @@ impl Kernel {
             Isa::Avx2Fma => avx2::tile(m, width.div_ceil(8)),
             #[cfg(target_arch = "x86_64")]
             Isa::Avx512 => avx512::tile(m, width),
+            #[cfg(all(target_arch = "wasm32", target_feature = "simd128"))]
+            Isa::Simd128 => simd128::tile(m, width.div_ceil(4)),
         }
     }
 }
@@ -910,6 +935,111 @@ mod avx512 {
     }
 }
 
+#[cfg(all(target_arch = "wasm32", target_feature = "simd128"))]
+mod simd128 {
+    use super::{Tile, TileFn, MR128, NR};
+    use core::arch::wasm32::*;
+
+    /// The tiles of 1 to [`MR128`] rows for `V` vectors of 4 channels.
+    macro_rules! heights {
+        ($v:literal) => {
+            [micro::<1, $v>, micro::<2, $v>]
+        };
+    }
+
+    /// By vectors (1-4), then height.
+    static TILES: [[TileFn; MR128]; NR / 4] = [heights!(1), heights!(2), heights!(3), heights!(4)];
+
+    /// The monomorphised tile for `m` rows and `v` vectors of 4 channels.
+    pub(super) fn tile(m: usize, v: usize) -> TileFn {
+        TILES[v.clamp(1, NR / 4) - 1][m.clamp(1, MR128) - 1]
+    }
+
+    /// Four floats from `p` (WebAssembly loads need no alignment).
+    ///
+    /// # Safety
+    /// `p` is valid for reading 4 floats.
+    #[inline(always)]
+    unsafe fn load(p: *const f32) -> v128 {
+        // SAFETY: the caller's contract; `v128_load` has no alignment requirement.
+        unsafe { v128_load(p as *const v128) }
+    }
+
+    /// `M` rows x `V` vectors of 4 channels accumulated in `M·V` registers, one weight
+    /// vector loaded at a time; the epilogue runs on the registers. Where the tile is
+    /// narrower than `4·V` channels, the last vector's residual is read and its result
+    /// written lane by lane. The sums are those of the portable kernel (a product, then a
+    /// sum, in the same order: no fused multiply-add in `simd128`), so its results are the
+    /// same bits.
+    ///
+    /// # Safety
+    /// `t` satisfies `Tile`'s contract with `t.m == M` and `4·(V-1) < t.width <= 4·V`.
+    #[inline(never)]
+    unsafe fn micro<const M: usize, const V: usize>(t: &Tile) {
+        // SAFETY: the reads and writes stay in the tile (`Tile`'s contract, m == M,
+        // 4·(V-1) < width <= 4·V <= NR): `a` at rows i < M, columns < k <= lda; `b` at k
+        // rows of the panel, 4·V <= NR values each; `bias` and `alpha` at 4·V <= NR values
+        // (padded to whole panels); `res` and `out` at rows i < M, whole vectors below
+        // `width` and the last vector's lanes below `width` one by one.
+        unsafe {
+            let mut acc = [[f32x4_splat(0.0); V]; M];
+            let mut a = t.a;
+            let mut b = t.b;
+            for _ in 0..t.k {
+                let mut x = [f32x4_splat(0.0); M];
+                for (i, x) in x.iter_mut().enumerate() {
+                    *x = f32x4_splat(*a.add(i * t.lda));
+                }
+                for v in 0..V {
+                    let bv = load(b.add(4 * v));
+                    for (acc, &x) in acc.iter_mut().zip(&x) {
+                        acc[v] = f32x4_add(acc[v], f32x4_mul(x, bv));
+                    }
+                }
+                a = a.add(1);
+                b = b.add(NR);
+            }
+            let lanes = t.width - 4 * (V - 1);
+            let (lo, hi) = (f32x4_splat(t.act.0), f32x4_splat(t.act.1));
+            let (rlo, rhi) = (f32x4_splat(t.residual_act.0), f32x4_splat(t.residual_act.1));
+            let zero = f32x4_splat(0.0);
+            for (i, acc) in acc.iter().enumerate() {
+                for (v, &acc) in acc.iter().enumerate() {
+                    let full = v + 1 < V || lanes == 4;
+                    let at = i * t.ldo + 4 * v;
+                    let mut y = f32x4_add(acc, load(t.bias.add(4 * v)));
+                    y = f32x4_min(f32x4_max(y, lo), hi);
+                    if !t.res.is_null() {
+                        let r = if full {
+                            load(t.res.add(at))
+                        } else {
+                            let mut part = [0f32; 4];
+                            for (l, part) in part.iter_mut().enumerate().take(lanes) {
+                                *part = *t.res.add(at + l);
+                            }
+                            load(part.as_ptr())
+                        };
+                        y = f32x4_min(f32x4_max(f32x4_add(y, r), rlo), rhi);
+                    }
+                    if !t.alpha.is_null() {
+                        let al = load(t.alpha.add(4 * v));
+                        y = f32x4_add(f32x4_max(y, zero), f32x4_mul(al, f32x4_min(y, zero)));
+                    }
+                    if full {
+                        v128_store(t.out.add(at) as *mut v128, y);
+                    } else {
+                        let mut part = [0f32; 4];
+                        v128_store(part.as_mut_ptr() as *mut v128, y);
+                        for (l, &part) in part.iter().enumerate().take(lanes) {
+                            *t.out.add(at + l) = part;
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1029,6 +1159,39 @@ mod tests {
                     }
                 }
             }
+        }
+    }
+
+    /// The `simd128` kernel sums as the portable one (a product, then a sum, in the same
+    /// order): the same bits. (Run by `scripts/web-test.sh` under Node's WASI.)
+    #[cfg(all(target_arch = "wasm32", target_feature = "simd128"))]
+    #[test]
+    fn the_simd128_kernel_gives_the_portable_kernels_bits() {
+        let mut g = Lcg(11);
+        let simd = Kernel::best();
+        assert_eq!(simd.isa(), Isa::Simd128);
+        for (rows, cin, cout) in [(7, 17, 23), (13, 16, 24), (25, 19, 36), (300, 64, 40)] {
+            let x = g.vec(rows * cin, 4.0);
+            let w = g.vec(cout * cin, 1.0);
+            let r = g.vec(rows * cout, 4.0);
+            let wt = Tensor::from_shape(&[cout, 1, 1, cin], &w).expect("w");
+            let op = PointwiseConv::new(&wt, &tensor1(&g.vec(cout, 2.0)), Activation::Relu6)
+                .expect("op")
+                .with_residual(Activation::None)
+                .with_prelu(&tensor1(&g.vec(cout, 0.5)))
+                .expect("prelu");
+            let mut want = vec![f32::NAN; rows * cout];
+            let mut got = vec![f32::NAN; rows * cout];
+            op.compute(&x, Some(&r), &mut want, Kernel::PORTABLE, false)
+                .expect("portable");
+            op.compute(&x, Some(&r), &mut got, simd, false)
+                .expect("simd128");
+            let differ = got
+                .iter()
+                .zip(&want)
+                .filter(|(a, b)| a.to_bits() != b.to_bits())
+                .count();
+            assert_eq!(differ, 0, "{rows}x{cin}->{cout}");
         }
     }
 
