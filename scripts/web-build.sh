@@ -7,8 +7,8 @@
 # target (rustup) and wasm-bindgen-cli at the exact version of the wasm-bindgen crate
 # (crates.io). Both folders are build outputs (not committed).
 #
-#   scripts/web-build.sh                  build (Cargo profile `web`), copy the weights
-#   WEB_PROFILE=web-small scripts/...     4.8 MB instead of 7.8, 1.5x slower (Cargo.toml)
+#   scripts/web-build.sh                  build (Cargo profile `web`, 4.3 MB), copy the weights
+#   WEB_PROFILE=web-fast scripts/...      everything at opt-level 3 (8.3 MB; to compare)
 #   WEB_PROFILE=dev scripts/...           a debug build (slow; keeps function names)
 set -euo pipefail
 cd "$(dirname "$0")/.."
