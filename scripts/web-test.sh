@@ -26,6 +26,21 @@ photo="$shared/data/images/pinto/hand.png"
 [ -f "$photo" ] || { echo "web-test: $photo is missing (the shared data)" >&2; exit 1; }
 
 scripts/web-build.sh
+# The WebAssembly SIMD kernels (monohand-tflite's 1x1, depthwise and first-layer
+# convolutions) against the portable loops and naive references: the crate's unit tests
+# built for wasm32-wasip1 with simd128 and run under Node's WASI (scripts/wasi-run.mjs).
+# Only these: the rest of the crate's tests start threads, which WASI has not.
+rustup target list --installed | grep -qx wasm32-wasip1 || rustup target add wasm32-wasip1
+CARGO_TARGET_WASM32_WASIP1_RUSTFLAGS="-C target-feature=+simd128" \
+  CARGO_TARGET_WASM32_WASIP1_RUNNER="node --no-warnings $PWD/scripts/wasi-run.mjs" \
+  cargo test -p monohand-tflite --lib --target wasm32-wasip1 -- simd128 naive_reference \
+  > "${CARGO_TARGET_DIR:-target}/wasi-tests.log" 2>&1 ||
+  { cat "${CARGO_TARGET_DIR:-target}/wasi-tests.log" >&2; echo "web-test: the WebAssembly SIMD kernels' tests failed" >&2; exit 1; }
+for t in pointwise::tests::the_simd128_kernel_gives_the_portable_kernels_bits \
+         depthwise::tests::the_simd128_kernel_is_bit_identical_to_the_portable_loop; do
+  grep -q "$t ... ok" "${CARGO_TARGET_DIR:-target}/wasi-tests.log" ||
+    { cat "${CARGO_TARGET_DIR:-target}/wasi-tests.log" >&2; echo "web-test: $t did not run under WASI" >&2; exit 1; }
+done
 # The JavaScript bindings (src/js.rs) exist only for wasm32: lint them there (the workspace's
 # clippy is native).
 CARGO_TARGET_WASM32_UNKNOWN_UNKNOWN_RUSTFLAGS="-C target-feature=+simd128" \
@@ -64,6 +79,17 @@ camera() {
 camera --y4m "$out/clip.y4m" --frames "$frames" --screenshot "$out/camera.png" \
   --download "$out/camera.jsonl" > "$out/camera.json" ||
   { echo "web-test: the demo page did not find the hand in the camera stream (see $out/camera.json, $out/chromium.log)" >&2; exit 1; }
+# The same stream with the page's "mirror pass" box unticked (`mirror=0`): the tracker must
+# be made with one landmark pass a hand and still find the hand in 3D in most frames (as
+# above; its time a frame is printed, never asserted).
+camera --y4m "$out/clip.y4m" --frames "$frames" --query "&mirror=0" > "$out/camera-one-pass.json" ||
+  { echo "web-test: with one landmark pass the demo page did not find the hand (see $out/camera-one-pass.json, $out/chromium.log)" >&2; exit 1; }
+node -e '
+const r = JSON.parse(require("fs").readFileSync(process.argv[1], "utf8"));
+if (r.mirror_pass !== false) {
+  console.error(`web-test: with mirror=0 the page made its tracker with mirror pass ${r.mirror_pass}`);
+  process.exit(1);
+}' "$out/camera-one-pass.json"
 # A video file, opened with the page's file input: the same frames as WebM (VP8), tracked
 # to its end; and a file that is no video: the page says it cannot play it.
 ffmpeg -v error -y -framerate 30 -i "$out/frames/%04d.png" -c:v libvpx -b:v 2M "$out/clip.webm"
@@ -94,7 +120,8 @@ camera --js-flags=--jitless --expect-error "This browser cannot run WebAssembly"
 web/node_modules/.bin/tsc -p web/tsconfig.json ||
   { echo "web-test: web/monohand.d.ts does not type-check (tsc -p web/tsconfig.json)" >&2; exit 1; }
 
-# Side by side (web/bench): the same RGBA clip through monohand (one hand) and through
+# Side by side (web/bench): the same RGBA clip through monohand (one hand; like for like,
+# one landmark pass a crop, and with its default mirror pass) and through
 # @mediapipe/hands 0.4.1675469240 (npm, pinned in web/bench/package-lock.json; SIMD build,
 # maxNumHands 1, modelComplexity 1), alternating, WEB_BENCH_ROUNDS rounds (default 2). The
 # fps are printed, never asserted.
@@ -116,9 +143,11 @@ const cam = JSON.parse(require("fs").readFileSync(process.argv[4], "utf8"));
 const vid = JSON.parse(require("fs").readFileSync(process.argv[6], "utf8"));
 console.log(`  video file (demo page, WebM): ${vid.frames} frames tracked, ${vid.frames_with_hand_3d} with a hand in 3D; a file that is no video: the page says so`);
 console.log(`  camera stream (fake camera, demo page): ${cam.frames} frames tracked, ${cam.frames_with_hand_3d} with a hand in 3D (the three.js hand drawn in ${cam.hand3d_view_frames}), median ${cam.median_ms_after_first.toFixed(1)} ms a frame, ${cam.downloaded_frames} records downloaded as JSON Lines; camera denied or absent: the page says so`);
+const one = JSON.parse(require("fs").readFileSync(process.argv[7], "utf8"));
+console.log(`  the same with the mirror pass off (mirror=0): ${one.frames} frames tracked, ${one.frames_with_hand_3d} with a hand in 3D, median ${one.median_ms_after_first.toFixed(1)} ms a frame`);
 const r = (x) => x.map((v) => v.toFixed(1)).join(", ");
-console.log(`  side by side (web/bench, one hand, ${b.rounds > 1 ? `${b.rounds} rounds alternating` : "one round each"}): monohand ${r(b.monohand.per_round_fps)} fps (median ${b.monohand.median_ms.toFixed(1)} ms), @mediapipe/hands ${r(b.mediapipe.per_round_fps)} fps (median ${b.mediapipe.median_ms.toFixed(1)} ms; ${b.mediapipe.files.filter((f) => f.endsWith(".wasm")).join(", ")}; its WebGL on ${b.webgl_renderer})`);
+console.log(`  side by side (web/bench, one hand, ${b.rounds > 1 ? `${b.rounds} rounds alternating` : "one round each"}): monohand ${r(b.monohand.per_round_fps)} fps like for like (median ${b.monohand.median_ms.toFixed(1)} ms; one landmark pass a crop), ${r(b.monohand_defaults.per_round_fps)} fps with its mirror pass (median ${b.monohand_defaults.median_ms.toFixed(1)} ms), @mediapipe/hands ${r(b.mediapipe.per_round_fps)} fps (median ${b.mediapipe.median_ms.toFixed(1)} ms; ${b.mediapipe.files.filter((f) => f.endsWith(".wasm")).join(", ")}; its WebGL on ${b.webgl_renderer})`);
 console.log(`  test page: ${(1000 / t.mean_ms_after_first).toFixed(1)} fps; load ${t.load_ms.toFixed(0)} ms, first frame done ${t.first_frame_ms.toFixed(0)} ms after the page started loading the networks, median ${t.median_ms_after_first.toFixed(1)} ms a frame`);
-' "$out/timings.json" "$out/compare.json" "$out/bad-cut.json, $out/bad-missing.json, $out/no-wasm.json" "$out/camera.json" "$out/bench.json" "$out/video.json"
+' "$out/timings.json" "$out/compare.json" "$out/bad-cut.json, $out/bad-missing.json, $out/no-wasm.json" "$out/camera.json" "$out/bench.json" "$out/video.json" "$out/camera-one-pass.json"
 [ "$status" -eq 0 ] || { echo "web-test: the browser's records differ from native (see $out/compare.json and the lines above)" >&2; cat "$out/compare.json" >&2; }
 exit "$status"

@@ -5,22 +5,24 @@
 // the browser cannot play.
 //
 // URL parameters: `weights` (the weights' folder, default ./weights/), `start=camera`
-// (start the camera at once, without the button; the browser test uses it).
+// (start the camera at once, without the button; the browser test uses it), `mirror=0`
+// (the "mirror pass" box unticked: one landmark pass a hand, about twice the frame rate).
 //
 // The page's state is in `window.monohandDemo` (read by the browser test,
 // web/test/camera.mjs): `state` ('loading', 'ready', 'running', 'stopped' or 'error'),
 // `message`, `frames` (frames tracked), `framesWithHand3d`, `hands3d`, `frameMs`,
 // `hand3dFrames` (frames the three.js view drew a hand in), `hand3d` (why there is no such
-// view, if there is none).
+// view, if there is none), `mirrorPass` (the tracker's setting).
 
 import { createTracker, unsupportedReason } from './monohand.js';
 import { drawOverlay } from './overlay.js';
 
 const $ = (id) => document.getElementById(id);
 const params = new URLSearchParams(location.search);
+if (params.get('mirror') === '0') $('mirror').checked = false;
 const demo = {
   state: 'loading', message: '', frames: 0, framesWithHand3d: 0, hands3d: 0, frameMs: [],
-  hand3dFrames: 0, hand3d: '',
+  hand3dFrames: 0, hand3d: '', mirrorPass: null,
 };
 window.monohandDemo = demo;
 
@@ -179,7 +181,11 @@ function download() {
 
 async function startTracker() {
   // A new session for each source: identities and the fit's warm start begin afresh.
-  tracker = await createTracker({ weights: params.get('weights') ?? './weights/' });
+  tracker = await createTracker({
+    weights: params.get('weights') ?? './weights/',
+    mirrorPass: $('mirror').checked,
+  });
+  demo.mirrorPass = $('mirror').checked;
 }
 
 async function startCamera() {

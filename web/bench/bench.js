@@ -2,7 +2,9 @@
 // makes it) through monohand's tracker and through Google's `@mediapipe/hands` (its SIMD
 // WebAssembly build, chosen by the package itself when the browser has SIMD;
 // maxNumHands 1, modelComplexity 1), one hand tracked, in the same page, one after the
-// other, alternating for `rounds` rounds. Each system's time for a frame runs from the raw
+// other, alternating for `rounds` rounds. monohand runs twice a round: like for like (one
+// landmark pass a crop, as MediaPipe; native `run`'s `--no-mirror-pass`) and with its
+// defaults (the mirror pass: two). Each system's time for a frame runs from the raw
 // bytes to its result: for monohand an ImageData over them and `track`; for MediaPipe the
 // bytes put on a canvas and `send` (its results arrive before `send` resolves). The first
 // frame of each round is left out (warm-up). The result is in `window.benchResult`.
@@ -21,8 +23,8 @@ const rounds = Number(params.get('rounds') ?? 2);
 
 const nextTask = () => new Promise((resolve) => setTimeout(resolve, 0));
 
-async function monohandRound(clip) {
-  const tracker = await createTracker({ weights: '../weights/', hands: 1 });
+async function monohandRound(clip, mirrorPass) {
+  const tracker = await createTracker({ weights: '../weights/', hands: 1, mirrorPass });
   const ms = [];
   let found = 0;
   for (let i = 0; i < clip.n; i++) {
@@ -94,10 +96,13 @@ async function main() {
   canvas.width = w;
   canvas.height = h;
   const ours = [];
+  const oursDefaults = [];
   const theirs = [];
   for (let r = 0; r < rounds; r++) {
-    say(`round ${r + 1} of ${rounds}: monohand`);
-    ours.push(await monohandRound(clip));
+    say(`round ${r + 1} of ${rounds}: monohand, like for like`);
+    ours.push(await monohandRound(clip, false));
+    say(`round ${r + 1} of ${rounds}: monohand, defaults (mirror pass)`);
+    oursDefaults.push(await monohandRound(clip, true));
     say(`round ${r + 1} of ${rounds}: @mediapipe/hands`);
     theirs.push(await mediapipeRound(clip, canvas));
   }
@@ -106,6 +111,7 @@ async function main() {
     frames: clip.n,
     rounds,
     monohand: summary(ours),
+    monohand_defaults: summary(oursDefaults),
     mediapipe: summary(theirs),
     webgl_renderer: webglRenderer(),
     user_agent: navigator.userAgent,

@@ -92,6 +92,7 @@ try {
       hands_3d: demo.hands3d,
       hand3d_view_frames: demo.hand3dFrames,
       median_ms_after_first: ms[Math.floor(ms.length / 2)] ?? null,
+      mirror_pass: demo.mirrorPass,
       message: demo.message,
     };
     if (args.download) {

@@ -13,7 +13,7 @@ export async function example(ctx: CanvasRenderingContext2D, video: HTMLVideoEle
   if (why !== null) throw new Error(why);
   const options: TrackerOptions = {
     weights: './weights/', palm: DEFAULT_WEIGHTS.palm, landmark: new Uint8Array(0), hands: 1,
-    detectEvery: 10, camera: { fx: 500, fy: 500, cx: 319.5, cy: 239.5, width: 640, height: 480 },
+    detectEvery: 10, mirrorPass: false, camera: { fx: 500, fy: 500, cx: 319.5, cy: 239.5, width: 640, height: 480 },
   };
   const tracker = await createTracker(options);
   const frames: FrameRecord[] = tracker.track(ctx.getImageData(0, 0, 640, 480), video.currentTime);

@@ -30,8 +30,8 @@ use std::path::Path;
 use std::sync::Arc;
 
 /// What a page may set, as JSON (every field optional):
-/// `{"hands": 2, "detect_every": 10, "camera": {"fx": .., "fy": .., "cx": .., "cy": ..,
-/// "width": .., "height": ..}}`.
+/// `{"hands": 2, "detect_every": 10, "mirror_pass": true, "camera": {"fx": .., "fy": ..,
+/// "cx": .., "cy": .., "width": .., "height": ..}}`.
 #[derive(Debug, Clone, Default, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct TrackerOptions {
@@ -39,6 +39,10 @@ pub struct TrackerOptions {
     pub hands: Option<usize>,
     /// Look for new hands every this many frames while tracking (default: the session's, 10).
     pub detect_every: Option<usize>,
+    /// Whether the landmark network also reads each crop's mirror image (default: the
+    /// session's, on; off is `run --no-mirror-pass`: one network pass a hand instead of two,
+    /// as MediaPipe does, at a higher 3D error, docs/accuracy.md).
+    pub mirror_pass: Option<bool>,
     /// The camera's intrinsics, for frames of its size; without them, the generic 60
     /// degree camera for the frames' size, said once in the notes (as the CLI does).
     pub camera: Option<Intrinsics>,
@@ -104,6 +108,9 @@ impl Tracker {
         }
         if let Some(n) = options.detect_every {
             session_options.detect_every = n;
+        }
+        if let Some(on) = options.mirror_pass {
+            session_options = session_options.mirror_pass(on);
         }
         let mut pipeline_options = session_options.pipeline;
         pipeline_options.refine_passes = monohand::refine_passes(session_options.fit.tracking);
@@ -224,8 +231,9 @@ mod tests {
 
     #[test]
     fn options_are_read_from_json_and_unknown_fields_refused() {
-        let o = TrackerOptions::from_json(r#"{"hands": 1, "camera": {"fx": 500, "fy": 500, "cx": 320, "cy": 240, "width": 640, "height": 480}}"#).unwrap();
+        let o = TrackerOptions::from_json(r#"{"hands": 1, "mirror_pass": false, "camera": {"fx": 500, "fy": 500, "cx": 320, "cy": 240, "width": 640, "height": 480}}"#).unwrap();
         assert_eq!(o.hands, Some(1));
+        assert_eq!(o.mirror_pass, Some(false));
         assert_eq!(o.camera.unwrap().width, 640);
         assert!(TrackerOptions::from_json("").unwrap().hands.is_none());
         assert!(TrackerOptions::from_json(r#"{"hand": 1}"#).is_err());
