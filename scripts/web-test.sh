@@ -26,20 +26,30 @@ photo="$shared/data/images/pinto/hand.png"
 [ -f "$photo" ] || { echo "web-test: $photo is missing (the shared data)" >&2; exit 1; }
 
 scripts/web-build.sh
-# The WebAssembly SIMD kernels (monohand-tflite's 1x1, depthwise and first-layer
-# convolutions) against the portable loops and naive references: the crate's unit tests
-# built for wasm32-wasip1 with simd128 and run under Node's WASI (scripts/wasi-run.mjs).
-# Only these: the rest of the crate's tests start threads, which WASI has not.
+# The networks as the browser runs them, with the WebAssembly SIMD kernels: built for
+# wasm32-wasip1 with simd128 and run under Node's WASI (scripts/wasi-run.mjs; the target is
+# installed through rustup when missing). First monohand-tflite's tests of its 1x1,
+# depthwise and first-layer convolutions (each simd128 kernel gives the portable loop's
+# bits and matches a naive reference; only these: the crate's others start threads, which
+# WASI lacks), then monohand-vision's agreement of the five networks with LiteRT on the
+# committed fixture (the weights from the cache, which web-build.sh needs too; a missing one
+# fails, MONOHAND_REQUIRE_MODELS=1).
 rustup target list --installed | grep -qx wasm32-wasip1 || rustup target add wasm32-wasip1
-CARGO_TARGET_WASM32_WASIP1_RUSTFLAGS="-C target-feature=+simd128" \
-  CARGO_TARGET_WASM32_WASIP1_RUNNER="node --no-warnings $PWD/scripts/wasi-run.mjs" \
-  cargo test -p monohand-tflite --lib --target wasm32-wasip1 -- simd128 naive_reference \
-  > "${CARGO_TARGET_DIR:-target}/wasi-tests.log" 2>&1 ||
-  { cat "${CARGO_TARGET_DIR:-target}/wasi-tests.log" >&2; echo "web-test: the WebAssembly SIMD kernels' tests failed" >&2; exit 1; }
+wasi_log="${CARGO_TARGET_DIR:-target}/wasi-tests.log"
+wasi_test() {
+  CARGO_TARGET_WASM32_WASIP1_RUSTFLAGS="-C target-feature=+simd128" \
+    CARGO_TARGET_WASM32_WASIP1_RUNNER="node --no-warnings $PWD/scripts/wasi-run.mjs" \
+    cargo test --target wasm32-wasip1 "$@" >> "$wasi_log" 2>&1 ||
+    { cat "$wasi_log" >&2; echo "web-test: the WebAssembly build's tests failed (cargo test --target wasm32-wasip1 $*)" >&2; exit 1; }
+}
+: > "$wasi_log"
+wasi_test -p monohand-tflite --lib -- simd128 naive_reference
+MONOHAND_REQUIRE_MODELS=1 wasi_test -p monohand-vision --no-default-features --test reference_agreement
 for t in pointwise::tests::the_simd128_kernel_gives_the_portable_kernels_bits \
-         depthwise::tests::the_simd128_kernel_is_bit_identical_to_the_portable_loop; do
-  grep -q "$t ... ok" "${CARGO_TARGET_DIR:-target}/wasi-tests.log" ||
-    { cat "${CARGO_TARGET_DIR:-target}/wasi-tests.log" >&2; echo "web-test: $t did not run under WASI" >&2; exit 1; }
+         depthwise::tests::the_simd128_kernel_is_bit_identical_to_the_portable_loop \
+         hand_landmark_full_matches_litert palm_detector_full_matches_litert; do
+  grep -q "$t ... ok" "$wasi_log" ||
+    { cat "$wasi_log" >&2; echo "web-test: $t did not run under WASI" >&2; exit 1; }
 done
 # The JavaScript bindings (src/js.rs) exist only for wasm32: lint them there (the workspace's
 # clippy is native).
