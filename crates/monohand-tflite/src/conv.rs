@@ -551,11 +551,7 @@ mod versus_tract {
                 .expect("op");
                 let mut got = vec![f32::NAN; want.len()];
                 op.compute(&x, (h, w), &mut got, kernel).expect("compute");
-                let differ = got
-                    .iter()
-                    .zip(&want)
-                    .filter(|(a, b)| a.to_bits() != b.to_bits())
-                    .count();
+                let differ = crate::split::testing::differing_bits(&got, &want);
                 assert_eq!(differ, 0, "{kernel:?} {h}x{w}x{cin} k{kh} s{s} same {same}");
             }
         }

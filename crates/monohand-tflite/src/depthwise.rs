@@ -1077,11 +1077,7 @@ mod tests {
                 // SAFETY: the buffers have the geometry's sizes, all of its rows
                 // (`square_geometry`).
                 unsafe { simd128::run(&g, &x, &k, &b, &mut fast, act) };
-                let differ = fast
-                    .iter()
-                    .zip(&portable)
-                    .filter(|(a, b)| a.to_bits() != b.to_bits())
-                    .count();
+                let differ = crate::split::testing::differing_bits(&fast, &portable);
                 assert_eq!(differ, 0, "{h}x{w}x{c} k{kh} s{s} same {same} {act:?}");
             }
         }
@@ -1118,11 +1114,7 @@ mod tests {
                         // SAFETY: as above.
                         Isa::Avx512 => unsafe { avx512::run(&g, &x, &k, &b, &mut fast, act) },
                     }
-                    let differ = fast
-                        .iter()
-                        .zip(&portable)
-                        .filter(|(a, b)| a.to_bits() != b.to_bits())
-                        .count();
+                    let differ = crate::split::testing::differing_bits(&fast, &portable);
                     assert_eq!(
                         differ, 0,
                         "{kernel:?} {h}x{w}x{c} k{kh} s{s} same {same} {act:?}"

@@ -1186,11 +1186,7 @@ mod tests {
                 .expect("portable");
             op.compute(&x, Some(&r), &mut got, simd, false)
                 .expect("simd128");
-            let differ = got
-                .iter()
-                .zip(&want)
-                .filter(|(a, b)| a.to_bits() != b.to_bits())
-                .count();
+            let differ = crate::split::testing::differing_bits(&got, &want);
             assert_eq!(differ, 0, "{rows}x{cin}->{cout}");
         }
     }

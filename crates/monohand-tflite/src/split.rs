@@ -448,6 +448,16 @@ pub(crate) mod testing {
         (r, own.jobs.load(Ordering::Relaxed))
     }
 
+    /// How many values of `a` and `b` differ in their bits (the kernels' tests: a SIMD
+    /// kernel against the portable loop it must equal).
+    pub(crate) fn differing_bits(a: &[f32], b: &[f32]) -> usize {
+        assert_eq!(a.len(), b.len(), "outputs of different lengths");
+        a.iter()
+            .zip(b)
+            .filter(|(a, b)| a.to_bits() != b.to_bits())
+            .count()
+    }
+
     /// The bits of the first output of `op` on `inputs`, evaluated as a tract operator.
     pub(crate) fn bits(op: &dyn EvalOp, inputs: &[Tensor]) -> Vec<u32> {
         let out = op
