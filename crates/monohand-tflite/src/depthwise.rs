@@ -303,6 +303,51 @@ fn each_window(g: &Geometry, mut f: impl FnMut(Window)) {
     }
 }
 
+/// The register-blocked kernels' last channels `ch0 .. c`, one at a time, summed in the
+/// portable loop's order: with fused multiply-adds (`FMA`, as the x86 kernels and
+/// `kernel::<true>`) or a product then a sum (as `kernel::<false>` and the `simd128` kernel).
+///
+/// # Safety
+/// As the kernels' `run`: `g` describes the slices that `src`, `k`, `b` and `dst` point to
+/// the starts of (read and written without bounds checks at channels `ch0 .. c`; none if
+/// `ch0 >= c`).
+#[cfg(any(
+    target_arch = "x86_64",
+    all(target_arch = "wasm32", target_feature = "simd128")
+))]
+#[inline(always)]
+unsafe fn channel_tail<const FMA: bool>(
+    g: &Geometry,
+    src: *const f32,
+    k: *const f32,
+    b: *const f32,
+    dst: *mut f32,
+    ch0: usize,
+    (low, high): Bounds,
+) {
+    let c = g.c;
+    let clamp = low > f32::NEG_INFINITY || high < f32::INFINITY;
+    each_window(g, |win| {
+        for ch in ch0..c {
+            // SAFETY: channel ch < c of the biases, of valid taps and of the pixel.
+            unsafe {
+                let mut a = *b.add(ch);
+                for ky in win.ky.0..win.ky.1 {
+                    for kx in win.kx.0..win.kx.1 {
+                        let i = *src.add(win.input(g, ky, kx) + ch);
+                        let w = *k.add((ky * g.kw + kx) * c + ch);
+                        a = if FMA { i.mul_add(w, a) } else { a + i * w };
+                    }
+                }
+                if clamp {
+                    a = a.max(low).min(high);
+                }
+                *dst.add(win.pixel * c + ch) = a;
+            }
+        }
+    });
+}
+
 /// The portable loop nest compiled for AVX2 + FMA (the kernel before the register-blocked
 /// one; kept to compare, and for slices shorter than the geometry, which never happen).
 ///
@@ -361,7 +406,8 @@ mod avx2 {
             ch += 8;
         }
         if ch < g.c {
-            tail(g, src, k, b, dst, ch, act);
+            // The last 1-7 channels, one at a time (fused multiply-adds: this function has FMA).
+            super::channel_tail::<true>(g, src, k, b, dst, ch, act);
         }
     }
 
@@ -424,44 +470,6 @@ mod avx2 {
             }
         });
     }
-
-    /// The last `c - ch0` (< 8) channels, one at a time.
-    ///
-    /// # Safety
-    /// As [`run`], with `src`, `k`, `b` and `dst` pointing to the starts of its slices
-    /// (channels `ch0 .. c` are read and written; none if `ch0 >= c`).
-    #[target_feature(enable = "avx2,fma")]
-    #[inline]
-    unsafe fn tail(
-        g: &Geometry,
-        src: *const f32,
-        k: *const f32,
-        b: *const f32,
-        dst: *mut f32,
-        ch0: usize,
-        (low, high): Bounds,
-    ) {
-        let c = g.c;
-        let clamp = low > f32::NEG_INFINITY || high < f32::INFINITY;
-        each_window(g, |win| {
-            for ch in ch0..c {
-                // SAFETY: channel ch < c of the biases, of valid taps and of the pixel.
-                unsafe {
-                    let mut a = *b.add(ch);
-                    for ky in win.ky.0..win.ky.1 {
-                        for kx in win.kx.0..win.kx.1 {
-                            let i = *src.add(win.input(g, ky, kx) + ch);
-                            a = i.mul_add(*k.add((ky * g.kw + kx) * c + ch), a);
-                        }
-                    }
-                    if clamp {
-                        a = a.max(low).min(high);
-                    }
-                    *dst.add(win.pixel * c + ch) = a;
-                }
-            }
-        });
-    }
 }
 
 /// The WebAssembly `simd128` kernel: [`avx2`]'s register blocking with 4-lane vectors, 16
@@ -502,7 +510,7 @@ mod simd128 {
         }
         if ch < g.c {
             // SAFETY: as above, channels ch .. c.
-            unsafe { tail(g, src, k, b, dst, ch, act) };
+            unsafe { super::channel_tail::<false>(g, src, k, b, dst, ch, act) };
         }
     }
 
@@ -560,42 +568,6 @@ mod simd128 {
                 };
                 // SAFETY: as above: channels ch + 4·r .. ch + 4·r + 4 <= c of the pixel.
                 unsafe { v128_store(out.add(4 * r) as *mut v128, v) };
-            }
-        });
-    }
-
-    /// The last `c - ch0` (< 4) channels, one at a time.
-    ///
-    /// # Safety
-    /// As [`run`], with `src`, `k`, `b` and `dst` pointing to the starts of its slices
-    /// (channels `ch0 .. c` are read and written; none if `ch0 >= c`).
-    unsafe fn tail(
-        g: &Geometry,
-        src: *const f32,
-        k: *const f32,
-        b: *const f32,
-        dst: *mut f32,
-        ch0: usize,
-        (low, high): Bounds,
-    ) {
-        let c = g.c;
-        let clamp = low > f32::NEG_INFINITY || high < f32::INFINITY;
-        each_window(g, |win| {
-            for ch in ch0..c {
-                // SAFETY: channel ch < c of the biases, of valid taps and of the pixel.
-                unsafe {
-                    let mut a = *b.add(ch);
-                    for ky in win.ky.0..win.ky.1 {
-                        for kx in win.kx.0..win.kx.1 {
-                            let i = *src.add(win.input(g, ky, kx) + ch);
-                            a += i * *k.add((ky * g.kw + kx) * c + ch);
-                        }
-                    }
-                    if clamp {
-                        a = a.max(low).min(high);
-                    }
-                    *dst.add(win.pixel * c + ch) = a;
-                }
             }
         });
     }
