@@ -6,8 +6,12 @@ use crate::clock::Instant;
 use crate::crops::{HandId, VisionFrame};
 use crate::fit::{fit_views, learn_proportions, FitOutcome};
 use crate::notes::{Note, NoteTopic};
-use crate::offline::{causal, neighbours, CausalFrame, OfflineSettings, Window};
-use monohand_core::filtering::{DepthFilter, OneEuroFilter, OneEuroParams};
+use crate::offline::{
+    causal, depth_target, neighbours, CausalFrame, DepthFrame, OfflineSettings, Window,
+};
+use monohand_core::filtering::{
+    mean_depth, scale_to_depth, DepthFilter, OneEuroFilter, OneEuroParams,
+};
 use monohand_core::fitting::{estimate_hand_scale, ProportionEstimate, ScaleEstimate};
 use monohand_core::observation::NetworkCues;
 use monohand_core::prelude::*;
@@ -51,8 +55,9 @@ pub struct FitSettings {
     /// [`DEPTH_FILTER`]; `None` turns it off. Not used offline, where the refit with the
     /// frames around each frame steadies the hand itself.
     pub depth_filter: Option<OneEuroParams>,
-    /// Refit each frame with the frames after it too, writing it `lag` frames later
-    /// ([`crate::offline`]; needs tracking, and replaces `smoothing`).
+    /// Refit each frame with the frames after it too, writing it `lag` frames later (`2 lag`
+    /// with one camera and [`OfflineSettings::depth_pass`]; [`crate::offline`]; needs
+    /// tracking, and replaces `smoothing`).
     pub offline: Option<OfflineSettings>,
 }
 
@@ -192,6 +197,10 @@ pub struct HandsFitter<T = ()> {
     /// fits of the last ones written.
     ahead: VecDeque<(FittedFrame, T, CausalFrame)>,
     behind: VecDeque<CausalFrame>,
+    /// With [`FitSettings::offline`] and one camera: the frames refitted but not yet
+    /// written, and the refitted distances of the last ones written.
+    refitted: VecDeque<(FittedFrame, T, DepthFrame)>,
+    refitted_behind: VecDeque<DepthFrame>,
 }
 
 impl<T> HandsFitter<T> {
@@ -257,6 +266,8 @@ impl<T> HandsFitter<T> {
             notes,
             ahead: VecDeque::new(),
             behind: VecDeque::new(),
+            refitted: VecDeque::new(),
+            refitted_behind: VecDeque::new(),
         })
     }
 
@@ -351,6 +362,66 @@ impl<T> HandsFitter<T> {
             self.behind.push_back(own);
             if self.behind.len() > settings.lag {
                 self.behind.pop_front();
+            }
+            out.push((frame, payload));
+        }
+        if !settings.depth_pass || self.cameras.len() > 1 {
+            // Several cameras see the distance; one guesses it from the hand's size.
+            return out;
+        }
+        self.smooth_depth(out, end, &settings)
+    }
+
+    /// With one camera, the second pass of the offline smoother: each refitted hand is
+    /// scaled about the camera's centre to the Gaussian mean of its refitted distances over
+    /// the `lag` frames before and after it (the same weights as the refit). Every joint
+    /// stays on its viewing ray, so the pixels and the shape are the refit's. Takes the
+    /// newly refitted frames and gives back those whose `lag` following frames are
+    /// refitted (all of them at the end).
+    fn smooth_depth(
+        &mut self,
+        refitted: Vec<(FittedFrame, T)>,
+        end: bool,
+        settings: &OfflineSettings,
+    ) -> Vec<(FittedFrame, T)> {
+        self.refitted.extend(refitted.into_iter().map(|(f, p)| {
+            let depths = match f.cameras.as_slice() {
+                [cam] => f
+                    .hands
+                    .iter()
+                    .filter_map(|h| Some((h.id, mean_depth(cam, &h.fit.as_ref()?.joints_3d)?)))
+                    .collect(),
+                _ => DepthFrame::new(),
+            };
+            (f, p, depths)
+        }));
+        let mut out = Vec::new();
+        while self.refitted.len() > settings.lag || (end && !self.refitted.is_empty()) {
+            let Some((mut frame, payload, own)) = self.refitted.pop_front() else {
+                break;
+            };
+            let window = Window {
+                behind: &self.refitted_behind,
+                ahead: self
+                    .refitted
+                    .iter()
+                    .take(settings.lag)
+                    .map(|(_, _, d)| d)
+                    .collect(),
+            };
+            if let [cam] = frame.cameras.as_slice() {
+                for hand in &mut frame.hands {
+                    let (Some(fit), Some(&depth)) = (hand.fit.as_mut(), own.get(&hand.id)) else {
+                        continue;
+                    };
+                    if let Some(target) = depth_target(settings, &window, hand.id, depth) {
+                        scale_to_depth(cam, &mut fit.joints_3d, depth, target);
+                    }
+                }
+            }
+            self.refitted_behind.push_back(own);
+            if self.refitted_behind.len() > settings.lag {
+                self.refitted_behind.pop_front();
             }
             out.push((frame, payload));
         }

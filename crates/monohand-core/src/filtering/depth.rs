@@ -60,28 +60,47 @@ impl DepthFilter {
         camera: &Camera,
         joints: &mut [Vector3<f64>; NUM_JOINTS],
     ) -> f64 {
-        if joints.iter().any(|x| !x.iter().all(|v| v.is_finite())) {
+        let Some(depth) = mean_depth(camera, joints) else {
             return 1.0;
-        }
-        let depth = joints
-            .iter()
-            .map(|x| camera.extrinsics.transform(x).z)
-            .sum::<f64>()
-            / NUM_JOINTS as f64;
-        if depth.is_nan() || depth <= 0.0 {
-            return 1.0;
-        }
+        };
         let filtered = self.filter.filter(t_s, &[[depth, 0.0, 0.0]])[0][0];
-        let scale = filtered / depth;
-        if !(scale.is_finite() && scale > 0.0) {
-            return 1.0;
-        }
-        let centre = camera.centre();
-        for x in joints.iter_mut() {
-            *x = centre + (*x - centre) * scale;
-        }
-        scale
+        scale_to_depth(camera, joints, depth, filtered)
     }
+}
+
+/// The mean depth of `joints` (reference frame, mm) in `camera`: `None` if a joint is not
+/// finite or the hand is not in front of the camera.
+pub fn mean_depth(camera: &Camera, joints: &[Vector3<f64>; NUM_JOINTS]) -> Option<f64> {
+    if joints.iter().any(|x| !x.iter().all(|v| v.is_finite())) {
+        return None;
+    }
+    let depth = joints
+        .iter()
+        .map(|x| camera.extrinsics.transform(x).z)
+        .sum::<f64>()
+        / NUM_JOINTS as f64;
+    (depth > 0.0).then_some(depth)
+}
+
+/// Scales `joints`, whose mean depth in `camera` is `depth` ([`mean_depth`]), about the
+/// camera's centre so that it becomes `target`: every joint stays on its viewing ray.
+/// Returns the scale applied (1, and the joints left as they are, unless it is finite and
+/// positive).
+pub fn scale_to_depth(
+    camera: &Camera,
+    joints: &mut [Vector3<f64>; NUM_JOINTS],
+    depth: f64,
+    target: f64,
+) -> f64 {
+    let scale = target / depth;
+    if !(scale.is_finite() && scale > 0.0) {
+        return 1.0;
+    }
+    let centre = camera.centre();
+    for x in joints.iter_mut() {
+        *x = centre + (*x - centre) * scale;
+    }
+    scale
 }
 
 #[cfg(test)]

@@ -9,5 +9,5 @@
 pub mod depth;
 pub mod one_euro;
 
-pub use depth::DepthFilter;
+pub use depth::{mean_depth, scale_to_depth, DepthFilter};
 pub use one_euro::{JointFilter, OneEuroFilter, OneEuroParams};
