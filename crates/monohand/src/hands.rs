@@ -7,7 +7,7 @@ use crate::crops::{HandId, VisionFrame};
 use crate::fit::{fit_views, learn_proportions, FitOutcome};
 use crate::notes::{Note, NoteTopic};
 use crate::offline::{
-    causal, depth_target, neighbours, CausalFrame, DepthFrame, OfflineSettings, Window,
+    causal, depth_target, neighbours, CausalFrame, DepthFrame, Held, OfflineSettings,
 };
 use monohand_core::filtering::{
     mean_depth, scale_to_depth, DepthFilter, OneEuroFilter, OneEuroParams,
@@ -20,7 +20,6 @@ use monohand_vision::image_io::ExifFocal;
 use monohand_vision::DetectedHand;
 use nalgebra::Vector3;
 use std::collections::HashMap;
-use std::collections::VecDeque;
 
 /// A hand is forgotten (its tracker, side vote and filter dropped) after this many frames
 /// unseen.
@@ -193,14 +192,12 @@ pub struct HandsFitter<T = ()> {
     scale: Option<ScaleEstimate>,
     proportions: [Option<ProportionEstimate>; 2],
     notes: Vec<Note>,
-    /// With [`FitSettings::offline`]: the frames fitted but not yet written, and the causal
-    /// fits of the last ones written.
-    ahead: VecDeque<(FittedFrame, T, CausalFrame)>,
-    behind: VecDeque<CausalFrame>,
+    /// With [`FitSettings::offline`]: the frames fitted but not yet refitted, with their
+    /// causal fits.
+    fitted: Held<(FittedFrame, T), CausalFrame>,
     /// With [`FitSettings::offline`] and one camera: the frames refitted but not yet
-    /// written, and the refitted distances of the last ones written.
-    refitted: VecDeque<(FittedFrame, T, DepthFrame)>,
-    refitted_behind: VecDeque<DepthFrame>,
+    /// written, with their refitted distances.
+    refitted: Held<(FittedFrame, T), DepthFrame>,
 }
 
 impl<T> HandsFitter<T> {
@@ -264,10 +261,8 @@ impl<T> HandsFitter<T> {
             scale: None,
             proportions: [None, None],
             notes,
-            ahead: VecDeque::new(),
-            behind: VecDeque::new(),
-            refitted: VecDeque::new(),
-            refitted_behind: VecDeque::new(),
+            fitted: Held::default(),
+            refitted: Held::default(),
         })
     }
 
@@ -313,164 +308,71 @@ impl<T> HandsFitter<T> {
         self.smooth(fitted, true)
     }
 
-    /// With [`FitSettings::offline`]: takes the newly fitted frames and gives back those
-    /// whose `lag` following frames are fitted (all of them at the end), refitted.
+    /// With [`FitSettings::offline`]: takes the newly fitted frames and gives back,
+    /// smoothed, those whose `lag` following frames are fitted (`2 lag` with one camera and
+    /// [`OfflineSettings::depth_pass`]; all of them at the end): refitted towards their
+    /// neighbours ([`neighbours`]), then their distance averaged ([`depth_target`]).
     fn smooth(&mut self, fitted: Vec<(FittedFrame, T)>, end: bool) -> Vec<(FittedFrame, T)> {
         let Some(settings) = self.settings.offline else {
             return fitted;
         };
         // Each frame's causal fits are taken once, as it enters the window.
-        self.ahead.extend(fitted.into_iter().map(|(f, p)| {
-            let c = causal(&f);
-            (f, p, c)
-        }));
-        let mut out = Vec::new();
-        while self.ahead.len() > settings.lag || (end && !self.ahead.is_empty()) {
-            let Some((mut frame, payload, own)) = self.ahead.pop_front() else {
-                break;
-            };
-            let window = Window {
-                behind: &self.behind,
-                ahead: self
-                    .ahead
-                    .iter()
-                    .take(settings.lag)
-                    .map(|(_, _, c)| c)
-                    .collect(),
-            };
-            let refits: Vec<_> = frame
-                .hands
-                .iter()
-                .map(|h| {
-                    let c = own.get(&h.id)?;
-                    let n = neighbours(&settings, &window, h.id, c)?;
-                    Some((n, c.offset))
-                })
-                .collect();
-            for (hand, refit) in frame.hands.iter_mut().zip(refits) {
-                if let Some((n, own_offset)) = refit {
-                    self.refit_hand(
-                        &frame.vision,
-                        &frame.cameras,
-                        hand,
-                        &n,
-                        &own_offset,
-                        &settings,
-                    );
+        let fitted = fitted.into_iter().map(|f| {
+            let c = causal(&f.0);
+            (f, c)
+        });
+        let tracks = &mut self.tracks;
+        let out = self
+            .fitted
+            .release(fitted, settings.lag, end, |(frame, _), own, window| {
+                for hand in &mut frame.hands {
+                    let Some(c) = own.get(&hand.id) else {
+                        continue;
+                    };
+                    if let Some(n) = neighbours(&settings, window, hand.id, c) {
+                        refit_hand(
+                            tracks,
+                            &frame.vision,
+                            &frame.cameras,
+                            hand,
+                            &n,
+                            &c.offset,
+                            &settings,
+                        );
+                    }
                 }
-            }
-            self.behind.push_back(own);
-            if self.behind.len() > settings.lag {
-                self.behind.pop_front();
-            }
-            out.push((frame, payload));
-        }
+            });
         if !settings.depth_pass || self.cameras.len() > 1 {
             // Several cameras see the distance; one guesses it from the hand's size.
             return out;
         }
-        self.smooth_depth(out, end, &settings)
-    }
-
-    /// With one camera, the second pass of the offline smoother: each refitted hand is
-    /// scaled about the camera's centre to the Gaussian mean of its refitted distances over
-    /// the `lag` frames before and after it (the same weights as the refit). Every joint
-    /// stays on its viewing ray, so the pixels and the shape are the refit's. Takes the
-    /// newly refitted frames and gives back those whose `lag` following frames are
-    /// refitted (all of them at the end).
-    fn smooth_depth(
-        &mut self,
-        refitted: Vec<(FittedFrame, T)>,
-        end: bool,
-        settings: &OfflineSettings,
-    ) -> Vec<(FittedFrame, T)> {
-        self.refitted.extend(refitted.into_iter().map(|(f, p)| {
-            let depths = match f.cameras.as_slice() {
-                [cam] => f
-                    .hands
-                    .iter()
-                    .filter_map(|h| Some((h.id, mean_depth(cam, &h.fit.as_ref()?.joints_3d)?)))
-                    .collect(),
+        // The distance's pass: each refitted hand's distance is taken as it enters.
+        let refitted = out.into_iter().map(|f| {
+            let depths = match f.0.cameras.as_slice() {
+                [cam] => {
+                    f.0.hands
+                        .iter()
+                        .filter_map(|h| Some((h.id, mean_depth(cam, &h.fit.as_ref()?.joints_3d)?)))
+                        .collect()
+                }
                 _ => DepthFrame::new(),
             };
-            (f, p, depths)
-        }));
-        let mut out = Vec::new();
-        while self.refitted.len() > settings.lag || (end && !self.refitted.is_empty()) {
-            let Some((mut frame, payload, own)) = self.refitted.pop_front() else {
-                break;
-            };
-            let window = Window {
-                behind: &self.refitted_behind,
-                ahead: self
-                    .refitted
-                    .iter()
-                    .take(settings.lag)
-                    .map(|(_, _, d)| d)
-                    .collect(),
-            };
-            if let [cam] = frame.cameras.as_slice() {
+            (f, depths)
+        });
+        self.refitted
+            .release(refitted, settings.lag, end, |(frame, _), own, window| {
+                let [cam] = frame.cameras.as_slice() else {
+                    return;
+                };
                 for hand in &mut frame.hands {
                     let (Some(fit), Some(&depth)) = (hand.fit.as_mut(), own.get(&hand.id)) else {
                         continue;
                     };
-                    if let Some(target) = depth_target(settings, &window, hand.id, depth) {
+                    if let Some(target) = depth_target(&settings, window, hand.id, depth) {
                         scale_to_depth(cam, &mut fit.joints_3d, depth, target);
                     }
                 }
-            }
-            self.refitted_behind.push_back(own);
-            if self.refitted_behind.len() > settings.lag {
-                self.refitted_behind.pop_front();
-            }
-            out.push((frame, payload));
-        }
-        out
-    }
-
-    /// Refits `hand` of a frame towards its neighbours' joints; its output joints get the
-    /// neighbours' mean fusion offsets, its own refitted offset in its own share.
-    fn refit_hand(
-        &mut self,
-        vision: &VisionFrame,
-        cameras: &[Camera],
-        hand: &mut TrackedHand,
-        n: &crate::offline::Neighbours,
-        own_offset: &[Vector3<f64>; NUM_JOINTS],
-        settings: &OfflineSettings,
-    ) {
-        let (Some(fit), Some(track)) = (hand.fit.as_mut(), self.tracks.get_mut(&hand.id)) else {
-            return;
-        };
-        let views: Vec<View> = hand
-            .views
-            .iter()
-            .filter_map(|&(v, k)| {
-                let d = detected(vision, v, k)?;
-                Some(View::new(cameras.get(v)?, &d.keypoints).with_cues(d.cues.as_ref()))
             })
-            .collect();
-        let fitter = track.tracker.fitter_mut();
-        let Ok(mut refit) = fitter.refit_towards(&views, &fit.pose, &n.target, settings.weight)
-        else {
-            return;
-        };
-        if !crate::fit::is_finite(&refit) {
-            return;
-        }
-        let model = refit.model_joints_3d;
-        for (((out, m), mean), causal) in refit
-            .joints_3d
-            .iter_mut()
-            .zip(&model)
-            .zip(&n.offset)
-            .zip(own_offset)
-        {
-            // The neighbours' mean offset, with this frame's share now its refit's own.
-            let own = *out - m;
-            *out = m + mean + (own - causal) * n.own_share;
-        }
-        *fit = refit;
     }
 
     fn finish_scale(&mut self) -> Vec<(FittedFrame, T)> {
@@ -908,6 +810,51 @@ impl<T> HandsFitter<T> {
 }
 
 /// Hand `k` of view `v` of a frame.
+/// Refits `hand` of a frame towards its neighbours' joints, with its track's fitter; its
+/// output joints get the neighbours' mean fusion offsets, its own refitted offset in its
+/// own share.
+fn refit_hand(
+    tracks: &mut HashMap<HandId, Track>,
+    vision: &VisionFrame,
+    cameras: &[Camera],
+    hand: &mut TrackedHand,
+    n: &crate::offline::Neighbours,
+    own_offset: &[Vector3<f64>; NUM_JOINTS],
+    settings: &OfflineSettings,
+) {
+    let (Some(fit), Some(track)) = (hand.fit.as_mut(), tracks.get_mut(&hand.id)) else {
+        return;
+    };
+    let views: Vec<View> = hand
+        .views
+        .iter()
+        .filter_map(|&(v, k)| {
+            let d = detected(vision, v, k)?;
+            Some(View::new(cameras.get(v)?, &d.keypoints).with_cues(d.cues.as_ref()))
+        })
+        .collect();
+    let fitter = track.tracker.fitter_mut();
+    let Ok(mut refit) = fitter.refit_towards(&views, &fit.pose, &n.target, settings.weight) else {
+        return;
+    };
+    if !crate::fit::is_finite(&refit) {
+        return;
+    }
+    let model = refit.model_joints_3d;
+    for (((out, m), mean), causal) in refit
+        .joints_3d
+        .iter_mut()
+        .zip(&model)
+        .zip(&n.offset)
+        .zip(own_offset)
+    {
+        // The neighbours' mean offset, with this frame's share now its refit's own.
+        let own = *out - m;
+        *out = m + mean + (own - causal) * n.own_share;
+    }
+    *fit = refit;
+}
+
 fn detected(frame: &VisionFrame, v: usize, k: usize) -> Option<&DetectedHand> {
     frame.views.get(v)?.as_ref().ok()?.detections.hands.get(k)
 }

@@ -137,6 +137,55 @@ impl<'a, M> Window<'a, M> {
     }
 }
 
+/// Frames held back until the `lag` frames after them have come, each with what is kept of
+/// it (`M`), and what was kept of the last `lag` frames given out: one pass of the offline
+/// smoother (the refit, then with one camera the distance's pass).
+pub(crate) struct Held<F, M> {
+    ahead: VecDeque<(F, M)>,
+    behind: VecDeque<M>,
+}
+
+impl<F, M> Default for Held<F, M> {
+    fn default() -> Self {
+        Held {
+            ahead: VecDeque::new(),
+            behind: VecDeque::new(),
+        }
+    }
+}
+
+impl<F, M> Held<F, M> {
+    /// Takes `frames` (each with what is kept of it) and gives back, in order, those the
+    /// `lag` following frames have come for (all of them at the `end`), each once `smooth`
+    /// has seen it with its window.
+    pub(crate) fn release(
+        &mut self,
+        frames: impl IntoIterator<Item = (F, M)>,
+        lag: usize,
+        end: bool,
+        mut smooth: impl FnMut(&mut F, &M, &Window<'_, M>),
+    ) -> Vec<F> {
+        self.ahead.extend(frames);
+        let mut out = Vec::new();
+        while self.ahead.len() > lag || (end && !self.ahead.is_empty()) {
+            let Some((mut frame, own)) = self.ahead.pop_front() else {
+                break;
+            };
+            let window = Window {
+                behind: &self.behind,
+                ahead: self.ahead.iter().take(lag).map(|(_, m)| m).collect(),
+            };
+            smooth(&mut frame, &own, &window);
+            self.behind.push_back(own);
+            if self.behind.len() > lag {
+                self.behind.pop_front();
+            }
+            out.push(frame);
+        }
+        out
+    }
+}
+
 /// What the neighbours say of hand `id` whose causal fit in the frame is `own`: the target
 /// of its joints and the averaged fusion offsets, `None` without any neighbour.
 pub(crate) fn neighbours(
