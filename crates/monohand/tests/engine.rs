@@ -254,17 +254,11 @@ fn a_failing_sink_stops_the_run_and_the_others_are_closed() {
 
 #[test]
 fn the_depth_filter_steadies_the_distance_and_keeps_every_joint_on_its_ray() {
-    let input = frames(30);
-    let pipeline = Arc::new(Session::load_pipeline(&SessionOptions::default()).expect("networks"));
-    let run = |depth_filter: bool| {
-        let mut settings = EngineSettings::default();
-        if !depth_filter {
+    let (on, off) = runs_with_and_without(|settings, on| {
+        if !on {
             settings.fit.depth_filter = None;
         }
-        let engine = Engine::new(Arc::clone(&pipeline), Vec::new(), settings).expect("engine");
-        records_of(&engine, &input)
-    };
-    let (on, off) = (run(true), run(false));
+    });
     let (filtered, raw) = depth_shake_on_the_same_rays(&on, &off);
     println!("depth second differences: {filtered:.1} mm filtered, {raw:.1} mm raw");
     assert!(filtered < 0.7 * raw, "{filtered} against {raw}");
@@ -272,21 +266,31 @@ fn the_depth_filter_steadies_the_distance_and_keeps_every_joint_on_its_ray() {
 
 #[test]
 fn the_offline_depth_pass_steadies_the_distance_and_keeps_every_joint_on_its_ray() {
-    let input = frames(30);
-    let pipeline = Arc::new(Session::load_pipeline(&SessionOptions::default()).expect("networks"));
-    let run = |depth_pass: bool| {
-        let mut settings = EngineSettings::default();
+    let (on, off) = runs_with_and_without(|settings, depth_pass| {
         settings.fit.offline = Some(monohand::OfflineSettings {
             depth_pass,
             ..Default::default()
         });
-        let engine = Engine::new(Arc::clone(&pipeline), Vec::new(), settings).expect("engine");
-        records_of(&engine, &input)
-    };
-    let (on, off) = (run(true), run(false));
+    });
     let (smoothed, refitted) = depth_shake_on_the_same_rays(&on, &off);
     println!("depth second differences: {smoothed:.1} mm with the pass, {refitted:.1} mm without");
     assert!(smoothed < 0.8 * refitted, "{smoothed} against {refitted}");
+}
+
+/// The records of 30 frames run with the default settings changed by `set(settings, true)`
+/// and by `set(settings, false)`.
+fn runs_with_and_without(
+    set: impl Fn(&mut EngineSettings, bool),
+) -> (Vec<FrameRecord>, Vec<FrameRecord>) {
+    let input = frames(30);
+    let pipeline = Arc::new(Session::load_pipeline(&SessionOptions::default()).expect("networks"));
+    let run = |on: bool| {
+        let mut settings = EngineSettings::default();
+        set(&mut settings, on);
+        let engine = Engine::new(Arc::clone(&pipeline), Vec::new(), settings).expect("engine");
+        records_of(&engine, &input)
+    };
+    (run(true), run(false))
 }
 
 /// Checks that `on` and `off`, two runs over 30 frames, have the same hands and keypoints,
