@@ -10,7 +10,7 @@
 //!   writer); [`datasets::hand_graph_cnn`]: the hand-graph-cnn real-world set.
 //! - [`metrics`]: absolute, root-relative, Zimmermann-Brox aligned and
 //!   Procrustes-aligned errors, per-axis errors, PCK and its AUC, 2D errors.
-//! - [`evaluate`]: the lift stage (ground-truth 2D, noise, dropped joints), mono and stereo
+//! - [`evaluate`](mod@evaluate): the lift stage (ground-truth 2D, noise, dropped joints), mono and stereo
 //!   on the same frames; [`full`]: the full stage, each sequence run through the engine of
 //!   `monohand run` (the `monohand` crate) and its records scored.
 //! - [`plan`]: the frames, stage and settings of one evaluation, and its report's settings.

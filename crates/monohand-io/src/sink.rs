@@ -3,7 +3,7 @@
 //!
 //! - Record streams (JSON Lines, CSV) append one whole record per write; when a write
 //!   fails half-way, the file is cut back to the end of the last whole record, so it
-//!   still parses and holds every record before the failure ([`RecordSink`]).
+//!   still parses and holds every record before the failure (`RecordSink`).
 //! - Whole files (glTF, OpenPose frames) are written to `PATH.tmp` and renamed, so they
 //!   are either complete or absent ([`write_file_atomically`]).
 

@@ -4,7 +4,7 @@
 //! bilinearly, then normalised as `value · scale + offset`. There is no intermediate resized or rotated copy.
 //! When one output pixel covers more than 2 image pixels (a 4000-pixel photo squeezed into
 //! 192 pixels, a hand filling a 4K frame) the part of the image under the crop is first
-//! reduced by box filtering (`2^k x 2^k` block means, [`crate::reduce`]) and sampled
+//! reduced by box filtering (`2^k x 2^k` block means, `reduce.rs`) and sampled
 //! bilinearly from there, so the network does not see aliasing and the cost does not grow
 //! with the frame; for ordinary crops the warp is plain bilinear from the image, as
 //! MediaPipe's. (Before issue 34 the footprint was supersampled on an `n x n` grid, n ≤ 8:
@@ -121,7 +121,7 @@ pub fn warp_into(
 ///
 /// A crop whose output pixel covers at most [`PLAIN_BILINEAR_UP_TO`] image pixels is plain
 /// bilinear from the image. A smaller one is bilinear from a box-filtered reduction of the
-/// image ([`crate::reduce`]): the `2^k x 2^k` averages of the pixels (`2^k` the largest power
+/// image (`reduce.rs`): the `2^k x 2^k` averages of the pixels (`2^k` the largest power
 /// of two not above the footprint), made only over the part of the image the crop covers,
 /// so its cost does not grow with the footprint (docs/performance.md, issue 34).
 pub fn warp_into_with_border(

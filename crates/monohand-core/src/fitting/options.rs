@@ -125,7 +125,7 @@ pub struct CostSettings {
     /// the wrist-to-base bone, 1 proximal, 2 middle, 3 distal): how far the
     /// network's bone directions can be trusted there. Multiplies
     /// [`world_weight`](Self::world_weight) / [`depth_weight`](Self::depth_weight).
-    /// Default: the inverse of the measured angular error, [`CUE_BONE_ERROR_DEG`].
+    /// Default: the inverse of the measured angular error, `CUE_BONE_ERROR_DEG`.
     pub cue_segment_weights: [[f64; 4]; 2],
 }
 
