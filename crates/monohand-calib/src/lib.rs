@@ -17,6 +17,7 @@ pub mod calibrate;
 pub mod corners;
 pub mod error;
 pub mod image;
+pub mod print;
 
 pub use board::Board;
 pub use error::{CalibError, CalibResult};
