@@ -38,6 +38,9 @@
 //! ```
 
 mod filestorage;
+mod write;
+
+pub use write::{calibrated_camera_json, opencv_yaml, write_atomically, CalibrationInfo, CameraStd};
 
 use crate::error::{name_of, read_text, IoError, IoResult};
 use filestorage::{parse_number, Node};
@@ -313,8 +316,10 @@ fn required<'a>(o: &'a Map<String, Value>, key: &str, file: &str) -> IoResult<&'
         .ok_or_else(|| IoError::field(file, key, "missing"))
 }
 
-const MONOHAND_KEYS: [&str; 12] = [
+const MONOHAND_KEYS: [&str; 17] = [
     "fx", "fy", "cx", "cy", "width", "height", "dist", "R", "t", "name", "comment", "hfov_deg",
+    // Written by `monohand calibrate` (write::calibrated_camera_json).
+    "rms_px", "views", "board", "date", "std",
 ];
 
 fn monohand_json(o: &Map<String, Value>, file: &str) -> IoResult<Calibration> {
@@ -366,11 +371,15 @@ fn monohand_json(o: &Map<String, Value>, file: &str) -> IoResult<Calibration> {
         },
     )
     .map_err(|e| IoError::core(file, e))?;
+    let reprojection_error_px = match o.get("rms_px") {
+        Some(v) => Some(json_f64(v, file, "rms_px")?),
+        None => None,
+    };
     Ok(Calibration {
         camera,
         format: CalibrationFormat::MonohandJson,
         target_pose: None,
-        reprojection_error_px: None,
+        reprojection_error_px,
     })
 }
 
