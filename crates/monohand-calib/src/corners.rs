@@ -183,15 +183,17 @@ pub fn find_chessboard(image: &GrayImage<'_>, board: &Board) -> Result<FoundBoar
 }
 
 /// The half window [`find_chessboard`] refines with, for corners `spacing` pixels apart
-/// at the least: 5 (OpenCV's usual 11x11 window) for squares of 20-50 pixels, less for
-/// smaller squares (the window must not reach the next corners), more for larger ones.
+/// at the least: 5 (OpenCV's usual 11x11 window, `winSize (5, 5)`) for squares of 15-60
+/// pixels, a third of the spacing for smaller squares (the window must not reach the
+/// next corners), a twelfth for larger ones (up to 15).
 pub fn refine_half_window(spacing: f64) -> usize {
-    if !spacing.is_finite() {
+    if !spacing.is_finite() || spacing < 6.0 {
         return 2;
     }
-    ((spacing * 0.25).round() as usize)
-        .clamp(2, 12)
-        .max(if spacing >= 20.0 { 5 } else { 2 })
+    if spacing < 15.0 {
+        return ((spacing / 3.0).floor() as usize).max(2);
+    }
+    ((spacing / 12.0).round() as usize).clamp(5, 15)
 }
 
 /// The least distance between adjacent corners of a `rows` x `cols` grid.
