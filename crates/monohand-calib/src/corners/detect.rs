@@ -44,26 +44,52 @@ pub(crate) fn chess_response(img: &Plane) -> Plane {
     if w <= 2 * r + 1 || h <= 2 * r + 1 {
         return Plane { w, h, data: out };
     }
-    let offsets: [isize; 16] = RING.map(|(dx, dy)| dy * w as isize + dx);
+    // Row by row, each term a pass over the row's pixels (vectorizable).
+    let len = w - 2 * r;
     let d = &img.data;
+    let mut pair = vec![vec![0.0f32; len]; 8]; // s[n] + s[n + 8]
+    let mut acc = vec![0.0f32; len];
+    let mut diff = vec![0.0f32; len];
     for y in r..h - r {
-        for x in r..w - r {
-            let c = y * w + x;
-            let mut s = [0.0f32; 16];
-            for (v, &o) in s.iter_mut().zip(&offsets) {
-                *v = d[(c as isize + o) as usize];
+        let ring = |n: usize| {
+            let (dx, dy) = RING[n];
+            let start = ((y as isize + dy) * w as isize + r as isize + dx) as usize;
+            &d[start..start + len]
+        };
+        diff.fill(0.0);
+        for (n, p) in pair.iter_mut().enumerate() {
+            let (a, b) = (ring(n), ring(n + 8));
+            for (((p, a), b), e) in p.iter_mut().zip(a).zip(b).zip(diff.iter_mut()) {
+                *p = a + b;
+                *e += (a - b).abs();
             }
-            let mut sum_r = 0.0;
-            for n in 0..4 {
-                sum_r += ((s[n] + s[n + 8]) - (s[n + 4] + s[n + 12])).abs();
+        }
+        // Sum response minus difference response.
+        acc.fill(0.0);
+        for n in 0..4 {
+            let (a, b) = (&pair[n], &pair[n + 4]);
+            for ((o, a), b) in acc.iter_mut().zip(a).zip(b) {
+                *o += (a - b).abs();
             }
-            let mut diff_r = 0.0;
-            for n in 0..8 {
-                diff_r += (s[n] - s[n + 8]).abs();
-            }
-            let ring_mean = s.iter().sum::<f32>() / 16.0;
-            let local_mean = (d[c] + d[c - 1] + d[c + 1] + d[c - w] + d[c + w]) / 5.0;
-            out[c] = sum_r - diff_r - 16.0 * (ring_mean - local_mean).abs();
+        }
+        // Minus 16 times the difference of the ring's mean and the local mean.
+        let centre = &d[y * w + r..y * w + r + len];
+        let left = &d[y * w + r - 1..y * w + r - 1 + len];
+        let right = &d[y * w + r + 1..y * w + r + 1 + len];
+        let up = &d[(y - 1) * w + r..(y - 1) * w + r + len];
+        let down = &d[(y + 1) * w + r..(y + 1) * w + r + len];
+        let out_row = &mut out[y * w + r..y * w + r + len];
+        for x in 0..len {
+            let ring_sum = pair[0][x]
+                + pair[1][x]
+                + pair[2][x]
+                + pair[3][x]
+                + pair[4][x]
+                + pair[5][x]
+                + pair[6][x]
+                + pair[7][x];
+            let local = (centre[x] + left[x] + right[x] + up[x] + down[x]) / 5.0;
+            out_row[x] = acc[x] - diff[x] - 16.0 * (ring_sum / 16.0 - local).abs();
         }
     }
     Plane { w, h, data: out }

@@ -83,25 +83,30 @@ impl Plane {
         let total: f32 = kernel.iter().sum();
         kernel.iter_mut().for_each(|k| *k /= total);
         let (w, h) = (self.w, self.h);
-        let r = radius as isize;
+        let r = radius;
+        // Rows: each padded with its end pixels replicated, then convolved.
         let mut tmp = vec![0.0f32; w * h];
+        let mut padded = vec![0.0f32; w + 2 * r];
         for y in 0..h {
             let row = &self.data[y * w..(y + 1) * w];
-            for x in 0..w {
-                let mut acc = 0.0;
-                for (k, &kv) in kernel.iter().enumerate() {
-                    let xx = (x as isize + k as isize - r).clamp(0, w as isize - 1) as usize;
-                    acc += kv * row[xx];
+            let (first, last) = (row[0], row[w - 1]);
+            padded[..r].fill(first);
+            padded[r..r + w].copy_from_slice(row);
+            padded[r + w..].fill(last);
+            let dst = &mut tmp[y * w..(y + 1) * w];
+            for (k, &kv) in kernel.iter().enumerate() {
+                for (d, s) in dst.iter_mut().zip(&padded[k..k + w]) {
+                    *d += kv * s;
                 }
-                tmp[y * w + x] = acc;
             }
         }
+        // Columns: whole rows at a time, the first and last rows replicated.
         let mut out = vec![0.0f32; w * h];
         for y in 0..h {
+            let dst = &mut out[y * w..(y + 1) * w];
             for (k, &kv) in kernel.iter().enumerate() {
-                let yy = (y as isize + k as isize - r).clamp(0, h as isize - 1) as usize;
+                let yy = (y + k).saturating_sub(r).min(h - 1);
                 let src = &tmp[yy * w..(yy + 1) * w];
-                let dst = &mut out[y * w..(y + 1) * w];
                 for (d, s) in dst.iter_mut().zip(src) {
                     *d += kv * s;
                 }
