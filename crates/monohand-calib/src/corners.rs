@@ -64,7 +64,8 @@ pub enum NotFound {
         /// Corners the board has.
         expected: usize,
     },
-    /// A whole chessboard was seen, but with another number of inner corners.
+    /// A chessboard was seen with another number of inner corners: a grid that cannot be
+    /// part of the board given (at least this size if the image's edge cuts it).
     OtherSize {
         /// Inner corners along one side, as seen.
         cols: usize,
@@ -103,8 +104,8 @@ const MIN_CONTRAST: f64 = 8.0;
 ///
 /// Returns [`NotFound::Partial`] when a grid that fits in the board is seen but not all
 /// of it (cut by the image's edge, covered, too blurred), [`NotFound::OtherSize`] when a
-/// whole grid (not touching the image's edge) is seen that cannot be part of the board
-/// (e.g. 9x6 when 8x6 is asked; `cols >= rows` in it as in `board`), and
+/// grid is seen that cannot be part of the board (e.g. 9x6 when 8x6 is asked; its
+/// longer side first if `board`'s is; at least that size if the image's edge cuts it), and
 /// [`NotFound::NoBoard`] otherwise (also for images or boards that are not valid).
 pub fn find_chessboard(image: &GrayImage<'_>, board: &Board) -> Result<FoundBoard, NotFound> {
     if board.cols < 2 || board.rows < 2 || board.cols > 1000 || board.rows > 1000 {
@@ -146,7 +147,7 @@ pub fn find_chessboard(image: &GrayImage<'_>, board: &Board) -> Result<FoundBoar
     if !same {
         let fits = (g.rows <= board.rows && g.cols <= board.cols)
             || (g.cols <= board.rows && g.rows <= board.cols);
-        return Err(if !found.cut && !fits {
+        return Err(if !fits {
             let (big, small) = (g.rows.max(g.cols), g.rows.min(g.cols));
             if board.cols >= board.rows {
                 NotFound::OtherSize {

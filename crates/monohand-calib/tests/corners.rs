@@ -167,3 +167,340 @@ fn all_26_photos_agree_with_opencv() {
     // only most corners agree.
     assert!(med11 < 0.1, "median {med11}");
 }
+
+/// The homography (DLT, normalized) taking `from` to `to`.
+fn homography(from: &[Point2<f64>], to: &[Point2<f64>]) -> Matrix3<f64> {
+    let norm = |pts: &[Point2<f64>]| {
+        let n = pts.len() as f64;
+        let (mx, my) = (
+            pts.iter().map(|p| p.x).sum::<f64>() / n,
+            pts.iter().map(|p| p.y).sum::<f64>() / n,
+        );
+        let s = pts
+            .iter()
+            .map(|p| ((p.x - mx).powi(2) + (p.y - my).powi(2)).sqrt())
+            .sum::<f64>()
+            / n;
+        let k = 2f64.sqrt() / s;
+        Matrix3::new(k, 0.0, -k * mx, 0.0, k, -k * my, 0.0, 0.0, 1.0)
+    };
+    let (ta, tb) = (norm(from), norm(to));
+    let mut a = DMatrix::<f64>::zeros(2 * from.len(), 9);
+    for (i, (p, q)) in from.iter().zip(to).enumerate() {
+        let p = ta * Vector3::new(p.x, p.y, 1.0);
+        let q = tb * Vector3::new(q.x, q.y, 1.0);
+        let (x, y, u, v) = (p.x / p.z, p.y / p.z, q.x / q.z, q.y / q.z);
+        let r1 = [-x, -y, -1.0, 0.0, 0.0, 0.0, u * x, u * y, u];
+        let r2 = [0.0, 0.0, 0.0, -x, -y, -1.0, v * x, v * y, v];
+        for k in 0..9 {
+            a[(2 * i, k)] = r1[k];
+            a[(2 * i + 1, k)] = r2[k];
+        }
+    }
+    let svd = (a.transpose() * &a).symmetric_eigen();
+    let k = svd.eigenvalues.imin();
+    let h = svd.eigenvectors.column(k);
+    let hn = Matrix3::new(h[0], h[1], h[2], h[3], h[4], h[5], h[6], h[7], h[8]);
+    tb.try_inverse().unwrap() * hn * ta
+}
+
+fn apply(h: &Matrix3<f64>, p: Point2<f64>) -> Point2<f64> {
+    let q = h * Vector3::new(p.x, p.y, 1.0);
+    Point2::new(q.x / q.z, q.y / q.z)
+}
+
+/// RMS distance from `to` of `from` mapped by the homography fitted between them.
+fn homography_rms(from: &[Point2<f64>], to: &[Point2<f64>]) -> f64 {
+    let h = homography(from, to);
+    let s: f64 = from
+        .iter()
+        .zip(to)
+        .map(|(p, q)| (apply(&h, *p) - q).norm_squared())
+        .sum();
+    (s / from.len() as f64).sqrt()
+}
+
+/// The grey level at `p`, the mean of the nearest 3x3 pixels.
+fn grey_at(img: &Img, p: Point2<f64>) -> f64 {
+    let (x, y) = (p.x.round() as i64, p.y.round() as i64);
+    let mut s = 0.0;
+    for dy in -1..=1 {
+        for dx in -1..=1 {
+            let xx = (x + dx).clamp(0, img.w as i64 - 1) as usize;
+            let yy = (y + dy).clamp(0, img.h as i64 - 1) as usize;
+            s += img.data[yy * img.w + xx] as f64;
+        }
+    }
+    s / 9.0
+}
+
+/// Corner 0's outer diagonal square is dark: darker than the outer square beside it
+/// (above the edge from corner 0 to corner 1).
+fn outer_square_of_corner_0_is_dark(img: &Img, c: &[Point2<f64>], cols: usize) -> bool {
+    let (p0, p1, pc) = (c[0], c[1], c[cols]);
+    // A third of a step out (the outer squares may be smaller, further from the camera).
+    let diagonal = p0 - (p1 - p0) * 0.35 - (pc - p0) * 0.35;
+    let beside = p0 + (p1 - p0) * 0.35 - (pc - p0) * 0.35;
+    grey_at(img, diagonal) + 20.0 < grey_at(img, beside)
+}
+
+#[test]
+fn both_cameras_number_the_same_physical_corners() {
+    let names = names();
+    let mut rms = Vec::new();
+    for pair in names.chunks(2) {
+        let (li, ri) = (load(&pair[0]), load(&pair[1]));
+        let l = find(&li).unwrap().corners;
+        let r = find(&ri).unwrap().corners;
+        for (img, c, name) in [(&li, &l, &pair[0]), (&ri, &r, &pair[1])] {
+            let turn = cross(c[1] - c[0], c[9] - c[0]);
+            assert!(turn > 0.0, "{name}: left-handed ({turn})");
+            assert!(
+                outer_square_of_corner_0_is_dark(img, c, 9),
+                "{name}: corner 0's outer square is not dark"
+            );
+        }
+        // One homography takes the left board to the right one in our order (the board
+        // is flat; a half turn of the numbering is a homography too, which the dark-square
+        // check above rules out)...
+        let same = homography_rms(&l, &r);
+        // ... and the rig's cameras are side by side, both upright: the diagonal from
+        // corner 0 to the last corner points the same way in both images.
+        let (dl, dr) = (l[53] - l[0], r[53] - r[0]);
+        let cos = dl.dot(&dr) / (dl.norm() * dr.norm());
+        eprintln!(
+            "{} / {}: left-to-right homography RMS {same:.2} px, diagonals' cosine {cos:.3}",
+            pair[0], pair[1]
+        );
+        assert!(same < 2.0 && cos > 0.9, "{}: {same} {cos}", pair[0]);
+        rms.push(same);
+    }
+    assert_eq!(rms.len(), 13);
+}
+
+/// `img` turned a quarter turn clockwise; a point (x, y) goes to (h - 1 - y, x).
+fn quarter_turn(img: &Img) -> Img {
+    let (w, h) = (img.h, img.w);
+    let mut data = vec![0u8; w * h];
+    for y in 0..h {
+        for x in 0..w {
+            // new (x, y) = old (y, h_old - 1 - x)
+            data[y * w + x] = img.data[(img.h - 1 - x) * img.w + y];
+        }
+    }
+    Img { w, h, data }
+}
+
+/// Gaussian blur of `sigma` pixels (separable, the border replicated).
+fn blur(img: &Img, sigma: f64) -> Img {
+    let r = (3.0 * sigma).ceil() as i64;
+    let k: Vec<f64> = (-r..=r)
+        .map(|d| (-(d * d) as f64 / (2.0 * sigma * sigma)).exp())
+        .collect();
+    let ks: f64 = k.iter().sum();
+    let pass = |src: &[f64], horizontal: bool| {
+        let mut out = vec![0.0; src.len()];
+        for y in 0..img.h as i64 {
+            for x in 0..img.w as i64 {
+                let mut s = 0.0;
+                for (i, kv) in k.iter().enumerate() {
+                    let d = i as i64 - r;
+                    let (xx, yy) = if horizontal {
+                        ((x + d).clamp(0, img.w as i64 - 1), y)
+                    } else {
+                        (x, (y + d).clamp(0, img.h as i64 - 1))
+                    };
+                    s += kv * src[(yy * img.w as i64 + xx) as usize];
+                }
+                out[(y * img.w as i64 + x) as usize] = s / ks;
+            }
+        }
+        out
+    };
+    let f: Vec<f64> = img.data.iter().map(|&v| v as f64).collect();
+    let f = pass(&pass(&f, true), false);
+    Img {
+        w: img.w,
+        h: img.h,
+        data: f
+            .iter()
+            .map(|v| v.round().clamp(0.0, 255.0) as u8)
+            .collect(),
+    }
+}
+
+#[test]
+fn a_quarter_turn_finds_the_same_physical_corners() {
+    for name in names() {
+        let img = load(&name);
+        let upright = find(&img).unwrap().corners;
+        let turned = quarter_turn(&img);
+        let found = find(&turned).unwrap_or_else(|e| panic!("{name} turned: {e}"));
+        // Back to the upright image: (x', y') = (h - 1 - y, x), so y = h - 1 - x', x = y'.
+        let back: Vec<_> = found
+            .corners
+            .iter()
+            .map(|p| Point2::new(p.y, img.h as f64 - 1.0 - p.x))
+            .collect();
+        let worst = back
+            .iter()
+            .zip(&upright)
+            .map(|(a, b)| (a - b).norm())
+            .fold(0.0, f64::max);
+        assert!(worst < 0.01, "{name}: corners {worst} px apart");
+    }
+}
+
+#[test]
+fn blurred_photos_are_found_less_sharp() {
+    let mut all = Vec::new();
+    for name in names() {
+        let img = load(&name);
+        let sharp = find(&img).unwrap();
+        let blurred = find(&blur(&img, 1.5)).unwrap_or_else(|e| panic!("{name} blurred: {e}"));
+        let d: Vec<f64> = blurred
+            .corners
+            .iter()
+            .zip(&sharp.corners)
+            .map(|(a, b)| (a - b).norm())
+            .collect();
+        let (mean, _, max) = stats(&d);
+        eprintln!(
+            "{name} blurred (sigma 1.5): corners moved mean {mean:.3}, max {max:.3} px; sharpness {:.3} -> {:.3}",
+            sharp.sharpness, blurred.sharpness
+        );
+        assert!(mean < 0.3, "{name}: {mean}");
+        assert!(blurred.sharpness < sharp.sharpness, "{name}");
+        all.extend(d);
+    }
+    let (mean, median, max) = stats(&all);
+    eprintln!("blur sigma 1.5, 26 photos: corners moved mean {mean:.3}, median {median:.3}, max {max:.3} px");
+}
+
+#[test]
+fn uneven_lighting_is_tolerated() {
+    for name in names() {
+        let img = load(&name);
+        let sharp = find(&img).unwrap();
+        for horizontal in [true, false] {
+            let mut dim = img.clone();
+            for y in 0..img.h {
+                for x in 0..img.w {
+                    let t = if horizontal {
+                        x as f64 / (img.w - 1) as f64
+                    } else {
+                        y as f64 / (img.h - 1) as f64
+                    };
+                    let v = &mut dim.data[y * img.w + x];
+                    *v = (*v as f64 * (0.3 + 0.7 * t)).round() as u8;
+                }
+            }
+            let found = find(&dim).unwrap_or_else(|e| panic!("{name} ramp: {e}"));
+            let worst = found
+                .corners
+                .iter()
+                .zip(&sharp.corners)
+                .map(|(a, b)| (a - b).norm())
+                .fold(0.0, f64::max);
+            assert!(worst < 0.3, "{name}: {worst} px");
+            let ratio = found.sharpness / sharp.sharpness;
+            assert!((0.8..1.25).contains(&ratio), "{name}: sharpness x{ratio}");
+        }
+    }
+}
+
+#[test]
+fn boards_cut_by_the_edge_are_not_found() {
+    let mut partial = 0;
+    for name in names() {
+        let img = load(&name);
+        let c = find(&img).unwrap().corners;
+        // Keep the image left of the board's middle column of corners.
+        let cut_x = c[4].x.max(c[49].x).round() as usize;
+        let crop = Img {
+            w: cut_x,
+            h: img.h,
+            data: (0..img.h)
+                .flat_map(|y| img.data[y * img.w..y * img.w + cut_x].iter().copied())
+                .collect(),
+        };
+        match find(&crop) {
+            Ok(_) => panic!("{name}: a cut board was found"),
+            Err(NotFound::Partial { seen, expected }) => {
+                assert!(seen < 54 && expected == 54, "{name}: {seen}");
+                partial += 1;
+            }
+            Err(e) => eprintln!("{name} cut: {e}"),
+        }
+    }
+    eprintln!("cut boards: {partial} of 26 reported as partial");
+    assert!(partial >= 20);
+}
+
+#[test]
+fn another_board_size_is_not_found() {
+    let mut other = 0;
+    for name in names() {
+        let img = load(&name);
+        for (cols, rows) in [(8, 6), (9, 5), (7, 4), (5, 9)] {
+            match find_chessboard(&img.view(), &Board::new(cols, rows, 1.0).unwrap()) {
+                Ok(_) => panic!("{name}: a {cols}x{rows} board was found"),
+                Err(NotFound::OtherSize { cols: 9, rows: 6 }) if cols > rows => other += 1,
+                Err(NotFound::OtherSize { cols: 6, rows: 9 }) if cols < rows => other += 1,
+                Err(e) => eprintln!("{name} as {cols}x{rows}: {e}"),
+            }
+        }
+    }
+    eprintln!("{other} of 104 reported as a 9x6 board");
+    assert!(other >= 90);
+}
+
+#[test]
+fn images_without_boards_are_refused() {
+    let board = board();
+    let blank = vec![0u8; 640 * 480];
+    let white = vec![255u8; 640 * 480];
+    let mut state = 12345u64;
+    let noise: Vec<u8> = (0..640 * 480)
+        .map(|_| {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (state >> 56) as u8
+        })
+        .collect();
+    for (what, data, w, h) in [
+        ("black", &blank, 640, 480),
+        ("white", &white, 640, 480),
+        ("noise", &noise, 640, 480),
+        ("5x5", &noise, 5, 5),
+        ("1x1", &noise, 1, 1),
+        ("1x480", &noise, 1, 480),
+        ("2000x3", &noise, 2000, 3),
+    ] {
+        let img = GrayImage::new(w, h, &data[..w * h]).unwrap();
+        let found = find_chessboard(&img, &board);
+        assert!(found.is_err(), "{what}: {found:?}");
+    }
+    // A smoothed noise image has blobs and saddles of all sizes.
+    let smooth = blur(
+        &Img {
+            w: 640,
+            h: 480,
+            data: noise.clone(),
+        },
+        3.0,
+    );
+    assert!(find(&smooth).is_err());
+    // Fields that do not describe the buffer (they are public) are refused, not indexed.
+    let bad = GrayImage {
+        width: 640,
+        height: 480,
+        stride: 640,
+        data: &noise[..1000],
+    };
+    assert_eq!(find_chessboard(&bad, &board), Err(NotFound::NoBoard));
+    let mut pts = vec![Point2::new(10.0, 10.0)];
+    refine_corners(&bad, &mut pts, 5);
+    assert_eq!(pts[0], Point2::new(10.0, 10.0));
+}
