@@ -1,6 +1,8 @@
 //! The chessboard corner finder on OpenCV's 26 real stereo photos (9x6 board), on
 //! synthetic variations of them, and on rendered boards.
 
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a failed test is a panic
+
 use monohand_calib::corners::{find_chessboard, refine_corners, FoundBoard, NotFound};
 use monohand_calib::{Board, GrayImage};
 use nalgebra::{DMatrix, Matrix3, Point2, Vector3};

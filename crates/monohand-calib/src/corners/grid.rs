@@ -359,8 +359,8 @@ impl Assembler<'_> {
         let mut cut = false;
         loop {
             let mut grown = false;
-            for side in 0..4 {
-                if done[side] || grid.rows >= MAX_SIDE || grid.cols >= MAX_SIDE {
+            for (side, done) in done.iter_mut().enumerate() {
+                if *done || grid.rows >= MAX_SIDE || grid.cols >= MAX_SIDE {
                     continue;
                 }
                 // Turn the grid so that the side is its bottom, grow, turn back.
@@ -375,9 +375,9 @@ impl Assembler<'_> {
                     Growth::Grown => grown = true,
                     Growth::Cut => {
                         cut = true;
-                        done[side] = true;
+                        *done = true;
                     }
-                    Growth::Stopped => done[side] = true,
+                    Growth::Stopped => *done = true,
                 }
                 grid = match side {
                     0 => g,

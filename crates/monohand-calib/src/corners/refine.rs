@@ -66,9 +66,8 @@ pub(crate) fn refine_one(image: &GrayImage<'_>, p: Point2<f64>, hw: usize) -> Po
         }
     }
     let moved = cur - start;
-    if !(moved.x.abs() <= hw as f64 && moved.y.abs() <= hw as f64)
-        || !(cur.x >= 0.0 && cur.y >= 0.0 && cur.x < w && cur.y < h)
-    {
+    let inside = cur.x >= 0.0 && cur.y >= 0.0 && cur.x < w && cur.y < h;
+    if !(moved.x.abs() <= hw as f64 && moved.y.abs() <= hw as f64 && inside) {
         return start;
     }
     cur
