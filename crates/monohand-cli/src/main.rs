@@ -2,6 +2,7 @@
 //! (README.md and docs/pipeline.md show each command). Argument parsing, the choice of
 //! sinks and the exit statuses; the work is the library's.
 
+mod calibrate;
 mod detect;
 mod eval;
 mod hand_args;
@@ -53,6 +54,9 @@ enum Command {
     /// Print the JSON of a generic camera for footage of unknown origin (centred, square
     /// pixels, --hfov; a wrong guess scales the depth: docs/calibration.md).
     Camera(CameraArgs),
+    /// Calibrate a camera, or a rig's cameras, from photos, a video or a webcam of a
+    /// printed chessboard; --print-board makes one (docs/calibration.md).
+    Calibrate(Box<calibrate::CalibrateArgs>),
     /// Measure accuracy on a 3D hand dataset (a manifest or an STB folder): print a table,
     /// optionally write a report (docs/evaluation.md).
     Eval(eval::EvalArgs),
@@ -214,6 +218,7 @@ fn main() -> ExitCode {
         Command::Lift(args) => lift::run(args).map(|()| exit::OK),
         Command::Camera(args) => camera_command(args).map(|()| exit::OK),
         Command::Eval(args) => eval::run(args).map(|()| exit::OK),
+        Command::Calibrate(args) => calibrate::run(args).map(|()| exit::OK),
     };
     match result {
         Ok(code) => ExitCode::from(code),

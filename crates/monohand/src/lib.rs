@@ -23,6 +23,7 @@
 #![deny(missing_docs)]
 
 pub mod association;
+pub mod calibration;
 mod clock;
 mod crops;
 pub mod engine;
