@@ -190,3 +190,7 @@ pub fn calibrate_rig(
     let _ = (board, views, sizes, options);
     Err(CalibError::Failed("not implemented".into()))
 }
+
+mod init;
+mod projection;
+mod solver;
