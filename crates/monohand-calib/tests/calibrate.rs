@@ -1,0 +1,159 @@
+//! Calibration tests: synthetic cameras and rigs with known answers, bad input, and OpenCV's
+//! stereo sample against OpenCV's own results (fixtures in `tests/data`, made by
+//! `tests/data/make_opencv_fixtures.py`).
+
+use monohand_calib::calibrate::{
+    calibrate_camera, calibrate_rig, BoardView, CalibWarning, CalibrateOptions, CameraCalibration,
+    DistortionModel,
+};
+use monohand_calib::{Board, CalibError};
+use monohand_core::camera::{Camera, Distortion, Extrinsics, Intrinsics};
+use nalgebra::{Point2, Rotation3, Unit, Vector3};
+use rand::{rngs::StdRng, Rng, SeedableRng};
+use rand_distr::{Distribution, Normal};
+use serde_json::Value;
+use std::path::PathBuf;
+use std::time::Instant;
+
+// ---------------------------------------------------------------- synthetic data
+
+fn camera(coeffs: [f64; 8]) -> Camera {
+    Camera::new(
+        Intrinsics {
+            fx: 900.0,
+            fy: 905.0,
+            cx: 650.0,
+            cy: 350.0,
+            width: 1280,
+            height: 720,
+        },
+        Distortion { coeffs },
+        Extrinsics::default(),
+    )
+    .unwrap()
+}
+
+const STANDARD: [f64; 8] = [-0.3, 0.12, 1e-3, -5e-4, -0.02, 0.0, 0.0, 0.0];
+const RATIONAL: [f64; 8] = [0.5, -0.1, 1e-3, -5e-4, 0.01, 0.8, 0.02, 0.0];
+
+/// A board pose (in the first camera) tilted 10-50 degrees, 300-900 mm away, whose corners
+/// all fall inside every camera of `cams` (with a 10 px margin).
+fn random_pose(rng: &mut StdRng, board: &Board, cams: &[Camera]) -> Extrinsics {
+    let obj = board.object_points();
+    let centre = Vector3::new(
+        (board.cols - 1) as f64 * board.square_mm / 2.0,
+        (board.rows - 1) as f64 * board.square_mm / 2.0,
+        0.0,
+    );
+    let k = cams[0].intrinsics;
+    loop {
+        let tilt = rng.random_range(10f64..50.0).to_radians();
+        let dir = rng.random_range(0.0..std::f64::consts::TAU);
+        let axis = Unit::new_normalize(Vector3::new(dir.cos(), dir.sin(), 0.0));
+        let roll = rng.random_range(-0.5..0.5);
+        let r = Rotation3::from_axis_angle(&axis, tilt) * Rotation3::from_euler_angles(0.0, 0.0, roll);
+        let z = rng.random_range(300.0..900.0);
+        let (u, v) = (
+            rng.random_range(0.0..k.width as f64),
+            rng.random_range(0.0..k.height as f64),
+        );
+        let p = Vector3::new((u - k.cx) / k.fx * z, (v - k.cy) / k.fy * z, z);
+        let pose = Extrinsics {
+            rotation: r,
+            translation: p - r * centre,
+        };
+        let inside = cams.iter().all(|c| {
+            obj.iter().all(|x| match c.project(&pose.transform(x)) {
+                Some(q) => {
+                    q.x > 10.0 && q.y > 10.0 && q.x < c.intrinsics.width as f64 - 10.0 && q.y < c.intrinsics.height as f64 - 10.0
+                }
+                None => false,
+            })
+        });
+        if inside {
+            return pose;
+        }
+    }
+}
+
+/// The corners of `board` at `pose` in `cam`, with Gaussian noise of `rms` px (2D RMS:
+/// `rms / sqrt 2` per coordinate).
+fn view(board: &Board, cam: &Camera, pose: &Extrinsics, rms: f64, rng: &mut StdRng, name: String) -> BoardView {
+    let noise = Normal::new(0.0, rms / std::f64::consts::SQRT_2).unwrap();
+    let corners = board
+        .object_points()
+        .iter()
+        .map(|x| {
+            let q = cam.project(&pose.transform(x)).unwrap();
+            Point2::new(q.x + noise.sample(rng), q.y + noise.sample(rng))
+        })
+        .collect();
+    BoardView { name, corners }
+}
+
+fn synthetic_views(cam: &Camera, n: usize, seed: u64) -> (Board, Vec<BoardView>) {
+    let board = Board::new(9, 6, 25.0).unwrap();
+    let mut rng = StdRng::seed_from_u64(seed);
+    let views = (0..n)
+        .map(|i| {
+            let pose = random_pose(&mut rng, &board, &[*cam]);
+            view(&board, cam, &pose, 0.2, &mut rng, format!("view {i}"))
+        })
+        .collect();
+    (board, views)
+}
+
+fn report(label: &str, cal: &CameraCalibration) {
+    let k = cal.camera.intrinsics;
+    println!(
+        "{label}: fx {:.3} fy {:.3} cx {:.3} cy {:.3} dist {:?} rms {:.4} px, std fx {:.3} fy {:.3} cx {:.3} cy {:.3}, views {}/{}, warnings {:?}",
+        k.fx, k.fy, k.cx, k.cy, cal.camera.distortion.coeffs.map(|d| (d * 1e5).round() / 1e5), cal.rms_px,
+        cal.std.fx, cal.std.fy, cal.std.cx, cal.std.cy, cal.used_views(), cal.views.len(), cal.warnings
+    );
+}
+
+fn assert_recovers(cal: &CameraCalibration, truth: &Camera) {
+    let (k, t) = (cal.camera.intrinsics, truth.intrinsics);
+    assert!((k.fx / t.fx - 1.0).abs() < 0.002, "fx {} vs {}", k.fx, t.fx);
+    assert!((k.fy / t.fy - 1.0).abs() < 0.002, "fy {} vs {}", k.fy, t.fy);
+    assert!((k.cx - t.cx).abs() < 2.0, "cx {} vs {}", k.cx, t.cx);
+    assert!((k.cy - t.cy).abs() < 2.0, "cy {} vs {}", k.cy, t.cy);
+    // 0.2 px of 2D noise: the RMS is 0.2 px less the fit's share of degrees of freedom.
+    assert!(cal.rms_px > 0.17 && cal.rms_px < 0.23, "rms {}", cal.rms_px);
+}
+
+#[test]
+fn synthetic_standard_camera_is_recovered() {
+    let cam = camera(STANDARD);
+    let (board, views) = synthetic_views(&cam, 15, 1);
+    let t0 = Instant::now();
+    let cal = calibrate_camera(&board, &views, 1280, 720, &CalibrateOptions::default()).unwrap();
+    println!("calibrated 15 views in {:.1} ms", t0.elapsed().as_secs_f64() * 1e3);
+    report("standard", &cal);
+    assert_eq!(cal.used_views(), 15);
+    assert_recovers(&cal, &cam);
+    // The uncertainty is honest: the errors are within a few standard deviations.
+    let k = cal.camera.intrinsics;
+    assert!((k.fx - 900.0).abs() < 5.0 * cal.std.fx + 0.05, "fx off by more than 5 sigma");
+    assert!(cal.std.fx > 0.0 && cal.std.fx < 5.0);
+    let d = cal.depth_std_mm(500.0);
+    println!("  depth std at 500 mm: {d:.3} mm");
+    assert!(d > 0.0 && d < 5.0);
+    let d = cal.camera.distortion.coeffs;
+    assert!((d[0] - STANDARD[0]).abs() < 0.01 && (d[1] - STANDARD[1]).abs() < 0.05, "{d:?}");
+    assert!(!cal.warnings.iter().any(|w| matches!(w, CalibWarning::TooFlat { .. } | CalibWarning::UncertainFocal { .. })));
+}
+
+#[test]
+fn synthetic_rational_camera_is_recovered() {
+    let cam = camera(RATIONAL);
+    let (board, views) = synthetic_views(&cam, 15, 2);
+    let options = CalibrateOptions {
+        model: DistortionModel::Rational,
+        ..CalibrateOptions::default()
+    };
+    let cal = calibrate_camera(&board, &views, 1280, 720, &options).unwrap();
+    report("rational", &cal);
+    assert_eq!(cal.used_views(), 15);
+    assert_recovers(&cal, &cam);
+}
