@@ -22,7 +22,8 @@ pub struct CalibrateOptions {
     /// The distortion estimated.
     pub model: DistortionModel,
     /// A view whose RMS reprojection error exceeds this many times the median view's
-    /// (and 1 px) is dropped and the calibration redone without it.
+    /// (and 1 px) is dropped and the calibration redone without it; `f64::INFINITY` keeps
+    /// every view (as OpenCV's `calibrateCamera`).
     pub outlier_factor: f64,
     /// Levenberg-Marquardt iterations at most.
     pub max_iterations: usize,

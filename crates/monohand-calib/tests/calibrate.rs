@@ -157,3 +157,147 @@ fn synthetic_rational_camera_is_recovered() {
     assert_eq!(cal.used_views(), 15);
     assert_recovers(&cal, &cam);
 }
+
+// ---------------------------------------------------------------- OpenCV's stereo sample
+
+fn data_dir() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/data")
+}
+
+/// The fixtures (corners and OpenCV's results); fails if OpenCV's photographs are missing
+/// from the shared data (the fixtures are made from them).
+fn opencv_fixtures() -> (Value, Value) {
+    let photos = monohand_testkit::shared_data().join("calibration/opencv_stereo_chessboard");
+    for name in ["left01.jpg", "right14.jpg"] {
+        assert!(
+            photos.join(name).is_file(),
+            "OpenCV's stereo sample is missing at {} (../shared/data beside the repository)",
+            photos.display()
+        );
+    }
+    let read = |f: &str| -> Value {
+        serde_json::from_str(&std::fs::read_to_string(data_dir().join(f)).unwrap()).unwrap()
+    };
+    (read("opencv_corners.json"), read("opencv_reference.json"))
+}
+
+/// Camera `side`'s views per instant (`None` where OpenCV found no board).
+fn fixture_views(corners: &Value, side: &str) -> Vec<Option<BoardView>> {
+    corners[side]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| {
+            let c = v["corners"].as_array()?;
+            Some(BoardView {
+                name: v["name"].as_str().unwrap().to_string(),
+                corners: c
+                    .iter()
+                    .map(|p| Point2::new(p[0].as_f64().unwrap(), p[1].as_f64().unwrap()))
+                    .collect(),
+            })
+        })
+        .collect()
+}
+
+fn fixture_board(corners: &Value) -> Board {
+    Board::new(
+        corners["cols"].as_u64().unwrap() as usize,
+        corners["rows"].as_u64().unwrap() as usize,
+        corners["square_mm"].as_f64().unwrap(),
+    )
+    .unwrap()
+}
+
+fn f(v: &Value) -> f64 {
+    v.as_f64().unwrap()
+}
+
+/// Every view kept, as OpenCV does.
+const KEEP_ALL: CalibrateOptions = CalibrateOptions {
+    model: DistortionModel::Standard,
+    outlier_factor: f64::INFINITY,
+    max_iterations: 100,
+    refine_rig_intrinsics: true,
+};
+
+#[test]
+fn opencv_sample_each_camera_matches_opencv() {
+    let (corners, reference) = opencv_fixtures();
+    let board = fixture_board(&corners);
+    for side in ["left", "right"] {
+        let views: Vec<BoardView> = fixture_views(&corners, side).into_iter().flatten().collect();
+        let r = &reference[side];
+        let t0 = Instant::now();
+        let dflt = calibrate_camera(&board, &views, 640, 480, &CalibrateOptions::default()).unwrap();
+        for v in dflt.views.iter().filter(|v| v.dropped.is_some()) {
+            println!("  {side}, default options: {} dropped: {}", v.name, v.dropped.as_deref().unwrap_or(""));
+        }
+        report(&format!("{side} (default options)"), &dflt);
+        // OpenCV keeps every view: so does the comparison.
+        let t0 = Instant::now();
+        let cal = calibrate_camera(&board, &views, 640, 480, &KEEP_ALL).unwrap();
+        let ms = t0.elapsed().as_secs_f64() * 1e3;
+        report(side, &cal);
+        let k = cal.camera.intrinsics;
+        let (dfx, dfy) = (k.fx / f(&r["fx"]) - 1.0, k.fy / f(&r["fy"]) - 1.0);
+        let (dcx, dcy) = (k.cx - f(&r["cx"]), k.cy - f(&r["cy"]));
+        let drms = cal.rms_px - f(&r["rms"]);
+        println!(
+            "  {side} vs OpenCV (fx {:.2} fy {:.2} cx {:.2} cy {:.2} rms {:.4}): fx {:+.3}% fy {:+.3}% cx {dcx:+.3} px cy {dcy:+.3} px rms {drms:+.4} px; {} views in {ms:.1} ms",
+            f(&r["fx"]), f(&r["fy"]), f(&r["cx"]), f(&r["cy"]), f(&r["rms"]), dfx * 100.0, dfy * 100.0, views.len()
+        );
+        println!("  {side}: depth std at 500 mm from sigma(f): {:.2} mm", cal.depth_std_mm(500.0));
+        assert_eq!(cal.used_views(), views.len(), "{:?}", cal.views);
+        assert!(dfx.abs() < 0.005 && dfy.abs() < 0.005, "{side}: focal off");
+        assert!(dcx.abs() < 2.0 && dcy.abs() < 2.0, "{side}: principal point off");
+        assert!(drms.abs() < 0.05, "{side}: rms off");
+    }
+}
+
+/// The angle of a rotation vector, degrees.
+fn angle_deg(r: &Rotation3<f64>) -> f64 {
+    r.angle().to_degrees()
+}
+
+#[test]
+fn opencv_sample_rig_matches_stereo_calibrate() {
+    let (corners, reference) = opencv_fixtures();
+    let board = fixture_board(&corners);
+    let views = vec![fixture_views(&corners, "left"), fixture_views(&corners, "right")];
+    for (refine, key) in [(false, "stereo_fix_intrinsic"), (true, "stereo_free")] {
+        let options = CalibrateOptions {
+            refine_rig_intrinsics: refine,
+            ..KEEP_ALL
+        };
+        let t0 = Instant::now();
+        let rig = calibrate_rig(&board, &views, &[(640, 480), (640, 480)], &options).unwrap();
+        let ms = t0.elapsed().as_secs_f64() * 1e3;
+        let r = &reference[key];
+        let rv = Vector3::new(f(&r["rvec"][0]), f(&r["rvec"][1]), f(&r["rvec"][2]));
+        let t_ref = Vector3::new(f(&r["t_mm"][0]), f(&r["t_mm"][1]), f(&r["t_mm"][2]));
+        let e = rig.cameras[1].camera.extrinsics;
+        let dr = angle_deg(&(e.rotation * Rotation3::new(rv).inverse()));
+        let dlen = e.translation.norm() / t_ref.norm() - 1.0;
+        let ddir = e.translation.angle(&t_ref).to_degrees();
+        println!(
+            "rig (intrinsics {}), vs OpenCV {key} (rms {:.4}, R {:.3} deg, T {:.3?} mm): rms {:.4} px, R {:.3} deg, T {:.3?} mm; rotation off {dr:.4} deg, baseline length {:+.3}%, direction {ddir:.3} deg; shared {:?}; {ms:.1} ms",
+            if refine { "refined" } else { "fixed" }, f(&r["rms"]), angle_deg(&Rotation3::new(rv)), t_ref.as_slice(), rig.rms_px,
+            angle_deg(&e.rotation), e.translation.as_slice(), dlen * 100.0, rig.shared_views
+        );
+        for (k, side) in ["left", "right"].iter().enumerate() {
+            let c = rig.cameras[k].camera.intrinsics;
+            let o = &r[*side];
+            println!(
+                "  {side}: fx {:.3} fy {:.3} cx {:.3} cy {:.3} (OpenCV {:.3} {:.3} {:.3} {:.3})",
+                c.fx, c.fy, c.cx, c.cy, f(&o["fx"]), f(&o["fy"]), f(&o["cx"]), f(&o["cy"])
+            );
+        }
+        assert!(rig.cameras[0].camera.extrinsics.is_identity());
+        assert_eq!(rig.shared_views, vec![13]);
+        assert!(dr < 0.3, "rotation off by {dr} degrees");
+        assert!(dlen.abs() < 0.01, "baseline length off by {}%", dlen * 100.0);
+        assert!(ddir < 1.0, "baseline direction off by {ddir} degrees");
+        assert!((rig.rms_px - f(&r["rms"])).abs() < 0.05, "rms {} vs {}", rig.rms_px, f(&r["rms"]));
+    }
+}

@@ -26,9 +26,9 @@ pub(crate) fn check_inputs<'a>(
             size.0, size.1
         )));
     }
-    if !(options.outlier_factor.is_finite() && options.outlier_factor > 1.0) {
+    if !(options.outlier_factor > 1.0) {
         return Err(CalibError::Inconsistent(format!(
-            "outlier factor {} (give a number above 1)",
+            "outlier factor {} (give a number above 1, or infinity to keep every view)",
             options.outlier_factor
         )));
     }
