@@ -1,6 +1,7 @@
 //! Calibration tests: synthetic cameras and rigs with known answers, bad input, and OpenCV's
 //! stereo sample against OpenCV's own results (fixtures in `tests/data`, made by
 //! `tests/data/make_opencv_fixtures.py`).
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a failed test is a panic
 
 use monohand_calib::calibrate::{
     calibrate_camera, calibrate_rig, BoardView, CalibWarning, CalibrateOptions, CameraCalibration,
@@ -51,7 +52,8 @@ fn random_pose(rng: &mut StdRng, board: &Board, cams: &[Camera]) -> Extrinsics {
         let dir = rng.random_range(0.0..std::f64::consts::TAU);
         let axis = Unit::new_normalize(Vector3::new(dir.cos(), dir.sin(), 0.0));
         let roll = rng.random_range(-0.5..0.5);
-        let r = Rotation3::from_axis_angle(&axis, tilt) * Rotation3::from_euler_angles(0.0, 0.0, roll);
+        let r =
+            Rotation3::from_axis_angle(&axis, tilt) * Rotation3::from_euler_angles(0.0, 0.0, roll);
         let z = rng.random_range(300.0..900.0);
         let (u, v) = (
             rng.random_range(0.0..k.width as f64),
@@ -65,7 +67,10 @@ fn random_pose(rng: &mut StdRng, board: &Board, cams: &[Camera]) -> Extrinsics {
         let inside = cams.iter().all(|c| {
             obj.iter().all(|x| match c.project(&pose.transform(x)) {
                 Some(q) => {
-                    q.x > 10.0 && q.y > 10.0 && q.x < c.intrinsics.width as f64 - 10.0 && q.y < c.intrinsics.height as f64 - 10.0
+                    q.x > 10.0
+                        && q.y > 10.0
+                        && q.x < c.intrinsics.width as f64 - 10.0
+                        && q.y < c.intrinsics.height as f64 - 10.0
                 }
                 None => false,
             })
@@ -78,7 +83,14 @@ fn random_pose(rng: &mut StdRng, board: &Board, cams: &[Camera]) -> Extrinsics {
 
 /// The corners of `board` at `pose` in `cam`, with Gaussian noise of `rms` px (2D RMS:
 /// `rms / sqrt 2` per coordinate).
-fn view(board: &Board, cam: &Camera, pose: &Extrinsics, rms: f64, rng: &mut StdRng, name: String) -> BoardView {
+fn view(
+    board: &Board,
+    cam: &Camera,
+    pose: &Extrinsics,
+    rms: f64,
+    rng: &mut StdRng,
+    name: String,
+) -> BoardView {
     let noise = Normal::new(0.0, rms / std::f64::consts::SQRT_2).unwrap();
     let corners = board
         .object_points()
@@ -128,20 +140,32 @@ fn synthetic_standard_camera_is_recovered() {
     let (board, views) = synthetic_views(&cam, 15, 1);
     let t0 = Instant::now();
     let cal = calibrate_camera(&board, &views, 1280, 720, &CalibrateOptions::default()).unwrap();
-    println!("calibrated 15 views in {:.1} ms", t0.elapsed().as_secs_f64() * 1e3);
+    println!(
+        "calibrated 15 views in {:.1} ms",
+        t0.elapsed().as_secs_f64() * 1e3
+    );
     report("standard", &cal);
     assert_eq!(cal.used_views(), 15);
     assert_recovers(&cal, &cam);
     // The uncertainty is honest: the errors are within a few standard deviations.
     let k = cal.camera.intrinsics;
-    assert!((k.fx - 900.0).abs() < 5.0 * cal.std.fx + 0.05, "fx off by more than 5 sigma");
+    assert!(
+        (k.fx - 900.0).abs() < 5.0 * cal.std.fx + 0.05,
+        "fx off by more than 5 sigma"
+    );
     assert!(cal.std.fx > 0.0 && cal.std.fx < 5.0);
     let d = cal.depth_std_mm(500.0);
     println!("  depth std at 500 mm: {d:.3} mm");
     assert!(d > 0.0 && d < 5.0);
     let d = cal.camera.distortion.coeffs;
-    assert!((d[0] - STANDARD[0]).abs() < 0.01 && (d[1] - STANDARD[1]).abs() < 0.05, "{d:?}");
-    assert!(!cal.warnings.iter().any(|w| matches!(w, CalibWarning::TooFlat { .. } | CalibWarning::UncertainFocal { .. })));
+    assert!(
+        (d[0] - STANDARD[0]).abs() < 0.01 && (d[1] - STANDARD[1]).abs() < 0.05,
+        "{d:?}"
+    );
+    assert!(!cal.warnings.iter().any(|w| matches!(
+        w,
+        CalibWarning::TooFlat { .. } | CalibWarning::UncertainFocal { .. }
+    )));
 }
 
 #[test]
@@ -226,12 +250,19 @@ fn opencv_sample_each_camera_matches_opencv() {
     let (corners, reference) = opencv_fixtures();
     let board = fixture_board(&corners);
     for side in ["left", "right"] {
-        let views: Vec<BoardView> = fixture_views(&corners, side).into_iter().flatten().collect();
+        let views: Vec<BoardView> = fixture_views(&corners, side)
+            .into_iter()
+            .flatten()
+            .collect();
         let r = &reference[side];
-        let t0 = Instant::now();
-        let dflt = calibrate_camera(&board, &views, 640, 480, &CalibrateOptions::default()).unwrap();
+        let dflt =
+            calibrate_camera(&board, &views, 640, 480, &CalibrateOptions::default()).unwrap();
         for v in dflt.views.iter().filter(|v| v.dropped.is_some()) {
-            println!("  {side}, default options: {} dropped: {}", v.name, v.dropped.as_deref().unwrap_or(""));
+            println!(
+                "  {side}, default options: {} dropped: {}",
+                v.name,
+                v.dropped.as_deref().unwrap_or("")
+            );
         }
         report(&format!("{side} (default options)"), &dflt);
         // OpenCV keeps every view: so does the comparison.
@@ -247,10 +278,16 @@ fn opencv_sample_each_camera_matches_opencv() {
             "  {side} vs OpenCV (fx {:.2} fy {:.2} cx {:.2} cy {:.2} rms {:.4}): fx {:+.3}% fy {:+.3}% cx {dcx:+.3} px cy {dcy:+.3} px rms {drms:+.4} px; {} views in {ms:.1} ms",
             f(&r["fx"]), f(&r["fy"]), f(&r["cx"]), f(&r["cy"]), f(&r["rms"]), dfx * 100.0, dfy * 100.0, views.len()
         );
-        println!("  {side}: depth std at 500 mm from sigma(f): {:.2} mm", cal.depth_std_mm(500.0));
+        println!(
+            "  {side}: depth std at 500 mm from sigma(f): {:.2} mm",
+            cal.depth_std_mm(500.0)
+        );
         assert_eq!(cal.used_views(), views.len(), "{:?}", cal.views);
         assert!(dfx.abs() < 0.005 && dfy.abs() < 0.005, "{side}: focal off");
-        assert!(dcx.abs() < 2.0 && dcy.abs() < 2.0, "{side}: principal point off");
+        assert!(
+            dcx.abs() < 2.0 && dcy.abs() < 2.0,
+            "{side}: principal point off"
+        );
         assert!(drms.abs() < 0.05, "{side}: rms off");
     }
 }
@@ -264,7 +301,10 @@ fn angle_deg(r: &Rotation3<f64>) -> f64 {
 fn opencv_sample_rig_matches_stereo_calibrate() {
     let (corners, reference) = opencv_fixtures();
     let board = fixture_board(&corners);
-    let views = vec![fixture_views(&corners, "left"), fixture_views(&corners, "right")];
+    let views = vec![
+        fixture_views(&corners, "left"),
+        fixture_views(&corners, "right"),
+    ];
     for (refine, key) in [(false, "stereo_fix_intrinsic"), (true, "stereo_free")] {
         let options = CalibrateOptions {
             refine_rig_intrinsics: refine,
@@ -290,14 +330,339 @@ fn opencv_sample_rig_matches_stereo_calibrate() {
             let o = &r[*side];
             println!(
                 "  {side}: fx {:.3} fy {:.3} cx {:.3} cy {:.3} (OpenCV {:.3} {:.3} {:.3} {:.3})",
-                c.fx, c.fy, c.cx, c.cy, f(&o["fx"]), f(&o["fy"]), f(&o["cx"]), f(&o["cy"])
+                c.fx,
+                c.fy,
+                c.cx,
+                c.cy,
+                f(&o["fx"]),
+                f(&o["fy"]),
+                f(&o["cx"]),
+                f(&o["cy"])
             );
         }
         assert!(rig.cameras[0].camera.extrinsics.is_identity());
         assert_eq!(rig.shared_views, vec![13]);
         assert!(dr < 0.3, "rotation off by {dr} degrees");
-        assert!(dlen.abs() < 0.01, "baseline length off by {}%", dlen * 100.0);
+        assert!(
+            dlen.abs() < 0.01,
+            "baseline length off by {}%",
+            dlen * 100.0
+        );
         assert!(ddir < 1.0, "baseline direction off by {ddir} degrees");
-        assert!((rig.rms_px - f(&r["rms"])).abs() < 0.05, "rms {} vs {}", rig.rms_px, f(&r["rms"]));
+        assert!(
+            (rig.rms_px - f(&r["rms"])).abs() < 0.05,
+            "rms {} vs {}",
+            rig.rms_px,
+            f(&r["rms"])
+        );
     }
+}
+
+// ---------------------------------------------------------------- rigs, outliers, bad input
+
+#[test]
+fn synthetic_rig_is_recovered() {
+    let board = Board::new(9, 6, 25.0).unwrap();
+    let left = camera(STANDARD);
+    // Camera 1's centre 60 mm along camera 0's x, turned 5 degrees about y.
+    let r = Rotation3::from_axis_angle(&Vector3::y_axis(), 5f64.to_radians());
+    let truth = Extrinsics {
+        rotation: r,
+        translation: -(r * Vector3::new(60.0, 0.0, 0.0)),
+    };
+    let mut right = camera([-0.25, 0.08, -1e-3, 2e-4, 0.0, 0.0, 0.0, 0.0]);
+    right.intrinsics.fx = 880.0;
+    right.intrinsics.fy = 884.0;
+    right.intrinsics.cx = 630.0;
+    let right_placed = right.with_extrinsics(truth);
+    let mut rng = StdRng::seed_from_u64(7);
+    let (mut v0, mut v1) = (Vec::new(), Vec::new());
+    for i in 0..15 {
+        let pose = random_pose(&mut rng, &board, &[left, right_placed]);
+        v0.push(Some(view(
+            &board,
+            &left,
+            &pose,
+            0.2,
+            &mut rng,
+            format!("left {i}"),
+        )));
+        let in_right = Extrinsics {
+            rotation: truth.rotation * pose.rotation,
+            translation: truth.rotation * pose.translation + truth.translation,
+        };
+        v1.push(Some(view(
+            &board,
+            &right,
+            &in_right,
+            0.2,
+            &mut rng,
+            format!("right {i}"),
+        )));
+    }
+    // Two instants only one camera saw.
+    v0[3] = None;
+    v1[8] = None;
+    let rig = calibrate_rig(
+        &board,
+        &[v0, v1],
+        &[(1280, 720), (1280, 720)],
+        &CalibrateOptions::default(),
+    )
+    .unwrap();
+    let e = rig.cameras[1].camera.extrinsics;
+    let dr = angle_deg(&(e.rotation * truth.rotation.inverse()));
+    let base = rig.cameras[1].camera.centre();
+    let dlen = base.norm() / 60.0 - 1.0;
+    println!(
+        "synthetic rig: rms {:.4} px, rotation off {dr:.4} deg, baseline {:.3?} mm ({:+.3}%), shared {:?}",
+        rig.rms_px, base.as_slice(), dlen * 100.0, rig.shared_views
+    );
+    assert_eq!(rig.shared_views, vec![13]);
+    assert!(rig.cameras[0].camera.extrinsics.is_identity());
+    assert!(dr < 0.1, "rotation off by {dr} degrees");
+    assert!(dlen.abs() < 0.005, "baseline off by {}%", dlen * 100.0);
+    assert!(rig.rms_px > 0.17 && rig.rms_px < 0.23);
+    assert_recovers(&rig.cameras[0], &left);
+    assert_recovers(&rig.cameras[1], &right);
+    assert_eq!(rig.cameras[0].views.len(), 14);
+    assert_eq!(rig.cameras[1].views.len(), 14);
+    // A camera that never saw the board with the others cannot be placed.
+    let v = rig_views_disjoint(&board, &left);
+    let e = calibrate_rig(
+        &board,
+        &v,
+        &[(1280, 720), (1280, 720)],
+        &CalibrateOptions::default(),
+    )
+    .unwrap_err();
+    println!("{e}");
+    assert!(
+        matches!(&e, CalibError::Inconsistent(m) if m.contains("camera 1")),
+        "{e}"
+    );
+}
+
+/// Two cameras that saw the board at different instants (4 views each).
+fn rig_views_disjoint(board: &Board, cam: &Camera) -> Vec<Vec<Option<BoardView>>> {
+    let mut rng = StdRng::seed_from_u64(9);
+    let mut a = Vec::new();
+    let mut b = Vec::new();
+    for i in 0..8 {
+        let pose = random_pose(&mut rng, board, &[*cam]);
+        let v = Some(view(board, cam, &pose, 0.2, &mut rng, format!("{i}")));
+        if i % 2 == 0 {
+            a.push(v);
+            b.push(None);
+        } else {
+            a.push(None);
+            b.push(v);
+        }
+    }
+    vec![a, b]
+}
+
+#[test]
+fn an_outlier_view_is_dropped() {
+    let cam = camera(STANDARD);
+    let (board, clean) = synthetic_views(&cam, 15, 1);
+    let mut views = clean.clone();
+    // View 4's corners each moved 5 px in a varying direction.
+    for (j, p) in views[4].corners.iter_mut().enumerate() {
+        let a = j as f64 * 2.4;
+        *p += nalgebra::Vector2::new(a.cos(), a.sin()) * 5.0;
+    }
+    let cal = calibrate_camera(&board, &views, 1280, 720, &CalibrateOptions::default()).unwrap();
+    let reason = cal.views[4].dropped.clone().expect("view 4 dropped");
+    println!("view 4 dropped: {reason}");
+    assert!(reason.contains("RMS") && reason.contains("px"), "{reason}");
+    assert_eq!(cal.used_views(), 14);
+    assert!(cal
+        .views
+        .iter()
+        .enumerate()
+        .all(|(i, v)| (i == 4) == v.dropped.is_some()));
+    assert_recovers(&cal, &cam);
+    let without: Vec<BoardView> = clean
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| *i != 4)
+        .map(|(_, v)| v.clone())
+        .collect();
+    let alone =
+        calibrate_camera(&board, &without, 1280, 720, &CalibrateOptions::default()).unwrap();
+    let (a, b) = (cal.camera.intrinsics, alone.camera.intrinsics);
+    // The same optimum, reached from another start: equal to well under the noise.
+    assert!(
+        (a.fx - b.fx).abs() < 1e-3 && (a.cx - b.cx).abs() < 1e-3,
+        "{a:?} vs {b:?}"
+    );
+}
+
+#[test]
+fn bad_input_is_an_error_not_a_panic() {
+    let cam = camera(STANDARD);
+    let (board, views) = synthetic_views(&cam, 6, 3);
+    let o = CalibrateOptions::default();
+    let e = calibrate_camera(&board, &views[..2], 1280, 720, &o).unwrap_err();
+    assert!(
+        matches!(
+            e,
+            CalibError::TooFewViews {
+                usable: 2,
+                needed: 3
+            }
+        ),
+        "{e}"
+    );
+    let mut short = views.clone();
+    short[1].corners.pop();
+    let e = calibrate_camera(&board, &short, 1280, 720, &o).unwrap_err();
+    println!("{e}");
+    assert!(
+        matches!(&e, CalibError::Inconsistent(m) if m.contains("53 corners")),
+        "{e}"
+    );
+    let mut nan = views.clone();
+    nan[2].corners[7].x = f64::NAN;
+    let e = calibrate_camera(&board, &nan, 1280, 720, &o).unwrap_err();
+    println!("{e}");
+    assert!(matches!(e, CalibError::Inconsistent(_)), "{e}");
+    assert!(calibrate_camera(&board, &views, 0, 720, &o).is_err());
+    // Collinear corners: that view dropped with why, the rest calibrated.
+    let mut flat = views.clone();
+    for (j, p) in flat[0].corners.iter_mut().enumerate() {
+        *p = Point2::new(100.0 + j as f64, 200.0 + 2.0 * j as f64);
+    }
+    let cal = calibrate_camera(&board, &flat, 1280, 720, &o).unwrap();
+    println!("{:?}", cal.views[0].dropped);
+    assert!(cal.views[0]
+        .dropped
+        .as_deref()
+        .unwrap_or("")
+        .contains("homography"));
+    assert!(cal.views[0].rms_px.is_nan());
+    // Three of them degenerate: too few left.
+    for v in flat.iter_mut().take(4) {
+        v.corners = vec![Point2::new(5.0, 5.0); 54];
+    }
+    let e = calibrate_camera(&board, &flat, 1280, 720, &o).unwrap_err();
+    assert!(
+        matches!(e, CalibError::TooFewViews { usable: 2, .. }),
+        "{e}"
+    );
+    // Garbage corners (random pixels): an error or a result, never a panic.
+    let mut rng = StdRng::seed_from_u64(5);
+    let junk: Vec<BoardView> = (0..5)
+        .map(|i| BoardView {
+            name: format!("junk {i}"),
+            corners: (0..54)
+                .map(|_| Point2::new(rng.random_range(0.0..1280.0), rng.random_range(0.0..720.0)))
+                .collect(),
+        })
+        .collect();
+    let r = calibrate_camera(&board, &junk, 1280, 720, &o);
+    println!("junk: {:?}", r.as_ref().map(|c| c.rms_px));
+    // Rigs: mismatched shapes.
+    let rv = vec![views.iter().cloned().map(Some).collect::<Vec<_>>()];
+    assert!(matches!(
+        calibrate_rig(&board, &rv, &[], &o),
+        Err(CalibError::Inconsistent(_))
+    ));
+    let mut two = vec![rv[0].clone(), rv[0].clone()];
+    two[1].pop();
+    assert!(matches!(
+        calibrate_rig(&board, &two, &[(1280, 720); 2], &o),
+        Err(CalibError::Inconsistent(_))
+    ));
+}
+
+#[test]
+fn face_on_views_warn_too_flat() {
+    let cam = camera(STANDARD);
+    let board = Board::new(9, 6, 25.0).unwrap();
+    let mut rng = StdRng::seed_from_u64(11);
+    let views: Vec<BoardView> = (0..12)
+        .map(|i| {
+            let pose = Extrinsics {
+                rotation: Rotation3::from_euler_angles(0.0, 0.0, rng.random_range(-0.3..0.3)),
+                translation: Vector3::new(
+                    rng.random_range(-250.0..50.0),
+                    rng.random_range(-150.0..30.0),
+                    rng.random_range(450.0..700.0),
+                ),
+            };
+            view(&board, &cam, &pose, 0.2, &mut rng, format!("face-on {i}"))
+        })
+        .collect();
+    match calibrate_camera(&board, &views, 1280, 720, &CalibrateOptions::default()) {
+        Ok(cal) => {
+            report("face-on", &cal);
+            assert!(
+                cal.warnings
+                    .iter()
+                    .any(|w| matches!(w, CalibWarning::TooFlat { .. })),
+                "{:?}",
+                cal.warnings
+            );
+            for w in &cal.warnings {
+                println!("  warning: {w}");
+            }
+        }
+        Err(e) => {
+            println!("face-on: {e}");
+            assert!(matches!(e, CalibError::Failed(_)));
+        }
+    }
+}
+
+#[test]
+fn few_central_views_warn() {
+    let cam = camera(STANDARD);
+    let (board, views) = synthetic_views(&cam, 5, 4);
+    let mut central = views.clone();
+    // Squeeze every view's corners towards the image centre (no longer a real camera, but
+    // the coverage is what is measured).
+    for v in &mut central {
+        for p in &mut v.corners {
+            *p = Point2::new(640.0 + (p.x - 640.0) * 0.3, 360.0 + (p.y - 360.0) * 0.3);
+        }
+    }
+    let cal = calibrate_camera(&board, &central, 1280, 720, &CalibrateOptions::default()).unwrap();
+    report("central", &cal);
+    assert!(cal.warnings.contains(&CalibWarning::TooFewViews {
+        used: 5,
+        recommended: 10
+    }));
+    assert!(cal
+        .warnings
+        .iter()
+        .any(|w| matches!(w, CalibWarning::TooCentral { coverage } if *coverage < 0.5)));
+}
+
+#[test]
+fn same_input_same_bits() {
+    let cam = camera(STANDARD);
+    let (board, views) = synthetic_views(&cam, 12, 6);
+    let a = calibrate_camera(&board, &views, 1280, 720, &CalibrateOptions::default()).unwrap();
+    let b = calibrate_camera(&board, &views, 1280, 720, &CalibrateOptions::default()).unwrap();
+    assert_eq!(a, b);
+    let bits = |c: &CameraCalibration| {
+        let k = c.camera.intrinsics;
+        let mut v = vec![
+            k.fx.to_bits(),
+            k.fy.to_bits(),
+            k.cx.to_bits(),
+            k.cy.to_bits(),
+            c.rms_px.to_bits(),
+        ];
+        v.extend(c.camera.distortion.coeffs.iter().map(|d| d.to_bits()));
+        v.extend(
+            c.views
+                .iter()
+                .flat_map(|v| v.board_pose.translation.iter().map(|t| t.to_bits())),
+        );
+        v
+    };
+    assert_eq!(bits(&a), bits(&b));
 }

@@ -15,7 +15,17 @@ fn normaliser(pts: impl Iterator<Item = Vector2<f64>> + Clone) -> Option<Matrix3
         return None;
     }
     let s = std::f64::consts::SQRT_2 / d;
-    Some(Matrix3::new(s, 0.0, -s * c.x, 0.0, s, -s * c.y, 0.0, 0.0, 1.0))
+    Some(Matrix3::new(
+        s,
+        0.0,
+        -s * c.x,
+        0.0,
+        s,
+        -s * c.y,
+        0.0,
+        0.0,
+        1.0,
+    ))
 }
 
 /// The homography from the board plane (its x, y in mm) to the image, by the normalised
@@ -25,8 +35,8 @@ pub(crate) fn homography(
     image: &[Point2<f64>],
 ) -> Result<Matrix3<f64>, String> {
     let tb = normaliser(object.iter().map(|p| p.xy())).ok_or("the board has no extent")?;
-    let ti = normaliser(image.iter().map(|p| p.coords))
-        .ok_or("the corners all fall on one pixel")?;
+    let ti =
+        normaliser(image.iter().map(|p| p.coords)).ok_or("the corners all fall on one pixel")?;
     let n = object.len();
     let mut a = DMatrix::<f64>::zeros(2 * n, 9);
     for (i, (o, p)) in object.iter().zip(image).enumerate() {
@@ -46,19 +56,22 @@ pub(crate) fn homography(
     let mut order: Vec<usize> = (0..sv.len()).collect();
     order.sort_by(|&i, &j| sv[i].total_cmp(&sv[j]));
     let (smallest, second, largest) = (order[0], order[1], order[order.len() - 1]);
-    if !(sv[second] > 1e-9 * sv[largest]) {
+    if sv[second].is_nan() || sv[second] <= 1e-9 * sv[largest] {
         return Err("the corners are collinear (the board is seen edge-on)".into());
     }
     let h = vt.row(smallest);
     let hn = Matrix3::new(h[0], h[1], h[2], h[3], h[4], h[5], h[6], h[7], h[8]);
     // A singular homography maps the board onto a line.
-    if !(hn.determinant().abs() > 1e-6 * hn.norm().powi(3)) {
+    let det = hn.determinant().abs();
+    if det.is_nan() || det <= 1e-6 * hn.norm().powi(3) {
         return Err("the corners are collinear (the board is seen edge-on)".into());
     }
-    let ti_inv = ti.try_inverse().ok_or("the corners' normalisation is singular")?;
+    let ti_inv = ti
+        .try_inverse()
+        .ok_or("the corners' normalisation is singular")?;
     let mut hm = ti_inv * hn * tb;
     let scale = hm[(2, 2)];
-    if !(scale.abs() > 1e-300) {
+    if scale.is_nan() || scale.abs() <= 1e-300 {
         return Err("the homography maps the board's origin to infinity".into());
     }
     hm /= scale;
@@ -66,7 +79,10 @@ pub(crate) fn homography(
         return Err("the homography is not finite".into());
     }
     // Every corner must be in front: the homogeneous scale keeps one sign.
-    let w: Vec<f64> = object.iter().map(|o| (hm * Vector3::new(o.x, o.y, 1.0)).z).collect();
+    let w: Vec<f64> = object
+        .iter()
+        .map(|o| (hm * Vector3::new(o.x, o.y, 1.0)).z)
+        .collect();
     if !(w.iter().all(|&v| v > 0.0) || w.iter().all(|&v| v < 0.0)) {
         return Err("the homography puts the board's horizon inside it".into());
     }

@@ -79,7 +79,7 @@ pub(crate) struct Projection {
 /// `monohand_core::camera::Distortion::distort`), with the Jacobians. `None` for a point
 /// that is not in front of the camera or a non-finite result.
 pub(crate) fn project(p: &Intr, x: &Vector3<f64>) -> Option<Projection> {
-    if !(x.z > 1e-9) {
+    if x.z.is_nan() || x.z <= 1e-9 {
         return None;
     }
     let [fx, fy, _cx, _cy, k1, k2, p1, p2, k3, k4, k5, k6] = *p;
@@ -185,9 +185,14 @@ pub(crate) fn project_corner(
 }
 
 /// Just the pixel of [`project_corner`], without the Jacobians.
-pub(crate) fn corner_pixel(p: &Intr, rel: &Pose, board: &Pose, x: &Vector3<f64>) -> Option<Vector2<f64>> {
+pub(crate) fn corner_pixel(
+    p: &Intr,
+    rel: &Pose,
+    board: &Pose,
+    x: &Vector3<f64>,
+) -> Option<Vector2<f64>> {
     let xc = rel.r * (board.r * x + board.t) + rel.t;
-    if !(xc.z > 1e-9) {
+    if xc.z.is_nan() || xc.z <= 1e-9 {
         return None;
     }
     let d = monohand_core::camera::Distortion {
@@ -238,7 +243,8 @@ mod tests {
         let r6 = r4 * r2;
         let one = D::from(1.0);
         let two = D::from(2.0);
-        let rad = (one + p[4] * r2 + p[5] * r4 + p[8] * r6) / (one + p[9] * r2 + p[10] * r4 + p[11] * r6);
+        let rad =
+            (one + p[4] * r2 + p[5] * r4 + p[8] * r6) / (one + p[9] * r2 + p[10] * r4 + p[11] * r6);
         let xd = xn * rad + two * p[6] * xn * yn + p[7] * (r2 + two * xn * xn);
         let yd = yn * rad + p[6] * (r2 + two * yn * yn) + two * p[7] * xn * yn;
         [p[0] * xd + p[2], p[1] * yd + p[3]]
@@ -283,7 +289,11 @@ mod tests {
             assert!((a.px - v).norm() < 1e-9);
             let scale = j.amax();
             for (an, nu) in a.d_intr.iter().zip(j.iter()) {
-                assert!(close(*an, *nu, scale), "intrinsics: {an} vs {nu}\n{}\n{j}", a.d_intr);
+                assert!(
+                    close(*an, *nu, scale),
+                    "intrinsics: {an} vs {nu}\n{}\n{j}",
+                    a.d_intr
+                );
             }
             // The two poses' increments.
             let (_, j) = jacobian(
@@ -299,7 +309,10 @@ mod tests {
             for c in 0..6 {
                 for r in 0..2 {
                     assert!(close(a.d_rel[(r, c)], j[(r, c)], scale), "rel {r},{c}");
-                    assert!(close(a.d_board[(r, c)], j[(r, 6 + c)], scale), "board {r},{c}");
+                    assert!(
+                        close(a.d_board[(r, c)], j[(r, 6 + c)], scale),
+                        "board {r},{c}"
+                    );
                 }
             }
         }
@@ -307,7 +320,9 @@ mod tests {
 
     #[test]
     fn points_behind_are_refused() {
-        let p: Intr = [500.0, 500.0, 320.0, 240.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
+        let p: Intr = [
+            500.0, 500.0, 320.0, 240.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+        ];
         assert!(project(&p, &Vector3::new(0.0, 0.0, -1.0)).is_none());
         assert!(project(&p, &Vector3::new(f64::NAN, 0.0, 1.0)).is_none());
     }

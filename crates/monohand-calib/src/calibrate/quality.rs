@@ -86,14 +86,17 @@ pub(crate) fn warnings<'a>(
         out.push(CalibWarning::TooCentral { coverage });
     }
     let relative = (std.fx / focal.0).max(std.fy / focal.1);
-    if !(relative <= MAX_RELATIVE_FOCAL_STD) {
+    if relative.is_nan() || relative > MAX_RELATIVE_FOCAL_STD {
         out.push(CalibWarning::UncertainFocal { relative });
     }
     out
 }
 
 /// Fraction of the image's [`COVERAGE_GRID`] cells that hold at least one corner.
-pub(crate) fn coverage<'a>(corners: impl Iterator<Item = &'a [Point2<f64>]>, size: (u32, u32)) -> f64 {
+pub(crate) fn coverage<'a>(
+    corners: impl Iterator<Item = &'a [Point2<f64>]>,
+    size: (u32, u32),
+) -> f64 {
     let (gc, gr) = COVERAGE_GRID;
     let mut seen = [[false; COVERAGE_GRID.0]; COVERAGE_GRID.1];
     let (w, h) = (size.0 as f64, size.1 as f64);

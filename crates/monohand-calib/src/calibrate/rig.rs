@@ -4,7 +4,7 @@
 use super::projection::{Pose, N_INTR};
 use super::quality::{intrinsics_std, warnings};
 use super::single::{calibrate as calibrate_one, free_intrinsics, to_camera, to_extrinsics};
-use super::solver::{errors, solve, Problem, State};
+use super::solver::{errors, solve, Problem, Solved, State};
 use super::{BoardView, CalibrateOptions, CameraCalibration, RigCalibration};
 use crate::board::Board;
 use crate::error::{CalibError, CalibResult};
@@ -118,7 +118,10 @@ fn place(seen: &Seen) -> CalibResult<(Vec<Pose>, Vec<usize>)> {
             });
         let Some((k, c)) = next else { break };
         if c == 0 {
-            let placed: Vec<String> = (0..nc).filter(|&j| rel[j].is_some()).map(|j| j.to_string()).collect();
+            let placed: Vec<String> = (0..nc)
+                .filter(|&j| rel[j].is_some())
+                .map(|j| j.to_string())
+                .collect();
             return Err(CalibError::Inconsistent(format!(
                 "camera {k} saw the board at no instant where camera(s) {} saw it too: it cannot be placed in the rig",
                 placed.join(", ")
@@ -143,7 +146,9 @@ fn place(seen: &Seen) -> CalibResult<(Vec<Pose>, Vec<usize>)> {
     let rel = rel
         .into_iter()
         .enumerate()
-        .map(|(k, p)| p.ok_or_else(|| CalibError::Inconsistent(format!("camera {k} was not placed"))))
+        .map(|(k, p)| {
+            p.ok_or_else(|| CalibError::Inconsistent(format!("camera {k} was not placed")))
+        })
         .collect::<CalibResult<Vec<Pose>>>()?;
     Ok((rel, shared))
 }
@@ -160,14 +165,12 @@ pub(crate) fn calibrate(
     let nc = views.len();
     let object = board.object_points();
     // The instants some camera used, the board in camera 0 at each.
-    let mut instants = Vec::new();
-    let mut boards = Vec::new();
-    for i in 0..views[0].len() {
-        if let Some(b) = (0..nc).find_map(|k| Some(rel[k].inverse().compose(&seen[k][i]?))) {
-            instants.push(i);
-            boards.push(b);
-        }
-    }
+    let (instants, boards): (Vec<usize>, Vec<Pose>) = (0..views[0].len())
+        .filter_map(|i| {
+            let b = (0..nc).find_map(|k| Some(rel[k].inverse().compose(&seen[k][i]?)))?;
+            Some((i, b))
+        })
+        .unzip();
     let pb = Problem {
         object: &object,
         blocks: instants
@@ -201,40 +204,71 @@ pub(crate) fn calibrate(
     let start = State { intr, rel, boards };
     let solved = solve(&pb, start, &free, options.max_iterations)
         .filter(|s| s.sse.is_finite())
-        .ok_or_else(|| CalibError::Failed("the rig's refinement could not project the board".into()))?;
+        .ok_or_else(|| {
+            CalibError::Failed("the rig's refinement could not project the board".into())
+        })?;
     let n_corners = pb.n_corners();
-    let errs = errors(&pb, &solved.state);
     for (k, cal) in cals.iter_mut().enumerate() {
-        let size = sizes[k];
-        let s = &solved.state;
-        cal.camera = to_camera(&s.intr[k], size, to_extrinsics(&s.rel[k]))?;
-        // This camera's views: the board in it at their instants, their joint-fit RMS.
-        let mut own = views[k].iter().enumerate().filter(|(_, v)| v.is_some()).map(|(i, _)| i);
-        let (mut sse, mut n) = (0.0, 0);
-        let mut poses = Vec::new();
-        for v in cal.views.iter_mut() {
-            let Some(i) = own.next() else { break };
-            let Some(b) = instants.iter().position(|&x| x == i) else { continue };
-            let Some(o) = pb.blocks[b].iter().position(|&(c, _)| c == k) else { continue };
-            let pose = s.rel[k].compose(&s.boards[b]);
-            v.board_pose = to_extrinsics(&pose);
-            poses.push(pose);
-            if let Some(Some((e, m))) = errs[b].get(o) {
-                v.rms_px = (e / *m as f64).sqrt();
-                sse += e;
-                n += m;
-            }
-        }
-        cal.rms_px = (sse / n.max(1) as f64).sqrt();
-        if options.refine_rig_intrinsics {
-            cal.std = intrinsics_std(&solved, n_corners, k);
-        }
-        let used = pb.blocks.iter().flat_map(|b| b.iter().filter(|(c, _)| *c == k).map(|(_, c)| *c));
-        cal.warnings = warnings(&poses, used, size, (s.intr[k][0], s.intr[k][1]), &cal.std);
+        update_camera(
+            cal, k, &views[k], sizes[k], &pb, &instants, &solved, options,
+        )?;
     }
     Ok(RigCalibration {
         cameras: cals,
         rms_px: (solved.sse / n_corners.max(1) as f64).sqrt(),
         shared_views: shared[1..].to_vec(),
     })
+}
+
+/// Camera `k`'s calibration from the joint fit: the camera, its views' board poses and
+/// RMS, its own RMS, its uncertainty (if its intrinsics were refined) and warnings.
+#[allow(clippy::too_many_arguments)]
+fn update_camera(
+    cal: &mut CameraCalibration,
+    k: usize,
+    views: &[Option<BoardView>],
+    size: (u32, u32),
+    pb: &Problem,
+    instants: &[usize],
+    solved: &Solved,
+    options: &CalibrateOptions,
+) -> CalibResult<()> {
+    let s = &solved.state;
+    let errs = errors(pb, s);
+    cal.camera = to_camera(&s.intr[k], size, to_extrinsics(&s.rel[k]))?;
+    // `cal.views` are this camera's views in instant order.
+    let mut own = views
+        .iter()
+        .enumerate()
+        .filter(|(_, v)| v.is_some())
+        .map(|(i, _)| i);
+    let (mut sse, mut n) = (0.0, 0);
+    let mut poses = Vec::new();
+    for v in cal.views.iter_mut() {
+        let Some(i) = own.next() else { break };
+        let Some(b) = instants.iter().position(|&x| x == i) else {
+            continue;
+        };
+        let Some(o) = pb.blocks[b].iter().position(|&(c, _)| c == k) else {
+            continue;
+        };
+        let pose = s.rel[k].compose(&s.boards[b]);
+        v.board_pose = to_extrinsics(&pose);
+        poses.push(pose);
+        if let Some(Some((e, m))) = errs[b].get(o) {
+            v.rms_px = (e / *m as f64).sqrt();
+            sse += e;
+            n += m;
+        }
+    }
+    cal.rms_px = (sse / n.max(1) as f64).sqrt();
+    if options.refine_rig_intrinsics {
+        cal.std = intrinsics_std(solved, pb.n_corners(), k);
+    }
+    let used = pb
+        .blocks
+        .iter()
+        .flat_map(|b| b.iter().filter(|(c, _)| *c == k).map(|(_, c)| *c));
+    cal.warnings = warnings(&poses, used, size, (s.intr[k][0], s.intr[k][1]), &cal.std);
+    Ok(())
 }

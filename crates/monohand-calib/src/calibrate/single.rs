@@ -26,7 +26,7 @@ pub(crate) fn check_inputs<'a>(
             size.0, size.1
         )));
     }
-    if !(options.outlier_factor > 1.0) {
+    if options.outlier_factor.is_nan() || options.outlier_factor <= 1.0 {
         return Err(CalibError::Inconsistent(format!(
             "outlier factor {} (give a number above 1, or infinity to keep every view)",
             options.outlier_factor
@@ -43,7 +43,11 @@ pub(crate) fn check_inputs<'a>(
                 board.len()
             )));
         }
-        if let Some(i) = v.corners.iter().position(|p| !(p.x.is_finite() && p.y.is_finite())) {
+        if let Some(i) = v
+            .corners
+            .iter()
+            .position(|p| !(p.x.is_finite() && p.y.is_finite()))
+        {
             return Err(CalibError::Inconsistent(format!(
                 "view {:?}: corner {i} is not a finite pixel ({}, {})",
                 v.name, v.corners[i].x, v.corners[i].y
@@ -152,13 +156,19 @@ fn solve_views(
     }
     let pb = Problem {
         object,
-        blocks: used.iter().map(|&i| vec![(0, views[i].corners.as_slice())]).collect(),
+        blocks: used
+            .iter()
+            .map(|&i| vec![(0, views[i].corners.as_slice())])
+            .collect(),
         n_cameras: 1,
     };
     let start = State {
         intr: vec![intr],
         rel: vec![Pose::identity()],
-        boards: used.iter().map(|&i| poses[i].unwrap_or_else(Pose::identity)).collect(),
+        boards: used
+            .iter()
+            .map(|&i| poses[i].unwrap_or_else(Pose::identity))
+            .collect(),
     };
     let free = free_intrinsics(options.model);
     solve(&pb, start, &free, options.max_iterations)
@@ -170,7 +180,10 @@ fn solve_views(
 fn view_rms(object: &[Vector3<f64>], views: &[BoardView], used: &[usize], s: &State) -> Vec<f64> {
     let pb = Problem {
         object,
-        blocks: used.iter().map(|&i| vec![(0, views[i].corners.as_slice())]).collect(),
+        blocks: used
+            .iter()
+            .map(|&i| vec![(0, views[i].corners.as_slice())])
+            .collect(),
         n_cameras: 1,
     };
     errors(&pb, s)
@@ -220,7 +233,7 @@ pub(crate) fn calibrate(
     for ((&i, &r), pose) in used.iter().zip(&first_rms).zip(&first.state.boards) {
         rms[i] = r;
         poses[i] = Some(*pose);
-        if !(r <= limit) {
+        if r.is_nan() || r > limit {
             dropped[i] = Some(format!(
                 "an outlier: RMS {r:.2} px, over {:.1} x the median view's {med:.2} px",
                 options.outlier_factor

@@ -23,12 +23,15 @@ const STEP_TOLERANCE: f64 = 1e-12;
 /// Initial damping.
 const INITIAL_DAMPING: f64 = 1e-3;
 
+/// One camera's corners of a block: (camera, corners in object order).
+pub(crate) type Observation<'a> = (usize, &'a [Point2<f64>]);
+
 /// The observations: for each block, the cameras that saw the board and their corners.
 pub(crate) struct Problem<'a> {
     /// The board's corners, mm.
     pub object: &'a [Vector3<f64>],
     /// Per block: (camera, its corners in object order).
-    pub blocks: Vec<Vec<(usize, &'a [Point2<f64>])>>,
+    pub blocks: Vec<Vec<Observation<'a>>>,
     /// Number of cameras.
     pub n_cameras: usize,
 }
@@ -216,13 +219,12 @@ fn damped_step(n: &Normal, lambda: f64) -> Option<(DVector<f64>, Vec<Vector6<f64
         vinv.push(vi);
     }
     let dg = solve_scaled(&s, &r)?;
-    let db = n
-        .w
-        .iter()
-        .zip(&n.gb)
-        .zip(&vinv)
-        .map(|((w, gb), vi)| vi * (-gb - w.tr_mul(&dg).fixed_rows::<6>(0)))
-        .collect();
+    let db =
+        n.w.iter()
+            .zip(&n.gb)
+            .zip(&vinv)
+            .map(|((w, gb), vi)| vi * (-gb - w.tr_mul(&dg).fixed_rows::<6>(0)))
+            .collect();
     Some((dg, db))
 }
 
@@ -267,8 +269,8 @@ fn apply(pb: &Problem, s: &State, free: &[usize], dg: &DVector<f64>, db: &[Vecto
             rel_d[1 + r / 6][r % 6] = d;
         }
     }
-    for k in 1..pb.n_cameras {
-        out.rel[k] = s.rel[k].retract(&rel_d[k]);
+    for ((o, r), d) in out.rel.iter_mut().zip(&s.rel).zip(&rel_d).skip(1) {
+        *o = r.retract(d);
     }
     for (b, d) in db.iter().enumerate() {
         out.boards[b] = s.boards[b].retract(d.as_slice());
@@ -307,7 +309,9 @@ pub(crate) fn solve(
     free_global: &[bool],
     max_iterations: usize,
 ) -> Option<Solved> {
-    let free: Vec<usize> = (0..pb.n_global()).filter(|&i| free_global.get(i) == Some(&true)).collect();
+    let free: Vec<usize> = (0..pb.n_global())
+        .filter(|&i| free_global.get(i) == Some(&true))
+        .collect();
     let mut map = vec![None; pb.n_global()];
     for (c, &i) in free.iter().enumerate() {
         map[i] = Some(c);
@@ -334,7 +338,11 @@ pub(crate) fn solve(
         match cost(pb, &candidate) {
             Some(nc) if nc < sse => {
                 let predicted = predicted_decrease(&n, &dg, &db);
-                let rho = if predicted > 0.0 { (sse - nc) / predicted } else { 1.0 };
+                let rho = if predicted > 0.0 {
+                    (sse - nc) / predicted
+                } else {
+                    1.0
+                };
                 let small_decrease = sse - nc <= COST_TOLERANCE * sse;
                 lambda *= (1.0f64 / 3.0).max(1.0 - (2.0 * rho - 1.0).powi(3));
                 lambda = lambda.max(1e-15);
