@@ -283,6 +283,18 @@ fn opencv_sample_each_camera_matches_opencv() {
             cal.depth_std_mm(500.0)
         );
         assert_eq!(cal.used_views(), views.len(), "{:?}", cal.views);
+        // The uncertainty is OpenCV's stdDeviationsIntrinsics, each view's RMS its
+        // perViewErrors.
+        let ours = [cal.std.fx, cal.std.fy, cal.std.cx, cal.std.cy]
+            .into_iter()
+            .chain(cal.std.distortion[..5].iter().copied());
+        for (i, (a, b)) in ours.zip(r["std"].as_array().unwrap()).enumerate() {
+            println!("  {side} std[{i}]: {a:.6} (OpenCV {:.6})", f(b));
+            assert!((a / f(b) - 1.0).abs() < 0.02, "{side}: std[{i}] {a} vs {}", f(b));
+        }
+        for (v, b) in cal.views.iter().zip(r["per_view_rms"].as_array().unwrap()) {
+            assert!((v.rms_px - f(b)).abs() < 0.01, "{}: {} vs {}", v.name, v.rms_px, f(b));
+        }
         assert!(dfx.abs() < 0.005 && dfy.abs() < 0.005, "{side}: focal off");
         assert!(
             dcx.abs() < 2.0 && dcy.abs() < 2.0,

@@ -10,8 +10,9 @@ finds the 9x6 inner corners with cv2.findChessboardCorners + cv2.cornerSubPix((1
 
 * opencv_corners.json: per camera, per image, the corners in OpenCV's own order (or null
   where OpenCV found no board);
-* opencv_reference.json: OpenCV's cv2.calibrateCamera per camera (default flags, 5
-  coefficients, 25 mm squares) and cv2.stereoCalibrate on the pairs both cameras saw,
+* opencv_reference.json: OpenCV's cv2.calibrateCamera(Extended) per camera (default
+  flags, 5 coefficients, 25 mm squares; with its standard deviations of the intrinsics and
+  each view's RMS) and cv2.stereoCalibrate on the pairs both cameras saw,
   once with CALIB_FIX_INTRINSIC (from the per-camera results) and once with flags 0
   (intrinsics refined jointly): R as a rotation vector, T in mm, rms.
 """
@@ -41,17 +42,26 @@ def find(path):
 
 
 def calib(obj, pts, size):
-    rms, k, d, rvecs, tvecs = cv2.calibrateCamera(
+    out = cv2.calibrateCameraExtended(
         [obj] * len(pts), [p.reshape(-1, 1, 2).astype(np.float32) for p in pts], size, None, None
     )
-    return rms, k, d.ravel()
+    rms, k, d, _rvecs, _tvecs, std_intr, _std_extr, per_view = out
+    return rms, k, d.ravel(), std_intr.ravel()[:9], per_view.ravel()
 
 
-def cam_json(rms, k, d):
-    return {
+def cam_json(rms, k, d, std=None, per_view=None):
+    out = {
         "fx": k[0, 0], "fy": k[1, 1], "cx": k[0, 2], "cy": k[1, 2],
-        "dist": [float(v) for v in d], "rms": rms,
+        "dist": [float(v) for v in d],
     }
+    if rms is not None:
+        out["rms"] = rms
+    if std is not None:
+        # One standard deviation of fx fy cx cy k1 k2 p1 p2 k3 (stdDeviationsIntrinsics).
+        out["std"] = [float(v) for v in std]
+    if per_view is not None:
+        out["per_view_rms"] = [float(v) for v in per_view]
+    return out
 
 
 def stereo_json(rms, k1, d1, k2, d2, r, t):
@@ -86,9 +96,9 @@ def main():
     per = {}
     for side in ("left", "right"):
         pts = [found[(side, n)] for n in NUMBERS if found[(side, n)] is not None]
-        rms, k, d = calib(obj, pts, size)
+        rms, k, d, std, per_view = calib(obj, pts, size)
         per[side] = (k, d)
-        ref[side] = cam_json(rms, k, d)
+        ref[side] = cam_json(rms, k, d, std, per_view)
     both = [n for n in NUMBERS if found[("left", n)] is not None and found[("right", n)] is not None]
     lp = [found[("left", n)].reshape(-1, 1, 2) for n in both]
     rp = [found[("right", n)].reshape(-1, 1, 2) for n in both]
