@@ -290,10 +290,20 @@ fn opencv_sample_each_camera_matches_opencv() {
             .chain(cal.std.distortion[..5].iter().copied());
         for (i, (a, b)) in ours.zip(r["std"].as_array().unwrap()).enumerate() {
             println!("  {side} std[{i}]: {a:.6} (OpenCV {:.6})", f(b));
-            assert!((a / f(b) - 1.0).abs() < 0.02, "{side}: std[{i}] {a} vs {}", f(b));
+            assert!(
+                (a / f(b) - 1.0).abs() < 0.02,
+                "{side}: std[{i}] {a} vs {}",
+                f(b)
+            );
         }
         for (v, b) in cal.views.iter().zip(r["per_view_rms"].as_array().unwrap()) {
-            assert!((v.rms_px - f(b)).abs() < 0.01, "{}: {} vs {}", v.name, v.rms_px, f(b));
+            assert!(
+                (v.rms_px - f(b)).abs() < 0.01,
+                "{}: {} vs {}",
+                v.name,
+                v.rms_px,
+                f(b)
+            );
         }
         assert!(dfx.abs() < 0.005 && dfy.abs() < 0.005, "{side}: focal off");
         assert!(
@@ -677,4 +687,49 @@ fn same_input_same_bits() {
         v
     };
     assert_eq!(bits(&a), bits(&b));
+}
+
+#[test]
+fn a_third_camera_is_chained_through_the_second() {
+    let board = Board::new(9, 6, 25.0).unwrap();
+    let cam = camera(STANDARD);
+    let place = |deg: f64, x: f64| {
+        let r = Rotation3::from_axis_angle(&Vector3::y_axis(), deg.to_radians());
+        Extrinsics {
+            rotation: r,
+            translation: -(r * Vector3::new(x, 0.0, 0.0)),
+        }
+    };
+    let poses = [Extrinsics::default(), place(4.0, 60.0), place(8.0, 120.0)];
+    let cams: Vec<Camera> = poses.iter().map(|p| cam.with_extrinsics(*p)).collect();
+    let mut rng = StdRng::seed_from_u64(21);
+    let mut views = vec![vec![None; 16]; 3];
+    for i in 0..16 {
+        // Instants 0-7 seen by cameras 0 and 1, 8-15 by cameras 1 and 2.
+        let pair = if i < 8 { [0, 1] } else { [1, 2] };
+        let pose = random_pose(&mut rng, &board, &[cams[pair[0]], cams[pair[1]]]);
+        for k in pair {
+            let e = poses[k];
+            let in_k = Extrinsics {
+                rotation: e.rotation * pose.rotation,
+                translation: e.rotation * pose.translation + e.translation,
+            };
+            views[k][i] = Some(view(&board, &cam, &in_k, 0.2, &mut rng, format!("{k}/{i}")));
+        }
+    }
+    let rig = calibrate_rig(
+        &board,
+        &views,
+        &[(1280, 720); 3],
+        &CalibrateOptions::default(),
+    )
+    .unwrap();
+    assert_eq!(rig.shared_views, vec![8, 8]);
+    for k in 1..3 {
+        let e = rig.cameras[k].camera.extrinsics;
+        let dr = angle_deg(&(e.rotation * poses[k].rotation.inverse()));
+        let dt = (e.translation - poses[k].translation).norm();
+        println!("chained rig, camera {k}: rotation off {dr:.4} deg, translation off {dt:.3} mm");
+        assert!(dr < 0.1 * k as f64 && dt < 0.01 * 60.0 * k as f64, "camera {k}");
+    }
 }
