@@ -1,5 +1,19 @@
 //! A camera's intrinsics, distortion and view poses from chessboard corners (Zhang's
 //! closed form, then Levenberg-Marquardt), and the poses between the cameras of a rig.
+//!
+//! As OpenCV's `calibrateCamera` computes it: per view a normalised-DLT homography; the
+//! focal lengths from the homographies with the principal point at the image centre
+//! (`initIntrinsicParams2D`); each view's pose from `K^-1 H`; then a Levenberg-Marquardt
+//! refinement of the intrinsics, the distortion (5 or 8 coefficients) and every view's pose
+//! together, with analytic Jacobians and the board poses eliminated by a Schur complement.
+//! Views far worse than the median are dropped and the solve redone. The standard deviations
+//! are OpenCV's `stdDeviationsIntrinsics` (`s^2 (J^T J)^-1`). On OpenCV's stereo sample the
+//! results equal OpenCV's (`tests/calibrate.rs`).
+//!
+//! A rig ([`calibrate_rig`]) is each camera calibrated alone, the cameras placed from the
+//! instants they share (chordal mean of the rotations, median of the translations), then one
+//! joint refinement as `cv::stereoCalibrate` (with or without its intrinsics, see
+//! [`CalibrateOptions::refine_rig_intrinsics`]).
 
 use crate::board::Board;
 use crate::error::CalibResult;

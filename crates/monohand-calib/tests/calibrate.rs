@@ -587,6 +587,13 @@ fn bad_input_is_an_error_not_a_panic() {
     println!("junk: {:?}", r.as_ref().map(|c| c.rms_px));
     // Rigs: mismatched shapes.
     let rv = vec![views.iter().cloned().map(Some).collect::<Vec<_>>()];
+    // A rig of one camera, intrinsics fixed: nothing left to refine but the boards.
+    let one = CalibrateOptions {
+        refine_rig_intrinsics: false,
+        ..o
+    };
+    let rig = calibrate_rig(&board, &rv, &[(1280, 720)], &one).unwrap();
+    assert!(rig.shared_views.is_empty() && rig.cameras[0].camera.extrinsics.is_identity());
     assert!(matches!(
         calibrate_rig(&board, &rv, &[], &o),
         Err(CalibError::Inconsistent(_))
@@ -690,6 +697,7 @@ fn same_input_same_bits() {
 }
 
 #[test]
+#[allow(clippy::needless_range_loop)] // views[camera][instant], filled by instant
 fn a_third_camera_is_chained_through_the_second() {
     let board = Board::new(9, 6, 25.0).unwrap();
     let cam = camera(STANDARD);
@@ -725,11 +733,14 @@ fn a_third_camera_is_chained_through_the_second() {
     )
     .unwrap();
     assert_eq!(rig.shared_views, vec![8, 8]);
-    for k in 1..3 {
-        let e = rig.cameras[k].camera.extrinsics;
-        let dr = angle_deg(&(e.rotation * poses[k].rotation.inverse()));
-        let dt = (e.translation - poses[k].translation).norm();
+    for (k, (cal, truth)) in rig.cameras.iter().zip(&poses).enumerate().skip(1) {
+        let e = cal.camera.extrinsics;
+        let dr = angle_deg(&(e.rotation * truth.rotation.inverse()));
+        let dt = (e.translation - truth.translation).norm();
         println!("chained rig, camera {k}: rotation off {dr:.4} deg, translation off {dt:.3} mm");
-        assert!(dr < 0.1 * k as f64 && dt < 0.01 * 60.0 * k as f64, "camera {k}");
+        assert!(
+            dr < 0.1 * k as f64 && dt < 0.01 * 60.0 * k as f64,
+            "camera {k}"
+        );
     }
 }
