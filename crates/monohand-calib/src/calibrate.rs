@@ -1,8 +1,22 @@
 //! A camera's intrinsics, distortion and view poses from chessboard corners (Zhang's
 //! closed form, then Levenberg-Marquardt), and the poses between the cameras of a rig.
+//!
+//! As OpenCV's `calibrateCamera` computes it: per view a normalised-DLT homography; the
+//! focal lengths from the homographies with the principal point at the image centre
+//! (`initIntrinsicParams2D`); each view's pose from `K^-1 H`; then a Levenberg-Marquardt
+//! refinement of the intrinsics, the distortion (5 or 8 coefficients) and every view's pose
+//! together, with analytic Jacobians and the board poses eliminated by a Schur complement.
+//! Views far worse than the median are dropped and the solve redone. The standard deviations
+//! are OpenCV's `stdDeviationsIntrinsics` (`s^2 (J^T J)^-1`). On OpenCV's stereo sample the
+//! results equal OpenCV's (`tests/calibrate.rs`).
+//!
+//! A rig ([`calibrate_rig`]) is each camera calibrated alone, the cameras placed from the
+//! instants they share (chordal mean of the rotations, median of the translations), then one
+//! joint refinement as `cv::stereoCalibrate` (with or without its intrinsics, see
+//! [`CalibrateOptions::refine_rig_intrinsics`]).
 
 use crate::board::Board;
-use crate::error::{CalibError, CalibResult};
+use crate::error::CalibResult;
 use monohand_core::camera::{Camera, Extrinsics};
 use nalgebra::Point2;
 
@@ -22,10 +36,15 @@ pub struct CalibrateOptions {
     /// The distortion estimated.
     pub model: DistortionModel,
     /// A view whose RMS reprojection error exceeds this many times the median view's
-    /// (and 1 px) is dropped and the calibration redone without it.
+    /// (and 1 px) is dropped and the calibration redone without it; `f64::INFINITY` keeps
+    /// every view (as OpenCV's `calibrateCamera`).
     pub outlier_factor: f64,
     /// Levenberg-Marquardt iterations at most.
     pub max_iterations: usize,
+    /// In [`calibrate_rig`], whether the joint refinement also refines each camera's
+    /// intrinsics and distortion (as `cv::stereoCalibrate` without `CALIB_FIX_INTRINSIC`),
+    /// or keeps each camera's own calibration and refines only the poses (with it).
+    pub refine_rig_intrinsics: bool,
 }
 
 impl Default for CalibrateOptions {
@@ -34,6 +53,7 @@ impl Default for CalibrateOptions {
             model: DistortionModel::Standard,
             outlier_factor: 3.0,
             max_iterations: 100,
+            refine_rig_intrinsics: true,
         }
     }
 }
@@ -52,9 +72,11 @@ pub struct BoardView {
 pub struct ViewResult {
     /// The view's name.
     pub name: String,
-    /// The board's pose in the camera: `X_cam = R X_board + t`, millimetres.
+    /// The board's pose in the camera: `X_cam = R X_board + t`, millimetres (the identity
+    /// for a view that never entered a solve).
     pub board_pose: Extrinsics,
-    /// RMS reprojection error of its corners, pixels.
+    /// RMS reprojection error of its corners, pixels (per corner, Euclidean, as OpenCV's);
+    /// NaN for a view that never entered a solve (no homography).
     pub rms_px: f64,
     /// `None` if the view was used; otherwise why it was dropped.
     pub dropped: Option<String>,
@@ -135,7 +157,9 @@ pub struct CameraCalibration {
     /// The camera: intrinsics, distortion; extrinsics identity (or, in a rig, from the
     /// first camera to this one).
     pub camera: Camera,
-    /// RMS reprojection error over the used views' corners, pixels.
+    /// RMS reprojection error over the used views' corners, pixels: OpenCV's
+    /// `sqrt(sum |e|^2 / N_corners)` (per corner, Euclidean; noise of sigma per coordinate
+    /// gives about sigma sqrt 2).
     pub rms_px: f64,
     /// Every view given, in order, with its pose and error or why it was dropped.
     pub views: Vec<ViewResult>,
@@ -150,6 +174,14 @@ impl CameraCalibration {
     pub fn used_views(&self) -> usize {
         self.views.iter().filter(|v| v.dropped.is_none()).count()
     }
+
+    /// One standard deviation of a hand's depth at `z_mm` from the focal length's
+    /// uncertainty alone, millimetres: a depth from a known size scales with the focal
+    /// length, `sigma_z = z sigma_f / f`, with `sigma_f / f` the mean of fx's and fy's.
+    pub fn depth_std_mm(&self, z_mm: f64) -> f64 {
+        let k = &self.camera.intrinsics;
+        z_mm * 0.5 * (self.std.fx / k.fx + self.std.fy / k.fy)
+    }
 }
 
 /// Calibrates one camera from views of `board` in images `width` x `height`.
@@ -160,8 +192,7 @@ pub fn calibrate_camera(
     height: u32,
     options: &CalibrateOptions,
 ) -> CalibResult<CameraCalibration> {
-    let _ = (board, views, width, height, options);
-    Err(CalibError::Failed("not implemented".into()))
+    single::calibrate(board, views, (width, height), options)
 }
 
 /// A rig's calibration: each camera's, with extrinsics from the first camera's frame.
@@ -187,6 +218,17 @@ pub fn calibrate_rig(
     sizes: &[(u32, u32)],
     options: &CalibrateOptions,
 ) -> CalibResult<RigCalibration> {
-    let _ = (board, views, sizes, options);
-    Err(CalibError::Failed("not implemented".into()))
+    rig::calibrate(board, views, sizes, options)
 }
+
+mod init;
+mod projection;
+mod quality;
+mod rig;
+mod single;
+mod solver;
+
+pub use quality::{
+    COVERAGE_GRID, MAX_RELATIVE_FOCAL_STD, MIN_COVERAGE, MIN_TILT_DEG, RECOMMENDED_VIEWS,
+};
+pub use single::MIN_VIEWS;
