@@ -108,6 +108,17 @@ const MIN_CONTRAST: f64 = 8.0;
 /// longer side first if `board`'s is; at least that size if the image's edge cuts it), and
 /// [`NotFound::NoBoard`] otherwise (also for images or boards that are not valid).
 pub fn find_chessboard(image: &GrayImage<'_>, board: &Board) -> Result<FoundBoard, NotFound> {
+    find_chessboard_with(image, board, None)
+}
+
+/// [`find_chessboard`] with the subpixel refinement's half window given (OpenCV's
+/// `cornerSubPix` `winSize`: 11 is its tutorials' 23x23 window) instead of fitted to the
+/// squares ([`refine_half_window`]); `None` fits it.
+pub fn find_chessboard_with(
+    image: &GrayImage<'_>,
+    board: &Board,
+    half_window: Option<usize>,
+) -> Result<FoundBoard, NotFound> {
     if board.cols < 2 || board.rows < 2 || board.cols > 1000 || board.rows > 1000 {
         return Err(NotFound::NoBoard);
     }
@@ -178,7 +189,8 @@ pub fn find_chessboard(image: &GrayImage<'_>, board: &Board) -> Result<FoundBoar
         .map(|p| Point2::new(p.x * scale as f64 + offset, p.y * scale as f64 + offset))
         .collect();
     let spacing = min_spacing(&corners, board.rows, board.cols);
-    refine_corners(image, &mut corners, refine_half_window(spacing));
+    let half_window = half_window.unwrap_or_else(|| refine_half_window(spacing));
+    refine_corners(image, &mut corners, half_window);
     let sharpness = refine::sharpness(image, &corners, board.rows, board.cols);
     Ok(FoundBoard { corners, sharpness })
 }
