@@ -4,9 +4,7 @@
 
 use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
-use monohand::calibration::{
-    self, Board, CalibrateSettings, DistortionModel, Outputs, SeenFrame,
-};
+use monohand::calibration::{self, Board, CalibrateSettings, DistortionModel, Outputs, SeenFrame};
 use monohand_calib::print::BoardPage;
 use std::path::PathBuf;
 
@@ -30,7 +28,12 @@ pub(crate) struct CalibrateArgs {
     square_mm: f64,
     /// Where to write: one camera's JSON file, or for a rig a folder that gets one
     /// camN.json per --view (N from 0), as `run --view ... --camera ...` reads them.
-    #[arg(short, long, value_name = "FILE|DIR", required_unless_present = "print_board")]
+    #[arg(
+        short,
+        long,
+        value_name = "FILE|DIR",
+        required_unless_present = "print_board"
+    )]
     output: Option<PathBuf>,
     /// The lens distortion estimated: OpenCV's k1 k2 p1 p2 k3, or its rational model (8).
     #[arg(long, value_enum, default_value_t = Model::Standard)]
@@ -42,6 +45,14 @@ pub(crate) struct CalibrateArgs {
     /// corners were seen, and the distortion field).
     #[arg(long, value_name = "REPORT.md")]
     report: Option<PathBuf>,
+    /// The corners' subpixel window, half its side in pixels, as OpenCV's `cornerSubPix`
+    /// winSize (its tutorials use 11); by default it is fitted to the squares.
+    #[arg(long, value_name = "PX")]
+    subpix_window: Option<usize>,
+    /// Keep every view, as OpenCV does; by default a view whose error is over 3 times the
+    /// median view's (and 1 px) is dropped and said.
+    #[arg(long)]
+    keep_all_views: bool,
     /// From a video or a webcam: views kept at most.
     #[arg(long, value_name = "N", default_value_t = 40)]
     max_views: usize,
@@ -64,14 +75,7 @@ enum Model {
 }
 
 fn board_size(s: &str) -> Result<(usize, usize), String> {
-    let parse = |v: &str| v.trim().parse::<usize>().ok();
-    match s.split_once(['x', 'X']) {
-        Some((c, r)) => match (parse(c), parse(r)) {
-            (Some(c), Some(r)) => Ok((c, r)),
-            _ => Err(format!("{s:?} is not COLSxROWS, e.g. 9x6")),
-        },
-        None => Err(format!("{s:?} is not COLSxROWS, e.g. 9x6")),
-    }
+    calibration::parse_board_size(s)
 }
 
 pub(crate) fn run(args: &CalibrateArgs) -> Result<()> {
@@ -80,32 +84,23 @@ pub(crate) fn run(args: &CalibrateArgs) -> Result<()> {
     if let Some(path) = &args.print_board {
         return print_board(&board, path);
     }
-    let names = if args.views.is_empty() { &args.inputs } else { &args.views };
-    let inputs = match names.len() {
-        0 => bail!("no input: give a folder, images, a video or webcam:N (or --view per camera)"),
-        _ if args.views.is_empty() && names.len() > 1 => {
-            // Several files for one camera: all images.
-            let mut files = Vec::new();
-            for n in names {
-                match calibration::parse_input(n)? {
-                    monohand::engine::Input::Images(f) => files.extend(f),
-                    _ => bail!("{n}: several inputs for one camera must all be images (a rig: --view per camera)"),
-                }
-            }
-            vec![monohand::engine::Input::Images(files)]
-        }
-        _ => names
-            .iter()
-            .map(|n| calibration::parse_input(n))
-            .collect::<Result<Vec<_>, _>>()?,
-    };
+    let rig = !args.views.is_empty();
+    let inputs = calibration::camera_inputs(if rig { &args.views } else { &args.inputs }, rig)?;
     let mut settings = CalibrateSettings::new(board);
     settings.max_views = args.max_views.max(3);
+    settings.half_window = args.subpix_window;
+    if args.keep_all_views {
+        settings.options.outlier_factor = f64::INFINITY;
+    }
     settings.options.model = match args.model {
         Model::Standard => DistortionModel::Standard,
         Model::Rational => DistortionModel::Rational,
     };
-    let mut window = if args.show { Some(show::Window::new()?) } else { None };
+    let mut window = if args.show {
+        Some(show::Window::new()?)
+    } else {
+        None
+    };
     let mut seen = |f: &SeenFrame<'_>| -> bool {
         if crate::interrupted() {
             return false;
@@ -219,11 +214,15 @@ mod show {
             let Some(win) = self.window.as_mut() else {
                 return false;
             };
-            if win.update_with_buffer(&self.buffer, w, h).map_err(|e| anyhow!("{e}")).is_err() || !win.is_open() {
+            if win
+                .update_with_buffer(&self.buffer, w, h)
+                .map_err(|e| anyhow!("{e}"))
+                .is_err()
+                || !win.is_open()
+            {
                 return false;
             }
-            !win
-                .get_keys_pressed(KeyRepeat::No)
+            !win.get_keys_pressed(KeyRepeat::No)
                 .iter()
                 .any(|k| matches!(k, Key::Q | Key::Escape))
         }

@@ -73,6 +73,50 @@ fn parse_xwd(b: &[u8]) -> RgbImage {
     })
 }
 
+/// A screenshot of the window named `name` on `display`, once it is mapped.
+fn screenshot(display: &str, name: &str) -> Option<RgbImage> {
+    let dump = Command::new("xwd")
+        .args(["-silent", "-name", name, "-display", display])
+        .output()
+        .expect("xwd is needed for the --show tests (apt-get install x11-apps)");
+    (dump.status.success() && dump.stdout.len() > 100).then(|| parse_xwd(&dump.stdout))
+}
+
+/// Focuses the window named exactly `name` and holds Q for 300 ms as a person would (the
+/// window polls its keys between frames, and a press and release that both fall between
+/// two polls are not seen); the key goes through XTEST like a real keyboard.
+fn press_q(display: &str, name: &str) {
+    let xdotool = |args: &[&str]| {
+        let out = Command::new("xdotool")
+            .args(args)
+            .env("DISPLAY", display)
+            .output()
+            .expect("xdotool is needed for the --show tests (apt-get install xdotool)");
+        assert!(
+            out.status.success(),
+            "xdotool {args:?}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    };
+    xdotool(&["search", "--name", &format!("^{name}$"), "windowfocus"]);
+    xdotool(&["keydown", "q", "sleep", "0.3", "keyup", "q"]);
+}
+
+/// Waits up to 20 s for the process to end; its status.
+fn ended(run: &mut Killed) -> std::process::ExitStatus {
+    let start = Instant::now();
+    loop {
+        if let Some(s) = run.0.try_wait().unwrap() {
+            return s;
+        }
+        assert!(
+            start.elapsed() < Duration::from_secs(20),
+            "the window's process did not end after Q"
+        );
+        std::thread::sleep(Duration::from_millis(100));
+    }
+}
+
 #[test]
 fn the_show_window_draws_the_hands_where_the_json_says_and_q_quits() {
     let photo_path = hand_png();
@@ -92,12 +136,7 @@ fn the_show_window_draws_the_hands_where_the_json_says_and_q_quits() {
     // The window appears once the frame is processed; the still image stays on screen.
     let start = Instant::now();
     let shot = loop {
-        let dump = Command::new("xwd")
-            .args(["-silent", "-name", "monohand", "-display", &display])
-            .output()
-            .expect("xwd is needed for the --show test (apt-get install x11-apps)");
-        if dump.status.success() && dump.stdout.len() > 100 {
-            let img = parse_xwd(&dump.stdout);
+        if let Some(img) = screenshot(&display, "monohand") {
             // Drawn: the frame is there (not a blank window).
             if img.dimensions() == photo.dimensions() && img.pixels().any(|p| p.0 != [0, 0, 0]) {
                 break img;
@@ -153,35 +192,94 @@ fn the_show_window_draws_the_hands_where_the_json_says_and_q_quits() {
         .count();
     assert!(on >= 19, "{on} of 21 joints drawn in the window");
 
-    // Q quits: the run ends by itself, successfully. The window is focused first; the key
-    // then goes through XTEST like a real keyboard (sent to the window itself, the release
-    // would fail once the window has closed on the press).
-    let xdotool = |args: &[&str]| {
-        let out = Command::new("xdotool")
-            .args(args)
-            .env("DISPLAY", &display)
-            .output()
-            .expect("xdotool is needed for the --show test (apt-get install xdotool)");
-        assert!(
-            out.status.success(),
-            "xdotool {args:?}: {}",
-            String::from_utf8_lossy(&out.stderr)
-        );
-    };
-    xdotool(&["search", "--name", "^monohand$", "windowfocus"]);
-    // Held for 300 ms as a person would: the window polls its keys between frames, and a
-    // press and release that both fall between two polls are not seen.
-    xdotool(&["keydown", "q", "sleep", "0.3", "keyup", "q"]);
+    // Q quits: the run ends by itself, successfully.
+    press_q(&display, "monohand");
+    let status = ended(&mut run);
+    assert!(status.success(), "{status}");
+}
+
+/// `calibrate --show` on a video of the board: the window shows the frames as they are
+/// examined and, once the camera file is written, the result's picture (the corners seen as
+/// green dots, the distortion field as yellow arrows) until Q.
+#[test]
+fn the_calibrate_window_shows_the_result_until_q() {
+    let dir = tempfile::tempdir().unwrap();
+    let photos = monohand_testkit::shared_data().join("calibration/opencv_stereo_chessboard");
+    let frames = dir.path().join("frames");
+    std::fs::create_dir_all(&frames).unwrap();
+    for (i, n) in [1, 2, 3, 4, 5, 6].iter().enumerate() {
+        std::fs::copy(
+            photos.join(format!("left{n:02}.jpg")),
+            frames.join(format!("f{i:02}.jpg")),
+        )
+        .unwrap();
+    }
+    let video = dir.path().join("board.mkv");
+    monohand_testkit::ffmpeg(&[
+        "-framerate",
+        "1",
+        "-i",
+        frames.join("f%02d.jpg").to_str().unwrap(),
+        "-vf",
+        "fps=10",
+        "-c:v",
+        "ffv1",
+        video.to_str().unwrap(),
+    ]);
+    let (_x, display) = xvfb();
+    let cam = dir.path().join("cam.json");
+    let run = Command::new(env!("CARGO_BIN_EXE_monohand"))
+        .args([
+            "calibrate",
+            "--board",
+            "9x6",
+            "--square-mm",
+            "25",
+            "--show",
+            "-o",
+        ])
+        .arg(&cam)
+        .arg(&video)
+        .env("DISPLAY", &display)
+        .stderr(Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut run = Killed(run);
     let start = Instant::now();
-    let status = loop {
-        if let Some(s) = run.0.try_wait().unwrap() {
-            break s;
+    while !cam.exists() {
+        if let Some(status) = run.0.try_wait().unwrap() {
+            let mut err = String::new();
+            run.0
+                .stderr
+                .take()
+                .unwrap()
+                .read_to_string(&mut err)
+                .unwrap();
+            panic!("calibrate ended ({status}) before writing: {err}");
         }
         assert!(
-            start.elapsed() < Duration::from_secs(20),
-            "the run did not end after Q"
+            start.elapsed() < Duration::from_secs(120),
+            "no camera written"
         );
-        std::thread::sleep(Duration::from_millis(100));
+        std::thread::sleep(Duration::from_millis(200));
+    }
+    // The picture is on screen once the file is written.
+    let shot = loop {
+        if let Some(img) = screenshot(&display, "monohand calibrate") {
+            let count = |c: [u8; 3]| img.pixels().filter(|p| p.0 == c).count();
+            if img.dimensions() == (640, 480) && count([255, 210, 60]) > 200 {
+                break img;
+            }
+        }
+        assert!(
+            start.elapsed() < Duration::from_secs(120),
+            "no result picture on {display}"
+        );
+        std::thread::sleep(Duration::from_millis(300));
     };
+    let green = shot.pixels().filter(|p| p.0 == [120, 220, 120]).count();
+    assert!(green > 500, "{green} pixels of corner dots");
+    press_q(&display, "monohand calibrate");
+    let status = ended(&mut run);
     assert!(status.success(), "{status}");
 }

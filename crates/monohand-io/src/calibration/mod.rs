@@ -40,7 +40,9 @@
 mod filestorage;
 mod write;
 
-pub use write::{calibrated_camera_json, opencv_yaml, write_atomically, CalibrationInfo, CameraStd};
+pub use write::{
+    calibrated_camera_json, opencv_yaml, write_atomically, CalibrationInfo, CameraStd,
+};
 
 use crate::error::{name_of, read_text, IoError, IoResult};
 use filestorage::{parse_number, Node};

@@ -75,7 +75,11 @@ pub fn calibrated_camera_json(camera: &Camera, info: &CalibrationInfo) -> Value 
 pub fn opencv_yaml(camera: &Camera, info: &CalibrationInfo) -> String {
     let k = &camera.intrinsics;
     let c = camera.distortion.coeffs;
-    let n = if c[5..].iter().any(|&v| v != 0.0) { 8 } else { 5 };
+    let n = if c[5..].iter().any(|&v| v != 0.0) {
+        8
+    } else {
+        5
+    };
     let mut out = format!(
         "%YAML:1.0\n---\ncalibration_time: \"{}\"\nnr_of_frames: {}\nimage_width: {}\n\
          image_height: {}\nboard_width: {}\nboard_height: {}\nsquare_size: {}\n",
@@ -191,7 +195,10 @@ mod tests {
         assert_eq!(back.reprojection_error_px, Some(0.46));
         let r = back.camera.extrinsics.rotation.matrix() - cam.extrinsics.rotation.matrix();
         assert!(r.abs().max() < 1e-12);
-        assert_eq!(back.camera.extrinsics.translation, cam.extrinsics.translation);
+        assert_eq!(
+            back.camera.extrinsics.translation,
+            cam.extrinsics.translation
+        );
         assert!(text.contains("\"square_mm\": 25.0"), "{text}");
     }
 
@@ -204,7 +211,10 @@ mod tests {
         assert_eq!(back.camera.intrinsics, cam.intrinsics);
         assert_eq!(back.camera.distortion, cam.distortion);
         assert_eq!(back.reprojection_error_px, Some(0.46));
-        assert_eq!(back.camera.extrinsics.translation, cam.extrinsics.translation);
+        assert_eq!(
+            back.camera.extrinsics.translation,
+            cam.extrinsics.translation
+        );
         assert!(yaml.contains("board_width: 9\nboard_height: 6\nsquare_size: 25.0\n"));
     }
 

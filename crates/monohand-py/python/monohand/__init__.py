@@ -11,6 +11,7 @@ video, in real time on a CPU.
 - `Session`: frames in (one ``(H, W, 3)`` uint8 RGB array per camera), tracked hands out.
 - `Lifter` / `lift`: 2D keypoints made elsewhere in, absolute 3D out.
 - `read_video`: the frames of a video file, decoded by ffmpeg.
+- `calibrate`: a camera's (or a rig's) calibration from photos or a video of a chessboard.
 - `track_video`: a whole video to a table, one row per frame per hand.
 - `monohand.daft`: the same over a corpus of videos with Daft (native or on Ray).
 
@@ -38,6 +39,7 @@ from ._monohand import (
     TrackedFrame,
     VideoReader,
     __version__,
+    calibrate,
     fetch_models,
 )
 
@@ -56,6 +58,7 @@ __all__ = [
     "TrackedFrame",
     "VideoReader",
     "__version__",
+    "calibrate",
     "fetch_models",
     "lift",
     "read_video",

@@ -219,3 +219,22 @@ class VideoReader:
 
 def fetch_models(model_dir: Optional[Union[str, PathLike[str]]] = None) -> str:
     """Makes sure the weights are cached (pip on first use); returns the cache folder."""
+
+def calibrate(
+    input: Optional[Union[str, PathLike[str], List[Union[str, PathLike[str]]]]] = None,
+    *,
+    views: Optional[List[Union[str, PathLike[str]]]] = None,
+    board: str,
+    square_mm: float,
+    output: Optional[Union[str, PathLike[str]]] = None,
+    model: str = "standard",
+    opencv_yaml: bool = False,
+    report: Optional[Union[str, PathLike[str]]] = None,
+    max_views: int = 40,
+    subpix_window: Optional[int] = None,
+    keep_all_views: bool = False,
+) -> Dict[str, Any]:
+    """A camera's (``input``) or a rig's (``views``, one per camera) calibration from frames
+    of a chessboard with ``board`` inner corners (``"9x6"``) of ``square_mm``, as
+    ``monohand calibrate``; files written when ``output`` is given. Returns ``cameras``
+    (each camera's JSON), ``summary``, ``report`` (Markdown) and ``written``."""

@@ -4,7 +4,7 @@
 use super::{CalibrateError, CalibrateSettings, CameraViews, MAX_MOTION_PX, MIN_VIEW_DISTANCE};
 use crate::engine::{FrameSource, Input, SourceFrame};
 use monohand_calib::calibrate::BoardView;
-use monohand_calib::corners::{find_chessboard, FoundBoard};
+use monohand_calib::corners::{find_chessboard_with, FoundBoard};
 use monohand_calib::GrayImage;
 use monohand_vision::RgbImage;
 use nalgebra::Point2;
@@ -362,7 +362,11 @@ impl<'s> Collector<'s> {
                 camera: k,
                 image,
                 corners: b.found.as_ref().ok().map(|x| x.corners.as_slice()),
-                why_not: if keep { None } else { b.found.as_ref().err().map(|s| s.as_str()) },
+                why_not: if keep {
+                    None
+                } else {
+                    b.found.as_ref().err().map(|s| s.as_str())
+                },
                 kept: keep,
                 views: self.kept.len(),
                 views_wanted: self.settings.live_views,
@@ -416,11 +420,17 @@ impl<'s> Collector<'s> {
                 "{w}x{h}, not the {}x{} of the camera's first frame",
                 cam.width, cam.height
             );
-            return Seen { name, found: Err(why) };
+            return Seen {
+                name,
+                found: Err(why),
+            };
         }
         to_grey(image, &mut self.grey);
         let found = match GrayImage::new(w as usize, h as usize, &self.grey) {
-            Ok(grey) => find_chessboard(&grey, &self.settings.board).map_err(|e| e.to_string()),
+            Ok(grey) => {
+                find_chessboard_with(&grey, &self.settings.board, self.settings.half_window)
+                    .map_err(|e| e.to_string())
+            }
             Err(e) => Err(e.to_string()),
         };
         Seen { name, found }
@@ -492,15 +502,18 @@ impl<'s> Collector<'s> {
     /// Whether an instant differs from every kept one in some camera's view.
     fn differs(&self, boards: &[Seen]) -> bool {
         self.kept.iter().all(|kept| {
-            boards.iter().zip(kept).enumerate().any(|(k, (b, old))| {
-                match (&b.found, old) {
+            boards
+                .iter()
+                .zip(kept)
+                .enumerate()
+                .any(|(k, (b, old))| match (&b.found, old) {
                     (Ok(new), Some((_, old))) => {
-                        mean_distance(&new.corners, &old.corners) > MIN_VIEW_DISTANCE * self.diagonal(k)
+                        mean_distance(&new.corners, &old.corners)
+                            > MIN_VIEW_DISTANCE * self.diagonal(k)
                     }
                     (Ok(_), None) => true,
                     _ => false,
-                }
-            })
+                })
         })
     }
 

@@ -34,8 +34,9 @@ use std::path::{Path, PathBuf};
 pub const MAX_MOTION_PX: f64 = 1.5;
 
 /// How different a new view must be from every view kept: the mean distance between the
-/// boards' corners, as a fraction of the image's diagonal (5% is 40 px at 640x480).
-pub const MIN_VIEW_DISTANCE: f64 = 0.05;
+/// boards' corners, as a fraction of the image's diagonal (2.5% is 20 px at 640x480; of
+/// the 13 poses of OpenCV's sample photos, one is 15 px from another).
+pub const MIN_VIEW_DISTANCE: f64 = 0.025;
 
 /// How a calibration runs.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -53,6 +54,9 @@ pub struct CalibrateSettings {
     pub live_coverage: f64,
     /// Video frames examined per second of video (a webcam: every frame that comes).
     pub examine_fps: f64,
+    /// The corners' subpixel window (half width, OpenCV's `winSize`); `None` fits it to
+    /// the squares ([`monohand_calib::corners::refine_half_window`]).
+    pub half_window: Option<usize>,
 }
 
 impl CalibrateSettings {
@@ -66,6 +70,7 @@ impl CalibrateSettings {
             live_views: 20,
             live_coverage: 0.6,
             examine_fps: 5.0,
+            half_window: None,
         }
     }
 }
@@ -159,9 +164,9 @@ pub fn parse_input(s: &str) -> Result<Input, CalibrateError> {
         .filter_map(|e| e.ok().map(|e| e.path()))
         .filter(|p| p.is_file())
         .filter(|p| {
-            p.file_name()
-                .and_then(|n| n.to_str())
-                .is_some_and(|n| n.len() >= head.len() + tail.len() && n.starts_with(head) && n.ends_with(tail))
+            p.file_name().and_then(|n| n.to_str()).is_some_and(|n| {
+                n.len() >= head.len() + tail.len() && n.starts_with(head) && n.ends_with(tail)
+            })
         })
         .collect();
     files.sort();
@@ -169,6 +174,42 @@ pub fn parse_input(s: &str) -> Result<Input, CalibrateError> {
         return Err(CalibrateError::Inputs(format!("{s}: no file matches")));
     }
     Ok(Input::Images(files))
+}
+
+/// A board's inner corners from `COLSxROWS` (`9x6`), as every face takes it.
+pub fn parse_board_size(s: &str) -> Result<(usize, usize), String> {
+    let parse = |v: &str| v.trim().parse::<usize>().ok();
+    match s.split_once(['x', 'X']).map(|(c, r)| (parse(c), parse(r))) {
+        Some((Some(c), Some(r))) => Ok((c, r)),
+        _ => Err(format!("{s:?} is not COLSxROWS, e.g. 9x6")),
+    }
+}
+
+/// The inputs as the faces give them: for one camera (`rig` false) one input or several
+/// image files (taken as one camera's photos, in the order given); for a rig one input
+/// per camera. Each is read by [`parse_input`].
+pub fn camera_inputs(names: &[String], rig: bool) -> Result<Vec<Input>, CalibrateError> {
+    if names.is_empty() {
+        return Err(CalibrateError::Inputs(
+            "no input: give a folder, images, a video or webcam:N (or one input per camera of a rig)"
+                .into(),
+        ));
+    }
+    if rig || names.len() == 1 {
+        return names.iter().map(|n| parse_input(n)).collect();
+    }
+    let mut files = Vec::new();
+    for n in names {
+        match parse_input(n)? {
+            Input::Images(f) => files.extend(f),
+            Input::Video(_) => {
+                return Err(CalibrateError::Inputs(format!(
+                    "{n}: several inputs for one camera must all be images (a rig: one input per camera)"
+                )))
+            }
+        }
+    }
+    Ok(vec![Input::Images(files)])
 }
 
 /// Reads every input (one per camera), keeps its views, and calibrates the camera, or the
@@ -290,7 +331,9 @@ fn write_report(c: &Calibrated, report: &Path) -> Result<Vec<PathBuf>, Calibrate
         let name = format!("{stem}-cam{k}.png");
         let path = report.with_file_name(&name);
         let tmp = report.with_file_name(format!(".{name}.partial.png"));
-        let saved = picture(c, k).save(&tmp).map_err(|e| std::io::Error::other(e.to_string()));
+        let saved = picture(c, k)
+            .save(&tmp)
+            .map_err(|e| std::io::Error::other(e.to_string()));
         saved
             .and_then(|()| std::fs::rename(&tmp, &path))
             .map_err(|error| {
@@ -310,7 +353,10 @@ fn write_report(c: &Calibrated, report: &Path) -> Result<Vec<PathBuf>, Calibrate
 
 /// A printable board as PNG bytes at `dpi`, with the resolution stated in the file (so
 /// that printing at 100% gives squares of the board's size).
-pub fn board_png(page: &monohand_calib::print::BoardPage, dpi: f64) -> Result<Vec<u8>, CalibrateError> {
+pub fn board_png(
+    page: &monohand_calib::print::BoardPage,
+    dpi: f64,
+) -> Result<Vec<u8>, CalibrateError> {
     let (w, h, px) = page.rasterize(dpi / 25.4);
     let err = |e: png::EncodingError| {
         CalibrateError::Inputs(format!("cannot encode the board as PNG: {e}"))

@@ -111,7 +111,9 @@ pub fn markdown_report(c: &Calibrated, pictures: &[String]) -> String {
             let shared = if k == 0 {
                 "-".to_string()
             } else {
-                rig.shared_views.get(k - 1).map_or("-".into(), |n| n.to_string())
+                rig.shared_views
+                    .get(k - 1)
+                    .map_or("-".into(), |n| n.to_string())
             };
             out.push_str(&format!(
                 "| {k} | [{:.3}, {:.3}, {:.3}] | [{:.2}, {:.2}, {:.2}] | {:.2} | {shared} |\n",
@@ -166,7 +168,10 @@ fn camera_section(k: usize, cam: &CameraCalibration, views: &CameraViews, rig: b
     }
     out.push_str("\n| view | RMS (px) | used |\n|---|---|---|\n");
     for v in &cam.views {
-        let used = v.dropped.as_deref().map_or("yes".to_string(), |why| format!("no: {why}"));
+        let used = v
+            .dropped
+            .as_deref()
+            .map_or("yes".to_string(), |why| format!("no: {why}"));
         out.push_str(&format!("| {} | {:.3} | {used} |\n", v.name, v.rms_px));
     }
     for (name, why) in &views.skipped {
@@ -220,7 +225,14 @@ pub fn picture(c: &Calibrated, k: usize) -> RgbImage {
         cov.fraction() * 100.0
     );
     let scale = ((w.max(h) as f64 / 640.0).round() as usize).max(1);
-    draw_label(&mut img, &text, [4.0, 4.0], scale, [255, 255, 255], [0, 0, 0]);
+    draw_label(
+        &mut img,
+        &text,
+        [4.0, 4.0],
+        scale,
+        [255, 255, 255],
+        [0, 0, 0],
+    );
     img
 }
 
@@ -324,7 +336,11 @@ pub fn draw_seen(frame: &mut RgbImage, seen: &super::SeenFrame<'_>) {
         }
     }
     if let Some(corners) = seen.corners {
-        let color = if seen.kept { [60, 230, 60] } else { [240, 210, 40] };
+        let color = if seen.kept {
+            [60, 230, 60]
+        } else {
+            [240, 210, 40]
+        };
         let pen = Pen::new(color, 2.0);
         for pair in corners.windows(2) {
             draw_line(frame, [pair[0].x, pair[0].y], [pair[1].x, pair[1].y], &pen);
@@ -345,5 +361,12 @@ pub fn draw_seen(frame: &mut RgbImage, seen: &super::SeenFrame<'_>) {
         status.push_str(&format!("  {}", why.to_uppercase()));
     }
     let scale = ((w.max(h) as f64 / 640.0).round() as usize).max(1);
-    draw_label(frame, &status, [4.0, 4.0], scale, [255, 255, 255], [0, 0, 0]);
+    draw_label(
+        frame,
+        &status,
+        [4.0, 4.0],
+        scale,
+        [255, 255, 255],
+        [0, 0, 0],
+    );
 }
