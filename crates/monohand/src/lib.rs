@@ -18,6 +18,8 @@
 //!   ([`association`]).
 //!
 //! - [`records`]: the project's JSON Lines records of these results.
+//! - [`calibration`]: a camera's or a rig's calibration from frames of a chessboard
+//!   (`monohand calibrate`), over [`monohand_calib`].
 //!
 //! A video file to 3D joints is `examples/video_to_3d.rs`.
 #![deny(missing_docs)]
