@@ -3,7 +3,9 @@
 # makes a clip of the shared photo seen by a moving camera (ffmpeg: zoom 1.25x, a pan and a
 # turn of up to 8.6 degrees, 640x480), runs it through the page in headless Chromium and
 # through native `monohand run` (tracking, as a video), and compares the two frame by frame:
-# the same hands, 2D keypoints within 0.5 px and 3D joints within 2 mm. Prints one line:
+# the same hands, 2D keypoints within 0.5 px and 3D joints within 2 mm. A 150-frame video of
+# the same camera goes through native `run --gltf`, and the Khronos glTF validator must find
+# nothing to report in the .glb files. Prints one line:
 #   web: N frames, M hands in 3D, F fps in Chromium (MediaPipe web: G fps)
 # (F and G from the side-by-side benchmark, web/bench: the same clip, one hand, alternating)
 # and exits 1 if the records differ. Then the demo page (web/index.html) tracks the same clip
@@ -16,7 +18,8 @@
 #
 # Needs: rustup and cargo, ffmpeg, node (20+), chromium (/usr/bin/chromium or $CHROMIUM),
 # the shared data (../shared, or $MONOHAND_SHARED) and the networks in the cache
-# (`monohand models fetch`). npm installs the benchmark's one package (web/bench, pinned).
+# (`monohand models fetch`). npm installs the benchmark's one package (web/bench, pinned) and
+# the glTF validator (web/test/gltf-validate, pinned).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 frames="${WEB_TEST_FRAMES:-60}"
@@ -69,6 +72,26 @@ ffmpeg -v error -y -loop 1 -framerate 30 -i "$photo" -vf "$motion" -frames:v "$f
 ffmpeg -v error -y -framerate 30 -i "$out/frames/%04d.png" -f rawvideo -pix_fmt rgba "$out/clip.rgba"
 
 "$bin" run "$out/frames" --track --hands 2 --no-heads -o "$out/native.jsonl" 2> "$out/native.log"
+
+# The glTF export (issue 43): 150 frames of the same moving camera as a video (lossless
+# FFV1), tracked by native run into the skinned hand (`--gltf`'s default) and into joints and
+# bones (`--gltf-hand joints`). The Khronos validator (npm gltf-validator, pinned in
+# web/test/gltf-validate/package-lock.json) must report no error, no warning and no
+# information message in either; the skinned file must have its skinned mesh at the scene's
+# root, and both an animation keyed over most of the clip.
+gltf_frames=150
+ffmpeg -v error -y -loop 1 -framerate 30 -i "$photo" -vf "$motion" -frames:v "$gltf_frames" \
+  -c:v ffv1 "$out/gltf-clip.mkv"
+"$bin" run "$out/gltf-clip.mkv" --hands 2 --no-heads -o "$out/gltf.jsonl" --gltf "$out/skinned.glb" \
+  2>> "$out/native.log"
+"$bin" run "$out/gltf-clip.mkv" --hands 2 --no-heads -o "$out/gltf.jsonl" --gltf "$out/joints.glb" \
+  --gltf-hand joints 2>> "$out/native.log"
+npm ci --prefix web/test/gltf-validate --no-audit --no-fund --loglevel=error > /dev/null
+for style in skinned joints; do
+  node web/test/gltf-validate/validate.mjs "$out/$style.glb" --min-keys $((gltf_frames * 2 / 3)) \
+    $([ "$style" = skinned ] && echo --skinned) > "$out/gltf-$style.json" ||
+    { echo "web-test: the Khronos glTF validator found fault with $out/$style.glb (above; $out/gltf-$style.json)" >&2; exit 1; }
+done
 
 node --experimental-websocket web/test/run.mjs --web web --clip "$out/clip.rgba" --size 640x480 \
   --fps 30 --out "$out/web.jsonl" --screenshot "$out/screenshot.png" \
@@ -159,5 +182,9 @@ const r = (x) => x.map((v) => v.toFixed(1)).join(", ");
 console.log(`  side by side (web/bench, one hand, ${b.rounds > 1 ? `${b.rounds} rounds alternating` : "one round each"}): monohand ${r(b.monohand.per_round_fps)} fps like for like (median ${b.monohand.median_ms.toFixed(1)} ms; one landmark pass a crop), ${r(b.monohand_defaults.per_round_fps)} fps with its mirror pass (median ${b.monohand_defaults.median_ms.toFixed(1)} ms), @mediapipe/hands ${r(b.mediapipe.per_round_fps)} fps (median ${b.mediapipe.median_ms.toFixed(1)} ms; ${b.mediapipe.files.filter((f) => f.endsWith(".wasm")).join(", ")}; its WebGL on ${b.webgl_renderer})`);
 console.log(`  test page: ${(1000 / t.mean_ms_after_first).toFixed(1)} fps; load ${t.load_ms.toFixed(0)} ms, first frame done ${t.first_frame_ms.toFixed(0)} ms after the page started loading the networks, median ${t.median_ms_after_first.toFixed(1)} ms a frame`);
 ' "$out/timings.json" "$out/compare.json" "$out/bad-cut.json, $out/bad-missing.json, $out/no-wasm.json" "$out/camera.json" "$out/bench.json" "$out/video.json" "$out/camera-one-pass.json"
+node -e '
+const [s, j] = process.argv.slice(1).map((f) => JSON.parse(require("fs").readFileSync(f, "utf8")));
+console.log(`  glTF (native run --gltf, ${s.keys} frames; Khronos validator ${s.validator}): skinned ${s.errors} errors, ${s.warnings} warnings, ${s.infos} infos; joints ${j.errors}, ${j.warnings}, ${j.infos}`);
+' "$out/gltf-skinned.json" "$out/gltf-joints.json"
 [ "$status" -eq 0 ] || { echo "web-test: the browser's records differ from native (see $out/compare.json and the lines above)" >&2; cat "$out/compare.json" >&2; }
 exit "$status"

@@ -135,21 +135,7 @@ fn parse_line(
     base: &Path,
     seq_count: &mut std::collections::HashMap<String, usize>,
 ) -> Result<Frame, String> {
-    if l.cameras.is_empty() {
-        return Err("\"cameras\" is empty: at least one camera is needed".into());
-    }
-    let mut cameras = Vec::with_capacity(l.cameras.len());
-    for (c, v) in l.cameras.iter().enumerate() {
-        if !v.is_object() {
-            return Err(format!("camera {}: expected a JSON object", c + 1));
-        }
-        let cal = monohand_io::calibration::parse_calibration(&v.to_string(), "camera")
-            .map_err(|e| format!("camera {}: {}", c + 1, strip_file(&e.to_string())))?;
-        if c == 0 && !cal.camera.extrinsics.is_identity() {
-            return Err("camera 1 is the reference frame and must have no R/t (extrinsics)".into());
-        }
-        cameras.push(cal.camera);
-    }
+    let cameras = parse_cameras(&l.cameras)?;
     if !l.images.is_empty() && l.images.len() != cameras.len() {
         return Err(format!(
             "{} images for {} cameras: give one image per camera (or none)",
@@ -160,69 +146,12 @@ fn parse_line(
     if l.hands.is_empty() {
         return Err("\"hands\" is empty: every frame needs a labelled hand".into());
     }
-    let mut hands = Vec::with_capacity(l.hands.len());
-    for (h, hand) in l.hands.into_iter().enumerate() {
-        let hn = h + 1;
-        if hand.joints_3d.len() != NUM_JOINTS {
-            return Err(format!(
-                "hand {hn}: joints_3d has {} points, expected {NUM_JOINTS}",
-                hand.joints_3d.len()
-            ));
-        }
-        let mut joints = [[0.0; 3]; NUM_JOINTS];
-        for (j, p) in hand.joints_3d.iter().enumerate() {
-            if p.iter().any(|x| !x.is_finite()) {
-                return Err(format!("hand {hn}: joints_3d[{j}] is not finite"));
-            }
-            joints[j] = *p;
-        }
-        let keypoints_2d = match hand.keypoints_2d {
-            None => None,
-            Some(views) => {
-                if views.len() != cameras.len() {
-                    return Err(format!(
-                        "hand {hn}: keypoints_2d has {} views for {} cameras",
-                        views.len(),
-                        cameras.len()
-                    ));
-                }
-                let mut out = Vec::with_capacity(views.len());
-                for (v, pts) in views.iter().enumerate() {
-                    if pts.len() != NUM_JOINTS {
-                        return Err(format!(
-                            "hand {hn}: keypoints_2d view {}: {} points, expected {NUM_JOINTS}",
-                            v + 1,
-                            pts.len()
-                        ));
-                    }
-                    let mut kp = [[0.0; 3]; NUM_JOINTS];
-                    for (j, p) in pts.iter().enumerate() {
-                        kp[j] = match p.as_slice() {
-                            [u, v] => [*u, *v, 1.0],
-                            [u, v, c] => [*u, *v, *c],
-                            _ => {
-                                return Err(format!(
-                                    "hand {hn}: keypoints_2d view {} point {j}: expected [u, v] or [u, v, p], got {} numbers",
-                                    v + 1,
-                                    p.len()
-                                ))
-                            }
-                        };
-                    }
-                    out.push(
-                        Keypoints2d::new(kp)
-                            .map_err(|e| format!("hand {hn}: keypoints_2d view {}: {e}", v + 1))?,
-                    );
-                }
-                Some(out)
-            }
-        };
-        hands.push(GtHand {
-            side: hand.side,
-            joints_3d: joints,
-            keypoints_2d,
-        });
-    }
+    let hands = l
+        .hands
+        .into_iter()
+        .enumerate()
+        .map(|(h, hand)| parse_hand(h + 1, hand, cameras.len()))
+        .collect::<Result<Vec<_>, _>>()?;
     let sequence = l.sequence.unwrap_or_default();
     let pos = seq_count.entry(sequence.clone()).or_insert(0);
     let index = l.frame.unwrap_or(*pos);
@@ -235,6 +164,90 @@ fn parse_line(
         hands,
         crop: None,
     })
+}
+
+/// The cameras of a line (the first is the reference frame: no extrinsics).
+fn parse_cameras(values: &[Value]) -> Result<Vec<Camera>, String> {
+    if values.is_empty() {
+        return Err("\"cameras\" is empty: at least one camera is needed".into());
+    }
+    let mut cameras = Vec::with_capacity(values.len());
+    for (c, v) in values.iter().enumerate() {
+        if !v.is_object() {
+            return Err(format!("camera {}: expected a JSON object", c + 1));
+        }
+        let cal = monohand_io::calibration::parse_calibration(&v.to_string(), "camera")
+            .map_err(|e| format!("camera {}: {}", c + 1, strip_file(&e.to_string())))?;
+        if c == 0 && !cal.camera.extrinsics.is_identity() {
+            return Err("camera 1 is the reference frame and must have no R/t (extrinsics)".into());
+        }
+        cameras.push(cal.camera);
+    }
+    Ok(cameras)
+}
+
+/// Hand number `hn` (from 1) of a line with `n_cameras` cameras.
+fn parse_hand(hn: usize, hand: LineHand, n_cameras: usize) -> Result<GtHand, String> {
+    if hand.joints_3d.len() != NUM_JOINTS {
+        return Err(format!(
+            "hand {hn}: joints_3d has {} points, expected {NUM_JOINTS}",
+            hand.joints_3d.len()
+        ));
+    }
+    let mut joints = [[0.0; 3]; NUM_JOINTS];
+    for (j, p) in hand.joints_3d.iter().enumerate() {
+        if p.iter().any(|x| !x.is_finite()) {
+            return Err(format!("hand {hn}: joints_3d[{j}] is not finite"));
+        }
+        joints[j] = *p;
+    }
+    let keypoints_2d = match hand.keypoints_2d {
+        None => None,
+        Some(views) => {
+            if views.len() != n_cameras {
+                return Err(format!(
+                    "hand {hn}: keypoints_2d has {} views for {} cameras",
+                    views.len(),
+                    n_cameras
+                ));
+            }
+            let views = views
+                .iter()
+                .enumerate()
+                .map(|(v, pts)| parse_view_keypoints(hn, v + 1, pts))
+                .collect::<Result<Vec<_>, _>>()?;
+            Some(views)
+        }
+    };
+    Ok(GtHand {
+        side: hand.side,
+        joints_3d: joints,
+        keypoints_2d,
+    })
+}
+
+/// The 2D keypoints of hand `hn` in view `vn` (both from 1): `[u, v]` or `[u, v, p]` each.
+fn parse_view_keypoints(hn: usize, vn: usize, pts: &[Vec<f64>]) -> Result<Keypoints2d, String> {
+    if pts.len() != NUM_JOINTS {
+        return Err(format!(
+            "hand {hn}: keypoints_2d view {vn}: {} points, expected {NUM_JOINTS}",
+            pts.len()
+        ));
+    }
+    let mut kp = [[0.0; 3]; NUM_JOINTS];
+    for (j, p) in pts.iter().enumerate() {
+        kp[j] = match p.as_slice() {
+            [u, v] => [*u, *v, 1.0],
+            [u, v, c] => [*u, *v, *c],
+            _ => {
+                return Err(format!(
+                    "hand {hn}: keypoints_2d view {vn} point {j}: expected [u, v] or [u, v, p], got {} numbers",
+                    p.len()
+                ))
+            }
+        };
+    }
+    Keypoints2d::new(kp).map_err(|e| format!("hand {hn}: keypoints_2d view {vn}: {e}"))
 }
 
 /// Drops the "camera: " file prefix the io crate puts on calibration errors.

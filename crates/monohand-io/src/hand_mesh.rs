@@ -206,6 +206,25 @@ fn raw_accessor(doc: &Value, bin: &[u8], i: u64) -> IoResult<RawAccessor> {
     })
 }
 
+/// Sets to 0 every joint index whose weight is 0 (`joints`: `JOINTS_0`, u8 `VEC4`;
+/// `weights`: `WEIGHTS_0`, f32 `VEC4`). Such a joint moves nothing, so the skin is the same;
+/// glTF asks for it (the Khronos validator's `ACCESSOR_JOINTS_USED_ZERO_WEIGHT`), and
+/// the WebXR asset does not (1,978 of its joint indices over the two hands).
+fn zero_unweighted_joints(joints: &mut RawAccessor, weights: &RawAccessor) -> IoResult<()> {
+    if weights.accessor["componentType"] != 5126 || weights.accessor["type"] != "VEC4" {
+        return Err(bad("WEIGHTS_0 is not f32 VEC4"));
+    }
+    if joints.accessor["type"] != "VEC4" || weights.bytes.len() != 4 * joints.bytes.len() {
+        return Err(bad("JOINTS_0 and WEIGHTS_0 differ in size"));
+    }
+    for (j, w) in joints.bytes.iter_mut().zip(weights.bytes.chunks_exact(4)) {
+        if f32::from_le_bytes([w[0], w[1], w[2], w[3]]) == 0.0 {
+            *j = 0;
+        }
+    }
+    Ok(())
+}
+
 impl HandMesh {
     /// The WebXR generic hand of this side (parsed from the copy built into the library).
     pub fn webxr(side: HandSide) -> IoResult<HandMesh> {
@@ -256,6 +275,8 @@ impl HandMesh {
         for b in &mut joints.bytes {
             *b = to_ours.get(*b as usize).copied().unwrap_or(0);
         }
+        let weights = attr("WEIGHTS_0")?;
+        zero_unweighted_joints(&mut joints, &weights)?;
         let ibm_raw = raw_accessor(
             &doc,
             bin,
@@ -290,7 +311,7 @@ impl HandMesh {
                 ("POSITION", attr("POSITION")?),
                 ("NORMAL", attr("NORMAL")?),
                 ("JOINTS_0", joints),
-                ("WEIGHTS_0", attr("WEIGHTS_0")?),
+                ("WEIGHTS_0", weights),
             ],
             indices: raw_accessor(
                 &doc,
@@ -411,6 +432,21 @@ mod tests {
             assert_eq!(m.inverse_bind.bytes.len(), 25 * 64);
             // Joint indices are renumbered into MESH_JOINTS order (0..25).
             assert!(m.attributes[2].1.bytes.iter().all(|&j| j < 25));
+            // A joint of zero weight is joint 0 (glTF's rule), and every vertex is
+            // weighted to some joint.
+            let weights: Vec<f32> = m.attributes[3]
+                .1
+                .bytes
+                .chunks_exact(4)
+                .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+                .collect();
+            let joints = &m.attributes[2].1.bytes;
+            assert_eq!(weights.len(), joints.len());
+            assert!(joints
+                .iter()
+                .zip(&weights)
+                .all(|(&j, &w)| w != 0.0 || j == 0));
+            assert!(weights.chunks(4).all(|w| w.iter().sum::<f32>() > 0.99));
             // A hand is about 18 cm from the wrist to the middle fingertip.
             let d = (m.rest_position[14] - m.rest_position[0]).norm();
             assert!((0.15..0.22).contains(&d), "{d}");

@@ -4,7 +4,8 @@
 
 use monohand_core::hand_model::{HandSide, NUM_JOINTS};
 use monohand_core::observation::Keypoints2d;
-use monohand_io::export::GltfWriter;
+use monohand_io::export::{to_gltf, GltfHand, GltfWriter};
+use monohand_io::hand_mesh::{HandMesh, MESH_JOINTS};
 use monohand_io::jsonl::HandRecord;
 use serde_json::Value;
 
@@ -50,18 +51,7 @@ impl Glb {
     /// The float data of an accessor, checked against its buffer view and bounds.
     fn floats(&self, acc: usize) -> Vec<f32> {
         let a = &self.json["accessors"][acc];
-        assert_eq!(a["componentType"], 5126);
-        let view = &self.json["bufferViews"][a["bufferView"].as_u64().unwrap() as usize];
-        let off = view["byteOffset"].as_u64().unwrap() as usize;
-        let len = view["byteLength"].as_u64().unwrap() as usize;
-        let n = a["count"].as_u64().unwrap() as usize * comps(a["type"].as_str().unwrap());
-        assert_eq!(n * 4, len, "accessor {acc} fills its view");
-        assert!(off + len <= self.bin.len());
-        assert_eq!(off % 4, 0);
-        let v: Vec<f32> = self.bin[off..off + len]
-            .chunks(4)
-            .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
-            .collect();
+        let v = self.floats_unbounded(acc);
         let k = comps(a["type"].as_str().unwrap());
         for (i, x) in v.iter().enumerate() {
             let lo = a["min"][i % k].as_f64().unwrap() as f32;
@@ -72,6 +62,24 @@ impl Glb {
             );
         }
         v
+    }
+
+    /// The float data of an accessor without `min` and `max` (the skinned mesh's weights),
+    /// checked against its buffer view.
+    fn floats_unbounded(&self, acc: usize) -> Vec<f32> {
+        let a = &self.json["accessors"][acc];
+        assert_eq!(a["componentType"], 5126);
+        let view = &self.json["bufferViews"][a["bufferView"].as_u64().unwrap() as usize];
+        let off = view["byteOffset"].as_u64().unwrap() as usize;
+        let len = view["byteLength"].as_u64().unwrap() as usize;
+        let n = a["count"].as_u64().unwrap() as usize * comps(a["type"].as_str().unwrap());
+        assert_eq!(n * 4, len, "accessor {acc} fills its view");
+        assert!(off + len <= self.bin.len());
+        assert_eq!(off % 4, 0);
+        self.bin[off..off + len]
+            .chunks(4)
+            .map(|c| f32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+            .collect()
     }
 }
 
@@ -271,4 +279,185 @@ fn each_hand_is_keyed_over_its_own_life_only() {
         (size as usize) < per_key * (1000 + 10 * 12) + 200_000,
         "{size} bytes"
     );
+}
+
+/// Every mesh, material and accessor of `j` is used (by a node, a mesh, a skin or an
+/// animation), and every node is reachable from the scene: the Khronos validator's
+/// `UNUSED_OBJECT` (scripts/web-test.sh runs the validator itself).
+fn assert_nothing_unused(j: &Value) {
+    let arr = |k: &str| j[k].as_array().cloned().unwrap_or_default();
+    let idx = |v: &Value| v.as_u64().unwrap() as usize;
+    let mut accessors = std::collections::BTreeSet::new();
+    let mut meshes = std::collections::BTreeSet::new();
+    let mut materials = std::collections::BTreeSet::new();
+    let mut reached = std::collections::BTreeSet::new();
+    let mut stack: Vec<usize> = j["scenes"][0]["nodes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(idx)
+        .collect();
+    while let Some(n) = stack.pop() {
+        assert!(reached.insert(n), "node {n} reached twice");
+        let node = &j["nodes"][n];
+        if let Some(c) = node["children"].as_array() {
+            stack.extend(c.iter().map(idx));
+        }
+        if let Some(m) = node.get("mesh") {
+            meshes.insert(idx(m));
+        }
+    }
+    assert_eq!(
+        reached.len(),
+        arr("nodes").len(),
+        "every node is in the scene"
+    );
+    for m in &meshes {
+        for p in j["meshes"][*m]["primitives"].as_array().unwrap() {
+            accessors.extend(p["attributes"].as_object().unwrap().values().map(idx));
+            accessors.insert(idx(&p["indices"]));
+            materials.insert(idx(&p["material"]));
+        }
+    }
+    for s in arr("skins") {
+        accessors.insert(idx(&s["inverseBindMatrices"]));
+    }
+    for a in arr("animations") {
+        for s in a["samplers"].as_array().unwrap() {
+            accessors.insert(idx(&s["input"]));
+            accessors.insert(idx(&s["output"]));
+        }
+    }
+    assert_eq!(meshes, (0..arr("meshes").len()).collect(), "meshes used");
+    assert_eq!(
+        materials,
+        (0..arr("materials").len()).collect(),
+        "materials used"
+    );
+    assert_eq!(
+        accessors,
+        (0..arr("accessors").len()).collect(),
+        "accessors used"
+    );
+}
+
+#[test]
+fn a_right_hand_alone_as_joints_adds_no_left_hand_geometry() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("right.glb");
+    let mut w = GltfWriter::new(&path);
+    for i in 0..3 {
+        let t = i as f64 * 0.1;
+        w.add_frame(t, &[hand(HandSide::Right, 1, t)]).unwrap();
+    }
+    w.finish().unwrap();
+    let glb = parse_glb(&std::fs::read(&path).unwrap());
+    assert_nothing_unused(&glb.json);
+    let names: Vec<&str> = glb.json["meshes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|m| m["name"].as_str().unwrap())
+        .collect();
+    // The right joint and the five fingers' bones; no left joint.
+    assert_eq!(names.len(), 6, "{names:?}");
+    assert!(names.contains(&"right_joint") && !names.contains(&"left_joint"));
+}
+
+#[test]
+fn the_skinned_hand_is_a_root_node_and_follows_the_joints() {
+    let mesh = HandMesh::webxr(HandSide::Left).unwrap();
+    // The mesh's own rest pose, in the camera's frame (mm) half a metre away, moved 10 mm
+    // to the right each frame.
+    let rest = mesh.rest_joints();
+    let at = |k: usize| -> [[f64; 3]; NUM_JOINTS] {
+        rest.map(|p| {
+            [
+                p[0] as f64 * 1000.0 + 10.0 * k as f64,
+                -p[1] as f64 * 1000.0,
+                -p[2] as f64 * 1000.0 + 500.0,
+            ]
+        })
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("skinned.glb");
+    let mut w = GltfWriter::new(&path);
+    w.set_hand(GltfHand::Skinned).unwrap();
+    for k in 0..4 {
+        let mut h = HandRecord::from_keypoints(HandSide::Left, &Keypoints2d::default());
+        h.id = Some(7);
+        h.joints_3d_mm = Some(at(k));
+        w.add_frame(k as f64 / 30.0, &[h]).unwrap();
+    }
+    w.finish().unwrap();
+    let glb = parse_glb(&std::fs::read(&path).unwrap());
+    let j = &glb.json;
+    assert_nothing_unused(j);
+    assert_eq!(j["skins"].as_array().unwrap().len(), 1);
+    assert_eq!(
+        j["meshes"].as_array().unwrap().len(),
+        1,
+        "the skinned hand only"
+    );
+    // The skinned mesh's node is a root of the scene; the hand's node holds its joints.
+    let nodes = j["nodes"].as_array().unwrap();
+    let roots: Vec<u64> = j["scenes"][0]["nodes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|n| n.as_u64().unwrap())
+        .collect();
+    let skinned: Vec<u64> = (0..nodes.len() as u64)
+        .filter(|&n| nodes[n as usize].get("skin").is_some())
+        .collect();
+    assert_eq!(skinned.len(), 1);
+    assert!(roots.contains(&skinned[0]), "{roots:?}");
+    assert_eq!(nodes[skinned[0] as usize]["name"], "mesh_7_left");
+    let hand = nodes.iter().find(|n| n["name"] == "hand_7_left").unwrap();
+    assert_eq!(
+        hand["children"].as_array().unwrap().len(),
+        MESH_JOINTS.len()
+    );
+    // Joint indices of zero weight are 0 (the validator's ACCESSOR_JOINTS_USED_ZERO_WEIGHT).
+    let prim = &j["meshes"][0]["primitives"][0];
+    let weights = glb.floats_unbounded(prim["attributes"]["WEIGHTS_0"].as_u64().unwrap() as usize);
+    let ja = &j["accessors"][prim["attributes"]["JOINTS_0"].as_u64().unwrap() as usize];
+    assert_eq!(ja["componentType"], 5121);
+    let view = &j["bufferViews"][ja["bufferView"].as_u64().unwrap() as usize];
+    let off = view["byteOffset"].as_u64().unwrap() as usize;
+    let joints = &glb.bin[off..off + weights.len()];
+    let unweighted = weights.iter().filter(|&&w| w == 0.0).count();
+    assert!(unweighted > 1000, "{unweighted} joint slots of zero weight");
+    for (i, (&jt, &wt)) in joints.iter().zip(&weights).enumerate() {
+        assert!(
+            wt != 0.0 || jt == 0,
+            "slot {i}: joint {jt} with zero weight"
+        );
+    }
+    // Each fitted joint's node is keyed where the fit put it (glTF frame, metres).
+    let anim = &j["animations"][0];
+    for (k, (name, fit)) in MESH_JOINTS.iter().enumerate() {
+        let Some(fit) = fit else { continue };
+        let node = nodes
+            .iter()
+            .position(|n| n["name"] == format!("{name}_7_left"))
+            .unwrap();
+        let c = anim["channels"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|c| c["target"]["node"] == node && c["target"]["path"] == "translation")
+            .unwrap();
+        let s = &anim["samplers"][c["sampler"].as_u64().unwrap() as usize];
+        let tr = glb.floats(s["output"].as_u64().unwrap() as usize);
+        for f in 0..4 {
+            let want = to_gltf(at(f)[*fit]);
+            for a in 0..3 {
+                assert!(
+                    (tr[3 * f + a] - want[a]).abs() < 1e-5,
+                    "joint {k} frame {f}"
+                );
+            }
+        }
+    }
 }

@@ -285,56 +285,16 @@ pub(super) fn translate(
         options,
     };
     let value = match code {
-        BuiltinOperator::DEQUANTIZE => match cx.value(0)? {
-            // fp16 weights were widened when read: nothing runs at inference.
-            Value::Const(t) => Value::Const(t),
-            Value::Wire(w) => Value::Wire(cx.node(
-                "cast",
-                tract_core::ops::cast::cast(f32::datum_type()),
-                &[w],
-            )?),
-        },
+        BuiltinOperator::DEQUANTIZE => dequantize(&mut cx)?,
         BuiltinOperator::CONV_2D => Value::Wire(conv(&mut cx, false)?),
         BuiltinOperator::DEPTHWISE_CONV_2D => Value::Wire(conv(&mut cx, true)?),
         BuiltinOperator::PRELU => Value::Wire(prelu(&mut cx)?),
-        BuiltinOperator::ADD => {
-            let f = cx
-                .op
-                .builtin_options_as_add_options()
-                .map(|o| o.fused_activation_function());
-            if let Some(y) = fuse_residual(&mut cx, f.unwrap_or(ActivationFunctionType::NONE))? {
-                return finish(cx, output, &out_shape, Value::Wire(y));
-            }
-            let (a, b) = (cx.wire(0)?, cx.wire(1)?);
-            let y = cx.broadcast("add", math::add(), &[a, b])?;
-            Value::Wire(cx.activation(y, f.unwrap_or(ActivationFunctionType::NONE))?)
-        }
+        BuiltinOperator::ADD => Value::Wire(add(&mut cx)?),
         BuiltinOperator::MAX_POOL_2D => Value::Wire(max_pool(&mut cx)?),
         BuiltinOperator::PAD => Value::Wire(pad(&mut cx)?),
         BuiltinOperator::RESIZE_BILINEAR => Value::Wire(resize_bilinear(&mut cx, &out_shape)?),
-        BuiltinOperator::RESHAPE => {
-            let x = cx.wire(0)?;
-            let from: TVec<TDim> = cx.target.outlet_fact(x)?.shape.to_tvec();
-            let to: TVec<TDim> = out_shape.iter().map(|d| d.to_dim()).collect();
-            Value::Wire(cx.node("reshape", AxisOp::Reshape(0, from, to), &[x])?)
-        }
-        BuiltinOperator::CONCATENATION => {
-            let o = cx
-                .op
-                .builtin_options_as_concatenation_options()
-                .ok_or_else(|| options_missing("CONCATENATION"))?;
-            let axis = axis_in(
-                o.axis() as i64,
-                out_shape.len(),
-                "CONCATENATION",
-                &cx.prefix,
-            )?;
-            let wires = (0..cx.inputs.len())
-                .map(|i| cx.wire(i))
-                .collect::<Result<Vec<_>, _>>()?;
-            let y = cx.node("concat", TypedConcat { axis }, &wires)?;
-            Value::Wire(cx.activation(y, o.fused_activation_function())?)
-        }
+        BuiltinOperator::RESHAPE => Value::Wire(reshape(&mut cx, &out_shape)?),
+        BuiltinOperator::CONCATENATION => Value::Wire(concatenation(&mut cx, &out_shape)?),
         BuiltinOperator::MEAN => Value::Wire(mean(&mut cx)?),
         BuiltinOperator::FULLY_CONNECTED => Value::Wire(fully_connected(&mut cx, &out_shape)?),
         BuiltinOperator::LOGISTIC => {
@@ -359,6 +319,59 @@ pub(super) fn translate(
         }
     };
     finish(cx, output, &out_shape, value)
+}
+
+/// DEQUANTIZE: fp16 weights were widened when read, so a constant stays as it is (nothing
+/// runs at inference); a wire is cast to f32.
+fn dequantize(cx: &mut Ctx) -> Result<Value, ImportError> {
+    Ok(match cx.value(0)? {
+        Value::Const(t) => Value::Const(t),
+        Value::Wire(w) => {
+            Value::Wire(cx.node("cast", tract_core::ops::cast::cast(f32::datum_type()), &[w])?)
+        }
+    })
+}
+
+/// ADD: a residual connection fused into the project's own operator where it can be,
+/// else a broadcast addition and its fused activation.
+fn add(cx: &mut Ctx) -> Result<OutletId, ImportError> {
+    let f = cx
+        .op
+        .builtin_options_as_add_options()
+        .map(|o| o.fused_activation_function());
+    if let Some(y) = fuse_residual(cx, f.unwrap_or(ActivationFunctionType::NONE))? {
+        return Ok(y);
+    }
+    let (a, b) = (cx.wire(0)?, cx.wire(1)?);
+    let y = cx.broadcast("add", math::add(), &[a, b])?;
+    cx.activation(y, f.unwrap_or(ActivationFunctionType::NONE))
+}
+
+/// RESHAPE to the model's output shape `out_shape`.
+fn reshape(cx: &mut Ctx, out_shape: &[usize]) -> Result<OutletId, ImportError> {
+    let x = cx.wire(0)?;
+    let from: TVec<TDim> = cx.target.outlet_fact(x)?.shape.to_tvec();
+    let to: TVec<TDim> = out_shape.iter().map(|d| d.to_dim()).collect();
+    cx.node("reshape", AxisOp::Reshape(0, from, to), &[x])
+}
+
+/// CONCATENATION of every input along the options' axis, and its fused activation.
+fn concatenation(cx: &mut Ctx, out_shape: &[usize]) -> Result<OutletId, ImportError> {
+    let o = cx
+        .op
+        .builtin_options_as_concatenation_options()
+        .ok_or_else(|| options_missing("CONCATENATION"))?;
+    let axis = axis_in(
+        o.axis() as i64,
+        out_shape.len(),
+        "CONCATENATION",
+        &cx.prefix,
+    )?;
+    let wires = (0..cx.inputs.len())
+        .map(|i| cx.wire(i))
+        .collect::<Result<Vec<_>, _>>()?;
+    let y = cx.node("concat", TypedConcat { axis }, &wires)?;
+    cx.activation(y, o.fused_activation_function())
 }
 
 /// Checks the shape tract infers for an operator's result against the model's, and records

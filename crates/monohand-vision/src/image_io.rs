@@ -327,7 +327,6 @@ fn tagged_frame(
 /// The focal length in pixels of an image stored `stored` (width, height, before the EXIF
 /// orientation) and `upright` after it, from its EXIF camera tags (see [`PhotoFocal`]).
 pub fn focal_from_tags(tags: &ExifTags, stored: (u32, u32), upright: (u32, u32)) -> ExifFocal {
-    use monohand_core::camera::Camera;
     if tags.focal_35mm.is_none() && tags.focal_mm.is_none() {
         return ExifFocal::None;
     }
@@ -335,119 +334,32 @@ pub fn focal_from_tags(tags: &ExifTags, stored: (u32, u32), upright: (u32, u32))
         Ok(f) => f,
         Err(why) => return ExifFocal::Refused(why),
     };
-    let (w, h) = upright;
-    let zoom = tags.digital_zoom.unwrap_or(1.0);
-    let zoom_text = match tags.digital_zoom {
-        Some(z) => format!(" with DigitalZoomRatio {}", round2(z)),
-        None => String::new(),
-    };
-    let diagonal = frame.width.hypot(frame.height);
-    let longer = frame.width.max(frame.height);
+    let reading = FocalReading::new(tags, frame, upright);
     // Why each reading tried was not used, in order.
     let mut refused: Vec<String> = Vec::new();
-    let check = |px: f64, source: &str| -> std::result::Result<(), String> {
-        let camera = Camera::centred(px, w, h).map_err(|e| format!("{source}: {e}"))?;
-        let f35 = px * DIAGONAL_35MM / diagonal;
-        if let Some(why) = camera.implausible_field_of_view() {
-            return Err(format!("{source} gives fx {px:.0} px for {w}x{h}, {why}"));
-        }
-        if !PhotoFocal::PLAUSIBLE_35MM.contains(&f35) {
-            return Err(format!(
-                "{source} gives a 35 mm equivalent of {f35:.1} mm, outside {:?} mm",
-                PhotoFocal::PLAUSIBLE_35MM
-            ));
-        }
-        Ok(())
-    };
-    let done = |px: f64, source: String, sensor: Option<f64>, refused: &[String]| {
-        let mut why: Vec<String> = refused.to_vec();
-        if let Some(n) = &frame.note {
-            why.push(n.clone());
-        }
-        ExifFocal::Used(PhotoFocal {
-            px,
-            source,
-            sensor_width_mm: sensor,
-            fallback: (!why.is_empty()).then(|| why.join("; ")),
-        })
-    };
     // 1. The 35 mm equivalent.
-    if let Some(f35) = tags.focal_35mm {
-        let source = format!("EXIF FocalLengthIn35mmFilm {} mm", round2(f35));
-        let px = f35 * diagonal / DIAGONAL_35MM;
-        let crop = tags.focal_mm.map(|f| f35 / (f * zoom));
-        match crop.filter(|c| !CROP_FACTORS.contains(c)) {
-            Some(c) => refused.push(format!(
-                "{source} against FocalLength {} mm{zoom_text} is a crop factor of {c:.2}, a \
-                 sensor {:.1} mm across, outside the {}-{} of real cameras (an editor's value?)",
-                round2(tags.focal_mm.unwrap_or_default()),
-                DIAGONAL_35MM / c,
-                CROP_FACTORS.start(),
-                CROP_FACTORS.end()
-            )),
-            None => match check(px, &source) {
-                Ok(()) => return done(px, source, None, &refused),
-                Err(why) => refused.push(why),
-            },
-        }
+    if let Some(used) = reading.try_35mm(tags, &mut refused) {
+        return used;
     }
     let Some(f_mm) = tags.focal_mm else {
         return ExifFocal::Refused(refused.join("; "));
     };
     // What the focal plane resolution implies, for 2. and 3.
-    let plane = tags.focal_plane.as_ref().map(|(per_mm, text)| {
-        let px = f_mm * zoom * per_mm * frame.scale;
-        // The sensor width it implies for this image's frame.
-        let width_mm = frame.width / (per_mm * frame.scale);
-        (px, width_mm, text)
-    });
+    let plane = reading.focal_plane(tags, f_mm);
     // 2. The sensor database.
     let entry = match (&tags.make, &tags.model) {
         (Some(make), Some(model)) => crate::sensor_db::lookup(make, model),
         _ => None,
     };
     if let Some(e) = entry {
-        let name = tags.camera_name().unwrap_or_default();
-        let source = format!(
-            "EXIF FocalLength {} mm{zoom_text} on the {name}'s {} mm wide sensor (sensor database)",
-            round2(f_mm),
-            round2(e.width_mm)
-        );
-        let px = f_mm * zoom * longer / e.width_mm;
-        match check(px, &source) {
-            Ok(()) => {
-                let mut why = refused.clone();
-                if tags.focal_35mm.is_none() {
-                    why.push("no FocalLengthIn35mmFilm".into());
-                }
-                if let Some((_, width_mm, text)) = &plane {
-                    if (width_mm / e.width_mm - 1.0).abs() > 0.05 {
-                        why.push(format!(
-                            "FocalPlaneXResolution {text} implies a sensor {width_mm:.1} mm wide \
-                             for this {}-pixel-wide frame, not {} mm: the photo was resized",
-                            frame.width,
-                            round2(e.width_mm)
-                        ));
-                    }
-                }
-                return done(px, source, Some(e.width_mm), &why);
-            }
-            Err(why) => refused.push(why),
+        if let Some(used) = reading.try_sensor_db(tags, f_mm, e.width_mm, &plane, &mut refused) {
+            return used;
         }
     }
     // 3. The focal plane resolution.
-    if let Some((px, width_mm, text)) = plane {
-        let source = format!(
-            "EXIF FocalLength {} mm{zoom_text} at {text} on the sensor",
-            round2(f_mm)
-        );
-        match check(px, &source) {
-            Ok(()) => return done(px, source, None, &refused),
-            Err(why) => refused.push(format!(
-                "{why} (read against this {}-pixel-wide frame it implies a sensor {width_mm:.1} \
-                 mm wide: was the photo resized?)",
-                frame.width
-            )),
+    if let Some(plane) = plane {
+        if let Some(used) = reading.try_focal_plane(f_mm, plane, &mut refused) {
+            return used;
         }
     } else if entry.is_none() && tags.focal_35mm.is_none() {
         refused.push(format!(
@@ -461,6 +373,182 @@ pub fn focal_from_tags(tags: &ExifTags, stored: (u32, u32), upright: (u32, u32))
         ));
     }
     ExifFocal::Refused(refused.join("; "))
+}
+
+/// What the focal plane resolution implies: the focal length in pixels, the sensor width
+/// it implies for the image's frame (mm), and the tag as written.
+type PlaneReading<'a> = (f64, f64, &'a String);
+
+/// The image a focal length is read for, and the readings of [`focal_from_tags`] in turn.
+struct FocalReading {
+    /// The frame the tags describe.
+    frame: TaggedFrame,
+    /// The image's upright size, pixels.
+    w: u32,
+    h: u32,
+    /// `DigitalZoomRatio` (1 without it), and as said to the user (empty without it).
+    zoom: f64,
+    zoom_text: String,
+    /// The frame's diagonal and longer side, pixels.
+    diagonal: f64,
+    longer: f64,
+}
+
+impl FocalReading {
+    fn new(tags: &ExifTags, frame: TaggedFrame, upright: (u32, u32)) -> FocalReading {
+        let (w, h) = upright;
+        let zoom = tags.digital_zoom.unwrap_or(1.0);
+        let zoom_text = match tags.digital_zoom {
+            Some(z) => format!(" with DigitalZoomRatio {}", round2(z)),
+            None => String::new(),
+        };
+        let diagonal = frame.width.hypot(frame.height);
+        let longer = frame.width.max(frame.height);
+        FocalReading {
+            frame,
+            w,
+            h,
+            zoom,
+            zoom_text,
+            diagonal,
+            longer,
+        }
+    }
+
+    /// Whether `px` (read from `source`) makes a plausible camera for the image, else why not.
+    fn check(&self, px: f64, source: &str) -> std::result::Result<(), String> {
+        let (w, h) = (self.w, self.h);
+        let camera = monohand_core::camera::Camera::centred(px, w, h)
+            .map_err(|e| format!("{source}: {e}"))?;
+        let f35 = px * DIAGONAL_35MM / self.diagonal;
+        if let Some(why) = camera.implausible_field_of_view() {
+            return Err(format!("{source} gives fx {px:.0} px for {w}x{h}, {why}"));
+        }
+        if !PhotoFocal::PLAUSIBLE_35MM.contains(&f35) {
+            return Err(format!(
+                "{source} gives a 35 mm equivalent of {f35:.1} mm, outside {:?} mm",
+                PhotoFocal::PLAUSIBLE_35MM
+            ));
+        }
+        Ok(())
+    }
+
+    /// The focal `px` used, with the readings `refused` before it and the frame's note.
+    fn done(&self, px: f64, source: String, sensor: Option<f64>, refused: &[String]) -> ExifFocal {
+        let mut why: Vec<String> = refused.to_vec();
+        if let Some(n) = &self.frame.note {
+            why.push(n.clone());
+        }
+        ExifFocal::Used(PhotoFocal {
+            px,
+            source,
+            sensor_width_mm: sensor,
+            fallback: (!why.is_empty()).then(|| why.join("; ")),
+        })
+    }
+
+    /// Reading 1, the 35 mm equivalent: the focal used, or `None` with why not in `refused`.
+    fn try_35mm(&self, tags: &ExifTags, refused: &mut Vec<String>) -> Option<ExifFocal> {
+        let f35 = tags.focal_35mm?;
+        let source = format!("EXIF FocalLengthIn35mmFilm {} mm", round2(f35));
+        let px = f35 * self.diagonal / DIAGONAL_35MM;
+        let crop = tags.focal_mm.map(|f| f35 / (f * self.zoom));
+        match crop.filter(|c| !CROP_FACTORS.contains(c)) {
+            Some(c) => refused.push(format!(
+                "{source} against FocalLength {} mm{} is a crop factor of {c:.2}, a \
+                 sensor {:.1} mm across, outside the {}-{} of real cameras (an editor's value?)",
+                round2(tags.focal_mm.unwrap_or_default()),
+                self.zoom_text,
+                DIAGONAL_35MM / c,
+                CROP_FACTORS.start(),
+                CROP_FACTORS.end()
+            )),
+            None => match self.check(px, &source) {
+                Ok(()) => return Some(self.done(px, source, None, refused)),
+                Err(why) => refused.push(why),
+            },
+        }
+        None
+    }
+
+    /// What the focal plane resolution implies for the focal length `f_mm`, if stated.
+    fn focal_plane<'a>(&self, tags: &'a ExifTags, f_mm: f64) -> Option<PlaneReading<'a>> {
+        tags.focal_plane.as_ref().map(|(per_mm, text)| {
+            let px = f_mm * self.zoom * per_mm * self.frame.scale;
+            // The sensor width it implies for this image's frame.
+            let width_mm = self.frame.width / (per_mm * self.frame.scale);
+            (px, width_mm, text)
+        })
+    }
+
+    /// Reading 2, the sensor database's width `sensor_mm`: the focal used, or `None` with
+    /// why not in `refused`.
+    fn try_sensor_db(
+        &self,
+        tags: &ExifTags,
+        f_mm: f64,
+        sensor_mm: f64,
+        plane: &Option<PlaneReading<'_>>,
+        refused: &mut Vec<String>,
+    ) -> Option<ExifFocal> {
+        let name = tags.camera_name().unwrap_or_default();
+        let source = format!(
+            "EXIF FocalLength {} mm{} on the {name}'s {} mm wide sensor (sensor database)",
+            round2(f_mm),
+            self.zoom_text,
+            round2(sensor_mm)
+        );
+        let px = f_mm * self.zoom * self.longer / sensor_mm;
+        match self.check(px, &source) {
+            Ok(()) => {
+                let mut why = refused.clone();
+                if tags.focal_35mm.is_none() {
+                    why.push("no FocalLengthIn35mmFilm".into());
+                }
+                if let Some((_, width_mm, text)) = plane {
+                    if (width_mm / sensor_mm - 1.0).abs() > 0.05 {
+                        why.push(format!(
+                            "FocalPlaneXResolution {text} implies a sensor {width_mm:.1} mm wide \
+                             for this {}-pixel-wide frame, not {} mm: the photo was resized",
+                            self.frame.width,
+                            round2(sensor_mm)
+                        ));
+                    }
+                }
+                Some(self.done(px, source, Some(sensor_mm), &why))
+            }
+            Err(why) => {
+                refused.push(why);
+                None
+            }
+        }
+    }
+
+    /// Reading 3, the focal plane resolution: the focal used, or `None` with why not in
+    /// `refused`.
+    fn try_focal_plane(
+        &self,
+        f_mm: f64,
+        (px, width_mm, text): PlaneReading<'_>,
+        refused: &mut Vec<String>,
+    ) -> Option<ExifFocal> {
+        let source = format!(
+            "EXIF FocalLength {} mm{} at {text} on the sensor",
+            round2(f_mm),
+            self.zoom_text
+        );
+        match self.check(px, &source) {
+            Ok(()) => Some(self.done(px, source, None, refused)),
+            Err(why) => {
+                refused.push(format!(
+                    "{why} (read against this {}-pixel-wide frame it implies a sensor \
+                     {width_mm:.1} mm wide: was the photo resized?)",
+                    self.frame.width
+                ));
+                None
+            }
+        }
+    }
 }
 
 /// Diagonal of a 36 x 24 mm frame, mm.

@@ -300,14 +300,14 @@ struct TrackKeys {
 }
 
 /// A `.glb` under construction: its binary data and the JSON arrays the hands are
-/// added to in turn.
+/// added to in turn. The joint and bone geometry, its materials and meshes are added when
+/// a hand first needs them, so that a file holds no object it does not use (the Khronos
+/// validator's `UNUSED_OBJECT`).
 struct GlbScene {
     b: GlbBuilder,
     materials: Vec<Value>,
-    /// The joint and bone meshes.
+    /// Every mesh: the joint and bone meshes and the skinned meshes, as first used.
     meshes: Vec<Value>,
-    /// The skinned meshes, which follow `meshes`.
-    meshes_json: Vec<Value>,
     /// Index of each side's skinned mesh, once added.
     skinned_mesh: [Option<usize>; 2],
     skins: Vec<Value>,
@@ -315,76 +315,101 @@ struct GlbScene {
     scene_roots: Vec<usize>,
     channels: Vec<Value>,
     samplers: Vec<Value>,
-    /// The joint mesh of each side.
-    side_mesh: [usize; 2],
-    /// The bone mesh of each finger.
-    finger_mesh: Vec<usize>,
+    /// The accessor of the joint and bone triangles, once added.
+    shape_indices: Option<usize>,
+    /// The joint mesh of each side, once added.
+    side_mesh: [Option<usize>; 2],
+    /// The bone mesh of each finger, once added.
+    finger_mesh: Option<Vec<usize>>,
 }
 
 impl GlbScene {
-    /// A scene with the joint and bone geometry, their materials and meshes, and nothing
-    /// else.
+    /// An empty scene.
     fn new() -> GlbScene {
-        let mut b = GlbBuilder::default();
-        // Geometry: joint octahedron and bone pyramid (base at the origin, tip at +Y 1).
-        let r = JOINT_RADIUS_M;
-        let joint_pos = double_pyramid((r, r), (r, r), (r, r), [0.0; 3]);
-        let w = BONE_HALF_WIDTH_M;
-        let bone_pos = double_pyramid(
-            (w, w),
-            (BONE_WAIST, 1.0 - BONE_WAIST),
-            (w, w),
-            [0.0, BONE_WAIST, 0.0],
-        );
-        let idx = double_pyramid_indices();
-        let joint_acc = b.vec3_accessor(&joint_pos, Some(34962));
-        let bone_acc = b.vec3_accessor(&bone_pos, Some(34962));
-        let idx_acc = b.index_accessor(&idx);
-
-        let mut materials = Vec::new();
-        let mut material = |name: &str, rgb: [u8; 3]| {
-            let c: Vec<f64> = rgb.iter().map(|&v| srgb_to_linear(v)).collect();
-            materials.push(json!({"name": name, "pbrMetallicRoughness": {
-                "baseColorFactor": [c[0], c[1], c[2], 1.0], "metallicFactor": 0.0,
-                "roughnessFactor": 0.6}}));
-            materials.len() - 1
-        };
-        let mut meshes = Vec::new();
-        let mut mesh = |name: &str, pos: usize, mat: usize| {
-            meshes.push(
-                json!({"name": name, "primitives": [{"attributes": {"POSITION": pos},
-                "indices": idx_acc, "material": mat, "mode": 4}]}),
-            );
-            meshes.len() - 1
-        };
-        let side_mesh = [HandSide::Left, HandSide::Right].map(|s| {
-            let m = material(&format!("{s}_joint"), crate::palette::side_color(s));
-            mesh(&format!("{s}_joint"), joint_acc, m)
-        });
-        let finger_mesh: Vec<usize> = monohand_core::hand_model::Finger::ALL
-            .iter()
-            .map(|f| {
-                let m = material(
-                    &format!("{}_bone", f.name()),
-                    crate::palette::FINGER_COLORS[f.index()],
-                );
-                mesh(&format!("{}_bone", f.name()), bone_acc, m)
-            })
-            .collect();
         GlbScene {
-            b,
-            materials,
-            meshes,
-            meshes_json: Vec::new(),
+            b: GlbBuilder::default(),
+            materials: Vec::new(),
+            meshes: Vec::new(),
             skinned_mesh: [None, None],
             skins: Vec::new(),
             nodes: Vec::new(),
             scene_roots: Vec::new(),
             channels: Vec::new(),
             samplers: Vec::new(),
-            side_mesh,
-            finger_mesh,
+            shape_indices: None,
+            side_mesh: [None, None],
+            finger_mesh: None,
         }
+    }
+
+    /// Adds a material of the colour `rgb` (sRGB) and `roughness`; returns its index.
+    fn material(&mut self, name: &str, rgb: [u8; 3], roughness: f64) -> usize {
+        let c: Vec<f64> = rgb.iter().map(|&v| srgb_to_linear(v)).collect();
+        self.materials
+            .push(json!({"name": name, "pbrMetallicRoughness": {
+            "baseColorFactor": [c[0], c[1], c[2], 1.0], "metallicFactor": 0.0,
+            "roughnessFactor": roughness}}));
+        self.materials.len() - 1
+    }
+
+    /// Adds a mesh of the joint and bone triangles over the vertices `pos` (an accessor)
+    /// with its own material; returns its index.
+    fn shape_mesh(&mut self, name: &str, pos: usize, rgb: [u8; 3]) -> usize {
+        let b = &mut self.b;
+        let idx = *self
+            .shape_indices
+            .get_or_insert_with(|| b.index_accessor(&double_pyramid_indices()));
+        let mat = self.material(name, rgb, 0.6);
+        self.meshes.push(
+            json!({"name": name, "primitives": [{"attributes": {"POSITION": pos},
+            "indices": idx, "material": mat, "mode": 4}]}),
+        );
+        self.meshes.len() - 1
+    }
+
+    /// The joint mesh of `side` (an octahedron in the side's colour), added on first use.
+    fn side_mesh(&mut self, side: HandSide) -> usize {
+        if let Some(m) = self.side_mesh[side_index(side)] {
+            return m;
+        }
+        let r = JOINT_RADIUS_M;
+        let pos = double_pyramid((r, r), (r, r), (r, r), [0.0; 3]);
+        let acc = self.b.vec3_accessor(&pos, Some(34962));
+        let m = self.shape_mesh(
+            &format!("{side}_joint"),
+            acc,
+            crate::palette::side_color(side),
+        );
+        self.side_mesh[side_index(side)] = Some(m);
+        m
+    }
+
+    /// The bone mesh of each finger (a pyramid with its base at the origin and its tip at
+    /// +Y 1, in the finger's colour), added on first use.
+    fn finger_meshes(&mut self) -> Vec<usize> {
+        if let Some(m) = &self.finger_mesh {
+            return m.clone();
+        }
+        let w = BONE_HALF_WIDTH_M;
+        let pos = double_pyramid(
+            (w, w),
+            (BONE_WAIST, 1.0 - BONE_WAIST),
+            (w, w),
+            [0.0, BONE_WAIST, 0.0],
+        );
+        let acc = self.b.vec3_accessor(&pos, Some(34962));
+        let m: Vec<usize> = monohand_core::hand_model::Finger::ALL
+            .iter()
+            .map(|f| {
+                self.shape_mesh(
+                    &format!("{}_bone", f.name()),
+                    acc,
+                    crate::palette::FINGER_COLORS[f.index()],
+                )
+            })
+            .collect();
+        self.finger_mesh = Some(m.clone());
+        m
     }
 
     /// Adds the hand of a track (times of all frames in `times`): a skinned mesh of
@@ -405,12 +430,12 @@ impl GlbScene {
             filled: fill_gaps(&samples),
             visible: samples.iter().map(Option::is_some).collect(),
         };
-        let children = match meshes {
+        let (children, skinned) = match meshes {
             Some(meshes) => self.add_skinned_hand(&keys, &meshes[side_index(track.side)]),
             None => {
                 let mut children = self.add_joint_nodes(&keys);
                 children.extend(self.add_bone_nodes(&keys));
-                children
+                (children, None)
             }
         };
         let (id, side) = (&keys.id, keys.side);
@@ -418,6 +443,9 @@ impl GlbScene {
         self.nodes
             .push(json!({"name": format!("hand_{id}_{side}"), "children": children}));
         self.scene_roots.push(hand);
+        // A skinned mesh's node is a root of the scene: its skin's joints place it, and a
+        // parent's transform would not (the validator's `NODE_SKINNED_MESH_NON_ROOT`).
+        self.scene_roots.extend(skinned);
     }
 
     /// Animates the `path` of `node` with `data` (`comps` floats a key) at the keys of
@@ -443,21 +471,25 @@ impl GlbScene {
     }
 
     /// Adds a hand drawn as `mesh` skinned to animated joint nodes (its skin, the joint
-    /// nodes and the mesh node); returns the nodes to put under the hand's node.
-    fn add_skinned_hand(&mut self, k: &TrackKeys, mesh: &HandMesh) -> Vec<usize> {
+    /// nodes and the mesh node); returns the joint nodes, to put under the hand's node,
+    /// and the mesh node, a root of the scene.
+    fn add_skinned_hand(&mut self, k: &TrackKeys, mesh: &HandMesh) -> (Vec<usize>, Option<usize>) {
         let (id, side) = (&k.id, k.side);
         let si = side_index(side);
-        let (b, materials, meshes_json) = (&mut self.b, &mut self.materials, &mut self.meshes_json);
-        let mi = *self.skinned_mesh[si]
-            .get_or_insert_with(|| skinned_mesh_json(b, mesh, materials, meshes_json));
+        let mi = match self.skinned_mesh[si] {
+            Some(mi) => mi,
+            None => {
+                let mi = self.add_skinned_mesh(mesh);
+                self.skinned_mesh[si] = Some(mi);
+                mi
+            }
+        };
         let ibm = self.b.raw_accessor(&mesh.inverse_bind);
         let poses = skinned_poses(mesh, &k.filled);
-        let mut children = Vec::new();
         let mut joint_nodes = Vec::new();
         for (ji, (name, _)) in MESH_JOINTS.iter().enumerate() {
             let node = self.nodes.len();
             joint_nodes.push(node);
-            children.push(node);
             let (mut tr, mut rot, mut sc) = (Vec::new(), Vec::new(), Vec::new());
             let mut prev_q: Option<[f32; 4]> = None;
             for (p, &v) in poses.iter().zip(&k.visible) {
@@ -493,19 +525,40 @@ impl GlbScene {
         let mesh_node = json!({"name": format!("mesh_{id}_{side}"),
             "mesh": mi, "skin": self.skins.len() - 1});
         self.nodes.push(mesh_node);
-        children.push(node);
-        children
+        (joint_nodes, Some(node))
+    }
+
+    /// Adds a side's skinned mesh (its vertex data, and a material in the side's colour);
+    /// returns its index among the meshes.
+    fn add_skinned_mesh(&mut self, mesh: &HandMesh) -> usize {
+        let mut attributes = serde_json::Map::new();
+        for (name, raw) in &mesh.attributes {
+            attributes.insert(name.to_string(), json!(self.b.raw_accessor(raw)));
+        }
+        let indices = self.b.raw_accessor(&mesh.indices);
+        let material = self.material(
+            &format!("{}_skin", mesh.side),
+            crate::palette::side_color(mesh.side),
+            0.55,
+        );
+        self.meshes.push(
+            json!({"name": format!("{}_hand", mesh.side), "primitives": [{
+            "attributes": attributes, "indices": indices, "material": material,
+            "mode": 4}]}),
+        );
+        self.meshes.len() - 1
     }
 
     /// Adds the 21 joint nodes of a hand drawn as joints and bones; returns them.
     fn add_joint_nodes(&mut self, k: &TrackKeys) -> Vec<usize> {
         let (id, side) = (&k.id, k.side);
+        let mesh = self.side_mesh(side);
         let mut children = Vec::new();
         for (j, name) in JOINT_NAMES.iter().enumerate() {
             let node = self.nodes.len();
             let first = k.filled.first().map_or([0.0; 3], |f| f[j]);
             let joint = json!({"name": format!("{name}_{id}_{side}"),
-                "mesh": self.side_mesh[side_index(side)], "translation": first});
+                "mesh": mesh, "translation": first});
             self.nodes.push(joint);
             children.push(node);
             let tr: Vec<f32> = k.filled.iter().flat_map(|f| f[j]).collect();
@@ -523,12 +576,13 @@ impl GlbScene {
     /// Adds the 20 bone nodes of a hand drawn as joints and bones; returns them.
     fn add_bone_nodes(&mut self, k: &TrackKeys) -> Vec<usize> {
         let (id, side) = (&k.id, k.side);
+        let finger_mesh = self.finger_meshes();
         let mut children = Vec::new();
         for &(a, c) in &BONES {
             let node = self.nodes.len();
             let finger = (c - 1) / 4;
             let bone = json!({"name": format!("bone_{}_{}_{id}_{side}",
-                JOINT_NAMES[a], JOINT_NAMES[c]), "mesh": self.finger_mesh[finger]});
+                JOINT_NAMES[a], JOINT_NAMES[c]), "mesh": finger_mesh[finger]});
             self.nodes.push(bone);
             children.push(node);
             let (mut tr, mut rot, mut sc) = (Vec::new(), Vec::new(), Vec::new());
@@ -572,11 +626,10 @@ impl GlbScene {
             "scenes": [{"name": "monohand", "nodes": self.scene_roots}],
             "nodes": self.nodes,
             "cameras": [cam],
-            "materials": self.materials,
-            "meshes": self.meshes,
         });
-        if let Some(m) = doc["meshes"].as_array_mut() {
-            m.extend(self.meshes_json);
+        if !self.meshes.is_empty() {
+            doc["materials"] = json!(self.materials);
+            doc["meshes"] = json!(self.meshes);
         }
         if !self.skins.is_empty() {
             doc["skins"] = json!(self.skins);
@@ -606,37 +659,6 @@ fn skinned_poses(
     }
     let first = poses.iter().flatten().next().copied();
     poses.into_iter().map(|p| p.or(first)).collect()
-}
-
-/// Adds a side's skinned mesh (its vertex data, and a material in the side's colour) to
-/// the file; returns its index among the meshes that follow the joints' meshes.
-fn skinned_mesh_json(
-    b: &mut GlbBuilder,
-    mesh: &HandMesh,
-    materials: &mut Vec<Value>,
-    meshes_json: &mut Vec<Value>,
-) -> usize {
-    let mut attributes = serde_json::Map::new();
-    for (name, raw) in &mesh.attributes {
-        attributes.insert(name.to_string(), json!(b.raw_accessor(raw)));
-    }
-    let indices = b.raw_accessor(&mesh.indices);
-    let c: Vec<f64> = crate::palette::side_color(mesh.side)
-        .iter()
-        .map(|&v| srgb_to_linear(v))
-        .collect();
-    materials.push(
-        json!({"name": format!("{}_skin", mesh.side), "pbrMetallicRoughness": {
-        "baseColorFactor": [c[0], c[1], c[2], 1.0], "metallicFactor": 0.0,
-        "roughnessFactor": 0.55}}),
-    );
-    meshes_json.push(
-        json!({"name": format!("{}_hand", mesh.side), "primitives": [{
-        "attributes": attributes, "indices": indices, "material": materials.len() - 1,
-        "mode": 4}]}),
-    );
-    // Index among all meshes: the joint meshes (2 sides + 5 fingers) come first.
-    2 + monohand_core::hand_model::Finger::ALL.len() + meshes_json.len() - 1
 }
 
 /// Replaces the gaps of a track by the nearest earlier sample (or, before the
