@@ -156,3 +156,100 @@ fn the_rig_matches_opencv_stereo_calibrate() {
         &keep_all,
     );
 }
+
+/// A board rendered through a known camera with strong distortion (the pixels made by
+/// following each pixel's ray through the lens onto the board, 2x2 samples a
+/// pixel), then found and calibrated: the true intrinsics come back.
+#[test]
+fn a_rendered_board_through_a_strongly_distorted_lens_gives_the_camera_back() {
+    use monohand_core::camera::{Camera, Distortion, Extrinsics, Intrinsics};
+    let (w, h) = (1280usize, 720usize);
+    let truth = Camera::new(
+        Intrinsics {
+            fx: 900.0,
+            fy: 905.0,
+            cx: 650.0,
+            cy: 350.0,
+            width: w as u32,
+            height: h as u32,
+        },
+        Distortion::from_slice(&[-0.3, 0.12, 1e-3, -5e-4, -0.02]).unwrap(),
+        Extrinsics::default(),
+    )
+    .unwrap();
+    let board = Board::new(9, 6, 25.0).unwrap();
+    let k = truth.intrinsics;
+    let mut views = Vec::new();
+    // Poses: the board tilted 15-45 degrees about varied axes, 350-550 mm away, over the image.
+    for i in 0..14 {
+        let a = i as f64;
+        let tilt = (15.0 + 30.0 * ((a * 0.37).sin() * 0.5 + 0.5)).to_radians();
+        let axis = nalgebra::Unit::new_normalize(Vector3::new(
+            (a * 1.3).cos(),
+            (a * 1.3).sin(),
+            0.2 * (a * 0.7).cos(),
+        ));
+        let r = Rotation3::from_axis_angle(&axis, tilt);
+        let centre = Vector3::new(
+            110.0 * (a * 2.1).cos(),
+            70.0 * (a * 1.7).sin(),
+            380.0 + 15.0 * a,
+        );
+        let t = centre - r * Vector3::new(100.0, 62.5, 0.0);
+        let n = r * Vector3::z();
+        let mut px = vec![0u8; w * h];
+        for y in 0..h {
+            for x in 0..w {
+                let mut sum = 0.0;
+                for (dx, dy) in [(-0.25, -0.25), (0.25, -0.25), (-0.25, 0.25), (0.25, 0.25)] {
+                    let d = nalgebra::Vector2::new(
+                        (x as f64 + dx - k.cx) / k.fx,
+                        (y as f64 + dy - k.cy) / k.fy,
+                    );
+                    let u = truth.distortion.undistort(d);
+                    let ray = Vector3::new(u.x, u.y, 1.0);
+                    let s = n.dot(&t) / n.dot(&ray);
+                    let p = r.inverse() * (ray * s - t);
+                    let (c, q) = ((p.x / 25.0 + 1.0).floor(), (p.y / 25.0 + 1.0).floor());
+                    let inside = (0.0..10.0).contains(&c) && (0.0..7.0).contains(&q);
+                    sum += if inside && (c + q) as i64 % 2 == 0 {
+                        30.0
+                    } else {
+                        220.0
+                    };
+                }
+                px[y * w + x] = (sum / 4.0) as u8;
+            }
+        }
+        let grey = GrayImage::new(w, h, &px).unwrap();
+        if let Ok(found) = monohand_calib::corners::find_chessboard(&grey, &board) {
+            views.push(BoardView {
+                name: format!("render {i}"),
+                corners: found.corners,
+            });
+        }
+    }
+    assert!(views.len() >= 12, "{} of 14 renders found", views.len());
+    let cal = calibrate_camera(
+        &board,
+        &views,
+        w as u32,
+        h as u32,
+        &CalibrateOptions::default(),
+    )
+    .unwrap();
+    let got = cal.camera.intrinsics;
+    println!(
+        "rendered: fx {:.2} fy {:.2} cx {:.2} cy {:.2} rms {:.3} from {} views; dist {:?}",
+        got.fx,
+        got.fy,
+        got.cx,
+        got.cy,
+        cal.rms_px,
+        views.len(),
+        cal.camera.distortion.coeffs
+    );
+    assert!((got.fx / 900.0 - 1.0).abs() < 0.002, "fx {}", got.fx);
+    assert!((got.fy / 905.0 - 1.0).abs() < 0.002, "fy {}", got.fy);
+    assert!((got.cx - 650.0).abs() < 2.0 && (got.cy - 350.0).abs() < 2.0);
+}
