@@ -96,6 +96,9 @@ pub struct SeenFrame<'a> {
     pub coverage: &'a Coverage,
 }
 
+/// Per camera, per kept instant, its view (`None` where it did not see the whole board).
+pub(super) type Instants = Vec<Vec<Option<BoardView>>>;
+
 /// What one camera saw at one instant.
 struct Seen {
     name: String,
@@ -108,7 +111,7 @@ pub(super) fn collect(
     inputs: &[Input],
     settings: &CalibrateSettings,
     seen: &mut dyn FnMut(&SeenFrame<'_>) -> bool,
-) -> Result<(Vec<CameraViews>, Vec<Vec<Option<BoardView>>>), CalibrateError> {
+) -> Result<(Vec<CameraViews>, Instants), CalibrateError> {
     if inputs.is_empty() {
         return Err(CalibrateError::Inputs("no input given".into()));
     }
@@ -136,7 +139,7 @@ pub(super) fn collect(
             break;
         };
         instant += 1;
-        if (instant - 1) % stride != 0 {
+        if !(instant - 1).is_multiple_of(stride) {
             continue;
         }
         go_on = state.examine(frames, stride, seen);
@@ -523,8 +526,8 @@ impl<'s> Collector<'s> {
     }
 
     /// Per camera its views, and per camera per kept instant its view.
-    fn finish(mut self) -> (Vec<CameraViews>, Vec<Vec<Option<BoardView>>>) {
-        let mut instants: Vec<Vec<Option<BoardView>>> = vec![Vec::new(); self.cameras.len()];
+    fn finish(mut self) -> (Vec<CameraViews>, Instants) {
+        let mut instants: Instants = vec![Vec::new(); self.cameras.len()];
         for kept in std::mem::take(&mut self.kept) {
             for (k, b) in kept.into_iter().enumerate() {
                 let view = b.map(|(name, b)| BoardView {

@@ -255,7 +255,7 @@ fn too_few(v: &CameraViews, board: &Board) -> CalibrateError {
             None => counts.push((why.clone(), 1)),
         }
     }
-    counts.sort_by(|a, b| b.1.cmp(&a.1));
+    counts.sort_by_key(|c| std::cmp::Reverse(c.1));
     let reasons: Vec<String> = counts
         .iter()
         .take(3)
