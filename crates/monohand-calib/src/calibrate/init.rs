@@ -140,8 +140,18 @@ pub(crate) fn pose_from_homography(k: &Matrix3<f64>, h: &Matrix3<f64>) -> Option
     let r2 = m.column(1) * s;
     let r3 = r1.cross(&r2);
     let t = m.column(2) * s;
-    let q = Matrix3::from_columns(&[r1, r2, r3]);
-    let svd = q.svd(true, true);
+    let r = nearest_rotation(&Matrix3::from_columns(&[r1, r2, r3]))?;
+    let pose = Pose {
+        r: Rotation3::from_matrix_unchecked(r),
+        t: t.into_owned(),
+    };
+    (pose.t.iter().all(|v| v.is_finite()) && pose.t.z > 0.0).then_some(pose)
+}
+
+/// The rotation matrix nearest to `m` (Frobenius norm): `U V^T` of its SVD, with the last
+/// column of `U` flipped if that would be a reflection.
+pub(crate) fn nearest_rotation(m: &Matrix3<f64>) -> Option<Matrix3<f64>> {
+    let svd = m.svd(true, true);
     let (u, vt) = (svd.u?, svd.v_t?);
     let mut r = u * vt;
     if r.determinant() < 0.0 {
@@ -149,11 +159,7 @@ pub(crate) fn pose_from_homography(k: &Matrix3<f64>, h: &Matrix3<f64>) -> Option
         u2.column_mut(2).neg_mut();
         r = u2 * vt;
     }
-    let pose = Pose {
-        r: Rotation3::from_matrix_unchecked(r),
-        t: t.into_owned(),
-    };
-    (pose.t.iter().all(|v| v.is_finite()) && pose.t.z > 0.0).then_some(pose)
+    Some(r)
 }
 
 #[cfg(test)]

@@ -1,6 +1,7 @@
 //! A rig's calibration: each camera alone, the cameras placed one after another from the
 //! instants they share with those already placed, then one joint refinement.
 
+use super::init::nearest_rotation;
 use super::projection::{Pose, N_INTR};
 use super::quality::{intrinsics_std, warnings};
 use super::single::{calibrate as calibrate_one, free_intrinsics, to_camera, to_extrinsics};
@@ -65,15 +66,7 @@ fn calibrate_each(
 /// The rotation nearest (chordal L2) to the mean of `rs`.
 fn chordal_mean(rs: &[Rotation3<f64>]) -> Option<Rotation3<f64>> {
     let m: Matrix3<f64> = rs.iter().map(|r| r.matrix()).sum();
-    let svd = m.svd(true, true);
-    let (u, vt) = (svd.u?, svd.v_t?);
-    let mut r = u * vt;
-    if r.determinant() < 0.0 {
-        let mut u2 = u;
-        u2.column_mut(2).neg_mut();
-        r = u2 * vt;
-    }
-    Some(Rotation3::from_matrix(&r))
+    Some(Rotation3::from_matrix(&nearest_rotation(&m)?))
 }
 
 /// Component-wise median of non-empty `ts`.

@@ -154,14 +154,7 @@ fn solve_views(
             needed: MIN_VIEWS,
         });
     }
-    let pb = Problem {
-        object,
-        blocks: used
-            .iter()
-            .map(|&i| vec![(0, views[i].corners.as_slice())])
-            .collect(),
-        n_cameras: 1,
-    };
+    let pb = one_camera(object, views, used);
     let start = State {
         intr: vec![intr],
         rel: vec![Pose::identity()],
@@ -178,14 +171,7 @@ fn solve_views(
 
 /// Per used view, its RMS (OpenCV's: per corner, Euclidean).
 fn view_rms(object: &[Vector3<f64>], views: &[BoardView], used: &[usize], s: &State) -> Vec<f64> {
-    let pb = Problem {
-        object,
-        blocks: used
-            .iter()
-            .map(|&i| vec![(0, views[i].corners.as_slice())])
-            .collect(),
-        n_cameras: 1,
-    };
+    let pb = one_camera(object, views, used);
     errors(&pb, s)
         .iter()
         .map(|b| match b.first() {
@@ -298,4 +284,20 @@ fn finish(
         std,
         warnings,
     })
+}
+
+/// The problem of one camera over the views `used`.
+fn one_camera<'a>(
+    object: &'a [Vector3<f64>],
+    views: &'a [BoardView],
+    used: &[usize],
+) -> Problem<'a> {
+    Problem {
+        object,
+        blocks: used
+            .iter()
+            .map(|&i| vec![(0, views[i].corners.as_slice())])
+            .collect(),
+        n_cameras: 1,
+    }
 }
