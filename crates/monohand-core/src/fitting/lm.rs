@@ -63,6 +63,15 @@ pub(crate) struct Solution {
     pub converged: bool,
 }
 
+/// A step [`HandFitter::solve`] tried: the step asked for, the pose it led to (clamped to
+/// the limits), the step actually taken and that pose's cost (`None`: not finite).
+struct Tried {
+    step: Vec26,
+    candidate: HandPose,
+    taken: Vec26,
+    cost: Option<f64>,
+}
+
 /// What a warm-started fit's temporal term pulls towards.
 // Passed by value once per fit; boxing the joints would allocate per fit.
 #[allow(clippy::large_enum_variant)]
@@ -569,6 +578,49 @@ impl HandFitter {
         Some(self.prior_weight * (pts[j] - prior[j]))
     }
 
+    /// A failed step of [`Self::solve`] from `pose` (whose cost is `cost` and gradient
+    /// `g`), shortened once when it was not already tiny: the step to the minimiser of
+    /// the quadratic through the cost at 0 and 1 and the slope at 0 (clamped to 0.1-0.5 of
+    /// it; a quarter when that is unknown), kept if it lowers the cost. A step that
+    /// lowered the cost, or whose shortening does not, is returned as tried.
+    fn shorten_failed_step(
+        &self,
+        pose: &HandPose,
+        tried: Tried,
+        cost: f64,
+        g: &Vec26,
+        mask: &JointMask,
+    ) -> (HandPose, Vec26, Option<f64>) {
+        let limits = &self.posed.limits;
+        let Tried {
+            step,
+            candidate,
+            taken,
+            cost: new_cost,
+        } = tried;
+        match new_cost {
+            Some(nc) if nc < cost => (candidate, taken, new_cost),
+            _ if taken.amax() > self.options.solver.step_tolerance => {
+                let slope = 2.0 * g.dot(&taken);
+                let alpha = match new_cost {
+                    Some(nc) if slope < 0.0 => {
+                        (-slope / (2.0 * (nc - cost - slope))).clamp(0.1, 0.5)
+                    }
+                    _ => 0.25,
+                };
+                let short_step = step * alpha;
+                let short = apply_step(pose, &short_step, limits);
+                match self.cost(&short, mask) {
+                    Some(c) if c < cost => {
+                        (short, step_between(pose, &short, &short_step), Some(c))
+                    }
+                    _ => (candidate, taken, new_cost),
+                }
+            }
+            _ => (candidate, taken, new_cost),
+        }
+    }
+
     /// Levenberg-Marquardt from `start` over the free degrees of freedom.
     pub(crate) fn solve(
         &self,
@@ -614,27 +666,18 @@ impl HandFitter {
             // quadratic through the cost at 0 and 1 and the slope at 0) before
             // the damping is raised: in the curved valleys of the monocular
             // cost the Gauss-Newton direction is often good but too long.
-            let (candidate, taken, new_cost) = match new_cost {
-                Some(nc) if nc < cost => (candidate, taken, new_cost),
-                _ if taken.amax() > self.options.solver.step_tolerance => {
-                    let slope = 2.0 * g.dot(&taken);
-                    let alpha = match new_cost {
-                        Some(nc) if slope < 0.0 => {
-                            (-slope / (2.0 * (nc - cost - slope))).clamp(0.1, 0.5)
-                        }
-                        _ => 0.25,
-                    };
-                    let short_step = step * alpha;
-                    let short = apply_step(&pose, &short_step, limits);
-                    match self.cost(&short, mask) {
-                        Some(c) if c < cost => {
-                            (short, step_between(&pose, &short, &short_step), Some(c))
-                        }
-                        _ => (candidate, taken, new_cost),
-                    }
-                }
-                _ => (candidate, taken, new_cost),
-            };
+            let (candidate, taken, new_cost) = self.shorten_failed_step(
+                &pose,
+                Tried {
+                    step,
+                    candidate,
+                    taken,
+                    cost: new_cost,
+                },
+                cost,
+                &g,
+                mask,
+            );
             match new_cost {
                 Some(nc) if nc < cost => {
                     let rho = if predicted > 0.0 {
