@@ -142,6 +142,36 @@ pub struct Camera {
     pub extrinsics: Extrinsics,
 }
 
+/// Why a calibration cannot be scaled to images of another size ([`Camera::scaled_to`]).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum ScaleError {
+    /// The images have no pixels.
+    #[error("an image of {width}x{height} pixels")]
+    NoPixels {
+        /// Their width.
+        width: u32,
+        /// Their height.
+        height: u32,
+    },
+    /// The images are not the calibrated frame scaled (cropped, or another sensor mode).
+    #[error(
+        "the calibration is for {}x{} (aspect {:.4}) and the images are {}x{} (aspect {:.4}): \
+         not the same frame scaled, so the images were cropped or come from another sensor \
+         mode; calibrate at {}x{}",
+        calibrated.0, calibrated.1, calibrated.0 as f64 / calibrated.1 as f64,
+        images.0, images.1, images.0 as f64 / images.1 as f64, images.0, images.1
+    )]
+    OtherShape {
+        /// The calibration's size.
+        calibrated: (u32, u32),
+        /// The images' size.
+        images: (u32, u32),
+    },
+    /// The scaled camera is not possible.
+    #[error(transparent)]
+    Invalid(crate::CoreError),
+}
+
 impl Camera {
     /// A camera from its parts, checked ([`Camera::validate`]): the one constructor that
     /// file readers and bindings use, so no camera skips the checks.
@@ -252,10 +282,10 @@ impl Camera {
     /// and the pose unchanged). The aspect ratio must be the same up to one pixel of
     /// rounding on either side; otherwise the error says why the camera cannot describe
     /// these images (cropped, or another sensor mode).
-    pub fn scaled_to(&self, width: u32, height: u32) -> Result<Camera, String> {
+    pub fn scaled_to(&self, width: u32, height: u32) -> Result<Camera, ScaleError> {
         let k = &self.intrinsics;
         if width == 0 || height == 0 {
-            return Err(format!("an image of {width}x{height} pixels"));
+            return Err(ScaleError::NoPixels { width, height });
         }
         let sx = width as f64 / k.width as f64;
         let sy = height as f64 / k.height as f64;
@@ -263,15 +293,10 @@ impl Camera {
         let off_x = (k.width as f64 * sy - width as f64).abs();
         let off_y = (k.height as f64 * sx - height as f64).abs();
         if off_x > 1.0 && off_y > 1.0 {
-            return Err(format!(
-                "the calibration is for {}x{} (aspect {:.4}) and the images are {width}x{height} \
-                 (aspect {:.4}): not the same frame scaled, so the images were cropped or come \
-                 from another sensor mode; calibrate at {width}x{height}",
-                k.width,
-                k.height,
-                k.width as f64 / k.height as f64,
-                width as f64 / height as f64
-            ));
+            return Err(ScaleError::OtherShape {
+                calibrated: (k.width, k.height),
+                images: (width, height),
+            });
         }
         let mut cam = *self;
         cam.intrinsics = Intrinsics {
@@ -282,7 +307,7 @@ impl Camera {
             width,
             height,
         };
-        cam.validate().map_err(|e| e.to_string())?;
+        cam.validate().map_err(ScaleError::Invalid)?;
         Ok(cam)
     }
 
@@ -454,7 +479,7 @@ mod tests {
         // The same size is the same camera.
         assert_eq!(cal.scaled_to(1920, 1080).unwrap(), cal);
         // 4:3 frames from a 16:9 calibration: cropped or another mode, refused with why.
-        let e = cal.scaled_to(640, 480).unwrap_err();
+        let e = cal.scaled_to(640, 480).unwrap_err().to_string();
         assert!(e.contains("1920x1080") && e.contains("640x480"), "{e}");
         assert!(cal.scaled_to(0, 480).is_err());
     }

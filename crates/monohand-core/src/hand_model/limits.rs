@@ -72,11 +72,13 @@ impl JointLimits {
     }
 
     /// Checks that every range is finite and non-empty.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> crate::CoreResult<()> {
         for i in 0..NUM_ANGLES {
             let (lo, hi) = (self.lower[i], self.upper[i]);
             if !(lo.is_finite() && hi.is_finite() && lo <= hi) {
-                return Err(format!("angle {i}: bad range [{lo}, {hi}]"));
+                return Err(crate::CoreError::InvalidSkeleton(format!(
+                    "angle {i}: bad range [{lo}, {hi}]"
+                )));
             }
         }
         Ok(())

@@ -271,7 +271,7 @@ impl HandSkeleton {
                 )));
             }
         }
-        self.limits.validate().map_err(CoreError::InvalidSkeleton)
+        self.limits.validate()
     }
 
     /// Rest-pose joint positions in the hand frame.
