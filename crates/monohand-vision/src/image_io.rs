@@ -185,13 +185,24 @@ impl ExifTags {
     }
 }
 
+/// Why the camera tags of an EXIF block could not be read ([`read_exif_tags`]).
+#[derive(Debug, thiserror::Error)]
+pub enum ExifError {
+    /// The block is not readable EXIF.
+    #[error("unreadable EXIF: {0}")]
+    Unreadable(#[source] exif::Error),
+    /// `FocalPlaneResolutionUnit` is not one of the standard's lengths.
+    #[error("FocalPlaneResolutionUnit {0} is not a length")]
+    FocalPlaneUnit(u32),
+}
+
 /// Reads the camera tags of a raw EXIF (TIFF) block; `Err`: unreadable, or a focal plane
 /// unit that is not a length.
-pub fn read_exif_tags(raw: Vec<u8>) -> std::result::Result<ExifTags, String> {
+pub fn read_exif_tags(raw: Vec<u8>) -> std::result::Result<ExifTags, ExifError> {
     use exif::{In, Tag};
     let exif = exif::Reader::new()
         .read_raw(raw)
-        .map_err(|e| format!("unreadable EXIF: {e}"))?;
+        .map_err(ExifError::Unreadable)?;
     let number = |tag: Tag| -> Option<f64> {
         let field = exif.get_field(tag, In::PRIMARY)?;
         let v = match &field.value {
@@ -225,7 +236,7 @@ pub fn read_exif_tags(raw: Vec<u8>) -> std::result::Result<ExifTags, String> {
                     3 => (10.0, "cm"),
                     4 => (1.0, "mm"),
                     5 => (1e-3, "µm"),
-                    u => return Err(format!("FocalPlaneResolutionUnit {u} is not a length")),
+                    u => return Err(ExifError::FocalPlaneUnit(u)),
                 };
             Some((res / unit_mm, format!("{} pixels per {unit}", round2(res))))
         }

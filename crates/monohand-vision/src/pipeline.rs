@@ -542,6 +542,11 @@ impl HandPipeline {
         }
     }
 
+    /// Whether it detects heads (it has a face detector).
+    pub fn detects_heads(&self) -> bool {
+        self.face.is_some()
+    }
+
     /// Whether the network passes of one frame that do not depend on each other (the
     /// landmark passes of tracked hands, the palm and face detectors) run side by side on
     /// rayon's threads (the default) or one after the other. The results are the same. The
