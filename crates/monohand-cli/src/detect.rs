@@ -31,7 +31,7 @@ pub(crate) fn run(args: &DetectArgs) -> Result<()> {
     if args.threads == Some(0) {
         bail!("--threads must be at least 1");
     }
-    let pipeline = args.models.pipeline(1)?;
+    let pipeline = args.models.pipeline_for(false)?;
     let out: Box<dyn Sink> = Box::new(JsonlSink::open(&args.output)?);
     let report = detect_images(
         &pipeline,

@@ -174,8 +174,8 @@ pub(crate) fn run(args: &EvalArgs) -> Result<()> {
     );
     let networks = match plan.stage {
         plan::Stage::Full => {
-            let pipeline = args.models.pipeline(monohand::refine_passes(args.track))?;
-            let (models, options) = args.models.options(0);
+            let pipeline = args.models.pipeline_for(args.track)?;
+            let (models, options) = args.models.options();
             Some((Arc::new(pipeline), models.describe(&options.landmarks)))
         }
         plan::Stage::Lift { .. } => None,

@@ -169,6 +169,30 @@ pub(crate) fn read_cameras(paths: &[PathBuf]) -> Result<Vec<Camera>> {
     paths.iter().enumerate().map(read).collect()
 }
 
+/// The library's resolved settings, a refused one said with its flag.
+pub(crate) fn resolve(settings: monohand::Settings) -> Result<monohand::ResolvedSettings> {
+    use monohand::Field;
+    settings.resolve().map_err(|e| {
+        let flag = match e.field {
+            Field::Tracking => "--track",
+            Field::DetectEvery => "--detect-every",
+            Field::Threads => "--threads",
+            Field::MaxHands => "--hands",
+            Field::MinPresence => "--min-presence",
+            Field::MirrorPass => "--no-mirror-pass",
+            Field::Heads => "--no-heads",
+            Field::Pipeline => "the networks' options",
+            Field::FitOptions => "the fit's options",
+            Field::HandScale => "--hand-scale",
+            Field::Smoothing => "--smooth",
+            Field::SmoothMinCutoff => "--smooth-min-cutoff",
+            Field::SmoothBeta => "--smooth-beta",
+            Field::Offline => "--offline",
+        };
+        anyhow::anyhow!("{flag} {}", e.why)
+    })
+}
+
 /// A note of the library, with the flag it is about in front (the library names none).
 pub(crate) fn flagged(note: &monohand::Note) -> String {
     let flag = match note.topic {

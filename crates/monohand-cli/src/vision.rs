@@ -92,8 +92,9 @@ impl ModelArgs {
         Ok(ModelStore::new(self.model_dir.clone())?)
     }
 
-    /// Which networks, and their options.
-    pub fn options(&self, refine_passes: usize) -> (ModelOptions, PipelineOptions) {
+    /// Which networks, and their options as given (the refine passes are derived:
+    /// [`crate::resolve`]).
+    pub fn options(&self) -> (ModelOptions, PipelineOptions) {
         let models = ModelOptions {
             model_dir: self.model_dir.clone(),
             palm: self.palm_model.into(),
@@ -104,7 +105,6 @@ impl ModelArgs {
             max_hands: self.max_hands,
             min_presence: self.min_presence,
             mirrored_input: self.mirrored,
-            refine_passes,
             landmarks: monohand_vision::landmarks::LandmarkOptions {
                 mirror_pass: !self.no_mirror_pass,
                 ..Default::default()
@@ -114,9 +114,19 @@ impl ModelArgs {
         (models, options)
     }
 
-    /// Builds the front end (fetching the weights if needed).
-    pub fn pipeline(&self, refine_passes: usize) -> Result<HandPipeline> {
-        let (models, options) = self.options(refine_passes);
+    /// The front end for frames tracked or not, its options resolved by the library.
+    pub fn pipeline_for(&self, tracking: bool) -> Result<HandPipeline> {
+        let mut settings = monohand::Settings {
+            pipeline: self.options().1,
+            ..Default::default()
+        };
+        settings.fit.tracking = tracking;
+        self.pipeline(crate::resolve(settings)?.pipeline())
+    }
+
+    /// Builds the front end with `options` (resolved; fetching the weights if needed).
+    pub fn pipeline(&self, options: PipelineOptions) -> Result<HandPipeline> {
+        let models = self.options().0;
         let pipeline = match (&self.keypoint_model, self.keypoint_format) {
             (Some(path), Some(KeypointFormat::Heatmap)) => {
                 let config = HeatmapModelConfig {

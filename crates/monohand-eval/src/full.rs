@@ -19,7 +19,7 @@ use crate::evaluate::{
 };
 use crate::metrics::{self, HandErrors, Joints};
 use monohand::engine::{
-    Engine, EngineSettings, FrameSource, Output, Quiet, Sink, SinkError, SourceFrame,
+    Engine, FrameSource, Output, Quiet, Sink, SinkError, SourceError, SourceFrame,
 };
 use monohand::{FitSettings, HandPipeline, RgbImage};
 use monohand_core::prelude::*;
@@ -152,19 +152,26 @@ fn run_sequence(
             )));
         }
     }
-    let engine_settings = EngineSettings {
+    let mut engine_settings = monohand::Settings {
+        // The networks as loaded: the engine checks them against these settings.
+        pipeline: pipeline.options,
         fit: FitSettings {
             skeletons,
             options: settings.fit_options,
             tracking: settings.track,
             proportion_frames: settings.proportion_frames,
             offline: settings.offline.then(monohand::OfflineSettings::default),
-            depth_filter: settings.depth_filter.then_some(monohand::DEPTH_FILTER),
             ..FitSettings::default()
         },
         detect_every: DETECT_EVERY,
-        ..EngineSettings::default()
+        ..monohand::Settings::default()
     };
+    if !settings.depth_filter {
+        engine_settings.fit.depth_filter = None;
+    }
+    let engine_settings = engine_settings
+        .resolve()
+        .map_err(|e| EvalError::Settings(e.to_string()))?;
     let engine = Engine::new(Arc::clone(pipeline), cameras, engine_settings)
         .map_err(|e| EvalError::Detector(e.to_string()))?;
     let sources: Vec<Box<dyn FrameSource>> = (0..views)
@@ -212,14 +219,14 @@ struct SequenceImages {
 }
 
 impl FrameSource for SequenceImages {
-    fn next_frame(&mut self) -> Result<Option<SourceFrame>, String> {
+    fn next_frame(&mut self) -> Result<Option<SourceFrame>, SourceError> {
         let Some((path, crop)) = self.images.get(self.next) else {
             return Ok(None);
         };
         let index = self.next as u64;
         self.next += 1;
         let image = monohand::vision::image_io::load_rgb(path)
-            .map_err(|e| e.to_string())
+            .map_err(|e| SourceError::Image(e.to_string()))
             .and_then(|img| match crop {
                 Some(c) => uncrop(&img, c),
                 None => Ok(img),
@@ -245,11 +252,14 @@ impl FrameSource for SequenceImages {
 
 /// A crop resized to its box and pasted into a black frame of the original camera's size
 /// (bicubic, as ffmpeg's default scaler in `tools/dev_video.py`).
-fn uncrop(crop: &RgbImage, origin: &CropOrigin) -> Result<RgbImage, String> {
+fn uncrop(crop: &RgbImage, origin: &CropOrigin) -> Result<RgbImage, SourceError> {
     let k = &origin.camera.intrinsics;
     let [x, y, w, h] = origin.box_xywh.map(f64::round);
     if !(w >= 1.0 && h >= 1.0 && x.is_finite() && y.is_finite()) {
-        return Err(format!("crop box {:?} is empty", origin.box_xywh));
+        return Err(SourceError::Image(format!(
+            "crop box {:?} is empty",
+            origin.box_xywh
+        )));
     }
     let scaled = image::imageops::resize(
         crop,

@@ -15,10 +15,14 @@ use std::path::PathBuf;
 use std::sync::Arc;
 
 fn pipeline() -> Arc<HandPipeline> {
-    let options = monohand::vision::PipelineOptions {
-        refine_passes: monohand::refine_passes(true),
+    // The networks' defaults, resolved for tracking.
+    let options = monohand::Settings {
+        pipeline: Default::default(),
         ..Default::default()
-    };
+    }
+    .resolve()
+    .expect("settings")
+    .pipeline();
     Arc::new(HandPipeline::new(&Default::default(), options).expect("networks"))
 }
 

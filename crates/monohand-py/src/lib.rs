@@ -6,10 +6,10 @@
 //! decodes, so Python threads (and Daft's workers) run side by side.
 #![deny(missing_docs)]
 
-use monohand::engine::{Engine, EngineSettings, Input, Observer, Output, RunReport, Sink};
+use monohand::engine::{Engine, EngineError, Input, Observer, Output, RunReport, Sink};
 use monohand::records::fitted_record;
-use monohand::vision::{HandPipeline, PipelineOptions};
-use monohand::{SessionError, SessionOptions};
+use monohand::vision::HandPipeline;
+use monohand::{Field, SessionError, SessionOptions, SettingsError};
 use monohand_core::filtering::OneEuroParams;
 use monohand_core::prelude::*;
 use monohand_io::jsonl::{FrameRecord, HandRecord, PoseRecord};
@@ -33,10 +33,31 @@ create_exception!(
     "A model, file, video or fit failed (the message says which and why)."
 );
 
+/// A refused setting, said with the argument's Python name.
+fn settings_err(e: &SettingsError) -> PyErr {
+    let name = match e.field {
+        Field::MaxHands => "hands",
+        Field::Smoothing | Field::SmoothMinCutoff | Field::SmoothBeta => "smoothing",
+        other => other.name(),
+    };
+    PyValueError::new_err(format!("{name} {}", e.why))
+}
+
 fn session_err(e: SessionError) -> PyErr {
     match e {
-        SessionError::Invalid(m) => PyValueError::new_err(m),
+        SessionError::Settings(e) => settings_err(&e),
         SessionError::Core(e) => PyValueError::new_err(e.to_string()),
+        e @ (SessionError::Views { .. } | SessionError::FrameTime(_) | SessionError::NoCamera) => {
+            PyValueError::new_err(e.to_string())
+        }
+        other => MonohandError::new_err(other.to_string()),
+    }
+}
+
+fn engine_err(e: EngineError) -> PyErr {
+    match e {
+        EngineError::Settings(e) => settings_err(&e),
+        EngineError::Session(e) => session_err(e),
         other => MonohandError::new_err(other.to_string()),
     }
 }
@@ -69,8 +90,7 @@ fn parse_side(side: &str) -> PyResult<HandSide> {
 /// The default (population average) hands, left then right, scaled by `hand_scale`
 /// ([`monohand::hand_skeletons`]).
 fn skeletons(hand_scale: f64) -> PyResult<[HandSkeleton; 2]> {
-    monohand::hand_skeletons(hand_scale, None)
-        .map_err(|e| PyValueError::new_err(format!("hand_scale: {e}")))
+    monohand::hand_skeletons(hand_scale, None).map_err(session_err)
 }
 
 /// A record as plain Python lists, dicts and numbers: exactly what `monohand run` writes
@@ -476,17 +496,10 @@ impl PyModels {
         if let Some(dir) = model_dir {
             options = options.model_dir(dir);
         }
+        let options = options.tracking(tracking);
         let pipeline = py
-            .detach(|| {
-                HandPipeline::new(
-                    &options.models,
-                    PipelineOptions {
-                        refine_passes: monohand::refine_passes(tracking),
-                        ..options.pipeline
-                    },
-                )
-            })
-            .map_err(|e| MonohandError::new_err(e.to_string()))?;
+            .detach(|| monohand::Session::load_pipeline(&options))
+            .map_err(session_err)?;
         Ok(PyModels {
             pipeline: Arc::new(pipeline),
             hands,
@@ -565,17 +578,19 @@ impl PySession {
         mirror_pass: bool,
     ) -> PyResult<PySession> {
         let cameras = to_cameras(cameras)?;
-        if smoothing && !tracking {
-            return Err(PyValueError::new_err("smoothing needs tracking"));
-        }
         let mut options = SessionOptions::default()
             .hands(hands)
             .tracking(tracking)
             .heads(heads)
             .mirror_pass(mirror_pass)
             .skeletons(skeletons(hand_scale)?)
-            .smoothing(smoothing.then(OneEuroParams::default));
-        options.detect_every = detect_every;
+            .smoothing(smoothing.then(OneEuroParams::default))
+            .detect_every(detect_every);
+        let resolved = options
+            .settings
+            .clone()
+            .resolve()
+            .map_err(|e| settings_err(&e))?;
         if let Some(dir) = model_dir {
             options = options.model_dir(dir);
         }
@@ -601,13 +616,8 @@ impl PySession {
                     .map_err(session_err)?,
             ),
         };
-        let settings = EngineSettings {
-            fit: options.fit,
-            detect_every: options.detect_every,
-            ..EngineSettings::default()
-        };
-        let engine = Engine::new(Arc::clone(&pipeline), cameras.clone(), settings)
-            .map_err(|e| MonohandError::new_err(e.to_string()))?;
+        let engine =
+            Engine::new(Arc::clone(&pipeline), cameras.clone(), resolved).map_err(engine_err)?;
         let inner =
             monohand::Session::with_pipeline(cameras, pipeline, options).map_err(session_err)?;
         Ok(PySession {
@@ -638,7 +648,7 @@ impl PySession {
             .clone()
             .with_max_frames(max_frames)
             .with_offline(offline)
-            .map_err(|e| PyValueError::new_err(e.to_string()))?;
+            .map_err(engine_err)?;
         let source = py
             .detach(|| {
                 Input::parse(&path).and_then(|i| i.open(monohand::engine::DEFAULT_STALL_TIMEOUT))
@@ -869,7 +879,7 @@ impl PyFrameStream {
         let input_error = report.input_error.clone();
         self.report = Some(report);
         match input_error {
-            Some(e) => Err(MonohandError::new_err(e)),
+            Some(e) => Err(MonohandError::new_err(e.to_string())),
             None => Ok(()),
         }
     }

@@ -107,20 +107,23 @@ impl Tracker {
             session_options = session_options.hands(n);
         }
         if let Some(n) = options.detect_every {
-            session_options.detect_every = n;
+            session_options = session_options.detect_every(n);
         }
         if let Some(on) = options.mirror_pass {
             session_options = session_options.mirror_pass(on);
         }
-        let mut pipeline_options = session_options.pipeline;
-        pipeline_options.refine_passes = monohand::refine_passes(session_options.fit.tracking);
+        let resolved = session_options
+            .settings
+            .clone()
+            .resolve()
+            .map_err(|e| settings_error(&e))?;
         let pipeline = HandPipeline::from_bytes(
             NetworkBytes {
                 palm: (palm, Path::new(palm_file.file_name())),
                 landmark: (landmark, Path::new(landmark_file.file_name())),
                 face: None,
             },
-            pipeline_options,
+            resolved.pipeline(),
         )
         .map_err(monohand::SessionError::from)?;
         let cameras = match options.camera {
@@ -156,6 +159,15 @@ impl Tracker {
     pub fn take_notes(&mut self) -> Vec<String> {
         self.session.take_notes()
     }
+}
+
+/// A refused setting, said with the page's option name.
+fn settings_error(e: &monohand::SettingsError) -> WebError {
+    let name = match e.field {
+        monohand::Field::MaxHands => "hands",
+        other => other.name(),
+    };
+    WebError::Options(format!("{name} {}", e.why))
 }
 
 /// A frame's record as `monohand run` writes it for a video (its time, the `vision` and

@@ -8,6 +8,23 @@ use std::sync::Arc;
 /// Identity of a tracked hand, unique within a session.
 pub type HandId = u64;
 
+/// Why a view gave no hands in a frame.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum ViewError {
+    /// Its image could not be read.
+    #[error(transparent)]
+    Unreadable(#[from] crate::engine::SourceError),
+    /// The networks failed on it (their message).
+    #[error("{0}")]
+    Networks(String),
+}
+
+impl From<monohand_vision::VisionError> for ViewError {
+    fn from(e: monohand_vision::VisionError) -> ViewError {
+        ViewError::Networks(e.to_string())
+    }
+}
+
 /// One view's hands in one frame: the networks' detections and each one's identity.
 #[derive(Debug, Clone)]
 pub struct ViewHands {
@@ -26,7 +43,7 @@ pub struct VisionFrame {
     pub time_s: f64,
     /// Per view: its hands, or why the view gave none this frame (an unreadable image, a
     /// network failure).
-    pub views: Vec<Result<ViewHands, String>>,
+    pub views: Vec<Result<ViewHands, ViewError>>,
     /// Time the networks took, ms.
     pub vision_ms: f64,
     /// The focal length the first view's image file states in its EXIF, set by whoever read
@@ -59,18 +76,18 @@ pub struct CropTracker {
 }
 
 impl CropTracker {
-    /// A tracker for `views` cameras (`detect_every` is taken as at least 1).
+    /// A tracker for `views` cameras, tracking or not and looking for new hands as the
+    /// resolved settings say.
     pub fn new(
         pipeline: Arc<HandPipeline>,
         views: usize,
-        tracking: bool,
-        detect_every: usize,
+        settings: &crate::ResolvedSettings,
     ) -> CropTracker {
         CropTracker {
             pipeline,
             views: (0..views).map(|_| ViewTracks::default()).collect(),
-            tracking,
-            detect_every: detect_every.max(1),
+            tracking: settings.tracking(),
+            detect_every: settings.detect_every(),
             next_id: 0,
         }
     }
@@ -86,7 +103,7 @@ impl CropTracker {
         &mut self,
         index: u64,
         time_s: f64,
-        detections: Result<Detections, String>,
+        detections: Result<Detections, ViewError>,
         vision_ms: f64,
     ) -> VisionFrame {
         let view = detections.map(|d| {
@@ -111,7 +128,7 @@ impl CropTracker {
         &mut self,
         index: u64,
         time_s: f64,
-        images: &[Result<&RgbImage, String>],
+        images: &[Result<&RgbImage, crate::engine::SourceError>],
     ) -> VisionFrame {
         let t = Instant::now();
         let mut out = Vec::with_capacity(images.len());
@@ -126,7 +143,7 @@ impl CropTracker {
                 Err(e) => {
                     state.previous.clear();
                     state.ids.clear();
-                    out.push(Err(e.clone()));
+                    out.push(Err(ViewError::Unreadable(e.clone())));
                     continue;
                 }
             };
@@ -172,7 +189,7 @@ impl CropTracker {
                 Err(e) => {
                     state.previous.clear();
                     state.ids.clear();
-                    out.push(Err(e.to_string()));
+                    out.push(Err(ViewError::from(e)));
                 }
             }
         }

@@ -12,9 +12,23 @@ pub enum SessionError {
     /// The networks could not be loaded or run.
     #[error(transparent)]
     Vision(#[from] VisionError),
-    /// The call does not fit the session (wrong number of views, bad options).
-    #[error("{0}")]
-    Invalid(String),
+    /// A setting was refused ([`crate::settings`]).
+    #[error(transparent)]
+    Settings(#[from] crate::settings::SettingsError),
+    /// A frame's images do not match the session's cameras.
+    #[error("{images} image(s) for {cameras} camera(s): give one image per camera, in order")]
+    Views {
+        /// Images given.
+        images: usize,
+        /// Cameras of the session.
+        cameras: usize,
+    },
+    /// A frame's time is NaN or infinite.
+    #[error("frame time {0} is not finite")]
+    FrameTime(f64),
+    /// Lifting was asked for without a camera.
+    #[error("lifting needs at least one camera")]
+    NoCamera,
 }
 
 /// Result type of the session.

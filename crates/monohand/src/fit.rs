@@ -91,18 +91,28 @@ impl HandScale {
     }
 }
 
+/// A hand size that is neither `auto` nor a factor in [`HAND_SCALE_RANGE`].
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error(
+    "{text:?} is neither \"auto\" nor a factor between {} and {}",
+    HAND_SCALE_RANGE.0,
+    HAND_SCALE_RANGE.1
+)]
+pub struct HandScaleError {
+    /// What was given.
+    pub text: String,
+}
+
 impl std::str::FromStr for HandScale {
-    type Err = String;
-    fn from_str(s: &str) -> Result<HandScale, String> {
+    type Err = HandScaleError;
+    fn from_str(s: &str) -> Result<HandScale, HandScaleError> {
         let (lo, hi) = HAND_SCALE_RANGE;
         if s.eq_ignore_ascii_case("auto") {
             return Ok(HandScale::Auto);
         }
         match s.parse::<f64>() {
             Ok(v) if v.is_finite() && v > lo && v < hi => Ok(HandScale::Fixed(v)),
-            _ => Err(format!(
-                "{s:?} is neither \"auto\" nor a factor between {lo} and {hi}"
-            )),
+            _ => Err(HandScaleError { text: s.into() }),
         }
     }
 }
@@ -116,9 +126,11 @@ pub fn hand_skeletons(
 ) -> crate::SessionResult<[HandSkeleton; 2]> {
     let (lo, hi) = HAND_SCALE_RANGE;
     if !(scale.is_finite() && scale > lo && scale < hi) {
-        return Err(crate::SessionError::Invalid(format!(
-            "hand scale {scale} must be between {lo} and {hi} (1: the average adult hand)"
-        )));
+        return Err(crate::settings::SettingsError::new(
+            crate::settings::Field::HandScale,
+            format!("{scale} must be between {lo} and {hi} (1: the average adult hand)"),
+        )
+        .into());
     }
     let side = |side| -> crate::SessionResult<HandSkeleton> {
         let mut sk = HandSkeleton::default_for(side).scaled(scale)?;

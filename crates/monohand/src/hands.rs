@@ -2,21 +2,20 @@
 //! association, smoothing and the hand size.
 
 use crate::association::{associate, Candidate};
+use crate::cameras::CameraChoice;
 use crate::clock::Instant;
 use crate::crops::{HandId, VisionFrame};
 use crate::fit::{fit_views, learn_proportions, FitOutcome};
+use crate::frame::{FittedFrame, TrackedHand};
 use crate::notes::{Note, NoteTopic};
 use crate::offline::{
     causal, depth_target, neighbours, CausalFrame, DepthFrame, Held, OfflineSettings,
 };
-use monohand_core::filtering::{
-    mean_depth, scale_to_depth, DepthFilter, OneEuroFilter, OneEuroParams,
-};
+use crate::tracks::{side_index, Tracks};
+use monohand_core::filtering::{mean_depth, scale_to_depth, OneEuroParams};
 use monohand_core::fitting::{estimate_hand_scale, ProportionEstimate, ScaleEstimate};
 use monohand_core::observation::NetworkCues;
 use monohand_core::prelude::*;
-use monohand_io::jsonl::CameraSource;
-use monohand_vision::image_io::ExifFocal;
 use monohand_vision::DetectedHand;
 use nalgebra::Vector3;
 use std::collections::HashMap;
@@ -49,7 +48,7 @@ pub struct FitSettings {
     /// Smooth each hand's 3D joints over time with a One Euro filter.
     pub smoothing: Option<OneEuroParams>,
     /// Tracking with one camera: each hand's distance from the camera through a One Euro
-    /// filter, the joints scaled about the camera's centre to it ([`DepthFilter`]: the
+    /// filter, the joints scaled about the camera's centre to it ([`monohand_core::filtering::DepthFilter`]: the
     /// pixels and the shape stay the fit's; the pose stays the fit's too). Default
     /// [`DEPTH_FILTER`]; `None` turns it off. Not used offline, where the refit with the
     /// frames around each frame steadies the hand itself.
@@ -87,86 +86,8 @@ pub const DEPTH_FILTER: OneEuroParams = OneEuroParams {
     d_cutoff: 1.0,
 };
 
-/// One hand of a frame, with its 3D.
-#[derive(Debug, Clone)]
-pub struct TrackedHand {
-    /// Identity over the frames.
-    pub id: HandId,
-    /// Side, as voted over the hand's frames (it can differ from this frame's network).
-    pub side: HandSide,
-    /// The `(view, index into that view's detections)` pairs that see this hand, its
-    /// anchor first: the first view, unless only later views see the hand.
-    pub views: Vec<(usize, usize)>,
-    /// The fitted hand, `None` when it could not be fitted this frame.
-    pub fit: Option<FitResult>,
-}
-
-/// One frame after the 3D stage.
-#[derive(Debug, Clone)]
-pub struct FittedFrame {
-    /// What the networks found.
-    pub vision: VisionFrame,
-    /// The hands ([`associate`]): the first view's, in the order of its detections, then
-    /// those only later views see.
-    pub hands: Vec<TrackedHand>,
-    /// Why the frame has no 3D at all (the first view failed, or its image size does not
-    /// match the calibration).
-    pub error: Option<String>,
-    /// Time the fits took, ms.
-    pub fit_ms: f64,
-    /// The camera of each view the frame was fitted with (empty when it was not fitted).
-    /// Every drawing of the frame uses these.
-    pub cameras: Vec<Camera>,
-    /// Where each of [`FittedFrame::cameras`] came from, and why, in the same order.
-    pub camera_origins: Vec<CameraOrigin>,
-}
-
-/// Where a camera in use came from, and why that source and not a better one.
-#[derive(Debug, Clone, PartialEq)]
-pub struct CameraOrigin {
-    /// The source, as the records name it.
-    pub source: CameraSource,
-    /// Why: a stated EXIF focal length that failed its checks, a calibration scaled from
-    /// another size, a field of view outside 5-150 degrees that the user's calibration
-    /// gives (`None`: nothing to say).
-    pub reason: Option<String>,
-}
-
-impl CameraOrigin {
-    fn new(source: CameraSource, reason: Option<String>) -> CameraOrigin {
-        CameraOrigin { source, reason }
-    }
-}
-
-/// `reason` and `more` joined, either possibly absent.
-fn join_reasons(reason: Option<String>, more: Option<&String>) -> Option<String> {
-    match (reason, more) {
-        (Some(a), Some(b)) => Some(format!("{a}; {b}")),
-        (a, b) => a.or_else(|| b.cloned()),
-    }
-}
-
-/// One hand followed over the frames.
-struct Track {
-    tracker: HandTracker,
-    side: HandSide,
-    /// Sum of the log-odds of "right" over the frames seen: one uncertain frame does not
-    /// flip a hand.
-    right_log_odds: f64,
-    last_seen: u64,
-    filter: Option<OneEuroFilter<NUM_JOINTS>>,
-    depth: Option<DepthFilter>,
-}
-
 /// A hand of the first view: its id, side and the `(view, index)` pairs that see it.
 type Anchored = (HandId, HandSide, Vec<(usize, usize)>);
-
-fn side_index(side: HandSide) -> usize {
-    match side {
-        HandSide::Left => 0,
-        HandSide::Right => 1,
-    }
-}
 
 /// The 3D stage of a session: takes the networks' frames in order and fits every hand.
 ///
@@ -174,20 +95,12 @@ fn side_index(side: HandSide) -> usize {
 /// overlay), because with [`FitSettings::auto_scale_frames`] frames come back later than
 /// they went in.
 pub struct HandsFitter<T = ()> {
-    /// The calibrations the user gave, as given (empty: a camera per image).
-    calibrated: Vec<Camera>,
-    /// The reason each calibration is used despite a field of view outside 5-150 degrees.
-    calibrated_fov: Vec<Option<String>>,
-    /// The cameras in use: the calibrations, scaled to the frames' size when it differs,
-    /// or the last image's camera.
-    cameras: Vec<Camera>,
-    /// Where each of `cameras` came from.
-    origins: Vec<CameraOrigin>,
-    /// The kinds of camera already announced (each is said once).
-    said: Vec<String>,
+    /// The camera of each view, frame by frame.
+    cameras: CameraChoice,
     prototypes: [HandTracker; 2],
     settings: FitSettings,
-    tracks: HashMap<HandId, Track>,
+    /// Each hand seen: its identity, voted side, tracker and filters.
+    tracks: Tracks,
     pending: Option<(usize, Vec<(VisionFrame, T)>)>,
     scale: Option<ScaleEstimate>,
     proportions: [Option<ProportionEstimate>; 2],
@@ -205,46 +118,17 @@ impl<T> HandsFitter<T> {
     /// the 3D is in). With no camera at all, each frame gets a camera for its image size:
     /// from the focal length its file states ([`VisionFrame::focal`], EXIF), else the
     /// generic guess ([`Camera::generic`]); each kind is said once in [`Self::take_notes`].
-    pub fn new(cameras: Vec<Camera>, settings: FitSettings) -> Result<HandsFitter<T>, CoreError> {
+    pub fn new(
+        cameras: Vec<Camera>,
+        settings: &crate::ResolvedSettings,
+    ) -> Result<HandsFitter<T>, CoreError> {
+        let settings = *settings.fit();
         for c in &cameras {
             c.validate()?;
         }
-        settings.options.validate()?;
-        if let Some(o) = &settings.offline {
-            o.validate().map_err(CoreError::InvalidOptions)?;
-            if !settings.tracking || settings.smoothing.is_some() {
-                return Err(CoreError::InvalidOptions(
-                    "offline smoothing needs tracking, and replaces the One Euro filter".into(),
-                ));
-            }
-        }
-        let calibrated_fov: Vec<Option<String>> = cameras
-            .iter()
-            .map(|c| {
-                c.implausible_field_of_view().map(|why| {
-                    format!(
-                        "the calibration gives {why}; used as given, since it is the user's own"
-                    )
-                })
-            })
-            .collect();
-        let mut notes = Vec::new();
-        for (v, why) in calibrated_fov.iter().enumerate() {
-            if let Some(why) = why {
-                notes.push(Note::new(
-                    NoteTopic::Camera,
-                    format!("camera {}: {why}", v + 1),
-                ));
-            }
-        }
+        let mut cameras = CameraChoice::new(cameras);
+        let notes = cameras.take_notes();
         Ok(HandsFitter {
-            origins: calibrated_fov
-                .iter()
-                .map(|why| CameraOrigin::new(CameraSource::File, why.clone()))
-                .collect(),
-            calibrated_fov,
-            calibrated: cameras.clone(),
-            said: Vec::new(),
             cameras,
             prototypes: [
                 HandTracker::new(settings.skeletons[0], settings.options)?,
@@ -257,7 +141,7 @@ impl<T> HandsFitter<T> {
                 .max()
                 .map(|n| (n.max(1), Vec::new())),
             settings,
-            tracks: HashMap::new(),
+            tracks: Tracks::new(&settings),
             scale: None,
             proportions: [None, None],
             notes,
@@ -279,7 +163,7 @@ impl<T> HandsFitter<T> {
 
     /// The cameras in use (after a generic one was made for the image size).
     pub fn cameras(&self) -> &[Camera] {
-        &self.cameras
+        self.cameras.cameras()
     }
 
     /// Messages for the user since the last call (assumptions made, hand size found).
@@ -342,7 +226,7 @@ impl<T> HandsFitter<T> {
                     }
                 }
             });
-        if !settings.depth_pass || self.cameras.len() > 1 {
+        if !settings.depth_pass || self.cameras.cameras().len() > 1 {
             // Several cameras see the distance; one guesses it from the hand's size.
             return out;
         }
@@ -393,7 +277,7 @@ impl<T> HandsFitter<T> {
 
     /// The hand size from the hand seen by two views in most of the kept frames.
     fn measure_scale(&mut self, frames: &[(VisionFrame, T)]) {
-        if self.cameras.len() < 2 {
+        if self.cameras.cameras().len() < 2 {
             self.notes.push(Note::new(
                 NoteTopic::HandScale,
                 "with one camera the hand size is not observable (a larger hand further away \
@@ -439,7 +323,12 @@ impl<T> HandsFitter<T> {
             .iter()
             .map(|vs| {
                 vs.iter()
-                    .filter_map(|(v, d)| self.cameras.get(*v).map(|c| View::new(c, &d.keypoints)))
+                    .filter_map(|(v, d)| {
+                        self.cameras
+                            .cameras()
+                            .get(*v)
+                            .map(|c| View::new(c, &d.keypoints))
+                    })
                     .collect()
             })
             .collect();
@@ -511,7 +400,7 @@ impl<T> HandsFitter<T> {
     /// The frame's hands ([`associate`]): per hand its id, side (voted over its track) and
     /// the views that see it.
     fn associate(&self, frame: &VisionFrame) -> Vec<Anchored> {
-        let side = |id: &HandId, h: &DetectedHand| self.tracks.get(id).map_or(h.side, |t| t.side);
+        let side = |id: &HandId, h: &DetectedHand| self.tracks.side(*id).unwrap_or(h.side);
         let candidates: Vec<Vec<Candidate>> = frame
             .views
             .iter()
@@ -540,132 +429,6 @@ impl<T> HandsFitter<T> {
             .collect()
     }
 
-    /// Says `message` once per `kind` of camera.
-    fn say_once(&mut self, kind: String, message: String) {
-        if !self.said.contains(&kind) {
-            self.said.push(kind);
-            self.notes.push(Note::new(NoteTopic::Camera, message));
-        }
-    }
-
-    /// Makes the cameras fit the frame (`sizes`: each view's image size, `None` for an
-    /// unreadable view): without calibrated cameras, one for the first view's size from the
-    /// focal length its file states, else the generic guess; with them, the calibrations,
-    /// scaled to the frames' size when it differs and has the same shape (another shape is
-    /// the error).
-    fn camera_for(
-        &mut self,
-        sizes: &[Option<(u32, u32)>],
-        focal: &ExifFocal,
-    ) -> Result<(), String> {
-        if self.calibrated.is_empty() {
-            let Some(&Some((w, h))) = sizes.first() else {
-                return Ok(());
-            };
-            return self.photo_camera(w, h, focal);
-        }
-        for (v, size) in sizes.iter().enumerate() {
-            let (Some(&(w, h)), Some(cal)) = (size.as_ref(), self.calibrated.get(v)) else {
-                continue;
-            };
-            let k = cal.intrinsics;
-            let fov = self.calibrated_fov.get(v).cloned().flatten();
-            let (cam, origin) = if (k.width, k.height) == (w, h) {
-                (*cal, CameraOrigin::new(CameraSource::File, fov))
-            } else {
-                let scaled = cal
-                    .scaled_to(w, h)
-                    .map_err(|why| format!("view {}: {why}; no 3D for this frame", v + 1))?;
-                let why = format!(
-                    "calibrated for {}x{}, scaled by {:.4} to the frames' {w}x{h}",
-                    k.width,
-                    k.height,
-                    w as f64 / k.width as f64
-                );
-                self.say_once(
-                    format!("file-scaled {v} {w}x{h}"),
-                    format!(
-                        "camera {}: {why} (fx {:.1} -> {:.1} px); a calibration at the \
-                         frames' own size is better (docs/calibration.md)",
-                        v + 1,
-                        k.fx,
-                        scaled.intrinsics.fx
-                    ),
-                );
-                let reason = join_reasons(Some(why), fov.as_ref());
-                (scaled, CameraOrigin::new(CameraSource::FileScaled, reason))
-            };
-            if let (Some(c), Some(o)) = (self.cameras.get_mut(v), self.origins.get_mut(v)) {
-                *c = cam;
-                *o = origin;
-            }
-        }
-        Ok(())
-    }
-
-    /// The camera of a photo without calibration: from the focal length its EXIF states
-    /// when that passed its checks, else the generic guess (with why, when the EXIF stated
-    /// one).
-    fn photo_camera(&mut self, w: u32, h: u32, focal: &ExifFocal) -> Result<(), String> {
-        let generic = || Camera::generic(w, h).map_err(|e| e.to_string());
-        let (cam, origin) = match focal {
-            ExifFocal::Used(f) => {
-                let cam = Camera::centred(f.px, w, h).map_err(|e| e.to_string())?;
-                let source = if f.sensor_width_mm.is_some() {
-                    CameraSource::ExifSensorDb
-                } else {
-                    CameraSource::Exif
-                };
-                let why = f
-                    .fallback
-                    .as_ref()
-                    .map(|why| format!(" ({why})"))
-                    .unwrap_or_default();
-                self.say_once(
-                    source.to_string(),
-                    format!(
-                        "the camera comes from the photo's {}: fx = fy = {:.1} px for {w}x{h} \
-                         ({:.1} degree horizontal field of view; photos without it get the \
-                         generic 60 degree guess){why}",
-                        f.source,
-                        f.px,
-                        2.0 * (0.5 * w as f64 / f.px).atan().to_degrees()
-                    ),
-                );
-                (cam, CameraOrigin::new(source, f.fallback.clone()))
-            }
-            ExifFocal::Refused(why) => {
-                let reason = format!("the EXIF focal length was not used: {why}");
-                self.say_once(
-                    "generic, EXIF refused".into(),
-                    format!(
-                        "{reason}; assuming a generic camera for {w}x{h} (60 degree horizontal \
-                         field of view) instead; absolute depth is only as right as this guess \
-                         (docs/calibration.md)"
-                    ),
-                );
-                (
-                    generic()?,
-                    CameraOrigin::new(CameraSource::Generic, Some(reason)),
-                )
-            }
-            ExifFocal::None => {
-                self.say_once(
-                    "generic".into(),
-                    format!(
-                        "assuming a generic camera for {w}x{h} (60 degree horizontal field of \
-                         view); absolute depth is only as right as this guess \
-                         (docs/calibration.md)"
-                    ),
-                );
-                (generic()?, CameraOrigin::new(CameraSource::Generic, None))
-            }
-        };
-        self.cameras = vec![cam];
-        self.origins = vec![origin];
-        Ok(())
-    }
-
     fn fit_frame(&mut self, frame: VisionFrame) -> FittedFrame {
         let t = Instant::now();
         let mut out = FittedFrame {
@@ -684,7 +447,7 @@ impl<T> HandsFitter<T> {
         match out.vision.views.first() {
             Some(Ok(_)) => {}
             Some(Err(e)) => {
-                out.error = Some(e.clone());
+                out.error = Some(e.to_string());
                 return out;
             }
             None => return out,
@@ -695,17 +458,19 @@ impl<T> HandsFitter<T> {
             .iter()
             .map(|v| v.as_ref().ok().map(|vh| vh.detections.image_size))
             .collect();
-        if let Err(e) = self.camera_for(&sizes, &out.vision.focal) {
+        let chosen = self.cameras.camera_for(&sizes, &out.vision.focal);
+        self.notes.extend(self.cameras.take_notes());
+        if let Err(e) = chosen {
             tracing::warn!("frame {}: {e}", out.vision.index);
-            out.error = Some(e);
+            out.error = Some(e.to_string());
             return out;
         }
-        out.cameras.clone_from(&self.cameras);
-        out.camera_origins.clone_from(&self.origins);
+        out.cameras = self.cameras.cameras().to_vec();
+        out.camera_origins = self.cameras.origins().to_vec();
         let index = out.vision.index;
         for view in out.vision.views.iter().flatten() {
             for (hand, &id) in view.detections.hands.iter().zip(&view.ids) {
-                self.vote_side(id, hand, index);
+                self.tracks.vote(id, hand, index, &self.prototypes);
             }
         }
         for (id, side, views) in self.associate(&out.vision) {
@@ -717,51 +482,9 @@ impl<T> HandsFitter<T> {
                 fit,
             });
         }
-        self.tracks
-            .retain(|_, t| index.saturating_sub(t.last_seen) < FORGET_AFTER_FRAMES);
+        self.tracks.forget_unseen(index);
         out.fit_ms = t.elapsed().as_secs_f64() * 1e3;
         out
-    }
-
-    fn vote_side(&mut self, id: HandId, hand: &DetectedHand, index: u64) {
-        let p = f64::from(hand.side_score).clamp(0.5, 0.999);
-        let p_right = if hand.side == HandSide::Right {
-            p
-        } else {
-            1.0 - p
-        };
-        let log_odds = (p_right / (1.0 - p_right)).ln();
-        let prototypes = &self.prototypes;
-        let smoothing = self.settings.smoothing;
-        let depth = self
-            .settings
-            .depth_filter
-            .filter(|_| self.settings.tracking && self.settings.offline.is_none());
-        let track = self.tracks.entry(id).or_insert_with(|| Track {
-            tracker: prototypes[side_index(hand.side)].clone(),
-            side: hand.side,
-            right_log_odds: 0.0,
-            last_seen: index,
-            filter: smoothing.map(OneEuroFilter::new),
-            depth: depth.map(DepthFilter::new),
-        });
-        track.right_log_odds += log_odds;
-        track.last_seen = index;
-        let voted = if track.right_log_odds >= 0.0 {
-            HandSide::Right
-        } else {
-            HandSide::Left
-        };
-        if voted != track.side {
-            track.side = voted;
-            track.tracker = self.prototypes[side_index(voted)].clone();
-            if let Some(f) = &mut track.filter {
-                f.reset();
-            }
-            if let Some(f) = &mut track.depth {
-                f.reset();
-            }
-        }
     }
 
     fn fit_hand(
@@ -778,14 +501,14 @@ impl<T> HandsFitter<T> {
             .iter()
             .filter_map(|&(v, k)| {
                 let d = detected(frame, v, k)?;
-                let cam = self.cameras.get(v)?;
+                let cam = self.cameras.cameras().get(v)?;
                 Some(View::new(cam, &d.keypoints).with_cues(d.cues.as_ref()))
             })
             .collect();
         match fit_views(&mut track.tracker, &views) {
             FitOutcome::Fitted(mut fit) => {
                 // One camera only: with several the distance is seen, not guessed.
-                if let (Some(f), [cam]) = (track.depth.as_mut(), self.cameras.as_slice()) {
+                if let (Some(f), [cam]) = (track.depth.as_mut(), self.cameras.cameras()) {
                     f.apply(frame.time_s, cam, &mut fit.joints_3d);
                 }
                 if let Some(f) = track.filter.as_mut() {
@@ -814,7 +537,7 @@ impl<T> HandsFitter<T> {
 /// output joints get the neighbours' mean fusion offsets, its own refitted offset in its
 /// own share.
 fn refit_hand(
-    tracks: &mut HashMap<HandId, Track>,
+    tracks: &mut Tracks,
     vision: &VisionFrame,
     cameras: &[Camera],
     hand: &mut TrackedHand,
@@ -857,101 +580,4 @@ fn refit_hand(
 
 fn detected(frame: &VisionFrame, v: usize, k: usize) -> Option<&DetectedHand> {
     frame.views.get(v)?.as_ref().ok()?.detections.hands.get(k)
-}
-
-#[cfg(test)]
-mod tests {
-    #![allow(clippy::unwrap_used)]
-    use super::*;
-    use monohand_vision::image_io::PhotoFocal;
-
-    #[test]
-    fn a_calibration_outside_the_real_fields_of_view_is_used_with_its_reason() {
-        let tele = Camera::centred(16_000.0, 640, 480).unwrap();
-        let mut fitter = HandsFitter::<()>::new(vec![tele], FitSettings::default()).unwrap();
-        let notes = fitter.take_notes();
-        assert_eq!(notes.len(), 1, "{notes:?}");
-        assert!(
-            notes[0]
-                .message
-                .starts_with("camera 1: the calibration gives a 2.3 degree"),
-            "{}",
-            notes[0]
-        );
-        fitter
-            .camera_for(&[Some((640, 480))], &ExifFocal::None)
-            .unwrap();
-        assert_eq!(fitter.cameras(), &[tele]);
-        let o = &fitter.origins[0];
-        assert_eq!(o.source, CameraSource::File);
-        assert!(o
-            .reason
-            .as_deref()
-            .is_some_and(|r| r.contains("used as given")));
-        // Scaled, it keeps both reasons.
-        fitter
-            .camera_for(&[Some((320, 240))], &ExifFocal::None)
-            .unwrap();
-        let o = &fitter.origins[0];
-        assert_eq!(o.source, CameraSource::FileScaled);
-        let r = o.reason.as_deref().unwrap();
-        assert!(
-            r.contains("scaled by 0.5000") && r.contains("2.3 degree"),
-            "{r}"
-        );
-    }
-
-    #[test]
-    fn photos_get_the_exif_camera_or_the_generic_one_with_the_reason() {
-        let mut fitter = HandsFitter::<()>::new(Vec::new(), FitSettings::default()).unwrap();
-        let db = ExifFocal::Used(PhotoFocal {
-            px: 2072.9,
-            source: "EXIF FocalLength 88 mm on the Canon EOS 5DS R's 36 mm wide sensor".into(),
-            sensor_width_mm: Some(36.0),
-            fallback: Some("the photo was resized".into()),
-        });
-        fitter.camera_for(&[Some((848, 565))], &db).unwrap();
-        assert_eq!(fitter.cameras()[0].intrinsics.fx, 2072.9);
-        assert_eq!(
-            fitter.origins,
-            [CameraOrigin::new(
-                CameraSource::ExifSensorDb,
-                Some("the photo was resized".into())
-            )]
-        );
-        let refused = ExifFocal::Refused("a 2.3 degree field of view".into());
-        fitter.camera_for(&[Some((848, 565))], &refused).unwrap();
-        assert_eq!(fitter.cameras()[0], Camera::generic(848, 565).unwrap());
-        assert_eq!(fitter.origins[0].source, CameraSource::Generic);
-        assert_eq!(
-            fitter.origins[0].reason.as_deref(),
-            Some("the EXIF focal length was not used: a 2.3 degree field of view")
-        );
-        fitter
-            .camera_for(&[Some((640, 480))], &ExifFocal::None)
-            .unwrap();
-        assert_eq!(
-            fitter.origins,
-            [CameraOrigin::new(CameraSource::Generic, None)]
-        );
-        // Each kind said once: the database's camera, the refusal, the generic guess.
-        fitter.camera_for(&[Some((640, 480))], &refused).unwrap();
-        let notes: Vec<String> = fitter.take_notes().into_iter().map(|n| n.message).collect();
-        assert_eq!(notes.len(), 3, "{notes:?}");
-        assert!(
-            notes[0].contains("fx = fy = 2072.9 px for 848x565"),
-            "{}",
-            notes[0]
-        );
-        assert!(
-            notes[1].starts_with("the EXIF focal length was not used"),
-            "{}",
-            notes[1]
-        );
-        assert!(
-            notes[2].starts_with("assuming a generic camera for 640x480"),
-            "{}",
-            notes[2]
-        );
-    }
 }

@@ -20,38 +20,43 @@
 //! - [`records`]: the project's JSON Lines records of these results.
 //! - [`calibration`]: a camera's or a rig's calibration from frames of a chessboard
 //!   (`monohand calibrate`), over [`monohand_calib`].
+//! - [`settings`]: the one resolved configuration every face fills in
+//!   ([`Settings::resolve`]).
 //!
 //! A video file to 3D joints is `examples/video_to_3d.rs`.
 #![deny(missing_docs)]
 
 pub mod association;
 pub mod calibration;
+mod cameras;
 mod clock;
 mod crops;
 pub mod engine;
 mod error;
 mod fit;
+mod frame;
 mod hands;
 mod lifter;
 mod notes;
 pub mod offline;
 pub mod records;
 mod session;
+pub mod settings;
+mod tracks;
 
-pub use crops::{CropTracker, HandId, ViewHands, VisionFrame};
+pub use crops::{CropTracker, HandId, ViewError, ViewHands, VisionFrame};
 pub use error::{SessionError, SessionResult};
 pub use fit::{
-    fit_views, hand_skeletons, is_finite, learn_proportions, FitOutcome, HandScale,
+    fit_views, hand_skeletons, is_finite, learn_proportions, FitOutcome, HandScale, HandScaleError,
     HAND_SCALE_RANGE,
 };
-pub use hands::{
-    CameraOrigin, FitSettings, FittedFrame, HandsFitter, TrackedHand, DEPTH_FILTER,
-    FORGET_AFTER_FRAMES,
-};
+pub use frame::{CameraError, CameraOrigin, FittedFrame, TrackedHand};
+pub use hands::{FitSettings, HandsFitter, DEPTH_FILTER, FORGET_AFTER_FRAMES};
 pub use lifter::{LiftedHand, Lifter};
 pub use notes::{Note, NoteTopic};
 pub use offline::OfflineSettings;
-pub use session::{refine_passes, Session, SessionOptions};
+pub use session::{Session, SessionOptions};
+pub use settings::{Field, ResolvedSettings, Settings, SettingsError};
 
 /// The geometry core (usable without networks).
 pub use monohand_core as core;

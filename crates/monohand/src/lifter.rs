@@ -65,9 +65,7 @@ impl Lifter {
         tracking: bool,
     ) -> crate::SessionResult<Lifter> {
         if cameras.is_empty() {
-            return Err(crate::SessionError::Invalid(
-                "lifting needs at least one camera".into(),
-            ));
+            return Err(crate::SessionError::NoCamera);
         }
         for c in &cameras {
             c.validate()?;

@@ -21,7 +21,8 @@
 //! joint stays on its viewing ray, so the pixels and the shape are the refit's.
 
 use crate::crops::HandId;
-use crate::hands::FittedFrame;
+use crate::frame::FittedFrame;
+use crate::settings::{Field, SettingsError};
 use nalgebra::Vector3;
 use std::collections::{HashMap, VecDeque};
 
@@ -64,17 +65,17 @@ impl Default for OfflineSettings {
 
 impl OfflineSettings {
     /// Checks the settings: a lag of at least 1, a positive σ, a finite weight `>= 0`.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), SettingsError> {
+        let bad = |why: String| Err(SettingsError::new(Field::Offline, why));
         if self.lag == 0 {
-            return Err("the offline lag must be at least 1 frame".into());
+            return bad("lag must be at least 1 frame".into());
         }
         if !(self.sigma_frames.is_finite() && self.sigma_frames > 0.0) {
-            return Err(format!("offline sigma {} must be > 0", self.sigma_frames));
+            return bad(format!("sigma {} must be > 0", self.sigma_frames));
         }
         if !(self.weight.is_finite() && self.weight >= 0.0) {
-            return Err(format!("offline weight {} must be >= 0", self.weight));
+            return bad(format!("weight {} must be >= 0", self.weight));
         }
-
         Ok(())
     }
 

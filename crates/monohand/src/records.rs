@@ -2,7 +2,7 @@
 //! definition for `monohand run`, `monohand detect` and the Python package, so that they
 //! write the same numbers.
 
-use crate::hands::FittedFrame;
+use crate::frame::FittedFrame;
 use monohand_core::observation::Keypoints2d;
 use monohand_io::jsonl::{
     CameraRecord, FrameRecord, HandRecord, HeadRecord, OrientedBox, PoseRecord,
@@ -52,7 +52,7 @@ pub fn fitted_record(done: &FittedFrame, source: Option<String>) -> FrameRecord 
         Some(Err(e)) => FrameRecord {
             frame: vision.index,
             source,
-            error: Some(e.clone()),
+            error: Some(e.to_string()),
             ..FrameRecord::default()
         },
         None => FrameRecord {

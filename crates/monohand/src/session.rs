@@ -1,54 +1,44 @@
 //! The session: frames of one or several cameras in, tracked absolute 3D hands out.
 
 use crate::crops::CropTracker;
-use crate::hands::{FitSettings, FittedFrame, HandsFitter};
+use crate::frame::FittedFrame;
+use crate::hands::HandsFitter;
+use crate::settings::Settings;
 use crate::{SessionError, SessionResult};
 use monohand_core::filtering::OneEuroParams;
 use monohand_core::prelude::*;
 use monohand_vision::image_io::ExifFocal;
-use monohand_vision::{HandPipeline, ModelOptions, PipelineOptions, RgbImage};
+use monohand_vision::{HandPipeline, ModelOptions, RgbImage};
 use std::path::PathBuf;
 use std::sync::Arc;
 
-/// Settings of a [`Session`], built with chained setters from [`SessionOptions::default`].
-#[derive(Debug, Clone)]
+/// Settings of a [`Session`], built with chained setters from [`SessionOptions::default`]:
+/// which weights, and the plain [`Settings`] (resolved by the session).
+#[derive(Debug, Clone, Default)]
 pub struct SessionOptions {
     /// Which weights, from where (fetched with pip on first use).
     pub models: ModelOptions,
-    /// The networks' thresholds. `refine_passes` is set by the session: 0 when tracking
-    /// (MediaPipe's single pass), 1 for independent images.
-    pub pipeline: PipelineOptions,
-    /// The 3D stage.
-    pub fit: FitSettings,
-    /// While tracking, look for new hands every this many frames.
-    pub detect_every: usize,
-}
-
-impl Default for SessionOptions {
-    /// Video tracking of up to 2 hands with the full networks and the default adult hand.
-    fn default() -> SessionOptions {
-        SessionOptions {
-            models: ModelOptions::default(),
-            pipeline: PipelineOptions {
-                max_hands: 2,
-                ..PipelineOptions::default()
-            },
-            fit: FitSettings::default(),
-            detect_every: 10,
-        }
-    }
+    /// The networks' thresholds, the 3D stage and the detection cadence; defaults: video
+    /// tracking of up to 2 hands with the default adult hand.
+    pub settings: Settings,
 }
 
 impl SessionOptions {
     /// The most hands per frame.
     pub fn hands(mut self, n: usize) -> Self {
-        self.pipeline.max_hands = n;
+        self.settings.pipeline.max_hands = n;
         self
     }
 
     /// Track over a video (default) or treat every frame on its own.
     pub fn tracking(mut self, on: bool) -> Self {
-        self.fit.tracking = on;
+        self.settings.fit.tracking = on;
+        self
+    }
+
+    /// While tracking, look for new hands every `n` frames (default 10).
+    pub fn detect_every(mut self, n: usize) -> Self {
+        self.settings.detect_every = n;
         self
     }
 
@@ -60,26 +50,26 @@ impl SessionOptions {
 
     /// The fitter's settings.
     pub fn fit_options(mut self, options: FitOptions) -> Self {
-        self.fit.options = options;
+        self.settings.fit.options = options;
         self
     }
 
     /// The hand models, left then right (default: the average adult hand).
     pub fn skeletons(mut self, skeletons: [HandSkeleton; 2]) -> Self {
-        self.fit.skeletons = skeletons;
+        self.settings.fit.skeletons = skeletons;
         self
     }
 
-    /// Smooth the 3D joints over time with a One Euro filter.
+    /// Smooth the 3D joints over time with a One Euro filter (needs tracking).
     pub fn smoothing(mut self, params: Option<OneEuroParams>) -> Self {
-        self.fit.smoothing = params;
+        self.settings.fit.smoothing = params;
         self
     }
 
     /// Whether the landmark network also reads each crop's mirror image, averaged in (on by
     /// default; see [`monohand_vision::landmarks::LandmarkOptions::mirror_pass`]).
     pub fn mirror_pass(mut self, on: bool) -> Self {
-        self.pipeline.landmarks.mirror_pass = on;
+        self.settings.pipeline.landmarks.mirror_pass = on;
         self
     }
 
@@ -87,29 +77,6 @@ impl SessionOptions {
     pub fn heads(mut self, on: bool) -> Self {
         self.models.detect_heads = on;
         self
-    }
-
-    fn checked(&self) -> SessionResult<()> {
-        self.pipeline
-            .validate()
-            .map_err(|e| SessionError::Invalid(e.to_string()))?;
-        if self.detect_every == 0 {
-            return Err(SessionError::Invalid(
-                "detect_every must be at least 1".into(),
-            ));
-        }
-        Ok(())
-    }
-}
-
-/// The landmark network's refine passes: none when tracking (MediaPipe's single pass: the
-/// next frame's crop comes from this one's keypoints), one for independent images (the
-/// crop re-centred on the first pass's keypoints). The one place this policy is set.
-pub fn refine_passes(tracking: bool) -> usize {
-    if tracking {
-        0
-    } else {
-        1
     }
 }
 
@@ -154,30 +121,28 @@ impl Session {
     }
 
     /// The networks `options` ask for, loaded (fetching the weights with pip if they are
-    /// not cached yet), with the refine policy of the session: no refine pass when tracking
-    /// (MediaPipe's single pass), one for independent images.
+    /// not cached yet), with the options of the resolved settings ([`Settings::resolve`]:
+    /// no refine pass when tracking, one for independent images).
     pub fn load_pipeline(options: &SessionOptions) -> SessionResult<HandPipeline> {
-        options.checked()?;
-        Ok(HandPipeline::new(
-            &options.models,
-            PipelineOptions {
-                refine_passes: refine_passes(options.fit.tracking),
-                ..options.pipeline
-            },
-        )?)
+        let resolved = options.settings.clone().resolve()?;
+        Ok(HandPipeline::new(&options.models, resolved.pipeline())?)
     }
 
     /// A session over networks already loaded (they can be shared between sessions).
+    /// Refused ([`SessionError::Settings`]) when the networks do not run as `options` ask
+    /// ([`crate::ResolvedSettings::check_pipeline`]: tracking or not, the most hands, the mirror
+    /// pass, heads); which weights they were loaded from is theirs.
     pub fn with_pipeline(
         cameras: Vec<Camera>,
         pipeline: Arc<HandPipeline>,
         options: SessionOptions,
     ) -> SessionResult<Session> {
-        options.checked()?;
+        let resolved = options.settings.resolve()?;
+        resolved.check_pipeline(&pipeline, Some(options.models.detect_heads))?;
         let views = cameras.len().max(1);
         Ok(Session {
-            crops: CropTracker::new(pipeline, views, options.fit.tracking, options.detect_every),
-            fitter: HandsFitter::new(cameras, options.fit)?,
+            crops: CropTracker::new(pipeline, views, &resolved),
+            fitter: HandsFitter::new(cameras, &resolved)?,
             views,
             next_index: 0,
         })
@@ -185,7 +150,7 @@ impl Session {
 
     /// Processes one frame: `images[v]` is camera `v`'s image. Returns the frames now
     /// done: this one, except while the first frames are kept back to measure the hand size
-    /// ([`FitSettings::auto_scale_frames`]); call [`Session::finish`] at the end.
+    /// ([`crate::FitSettings::auto_scale_frames`]); call [`Session::finish`] at the end.
     pub fn process(
         &mut self,
         images: &[&RgbImage],
@@ -213,18 +178,16 @@ impl Session {
         focal: monohand_vision::image_io::ExifFocal,
     ) -> SessionResult<Vec<FittedFrame>> {
         if images.len() != self.views {
-            return Err(SessionError::Invalid(format!(
-                "{} image(s) for {} camera(s): give one image per camera, in order",
-                images.len(),
-                self.views
-            )));
+            return Err(SessionError::Views {
+                images: images.len(),
+                cameras: self.views,
+            });
         }
         if !time_s.is_finite() {
-            return Err(SessionError::Invalid(format!(
-                "frame time {time_s} is not finite"
-            )));
+            return Err(SessionError::FrameTime(time_s));
         }
-        let images: Vec<Result<&RgbImage, String>> = images.iter().map(|&i| Ok(i)).collect();
+        let images: Vec<Result<&RgbImage, crate::engine::SourceError>> =
+            images.iter().map(|&i| Ok(i)).collect();
         let mut frame = self.crops.process(self.next_index, time_s, &images);
         frame.focal = focal;
         self.next_index += 1;

@@ -7,8 +7,8 @@
 #![allow(clippy::unwrap_used, clippy::expect_used)] // a failed test is a panic
 
 use monohand::engine::{
-    CallerFrames, Engine, EngineError, EngineSettings, FrameSource, Observer, Output, Quiet,
-    RunReport, Sink, SinkError,
+    CallerFrames, Engine, EngineError, FrameSource, Observer, Output, Quiet, RunReport, Sink,
+    SinkError,
 };
 use monohand::records::fitted_record;
 use monohand::{HandPipeline, RgbImage, Session, SessionOptions};
@@ -64,7 +64,8 @@ fn source(frames: Vec<(RgbImage, f64)>) -> Box<dyn FrameSource> {
 }
 
 fn engine(pipeline: &Arc<HandPipeline>) -> Engine {
-    Engine::new(Arc::clone(pipeline), Vec::new(), EngineSettings::default()).expect("engine")
+    let settings = monohand::Settings::default().resolve().expect("settings");
+    Engine::new(Arc::clone(pipeline), Vec::new(), settings).expect("engine")
 }
 
 /// Runs `engine` over `input` into one collecting sink and returns its records.
@@ -164,15 +165,18 @@ fn offline_runs_write_every_frame_in_order_with_the_same_hands() {
     }
     assert!(moved >= 20, "{moved} of 30 frames refitted");
     // Without tracking there is nothing to smooth over.
-    let independent = EngineSettings {
-        fit: monohand::FitSettings {
-            tracking: false,
-            ..Default::default()
-        },
-        ..Default::default()
-    };
-    let e = Engine::new(Arc::clone(&pipeline), Vec::new(), independent).expect("engine");
-    assert!(e.with_offline(true).is_err());
+    let mut independent = monohand::Settings::default();
+    independent.fit.tracking = false;
+    let independent = independent.resolve().expect("settings");
+    assert!(matches!(
+        independent.clone().with_offline(true),
+        Err(e) if e.field == monohand::Field::Offline
+    ));
+    // Nor do the networks loaded for tracking run independent images.
+    assert!(matches!(
+        Engine::new(Arc::clone(&pipeline), Vec::new(), independent),
+        Err(EngineError::Settings(e)) if e.field == monohand::Field::Tracking
+    ));
 }
 
 /// Cancels once `after` frames were written, and keeps the notes.
@@ -280,13 +284,14 @@ fn the_offline_depth_pass_steadies_the_distance_and_keeps_every_joint_on_its_ray
 /// The records of 30 frames run with the default settings changed by `set(settings, true)`
 /// and by `set(settings, false)`.
 fn runs_with_and_without(
-    set: impl Fn(&mut EngineSettings, bool),
+    set: impl Fn(&mut monohand::Settings, bool),
 ) -> (Vec<FrameRecord>, Vec<FrameRecord>) {
     let input = frames(30);
     let pipeline = Arc::new(Session::load_pipeline(&SessionOptions::default()).expect("networks"));
     let run = |on: bool| {
-        let mut settings = EngineSettings::default();
+        let mut settings = monohand::Settings::default();
         set(&mut settings, on);
+        let settings = settings.resolve().expect("settings");
         let engine = Engine::new(Arc::clone(&pipeline), Vec::new(), settings).expect("engine");
         records_of(&engine, &input)
     };

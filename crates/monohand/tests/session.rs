@@ -14,11 +14,14 @@ fn calls_that_do_not_fit_the_session_are_refused() {
     let image = monohand::RgbImage::new(64, 48);
     assert!(matches!(
         session.process(&[&image, &image], 0.0),
-        Err(SessionError::Invalid(_))
+        Err(SessionError::Views {
+            images: 2,
+            cameras: 1
+        })
     ));
     assert!(matches!(
         session.process(&[&image], f64::NAN),
-        Err(SessionError::Invalid(_))
+        Err(SessionError::FrameTime(_))
     ));
     // A frame of another shape gets no 3D and says why; the session goes on.
     let wide = monohand::RgbImage::new(128, 64);
@@ -53,6 +56,33 @@ fn calls_that_do_not_fit_the_session_are_refused() {
     assert!(done[0].error.is_none() && done[0].hands.is_empty());
     assert!(matches!(
         Session::new(Vec::new(), SessionOptions::default().hands(0)),
-        Err(SessionError::Invalid(_))
+        Err(SessionError::Settings(e)) if e.field == monohand::Field::MaxHands
     ));
+    // A shared pipeline that does not run as the options ask is refused, not ignored.
+    let pipeline = std::sync::Arc::new(
+        Session::load_pipeline(&SessionOptions::default().hands(1)).expect("networks"),
+    );
+    for (options, field) in [
+        (SessionOptions::default(), monohand::Field::MaxHands),
+        (
+            SessionOptions::default().hands(1).tracking(false),
+            monohand::Field::Tracking,
+        ),
+        (
+            SessionOptions::default().hands(1).mirror_pass(false),
+            monohand::Field::MirrorPass,
+        ),
+        (
+            SessionOptions::default().hands(1).heads(true),
+            monohand::Field::Heads,
+        ),
+    ] {
+        assert!(matches!(
+            Session::with_pipeline(Vec::new(), pipeline.clone(), options),
+            Err(SessionError::Settings(e)) if e.field == field
+        ));
+    }
+    assert!(
+        Session::with_pipeline(Vec::new(), pipeline, SessionOptions::default().hands(1)).is_ok()
+    );
 }

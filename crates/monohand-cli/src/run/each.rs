@@ -1,7 +1,7 @@
 //! `run --each DIR --output-dir OUT`: every video and image of a folder as its own input,
 //! each into `OUT/<file name>.jsonl`, complete or absent ([`monohand::engine::corpus`]).
 
-use super::{engine_settings, stall_timeout, Outcome, RunArgs};
+use super::{settings, stall_timeout, Outcome, RunArgs};
 use crate::progress::Terminal;
 use anyhow::{bail, Result};
 use monohand::engine::corpus::{corpus, CorpusItem, Ended};
@@ -78,17 +78,22 @@ fn one(
     pipelines: &mut HashMap<bool, Arc<HandPipeline>>,
 ) -> Result<Ended> {
     let input = Input::parse(&item.input.to_string_lossy())?;
-    let tracking = (input.is_video() || args.track) && !args.no_track;
     // The settings are checked as for a video; --offline and --smooth apply to the videos.
-    let settings = engine_settings(args, true)?.tracking(tracking);
+    let settings = crate::resolve(settings(args, true)?)?;
+    let settings = if (input.is_video() || args.track) && !args.no_track {
+        settings
+    } else {
+        settings.untracked()
+    };
     let source = match input.open(stall) {
         Ok(s) => s,
         Err(e) => return Ok(Ended::Failed(e.to_string())),
     };
+    let tracking = settings.tracking();
     let pipeline = match pipelines.get(&tracking) {
         Some(p) => Arc::clone(p),
         None => {
-            let p = Arc::new(args.models.pipeline(monohand::refine_passes(tracking))?);
+            let p = Arc::new(args.models.pipeline(settings.pipeline())?);
             pipelines.insert(tracking, Arc::clone(&p));
             p
         }

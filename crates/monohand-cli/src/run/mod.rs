@@ -15,8 +15,8 @@ use crate::progress::Terminal;
 use crate::vision::ModelArgs;
 use anyhow::{bail, Context, Result};
 use clap::Args;
-use monohand::engine::{Engine, EngineSettings, FrameSource, Input, RunReport};
-use monohand::{FitSettings, HandScale, OfflineSettings};
+use monohand::engine::{Engine, FrameSource, Input, RunReport};
+use monohand::{FitSettings, HandScale, OfflineSettings, Settings};
 use monohand_core::filtering::OneEuroParams;
 use outputs::{GltfStyle, OutputFormat};
 use std::path::PathBuf;
@@ -133,7 +133,8 @@ pub(crate) fn run(args: &RunArgs) -> Result<Outcome> {
     if let (Some(dir), Some(out)) = (&args.each, &args.output_dir) {
         return each::run(args, dir, out);
     }
-    // Everything that can be checked is checked before any output is created.
+    // Everything that can be checked is checked before any output is created (the views
+    // against the cameras: `Engine::check_sources`).
     let specs: Vec<String> = match &args.input {
         Some(i) => vec![i.clone()],
         None => args.views.clone(),
@@ -143,22 +144,10 @@ pub(crate) fn run(args: &RunArgs) -> Result<Outcome> {
         .enumerate()
         .map(|(v, s)| Input::parse(s).with_context(|| format!("view {}", v + 1)))
         .collect::<Result<_>>()?;
-    if !args.cameras.is_empty() && args.cameras.len() != inputs.len() {
-        bail!(
-            "{} --camera for {} view(s): give one calibration per view, in the same order",
-            args.cameras.len(),
-            inputs.len()
-        );
-    }
-    if inputs.len() > 1 && args.cameras.is_empty() {
-        bail!(
-            "several views need their calibrations: one --camera per --view (docs/calibration.md)"
-        );
-    }
     let cameras = crate::read_cameras(&args.cameras)?;
     let video = inputs.iter().any(Input::is_video);
     let tracking = (video || args.track) && !args.no_track;
-    let settings = engine_settings(args, tracking)?;
+    let settings = crate::resolve(settings(args, tracking)?)?;
     let stall = stall_timeout(args)?;
     let sources: Vec<Box<dyn FrameSource>> = inputs
         .iter()
@@ -169,7 +158,7 @@ pub(crate) fn run(args: &RunArgs) -> Result<Outcome> {
     let total = sources[0]
         .len_hint()
         .map(|n| args.max_frames.map_or(n, |m| n.min(m)));
-    let pipeline = Arc::new(args.models.pipeline(monohand::refine_passes(tracking))?);
+    let pipeline = Arc::new(args.models.pipeline(settings.pipeline())?);
     let engine = Engine::new(pipeline, cameras, settings)?;
     engine.check_sources(&sources)?;
     let single_image = matches!(inputs.as_slice(), [i] if i.is_single_image());
@@ -182,29 +171,15 @@ pub(crate) fn run(args: &RunArgs) -> Result<Outcome> {
     summarise(&report)
 }
 
-/// The engine's settings from the arguments, checked, for an input tracked or not.
-fn engine_settings(args: &RunArgs, tracking: bool) -> Result<EngineSettings> {
-    let options = args.hand.fit_options()?;
-    let skeletons = args.hand.skeletons(args.hand.hand_scale.initial())?;
-    if args.detect_every == 0 {
-        bail!("--detect-every must be at least 1");
-    }
-    if args.threads == Some(0) {
-        bail!("--threads must be at least 1");
-    }
-    let cutoff_ok = args.smooth_min_cutoff.is_finite() && args.smooth_min_cutoff > 0.0;
-    let beta_ok = args.smooth_beta.is_finite() && args.smooth_beta >= 0.0;
-    if !(cutoff_ok && beta_ok) {
-        bail!("--smooth-min-cutoff must be positive and --smooth-beta not negative");
-    }
-    if (args.smooth || args.offline) && !tracking {
-        bail!("--smooth and --offline need tracking (a video, or --track on an image sequence)");
-    }
+/// The plain settings of the arguments, for an input tracked or not (the library
+/// checks them: [`crate::resolve`]).
+fn settings(args: &RunArgs, tracking: bool) -> Result<Settings> {
     let auto_frames = (args.hand.hand_scale == HandScale::Auto).then_some(args.hand.scale_frames);
-    Ok(EngineSettings {
+    Ok(Settings {
+        pipeline: args.models.options().1,
         fit: FitSettings {
-            skeletons,
-            options,
+            skeletons: args.hand.skeletons(args.hand.hand_scale.initial())?,
+            options: args.hand.fit_options()?,
             tracking,
             auto_scale_frames: auto_frames,
             proportion_frames: args.hand.proportion_frames.map(|n| n as usize),

@@ -2,7 +2,7 @@
 //! rig paired, and the views kept from a video.
 
 use super::{CalibrateError, CalibrateSettings, CameraViews, MAX_MOTION_PX, MIN_VIEW_DISTANCE};
-use crate::engine::{FrameSource, Input, SourceFrame};
+use crate::engine::{FrameSource, Input, SourceError, SourceFrame};
 use monohand_calib::calibrate::BoardView;
 use monohand_calib::corners::{find_chessboard_with, FoundBoard};
 use monohand_calib::GrayImage;
@@ -267,8 +267,11 @@ fn ended_early(
     Ok(None)
 }
 
-fn read_error(input: &Input, e: String) -> CalibrateError {
-    CalibrateError::Inputs(format!("{}: {e}", input_name(input)))
+fn read_error(input: &Input, source: SourceError) -> CalibrateError {
+    CalibrateError::Read {
+        input: input_name(input),
+        source,
+    }
 }
 
 /// An input's name in messages.

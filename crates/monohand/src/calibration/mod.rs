@@ -81,6 +81,14 @@ pub enum CalibrateError {
     /// An input could not be opened or read.
     #[error(transparent)]
     Input(#[from] EngineError),
+    /// An input stopped on an error while its frames were read.
+    #[error("{input}: {source}")]
+    Read {
+        /// The input.
+        input: String,
+        /// What stopped it.
+        source: crate::engine::SourceError,
+    },
     /// The inputs do not fit together (a rig of images and videos, different lengths, ...).
     #[error("{0}")]
     Inputs(String),

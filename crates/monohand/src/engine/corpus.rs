@@ -3,7 +3,9 @@
 //! a rerun after a crash or a kill skips what is done and redoes the rest.
 
 use super::overlay_paths::{has_extension, IMAGE_EXTENSIONS, VIDEO_EXTENSIONS};
-use super::{Engine, EngineError, EngineResult, FrameSource, JsonlSink, Observer, Sink};
+use super::{
+    Engine, EngineError, EngineResult, FrameSource, InputError, JsonlSink, Observer, Sink,
+};
 use std::path::{Path, PathBuf};
 
 /// One input of a folder, and where its records go.
@@ -98,8 +100,10 @@ pub enum Ended {
 /// The videos and images directly in `dir` (file-name order; other files are left alone),
 /// each with its output in `out_dir` (created).
 pub fn corpus(dir: &Path, out_dir: &Path) -> EngineResult<Vec<CorpusItem>> {
-    let io =
-        |what: &Path, e: std::io::Error| EngineError::Input(format!("{}: {e}", what.display()));
+    let io = |what: &Path, source: std::io::Error| InputError::Io {
+        path: what.into(),
+        source,
+    };
     let mut inputs: Vec<PathBuf> = std::fs::read_dir(dir)
         .map_err(|e| io(dir, e))?
         .filter_map(|e| e.ok().map(|e| e.path()))
@@ -109,12 +113,15 @@ pub fn corpus(dir: &Path, out_dir: &Path) -> EngineResult<Vec<CorpusItem>> {
         })
         .collect();
     if inputs.is_empty() {
-        return Err(EngineError::Input(format!(
-            "{}: no videos ({}) or images ({}) in this folder",
-            dir.display(),
-            VIDEO_EXTENSIONS.join(", "),
-            IMAGE_EXTENSIONS.join(", ")
-        )));
+        return Err(InputError::EmptyFolder {
+            path: dir.into(),
+            what: format!(
+                "videos ({}) or images ({}) in this folder",
+                VIDEO_EXTENSIONS.join(", "),
+                IMAGE_EXTENSIONS.join(", ")
+            ),
+        }
+        .into());
     }
     inputs.sort();
     std::fs::create_dir_all(out_dir).map_err(|e| io(out_dir, e))?;

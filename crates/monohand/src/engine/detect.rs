@@ -4,7 +4,7 @@
 //! records are written in order.
 
 use super::{
-    thread_pool, EngineError, EngineResult, Input, Observer, Output, RunReport, Sink, Writer,
+    thread_pool, EngineResult, Input, InputError, Observer, Output, RunReport, Sink, Writer,
 };
 use crate::records::detections_record;
 use monohand_io::jsonl::FrameRecord;
@@ -21,10 +21,10 @@ pub fn image_files(inputs: &[PathBuf]) -> EngineResult<Vec<PathBuf>> {
         match Input::parse(&input.to_string_lossy())? {
             Input::Images(found) => files.extend(found),
             Input::Video(_) => {
-                return Err(EngineError::Input(format!(
-                    "{}: not an image; `monohand run` reads videos",
-                    input.display()
-                )))
+                return Err(InputError::NotImages {
+                    path: input.clone(),
+                }
+                .into())
             }
         }
     }
@@ -33,7 +33,7 @@ pub fn image_files(inputs: &[PathBuf]) -> EngineResult<Vec<PathBuf>> {
 
 /// Detects the hands of every image in `files` (in order) into `sinks`, and closes them.
 /// An unreadable image gets a record with its error; `threads` as in
-/// [`super::EngineSettings::threads`].
+/// [`crate::Settings::threads`].
 pub fn detect_images(
     pipeline: &HandPipeline,
     files: &[PathBuf],

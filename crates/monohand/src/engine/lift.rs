@@ -1,7 +1,7 @@
 //! The lifting job: 2D keypoint files made elsewhere (OpenPose folders, the project's JSON
 //! Lines) of one or several calibrated views in, 3D hands out to the engine's sinks.
 
-use super::{EngineError, EngineResult, Observer, Output, RunReport, Sink, Writer};
+use super::{EngineResult, InputError, Observer, Output, RunReport, Sink, Writer};
 use crate::fit::{learn_proportions, FitOutcome};
 use crate::lifter::Lifter;
 use monohand_core::observation::NetworkCues;
@@ -29,20 +29,21 @@ pub enum KeypointInput {
 impl KeypointInput {
     /// An OpenPose folder (or one file).
     pub fn open_openpose(path: &Path) -> EngineResult<KeypointInput> {
-        let files = list_openpose_files(path).map_err(|e| EngineError::Input(e.to_string()))?;
+        let files = list_openpose_files(path).map_err(|e| InputError::Keypoints(e.to_string()))?;
         Ok(KeypointInput::OpenPose(files))
     }
 
     /// A JSON Lines file; a frame index that appears twice is refused.
     pub fn open_jsonl(path: &Path) -> EngineResult<KeypointInput> {
         let mut frames = BTreeMap::new();
-        for rec in read_jsonl(path).map_err(|e| EngineError::Input(e.to_string()))? {
+        for rec in read_jsonl(path).map_err(|e| InputError::Keypoints(e.to_string()))? {
             let i = rec.frame;
             if frames.insert(i, rec).is_some() {
-                return Err(EngineError::Input(format!(
+                return Err(InputError::Keypoints(format!(
                     "{}: frame {i} appears more than once",
                     path.display()
-                )));
+                ))
+                .into());
             }
         }
         Ok(KeypointInput::Jsonl {
@@ -80,13 +81,11 @@ impl KeypointInput {
     }
 
     /// The hands of frame `i` (none for a frame the input lacks), or why it is unreadable.
-    pub fn frame(&self, i: usize) -> Result<Vec<HandObservation>, String> {
+    pub fn frame(&self, i: usize) -> Result<Vec<HandObservation>, KeypointError> {
         match self {
             KeypointInput::OpenPose(files) => match files.get(i) {
                 None => Ok(Vec::new()),
-                Some(p) => read_openpose_file(p)
-                    .map(|f| f.hands)
-                    .map_err(|e| e.to_string()),
+                Some(p) => Ok(read_openpose_file(p)?.hands),
             },
             KeypointInput::Jsonl { path, frames } => {
                 let Some(rec) = frames.get(&(i as u64)) else {
@@ -94,12 +93,15 @@ impl KeypointInput {
                 };
                 let mut hands = Vec::new();
                 for (h, hand) in rec.hands.iter().enumerate() {
-                    let keypoints = hand.keypoints().map_err(|e| {
-                        format!("{}: frame {i} hands[{h}].keypoints_2d: {e}", path.display())
-                    })?;
-                    let cues = hand
-                        .cues()
-                        .map_err(|e| format!("{}: frame {i} hands[{h}]: {e}", path.display()))?;
+                    let bad = |field, source| KeypointError::Hand {
+                        path: path.clone(),
+                        frame: i,
+                        hand: h,
+                        field,
+                        source,
+                    };
+                    let keypoints = hand.keypoints().map_err(|e| bad(".keypoints_2d", e))?;
+                    let cues = hand.cues().map_err(|e| bad("", e))?;
                     if !keypoints.is_empty() {
                         hands.push(HandObservation {
                             side: hand.side,
@@ -112,6 +114,28 @@ impl KeypointInput {
             }
         }
     }
+}
+
+/// Why a frame of 2D keypoints could not be read (it is written without hands).
+#[derive(Debug, thiserror::Error)]
+pub enum KeypointError {
+    /// An OpenPose file that could not be read.
+    #[error(transparent)]
+    OpenPose(#[from] monohand_io::IoError),
+    /// A hand of a JSON Lines record with impossible keypoints or cues.
+    #[error("{}: frame {frame} hands[{hand}]{field}: {source}", path.display())]
+    Hand {
+        /// The file.
+        path: PathBuf,
+        /// The frame, from 0.
+        frame: usize,
+        /// The hand within it.
+        hand: usize,
+        /// Which of its fields (`.keypoints_2d`; empty: its cues).
+        field: &'static str,
+        /// Why.
+        source: monohand_core::CoreError,
+    },
 }
 
 /// How the lifting job fits.
@@ -140,11 +164,14 @@ pub fn lift_keypoints(
     observer: &dyn Observer,
 ) -> EngineResult<RunReport> {
     if inputs.is_empty() || inputs.len() != cameras.len() {
-        return Err(EngineError::Input(format!(
-            "{} camera(s) for {} view(s) of keypoints: give one camera per view",
-            cameras.len(),
-            inputs.len()
-        )));
+        return Err(InputError::CameraCount {
+            cameras: cameras.len(),
+            views: inputs.len(),
+            what: " of keypoints",
+            per: "camera",
+            order: "",
+        }
+        .into());
     }
     let mut skeletons = settings.skeletons;
     if let Some(n) = settings.proportion_frames {

@@ -24,16 +24,21 @@ mod sinks;
 mod source;
 
 pub use sinks::{CsvSink, GltfSink, JsonlSink, OpenPoseSink, Output, OverlaySink, Sink, SinkError};
-pub use source::{chain, CallerFrames, FrameSource, ImageFiles, Input, SourceFrame, VideoSource};
+pub use source::{
+    chain, CallerFrames, FrameSource, ImageFiles, Input, InputError, SourceError, SourceFrame,
+    VideoSource,
+};
 
 /// Overlay file-name conventions (which names are videos, which one image).
 pub mod overlay_paths {
     pub use super::sinks::{has_extension, IMAGE_EXTENSIONS, VIDEO_EXTENSIONS};
 }
 
-use crate::crops::{CropTracker, VisionFrame};
-use crate::hands::{FitSettings, FittedFrame, HandsFitter};
+use crate::crops::{CropTracker, ViewError, VisionFrame};
+use crate::frame::FittedFrame;
+use crate::hands::HandsFitter;
 use crate::notes::{Note, NoteTopic};
+use crate::settings::ResolvedSettings;
 use monohand_core::camera::Camera;
 use monohand_io::jsonl::FrameRecord;
 use monohand_vision::tflite_import::allow_split_here;
@@ -45,9 +50,13 @@ use std::time::{Duration, Instant};
 /// What can stop the engine.
 #[derive(Debug, thiserror::Error)]
 pub enum EngineError {
-    /// An input could not be opened, or the settings do not fit it.
-    #[error("{0}")]
-    Input(String),
+    /// An input could not be opened, or does not fit the cameras.
+    #[error(transparent)]
+    Input(#[from] InputError),
+    /// A setting was refused ([`crate::settings`]), or the networks do not run as the
+    /// settings ask.
+    #[error(transparent)]
+    Settings(#[from] crate::settings::SettingsError),
     /// The settings are inconsistent.
     #[error(transparent)]
     Session(#[from] crate::SessionError),
@@ -75,44 +84,6 @@ pub enum EngineError {
 
 /// Result type of the engine.
 pub type EngineResult<T> = std::result::Result<T, EngineError>;
-
-/// How the engine runs (the networks and cameras are given apart: [`Engine::new`]).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct EngineSettings {
-    /// The 3D stage, tracking included ([`FitSettings::tracking`]: each fit and each crop
-    /// starts from the last frame's).
-    pub fit: FitSettings,
-    /// While tracking, look for new hands every this many frames.
-    pub detect_every: usize,
-    /// Stop after this many frames.
-    pub max_frames: Option<u64>,
-    /// Worker threads for independent images (`None`: all cores; 1: one core).
-    pub threads: Option<usize>,
-}
-
-impl Default for EngineSettings {
-    fn default() -> EngineSettings {
-        EngineSettings {
-            fit: FitSettings::default(),
-            detect_every: 10,
-            max_frames: None,
-            threads: None,
-        }
-    }
-}
-
-impl EngineSettings {
-    /// These settings with tracking on or off. Frames not tracked (images on their own) have
-    /// no frames around them, so they are neither smoothed nor refitted offline.
-    pub fn tracking(mut self, on: bool) -> EngineSettings {
-        self.fit.tracking = on;
-        if !on {
-            self.fit.offline = None;
-            self.fit.smoothing = None;
-        }
-        self
-    }
-}
 
 /// Hears from a run: whether to stop, each frame written, and notes for the user.
 /// Every method has a default that does nothing.
@@ -153,7 +124,7 @@ pub struct RunReport {
     /// Frames that could not be read (their records carry the error).
     pub unreadable: u64,
     /// The error that ended the input early, after `frames` good frames.
-    pub input_error: Option<String>,
+    pub input_error: Option<SourceError>,
     /// The observer cancelled the run.
     pub cancelled: bool,
     /// Wall-clock seconds of the run.
@@ -212,12 +183,13 @@ impl RunReport {
 /// per image from its EXIF focal length, else the generic guess).
 ///
 /// ```no_run
-/// use monohand::engine::{Engine, EngineSettings, Input, JsonlSink, Quiet, Sink};
-/// use monohand::{HandPipeline, vision::{ModelOptions, PipelineOptions}};
+/// use monohand::engine::{Engine, Input, JsonlSink, Quiet, Sink};
+/// use monohand::{HandPipeline, Settings, vision::ModelOptions};
 /// use std::sync::Arc;
 ///
-/// let pipeline = Arc::new(HandPipeline::new(&ModelOptions::default(), PipelineOptions::default())?);
-/// let engine = Engine::new(pipeline, vec![], EngineSettings::default())?;
+/// let settings = Settings::default().resolve()?;
+/// let pipeline = Arc::new(HandPipeline::new(&ModelOptions::default(), settings.pipeline())?);
+/// let engine = Engine::new(pipeline, vec![], settings)?;
 /// let source = Input::parse("clip.mp4")?.open(std::time::Duration::from_secs(10))?;
 /// let mut sinks: Vec<Box<dyn Sink>> = vec![Box::new(JsonlSink::create("hands.jsonl".as_ref())?)];
 /// let report = engine.run(vec![source], &mut sinks, &Quiet)?;
@@ -228,7 +200,7 @@ impl RunReport {
 pub struct Engine {
     pipeline: Arc<HandPipeline>,
     cameras: Vec<Camera>,
-    settings: EngineSettings,
+    settings: ResolvedSettings,
 }
 
 impl std::fmt::Debug for Engine {
@@ -245,7 +217,7 @@ struct RawFrame {
     index: u64,
     source: Option<String>,
     timestamp_s: f64,
-    images: Vec<Result<RgbImage, String>>,
+    images: Vec<Result<RgbImage, SourceError>>,
     decode_ms: f64,
     /// The EXIF focal length of the first view's image file.
     focal: monohand_vision::image_io::ExifFocal,
@@ -261,20 +233,16 @@ struct Extra {
 
 impl Engine {
     /// An engine over `pipeline` with one camera per view (none: one view, its camera from
-    /// each image). The cameras and settings are checked here.
+    /// each image). The cameras are checked here, and the networks against the settings
+    /// ([`ResolvedSettings::check_pipeline`]).
     pub fn new(
         pipeline: Arc<HandPipeline>,
         cameras: Vec<Camera>,
-        settings: EngineSettings,
+        settings: ResolvedSettings,
     ) -> EngineResult<Engine> {
-        if settings.detect_every == 0 {
-            return Err(EngineError::Input("detect_every must be at least 1".into()));
-        }
-        if settings.threads == Some(0) {
-            return Err(EngineError::Input("threads must be at least 1".into()));
-        }
-        // The fitter checks the cameras and the fit options.
-        HandsFitter::<()>::new(cameras.clone(), settings.fit).map_err(crate::SessionError::from)?;
+        settings.check_pipeline(&pipeline, None)?;
+        // The fitter checks the cameras.
+        HandsFitter::<()>::new(cameras.clone(), &settings).map_err(crate::SessionError::from)?;
         Ok(Engine {
             pipeline,
             cameras,
@@ -288,38 +256,37 @@ impl Engine {
     }
 
     /// The settings.
-    pub fn settings(&self) -> &EngineSettings {
+    pub fn settings(&self) -> &ResolvedSettings {
         &self.settings
     }
 
     /// The same engine, stopping after `max_frames` frames (`None`: at the input's end).
     pub fn with_max_frames(mut self, max_frames: Option<u64>) -> Engine {
-        self.settings.max_frames = max_frames;
+        self.settings = self.settings.with_max_frames(max_frames);
         self
     }
 
     /// The same engine with the offline smoother on (its default settings) or off; refused
     /// without tracking.
     pub fn with_offline(mut self, on: bool) -> EngineResult<Engine> {
-        self.settings.fit.offline = on.then(crate::OfflineSettings::default);
-        HandsFitter::<()>::new(self.cameras.clone(), self.settings.fit)
-            .map_err(crate::SessionError::from)?;
+        self.settings = self.settings.with_offline(on)?;
         Ok(self)
     }
 
     /// Checks that the calibrated cameras fit the sources' frames (one source per view).
     pub fn check_sources(&self, sources: &[Box<dyn FrameSource>]) -> EngineResult<()> {
         if !self.cameras.is_empty() && self.cameras.len() != sources.len() {
-            return Err(EngineError::Input(format!(
-                "{} camera(s) for {} view(s): give one calibration per view, in the same order",
-                self.cameras.len(),
-                sources.len()
-            )));
+            return Err(InputError::CameraCount {
+                cameras: self.cameras.len(),
+                views: sources.len(),
+                what: "",
+                per: "calibration",
+                order: ", in the same order",
+            }
+            .into());
         }
         if sources.len() > 1 && self.cameras.is_empty() {
-            return Err(EngineError::Input(
-                "several views need their calibrations, one per view (docs/calibration.md)".into(),
-            ));
+            return Err(InputError::Uncalibrated.into());
         }
         for (v, (s, cam)) in sources.iter().zip(&self.cameras).enumerate() {
             let Some((w, h)) = s.video_size() else {
@@ -328,27 +295,25 @@ impl Engine {
             let k = &cam.intrinsics;
             let quarter_turn = s.rotation_deg().rem_euclid(180) == 90;
             if quarter_turn && (k.width, k.height) == (h, w) {
-                return Err(EngineError::Input(format!(
-                    "view {}: the video is stored {h}x{w} and carries rotation metadata of {} \
-                     degrees (a phone held upright), so its frames are decoded upright at \
-                     {w}x{h}; the calibration is for the stored {h}x{w} frames. Give a \
-                     calibration of the upright frames (fx and fy swapped, the principal point \
-                     turned with the image), or strip the rotation from the file (ffmpeg -i IN \
-                     -c copy -metadata:s:v:0 rotate=0 OUT)",
-                    v + 1,
-                    s.rotation_deg()
-                )));
+                let rotation = s.rotation_deg();
+                return Err(InputError::Rotated {
+                    view: v + 1,
+                    w,
+                    h,
+                    rotation,
+                }
+                .into());
             }
             // Another size of the same shape is scaled frame by frame (said then); another
             // shape cannot be the same lens's frame.
-            if let Err(why) = cam.scaled_to(w, h) {
-                return Err(EngineError::Input(format!(
-                    "view {}: the video is {w}x{h} but its calibration is for {}x{}, which cannot \
-                     be scaled to it ({why})",
-                    v + 1,
-                    k.width,
-                    k.height
-                )));
+            if let Err(source) = cam.scaled_to(w, h) {
+                return Err(InputError::OtherSize {
+                    view: v + 1,
+                    size: (w, h),
+                    calibrated: (k.width, k.height),
+                    source,
+                }
+                .into());
             }
         }
         Ok(())
@@ -365,10 +330,10 @@ impl Engine {
     ) -> EngineResult<RunReport> {
         self.check_sources(&sources)?;
         if sources.is_empty() {
-            return Err(EngineError::Input("no input".into()));
+            return Err(InputError::Nothing.into());
         }
-        let tracking = self.settings.fit.tracking;
-        let mut fit = HandsFitter::new(self.cameras.clone(), self.settings.fit)
+        let tracking = self.settings.tracking();
+        let mut fit = HandsFitter::new(self.cameras.clone(), &self.settings)
             .map_err(crate::SessionError::from)?;
         let keep_image = sinks.iter().any(|s| s.wants_images());
         let mut out = Writer::new(sinks, observer);
@@ -389,10 +354,10 @@ impl Engine {
         out: &mut Writer<'_, '_>,
         keep_image: bool,
     ) -> EngineResult<()> {
-        let max_frames = self.settings.max_frames;
-        let tracking = self.settings.fit.tracking;
+        let max_frames = self.settings.max_frames();
+        let tracking = self.settings.tracking();
         let n_views = sources.len();
-        let detect_every = self.settings.detect_every;
+        let settings = &self.settings;
         let observer = out.observer;
         let panic_at = injected_network_panic();
         // The first view's frames go back to its reader once the networks are done with
@@ -409,7 +374,7 @@ impl Engine {
             });
             let pipe = Arc::clone(&self.pipeline);
             let vision = scope.spawn(move || {
-                let mut stage = CropTracker::new(pipe, n_views, tracking, detect_every);
+                let mut stage = CropTracker::new(pipe, n_views, settings);
                 loop {
                     // A network alone shares its operators with the other cores only while
                     // frames are waiting: while this thread waits for the decoder, that core
@@ -434,7 +399,7 @@ impl Engine {
                             raw.index
                         );
                     }
-                    let images: Vec<Result<&RgbImage, String>> = raw
+                    let images: Vec<Result<&RgbImage, SourceError>> = raw
                         .images
                         .iter()
                         .map(|i| i.as_ref().map_err(Clone::clone))
@@ -487,9 +452,10 @@ impl Engine {
         keep_image: bool,
     ) -> EngineResult<()> {
         use rayon::prelude::*;
-        let pool = thread_pool(self.settings.threads)?;
+        let pool = thread_pool(self.settings.threads())?;
         let chunk = 2 * pool.current_num_threads();
-        let mut stage = CropTracker::new(Arc::clone(&self.pipeline), 1, false, 1);
+        // Not tracking here: every image is detected on its own.
+        let mut stage = CropTracker::new(Arc::clone(&self.pipeline), 1, &self.settings);
         let mut batch: Vec<RawFrame> = Vec::with_capacity(chunk);
         let mut done = false;
         while !done {
@@ -498,7 +464,7 @@ impl Engine {
                 if out.observer.cancelled()
                     || self
                         .settings
-                        .max_frames
+                        .max_frames()
                         .is_some_and(|m| out.report.frames + batch.len() as u64 >= m)
                 {
                     done = true;
@@ -524,8 +490,8 @@ impl Engine {
                     .map(|raw| {
                         let t = Instant::now();
                         let d = match &raw.images[0] {
-                            Ok(img) => pipeline.detect(img).map_err(|e| e.to_string()),
-                            Err(e) => Err(e.clone()),
+                            Ok(img) => pipeline.detect(img).map_err(ViewError::from),
+                            Err(e) => Err(ViewError::Unreadable(e.clone())),
                         };
                         (d, t.elapsed().as_secs_f64() * 1e3)
                     })
@@ -681,7 +647,7 @@ fn thread_pool(threads: Option<usize>) -> EngineResult<rayon::ThreadPool> {
     }
     builder
         .build()
-        .map_err(|e| EngineError::Input(format!("could not start worker threads: {e}")))
+        .map_err(|e| InputError::Threads(e.to_string()).into())
 }
 
 /// Fault injection for the tests of a failing run: `MONOHAND_FAULT=network-panic:N` makes
@@ -692,7 +658,7 @@ fn injected_network_panic() -> Option<u64> {
 }
 
 /// The next frame of every view; `Ok(None)` when the first view ended.
-fn next_raw(sources: &mut [Box<dyn FrameSource>]) -> Result<Option<RawFrame>, String> {
+fn next_raw(sources: &mut [Box<dyn FrameSource>]) -> Result<Option<RawFrame>, SourceError> {
     let Some((first, others)) = sources.split_first_mut() else {
         return Ok(None);
     };
@@ -709,8 +675,11 @@ fn next_raw(sources: &mut [Box<dyn FrameSource>]) -> Result<Option<RawFrame>, St
                 decode_ms += g.decode_ms;
                 g.image
             }
-            Ok(None) => Err(format!("view {view} has no more frames")),
-            Err(e) => Err(format!("view {view}: {e}")),
+            Ok(None) => Err(SourceError::ViewEnded { view }),
+            Err(e) => Err(SourceError::View {
+                view,
+                source: Box::new(e),
+            }),
         });
     }
     Ok(Some(RawFrame {
@@ -730,7 +699,7 @@ fn read_all(
     max_frames: Option<u64>,
     observer: &dyn Observer,
     mut send: impl FnMut(RawFrame) -> bool,
-) -> Option<String> {
+) -> Option<SourceError> {
     let mut n = 0u64;
     loop {
         if observer.cancelled() || max_frames.is_some_and(|m| n >= m) {

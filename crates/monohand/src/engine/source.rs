@@ -1,12 +1,145 @@
 //! Where the engine's frames come from: image files, a folder, a video file or a webcam
 //! (through [`monohand_media::video`]), or a caller's own frames.
 
-use super::{EngineError, EngineResult};
+use super::EngineResult;
 use monohand_media::video::{FrameRecycler, VideoInput, VideoReader};
 use monohand_vision::image_io::{images_in_folder, load_photo, ExifFocal, IMAGE_EXTENSIONS};
 use monohand_vision::RgbImage;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
+
+/// Why an input could not be opened, or does not fit the cameras and settings (nothing
+/// was run).
+#[derive(Debug, thiserror::Error)]
+pub enum InputError {
+    /// `webcam:` without a device number.
+    #[error("{spec:?}: a webcam is written webcam:N, e.g. webcam:0")]
+    WebcamSyntax {
+        /// As given.
+        spec: String,
+    },
+    /// No such file or folder.
+    #[error("{spec}: no such file or folder")]
+    Missing {
+        /// As given.
+        spec: String,
+    },
+    /// A folder without images, or (a corpus) without videos or images.
+    #[error("{}: no {what}", path.display())]
+    EmptyFolder {
+        /// The folder.
+        path: PathBuf,
+        /// What was looked for, and where ("images in this folder (looked for ..)").
+        what: String,
+    },
+    /// A folder or file that could not be read or written.
+    #[error("{}: {source}", path.display())]
+    Io {
+        /// The folder or file.
+        path: PathBuf,
+        /// Why.
+        source: std::io::Error,
+    },
+    /// A video or a folder could not be opened (the error and its causes).
+    #[error("{0}")]
+    Open(String),
+    /// A keypoint file that could not be read, or holds a frame twice.
+    #[error("{0}")]
+    Keypoints(String),
+    /// Not one camera per view.
+    #[error("{cameras} camera(s) for {views} view(s){what}: give one {per} per view{order}")]
+    CameraCount {
+        /// Cameras given.
+        cameras: usize,
+        /// Views given.
+        views: usize,
+        /// What the views are (empty, or " of keypoints").
+        what: &'static str,
+        /// What is given per view ("calibration", "camera").
+        per: &'static str,
+        /// ", in the same order", or empty.
+        order: &'static str,
+    },
+    /// Several views without their calibrations.
+    #[error("several views need their calibrations, one per view (docs/calibration.md)")]
+    Uncalibrated,
+    /// A video turned upright by its rotation metadata, calibrated for its stored frames.
+    #[error(
+        "view {view}: the video is stored {h}x{w} and carries rotation metadata of {rotation} \
+         degrees (a phone held upright), so its frames are decoded upright at {w}x{h}; the \
+         calibration is for the stored {h}x{w} frames. Give a calibration of the upright \
+         frames (fx and fy swapped, the principal point turned with the image), or strip the \
+         rotation from the file (ffmpeg -i IN -c copy -metadata:s:v:0 rotate=0 OUT)"
+    )]
+    Rotated {
+        /// The view, from 1.
+        view: usize,
+        /// Upright width.
+        w: u32,
+        /// Upright height.
+        h: u32,
+        /// The rotation, degrees.
+        rotation: i32,
+    },
+    /// A video whose calibration cannot be scaled to its frames.
+    #[error(
+        "view {view}: the video is {}x{} but its calibration is for {}x{}, which cannot be \
+         scaled to it ({source})",
+        size.0, size.1, calibrated.0, calibrated.1
+    )]
+    OtherSize {
+        /// The view, from 1.
+        view: usize,
+        /// The video's frame size.
+        size: (u32, u32),
+        /// The calibration's.
+        calibrated: (u32, u32),
+        /// Why.
+        source: monohand_core::camera::ScaleError,
+    },
+    /// A video where images are wanted (`monohand detect`).
+    #[error("{}: not an image; `monohand run` reads videos", path.display())]
+    NotImages {
+        /// The video.
+        path: PathBuf,
+    },
+    /// No source at all.
+    #[error("no input")]
+    Nothing,
+    /// The worker threads could not be started.
+    #[error("could not start worker threads: {0}")]
+    Threads(String),
+}
+
+/// Why a frame, or the rest of an input, could not be read. Cloned into each view's frame
+/// and said in its record (`error`).
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum SourceError {
+    /// An image file that could not be read or decoded (the run goes on with the next).
+    #[error("{0}")]
+    Image(String),
+    /// A video or webcam stopped on an error (ffmpeg failed or was killed, a stall); the
+    /// frames before it were good.
+    #[error("{0}")]
+    Video(String),
+    /// A later view ended before the first one.
+    #[error("view {view} has no more frames")]
+    ViewEnded {
+        /// The view, from 1.
+        view: usize,
+    },
+    /// A later view stopped on an error.
+    #[error("view {view}: {source}")]
+    View {
+        /// The view, from 1.
+        view: usize,
+        /// Its error.
+        source: Box<SourceError>,
+    },
+    /// A source of the caller's own could not deliver (its message).
+    #[error("{0}")]
+    Other(String),
+}
 
 /// One frame of one view, as a source delivers it.
 #[derive(Debug)]
@@ -18,7 +151,7 @@ pub struct SourceFrame {
     /// Time of the frame, seconds (the video's clock; `index / 30` for images).
     pub timestamp_s: f64,
     /// The pixels, or why they could not be read (the run goes on with the next frame).
-    pub image: Result<RgbImage, String>,
+    pub image: Result<RgbImage, SourceError>,
     /// Milliseconds spent reading and decoding it.
     pub decode_ms: f64,
     /// The focal length the image file states in its EXIF (photos only).
@@ -29,7 +162,7 @@ pub struct SourceFrame {
 pub trait FrameSource: Send {
     /// The next frame; `Ok(None)` at the end; `Err` when the input stops on an error (the
     /// frames before it were good).
-    fn next_frame(&mut self) -> Result<Option<SourceFrame>, String>;
+    fn next_frame(&mut self) -> Result<Option<SourceFrame>, SourceError>;
     /// Whether consecutive frames show one scene (a video), so that tracking makes sense.
     fn is_video(&self) -> bool;
     /// Number of frames, when known up front.
@@ -70,25 +203,27 @@ impl Input {
         if s.starts_with("webcam:") {
             return match VideoInput::parse(s) {
                 v @ VideoInput::Webcam(_) => Ok(Input::Video(v)),
-                VideoInput::File(_) => Err(EngineError::Input(format!(
-                    "{s:?}: a webcam is written webcam:N, e.g. webcam:0"
-                ))),
+                VideoInput::File(_) => Err(InputError::WebcamSyntax { spec: s.into() }.into()),
             };
         }
         let path = Path::new(s);
         if path.is_dir() {
-            let files = images_in_folder(path).map_err(|e| EngineError::Input(chain(&e)))?;
+            let files = images_in_folder(path).map_err(|e| InputError::Open(chain(&e)))?;
             if files.is_empty() {
-                return Err(EngineError::Input(format!(
-                    "{s}: no images in this folder (looked for {})",
-                    IMAGE_EXTENSIONS.join(", ")
-                )));
+                return Err(InputError::EmptyFolder {
+                    path: path.into(),
+                    what: format!(
+                        "images in this folder (looked for {})",
+                        IMAGE_EXTENSIONS.join(", ")
+                    ),
+                }
+                .into());
             }
             return Ok(Input::Images(files));
         }
         // A regular file, or a named pipe or device that a stream comes through.
         if std::fs::metadata(path).is_err() {
-            return Err(EngineError::Input(format!("{s}: no such file or folder")));
+            return Err(InputError::Missing { spec: s.into() }.into());
         }
         let is_image = path
             .extension()
@@ -137,7 +272,7 @@ impl ImageFiles {
 }
 
 impl FrameSource for ImageFiles {
-    fn next_frame(&mut self) -> Result<Option<SourceFrame>, String> {
+    fn next_frame(&mut self) -> Result<Option<SourceFrame>, SourceError> {
         let t = Instant::now();
         let Some(path) = self.files.get(self.next) else {
             return Ok(None);
@@ -146,7 +281,7 @@ impl FrameSource for ImageFiles {
         self.next += 1;
         let (image, focal) = match load_photo(path) {
             Ok(p) => (Ok(p.image), p.focal),
-            Err(e) => (Err(e.to_string()), ExifFocal::None),
+            Err(e) => (Err(SourceError::Image(e.to_string())), ExifFocal::None),
         };
         Ok(Some(SourceFrame {
             index,
@@ -185,7 +320,7 @@ impl VideoSource {
     /// Starts ffmpeg on `input`; a source that delivers no frame for `stall` counts as
     /// stalled and ends with an error.
     pub fn open(input: &VideoInput, stall: Duration) -> EngineResult<VideoSource> {
-        let mut reader = VideoReader::open(input).map_err(|e| EngineError::Input(chain(&e)))?;
+        let mut reader = VideoReader::open(input).map_err(|e| InputError::Open(chain(&e)))?;
         reader.set_stall_timeout(stall);
         Ok(VideoSource {
             reader: Some(Box::new(reader)),
@@ -194,7 +329,7 @@ impl VideoSource {
 }
 
 impl FrameSource for VideoSource {
-    fn next_frame(&mut self) -> Result<Option<SourceFrame>, String> {
+    fn next_frame(&mut self) -> Result<Option<SourceFrame>, SourceError> {
         let t = Instant::now();
         let Some(r) = self.reader.as_mut() else {
             return Ok(None);
@@ -214,7 +349,7 @@ impl FrameSource for VideoSource {
             }
             Err(e) => {
                 self.reader = None;
-                Err(chain(&e))
+                Err(SourceError::Video(chain(&e)))
             }
         }
     }
@@ -269,7 +404,7 @@ impl<I> FrameSource for CallerFrames<I>
 where
     I: Iterator<Item = (RgbImage, f64)> + Send,
 {
-    fn next_frame(&mut self) -> Result<Option<SourceFrame>, String> {
+    fn next_frame(&mut self) -> Result<Option<SourceFrame>, SourceError> {
         let Some((image, timestamp_s)) = self.frames.next() else {
             return Ok(None);
         };

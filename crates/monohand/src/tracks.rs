@@ -1,0 +1,109 @@
+//! The hands followed over the frames: each identity's voted side, its 3D tracker and its
+//! filters, forgotten after [`FORGET_AFTER_FRAMES`] frames unseen.
+
+use crate::crops::HandId;
+use crate::hands::{FitSettings, FORGET_AFTER_FRAMES};
+use monohand_core::filtering::{DepthFilter, OneEuroFilter, OneEuroParams};
+use monohand_core::prelude::*;
+use monohand_vision::DetectedHand;
+use std::collections::HashMap;
+
+/// One hand followed over the frames.
+pub(crate) struct Track {
+    pub tracker: HandTracker,
+    pub side: HandSide,
+    /// Sum of the log-odds of "right" over the frames seen: one uncertain frame does not
+    /// flip a hand.
+    right_log_odds: f64,
+    last_seen: u64,
+    pub filter: Option<OneEuroFilter<NUM_JOINTS>>,
+    pub depth: Option<DepthFilter>,
+}
+
+/// Index of a side in `[left, right]` arrays.
+pub(crate) fn side_index(side: HandSide) -> usize {
+    match side {
+        HandSide::Left => 0,
+        HandSide::Right => 1,
+    }
+}
+
+/// Every hand followed, by identity, with the filters each new one gets.
+pub(crate) struct Tracks {
+    by_id: HashMap<HandId, Track>,
+    smoothing: Option<OneEuroParams>,
+    depth_filter: Option<OneEuroParams>,
+}
+
+impl Tracks {
+    /// No hand yet; new hands get the smoothing and depth filter of `settings` (resolved:
+    /// the depth filter only while tracking, and not offline).
+    pub(crate) fn new(settings: &FitSettings) -> Tracks {
+        Tracks {
+            by_id: HashMap::new(),
+            smoothing: settings.smoothing,
+            depth_filter: settings.depth_filter,
+        }
+    }
+
+    /// The side voted for hand `id`, if it is followed.
+    pub(crate) fn side(&self, id: HandId) -> Option<HandSide> {
+        self.by_id.get(&id).map(|t| t.side)
+    }
+
+    /// Hand `id`'s track.
+    pub(crate) fn get_mut(&mut self, id: &HandId) -> Option<&mut Track> {
+        self.by_id.get_mut(id)
+    }
+
+    /// Counts frame `index`'s vote of the network for hand `id` (a new hand gets a track
+    /// from `prototypes[side]`); a hand whose voted side flips starts again from the other
+    /// side's prototype, its filters reset.
+    pub(crate) fn vote(
+        &mut self,
+        id: HandId,
+        hand: &DetectedHand,
+        index: u64,
+        prototypes: &[HandTracker; 2],
+    ) {
+        let p = f64::from(hand.side_score).clamp(0.5, 0.999);
+        let p_right = if hand.side == HandSide::Right {
+            p
+        } else {
+            1.0 - p
+        };
+        let log_odds = (p_right / (1.0 - p_right)).ln();
+        let (smoothing, depth) = (self.smoothing, self.depth_filter);
+        let track = self.by_id.entry(id).or_insert_with(|| Track {
+            tracker: prototypes[side_index(hand.side)].clone(),
+            side: hand.side,
+            right_log_odds: 0.0,
+            last_seen: index,
+            filter: smoothing.map(OneEuroFilter::new),
+            depth: depth.map(DepthFilter::new),
+        });
+        track.right_log_odds += log_odds;
+        track.last_seen = index;
+        let voted = if track.right_log_odds >= 0.0 {
+            HandSide::Right
+        } else {
+            HandSide::Left
+        };
+        if voted != track.side {
+            track.side = voted;
+            track.tracker = prototypes[side_index(voted)].clone();
+            if let Some(f) = &mut track.filter {
+                f.reset();
+            }
+            if let Some(f) = &mut track.depth {
+                f.reset();
+            }
+        }
+    }
+
+    /// Forgets the hands unseen for [`FORGET_AFTER_FRAMES`] frames at frame `index`.
+    pub(crate) fn forget_unseen(&mut self, index: u64) {
+        self.by_id
+            .retain(|_, t| index.saturating_sub(t.last_seen) < FORGET_AFTER_FRAMES);
+    }
+}
