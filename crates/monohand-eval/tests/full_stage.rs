@@ -128,6 +128,7 @@ fn frames_the_engine_cannot_run_are_refused_with_the_reason() {
     let pipeline = pipeline();
     let settings = EvalSettings {
         modes: vec![ViewMode::Mono],
+        track: true,
         skeleton: SkeletonChoice::Default,
         ..EvalSettings::default()
     };
