@@ -4,8 +4,13 @@
 
 use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
-use monohand::calibration::{self, Board, CalibrateSettings, DistortionModel, Outputs, SeenFrame};
+use monohand::calibration::{
+    self, draw_seen, Board, CalibrateSettings, DistortionModel, Outputs, SeenFrame,
+};
 use monohand_calib::print::BoardPage;
+use monohand_media::live::draw_status;
+use monohand_media::window::Window;
+use monohand_vision::RgbImage;
 use std::path::PathBuf;
 
 /// Arguments of `monohand calibrate`.
@@ -96,10 +101,12 @@ pub(crate) fn run(args: &CalibrateArgs) -> Result<()> {
         Model::Standard => DistortionModel::Standard,
         Model::Rational => DistortionModel::Rational,
     };
-    let mut window = if args.show {
-        Some(show::Window::new()?)
-    } else {
-        None
+    let mut window = match args.show {
+        true => Some(Show {
+            window: Window::new("monohand calibrate").context("--show")?,
+            last: None,
+        }),
+        false => None,
     };
     let mut seen = |f: &SeenFrame<'_>| -> bool {
         if crate::interrupted() {
@@ -131,7 +138,7 @@ pub(crate) fn run(args: &CalibrateArgs) -> Result<()> {
         crate::say(&format!("wrote {}", p.display()));
     }
     if let Some(w) = window.as_mut() {
-        w.hold_picture(&calibration::picture(&calibrated, 0));
+        let _ = w.window.hold(&calibration::picture(&calibrated, 0));
     }
     Ok(())
 }
@@ -160,112 +167,34 @@ fn print_board(board: &Board, path: &PathBuf) -> Result<()> {
     Ok(())
 }
 
-#[cfg(feature = "show")]
-mod show {
-    //! The live window of `calibrate --show` (minifb, X11 loaded at run time).
-    use anyhow::{anyhow, Result};
-    use minifb::{Key, KeyRepeat, WindowOptions};
-    use monohand::calibration::{draw_seen, SeenFrame};
-    use monohand_media::live::{draw_status, to_0rgb};
-    use monohand_vision::RgbImage;
-
-    pub(crate) struct Window {
-        window: Option<minifb::Window>,
-        buffer: Vec<u32>,
-        last: Option<RgbImage>,
-    }
-
-    impl Window {
-        pub fn new() -> Result<Window> {
-            if std::env::var_os("DISPLAY").is_none_or(|d| d.is_empty()) {
-                anyhow::bail!("--show needs an X display (DISPLAY is not set)");
-            }
-            Ok(Window {
-                window: None,
-                buffer: Vec::new(),
-                last: None,
-            })
-        }
-
-        /// Shows a frame as the calibration sees it; false once the window is closed or Q.
-        pub fn frame(&mut self, seen: &SeenFrame<'_>) -> bool {
-            let mut frame = seen.image.clone();
-            draw_seen(&mut frame, seen);
-            let open = self.show(&frame);
-            self.last = Some(frame);
-            open
-        }
-
-        fn show(&mut self, frame: &RgbImage) -> bool {
-            let (w, h) = (frame.width() as usize, frame.height() as usize);
-            to_0rgb(frame, &mut self.buffer);
-            if self.window.is_none() {
-                match minifb::Window::new("monohand calibrate", w, h, WindowOptions::default()) {
-                    Ok(mut win) => {
-                        win.set_target_fps(0);
-                        self.window = Some(win);
-                    }
-                    Err(e) => {
-                        crate::say(&format!("--show: cannot open a window ({e})"));
-                        return false;
-                    }
-                }
-            }
-            let Some(win) = self.window.as_mut() else {
-                return false;
-            };
-            if win
-                .update_with_buffer(&self.buffer, w, h)
-                .map_err(|e| anyhow!("{e}"))
-                .is_err()
-                || !win.is_open()
-            {
-                return false;
-            }
-            !win.get_keys_pressed(KeyRepeat::No)
-                .iter()
-                .any(|k| matches!(k, Key::Q | Key::Escape))
-        }
-
-        /// Keeps a picture on screen until the window is closed or Q.
-        pub fn hold_picture(&mut self, picture: &RgbImage) {
-            while self.show(picture) {
-                std::thread::sleep(std::time::Duration::from_millis(20));
-            }
-        }
-
-        /// Keeps the last frame on screen with a message until closed.
-        pub fn hold_text(&mut self, text: &str) {
-            if let Some(mut frame) = self.last.take() {
-                draw_status(&mut frame, &text.to_uppercase());
-                self.hold_picture(&frame);
-            }
-        }
-    }
+/// The live window of `calibrate --show`: each frame as the calibration sees it, then the
+/// result or the reason there is none, until Q.
+struct Show {
+    window: Window,
+    last: Option<RgbImage>,
 }
 
-#[cfg(not(feature = "show"))]
-mod show {
-    //! `calibrate --show` in a build without the `show` feature: refused.
-    use anyhow::{bail, Result};
-    use monohand::calibration::SeenFrame;
-    use monohand_vision::RgbImage;
+impl Show {
+    /// Shows a frame with what was found on it; false once the window is closed or Q.
+    fn frame(&mut self, seen: &SeenFrame<'_>) -> bool {
+        let mut frame = seen.image.clone();
+        draw_seen(&mut frame, seen);
+        let open = match self.window.show(&frame) {
+            Ok(shown) => !shown.quit(),
+            Err(e) => {
+                crate::say(&format!("--show: {e}"));
+                false
+            }
+        };
+        self.last = Some(frame);
+        open
+    }
 
-    /// Never built.
-    pub(crate) enum Window {}
-
-    impl Window {
-        pub fn new() -> Result<Window> {
-            bail!("--show: this monohand was built without the `show` feature")
-        }
-        pub fn frame(&mut self, _: &SeenFrame<'_>) -> bool {
-            match *self {}
-        }
-        pub fn hold_picture(&mut self, _: &RgbImage) {
-            match *self {}
-        }
-        pub fn hold_text(&mut self, _: &str) {
-            match *self {}
+    /// Keeps the last frame on screen with a message until closed.
+    fn hold_text(&mut self, text: &str) {
+        if let Some(mut frame) = self.last.take() {
+            draw_status(&mut frame, &text.to_uppercase());
+            let _ = self.window.hold(&frame);
         }
     }
 }

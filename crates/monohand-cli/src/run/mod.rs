@@ -4,10 +4,6 @@
 
 mod each;
 mod outputs;
-#[cfg(feature = "show")]
-mod show;
-#[cfg(not(feature = "show"))]
-#[path = "show_off.rs"]
 mod show;
 
 use crate::hand_args::HandModelArgs;

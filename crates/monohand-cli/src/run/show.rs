@@ -1,24 +1,20 @@
 //! `run --show`: a live window with the overlay and the frame rate; its keys and its still
 //! image are described in docs/visualisation.md. Quitting ends the run as Ctrl-C does. The
-//! window is minifb's (X11 loaded at run time), behind the `show` cargo feature.
+//! window is `monohand_media::window`'s, behind the `show` cargo feature.
 
-use anyhow::{anyhow, Result};
-use minifb::{Key, KeyRepeat, Window, WindowOptions};
+use anyhow::{Context, Result};
 use monohand_core::camera::Camera;
 use monohand_io::jsonl::FrameRecord;
-use monohand_media::live::{draw_status, to_0rgb, FrameRate};
+use monohand_media::live::{draw_status, FrameRate};
 use monohand_media::scene::{Layer, Layers, SceneRenderer};
+use monohand_media::window::{Window, WindowKey};
 use monohand_vision::RgbImage;
 use std::time::{Duration, Instant};
 
 /// The live window.
 pub(crate) struct Show {
-    window: Option<Window>,
-    /// The frame as `0RGB` words, reused.
-    buffer: Vec<u32>,
+    window: Window,
     paused: bool,
-    /// Set by `.` while paused: let one frame through.
-    step: bool,
     /// The rate shown.
     rate: FrameRate,
     /// Layers, toggled by the keys 1-5.
@@ -30,14 +26,9 @@ impl Show {
     /// A window is opened at the first frame (its size is the frame's); without a display
     /// (`DISPLAY` unset) this fails before any output is created.
     pub fn new(layers: Layers) -> Result<Show> {
-        if std::env::var_os("DISPLAY").is_none_or(|d| d.is_empty()) {
-            anyhow::bail!("--show needs an X display (DISPLAY is not set)");
-        }
         Ok(Show {
-            window: None,
-            buffer: Vec::new(),
+            window: Window::new("monohand").context("--show")?,
             paused: false,
-            step: false,
             rate: FrameRate::default(),
             layers,
             renderer: SceneRenderer::default(),
@@ -54,51 +45,44 @@ impl Show {
         cameras: &[Camera],
     ) -> Result<bool> {
         let fps = self.rate.tick(Instant::now());
-        let (w, h) = (image.width() as usize, image.height() as usize);
-        self.step = false;
+        let mut step = false;
+        let mut frame = image.clone();
         let mut drawn: Option<Layers> = None;
         loop {
             if drawn != Some(self.layers) {
-                let mut frame = image.clone();
+                frame.clone_from(image);
                 self.renderer
                     .draw_record(&mut frame, record, cameras, &self.layers);
                 let state = if self.paused { "  PAUSED" } else { "" };
-                let status = format!("{fps:.1} FPS  FRAME {}{state}", record.frame);
-                draw_status(&mut frame, &status);
-                to_0rgb(&frame, &mut self.buffer);
+                draw_status(
+                    &mut frame,
+                    &format!("{fps:.1} FPS  FRAME {}{state}", record.frame),
+                );
                 drawn = Some(self.layers);
             }
-            if self.window.is_none() {
-                let mut win = Window::new("monohand", w, h, WindowOptions::default())
-                    .map_err(|e| anyhow!("--show: cannot open a window ({e}); is DISPLAY set?"))?;
-                win.set_target_fps(0);
-                self.window = Some(win);
-            }
-            let Some(win) = self.window.as_mut() else {
-                return Ok(false);
-            };
-            win.update_with_buffer(&self.buffer, w, h)
-                .map_err(|e| anyhow!("--show: {e}"))?;
-            if !win.is_open() {
+            let shown = self.window.show(&frame).context("--show")?;
+            if shown.quit() {
                 return Ok(false);
             }
-            for key in win.get_keys_pressed(KeyRepeat::No) {
+            for key in shown.keys {
                 match key {
-                    Key::Q | Key::Escape => return Ok(false),
-                    Key::Space => {
+                    WindowKey::Space => {
                         self.paused = !self.paused;
                         drawn = None;
                     }
-                    Key::Period | Key::Right => self.step = true,
-                    Key::Key1 => self.layers.toggle(Layer::Keypoints),
-                    Key::Key2 => self.layers.toggle(Layer::Model),
-                    Key::Key3 => self.layers.toggle(Layer::Bones),
-                    Key::Key4 => self.layers.toggle(Layer::Top),
-                    Key::Key5 => self.layers.toggle(Layer::Labels),
-                    _ => {}
+                    WindowKey::Step => step = true,
+                    WindowKey::Digit(d) => {
+                        let layers = [Layer::Keypoints, Layer::Model, Layer::Bones, Layer::Top];
+                        match d {
+                            1..=4 => self.layers.toggle(layers[d as usize - 1]),
+                            5 => self.layers.toggle(Layer::Labels),
+                            _ => {}
+                        }
+                    }
+                    WindowKey::Quit => {}
                 }
             }
-            if !self.paused || self.step {
+            if !self.paused || step {
                 return Ok(true);
             }
             std::thread::sleep(Duration::from_millis(15));
