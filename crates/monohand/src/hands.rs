@@ -1,31 +1,27 @@
-//! Stage 3 over a video: one 3D tracker per hand identity, the left/right vote, the views'
-//! association, smoothing and the hand size.
+//! Stage 3 over a video: [`HandsFitter`] composes the jobs, each with its own state: the
+//! camera choice ([`CameraChoice`]), the hands followed with their side vote and the views'
+//! association ([`Tracks`]), the shape learnt from the first frames ([`HandShape`]) and the
+//! offline smoother ([`crate::offline`]); it fits each hand and keeps the notes.
 
-use crate::association::{associate, Candidate};
 use crate::cameras::CameraChoice;
 use crate::clock::Instant;
 use crate::crops::{HandId, VisionFrame};
-use crate::fit::{fit_views, learn_proportions, FitOutcome};
+use crate::fit::{fit_views, FitOutcome};
 use crate::frame::{FittedFrame, TrackedHand};
-use crate::notes::{Note, NoteTopic};
+use crate::notes::Note;
 use crate::offline::{
     causal, depth_target, neighbours, CausalFrame, DepthFrame, Held, OfflineSettings,
 };
-use crate::tracks::{side_index, Tracks};
+use crate::shape::{detected, HandShape};
+use crate::tracks::{Anchored, Tracks};
 use monohand_core::filtering::{mean_depth, scale_to_depth, OneEuroParams};
-use monohand_core::fitting::{estimate_hand_scale, ProportionEstimate, ScaleEstimate};
-use monohand_core::observation::NetworkCues;
+use monohand_core::fitting::{ProportionEstimate, ScaleEstimate};
 use monohand_core::prelude::*;
-use monohand_vision::DetectedHand;
 use nalgebra::Vector3;
-use std::collections::HashMap;
 
 /// A hand is forgotten (its tracker, side vote and filter dropped) after this many frames
 /// unseen.
 pub const FORGET_AFTER_FRAMES: u64 = 30;
-
-/// Smallest and largest hand size `--hand-scale auto` may find, relative to the template.
-const SCALE_RANGE: (f64, f64) = (0.6, 1.6);
 
 /// How the 3D stage fits.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -86,9 +82,6 @@ pub const DEPTH_FILTER: OneEuroParams = OneEuroParams {
     d_cutoff: 1.0,
 };
 
-/// A hand of the first view: its id, side and the `(view, index)` pairs that see it.
-type Anchored = (HandId, HandSide, Vec<(usize, usize)>);
-
 /// The 3D stage of a session: takes the networks' frames in order and fits every hand.
 ///
 /// It carries a payload of the caller's with each frame (`T`, for example the image for an
@@ -102,8 +95,8 @@ pub struct HandsFitter<T = ()> {
     /// Each hand seen: its identity, voted side, tracker and filters.
     tracks: Tracks,
     pending: Option<(usize, Vec<(VisionFrame, T)>)>,
-    scale: Option<ScaleEstimate>,
-    proportions: [Option<ProportionEstimate>; 2],
+    /// The size and proportions learnt from the first frames.
+    shape: HandShape,
     notes: Vec<Note>,
     /// With [`FitSettings::offline`]: the frames fitted but not yet refitted, with their
     /// causal fits.
@@ -142,8 +135,7 @@ impl<T> HandsFitter<T> {
                 .map(|n| (n.max(1), Vec::new())),
             settings,
             tracks: Tracks::new(&settings),
-            scale: None,
-            proportions: [None, None],
+            shape: HandShape::default(),
             notes,
             fitted: Held::default(),
             refitted: Held::default(),
@@ -152,13 +144,13 @@ impl<T> HandsFitter<T> {
 
     /// The hand size measured with `auto_scale_frames`, once known.
     pub fn scale(&self) -> Option<&ScaleEstimate> {
-        self.scale.as_ref()
+        self.shape.scale.as_ref()
     }
 
     /// The proportions learnt with `proportion_frames` for the left and the right hand,
     /// once known.
     pub fn proportions(&self) -> &[Option<ProportionEstimate>; 2] {
-        &self.proportions
+        &self.shape.proportions
     }
 
     /// The cameras in use (after a generic one was made for the image size).
@@ -263,169 +255,21 @@ impl<T> HandsFitter<T> {
         let Some((_, pending)) = self.pending.take() else {
             return Vec::new();
         };
-        if self.settings.auto_scale_frames.is_some() {
-            self.measure_scale(&pending);
-        }
-        if let Some(n) = self.settings.proportion_frames {
-            self.learn_proportions(&pending[..n.min(pending.len())]);
-        }
+        let anchored: Vec<Vec<Anchored>> = pending
+            .iter()
+            .map(|(f, _)| self.tracks.associate(f))
+            .collect();
+        self.shape.learn(
+            &self.settings,
+            &pending,
+            &anchored,
+            self.cameras.cameras(),
+            &mut self.prototypes,
+            &mut self.notes,
+        );
         pending
             .into_iter()
             .map(|(f, p)| (self.fit_frame(f), p))
-            .collect()
-    }
-
-    /// The hand size from the hand seen by two views in most of the kept frames.
-    fn measure_scale(&mut self, frames: &[(VisionFrame, T)]) {
-        if self.cameras.cameras().len() < 2 {
-            self.notes.push(Note::new(
-                NoteTopic::HandScale,
-                "with one camera the hand size is not observable (a larger hand further away \
-                 projects the same); keeping the default size (see docs/accuracy.md)",
-            ));
-            return;
-        }
-        let mut counts: HashMap<HandId, usize> = HashMap::new();
-        let per_frame: Vec<Vec<Anchored>> = frames.iter().map(|(f, _)| self.associate(f)).collect();
-        for hands in &per_frame {
-            for (id, _, views) in hands {
-                if views.len() >= 2 {
-                    *counts.entry(*id).or_default() += 1;
-                }
-            }
-        }
-        let Some((&best, _)) = counts
-            .iter()
-            .max_by_key(|(id, c)| (**c, std::cmp::Reverse(**id)))
-        else {
-            self.notes.push(Note::new(
-                NoteTopic::HandScale,
-                "no hand was seen by two views in the first frames; keeping the default size",
-            ));
-            return;
-        };
-        let mut side = HandSide::Right;
-        let mut seen: Vec<Vec<(usize, &DetectedHand)>> = Vec::new();
-        for ((frame, _), hands) in frames.iter().zip(&per_frame) {
-            for (id, s, views) in hands {
-                if *id == best && views.len() >= 2 {
-                    side = *s;
-                    seen.push(
-                        views
-                            .iter()
-                            .filter_map(|&(v, k)| detected(frame, v, k).map(|d| (v, d)))
-                            .collect(),
-                    );
-                }
-            }
-        }
-        let views: Vec<Vec<View>> = seen
-            .iter()
-            .map(|vs| {
-                vs.iter()
-                    .filter_map(|(v, d)| {
-                        self.cameras
-                            .cameras()
-                            .get(*v)
-                            .map(|c| View::new(c, &d.keypoints))
-                    })
-                    .collect()
-            })
-            .collect();
-        let template = *self.prototypes[side_index(side)].fitter_mut().skeleton();
-        let (lo, hi) = SCALE_RANGE;
-        match estimate_hand_scale(&template, &self.settings.options, &views, lo, hi) {
-            Ok(est) if est.observable => {
-                self.notes.push(Note::new(NoteTopic::HandScale, format!(
-                    "hand size {:.3} x the current model, from {} frames (hand length {:.0} mm)",
-                    est.scale,
-                    est.frames_used,
-                    template.hand_length() * est.scale
-                )));
-                for proto in &mut self.prototypes {
-                    let fitter = proto.fitter_mut();
-                    let scaled = fitter.skeleton().scaled(est.scale);
-                    if let Err(e) = scaled.and_then(|s| fitter.set_skeleton(s)) {
-                        tracing::warn!("hand scale not applied: {e}");
-                    }
-                }
-                self.scale = Some(est);
-            }
-            Ok(est) => self.notes.push(Note::new(NoteTopic::HandScale, format!(
-                "the first frames do not tell the hand size (cost contrast {:.3}); keeping the default",
-                est.cost_contrast
-            ))),
-            Err(e) => self.notes.push(Note::new(NoteTopic::HandScale, format!(
-                "could not measure the hand size ({e}); keeping the default"
-            ))),
-        }
-    }
-
-    /// Each side's proportions from the network's metric 3D of its hands in `frames`
-    /// (the first view that sees each), applied to that side's skeleton.
-    fn learn_proportions(&mut self, frames: &[(VisionFrame, T)]) {
-        let mut cues: [Vec<NetworkCues>; 2] = [Vec::new(), Vec::new()];
-        for (frame, _) in frames {
-            for (_, side, views) in self.associate(frame) {
-                let first = views.first().and_then(|&(v, k)| detected(frame, v, k));
-                if let Some(c) = first.and_then(|d| d.cues) {
-                    cues[side_index(side)].push(c);
-                }
-            }
-        }
-        for side in [HandSide::Left, HandSide::Right] {
-            let i = side_index(side);
-            if cues[i].is_empty() {
-                continue;
-            }
-            let fitter = self.prototypes[i].fitter_mut();
-            let template = *fitter.skeleton();
-            let (learnt, note) = learn_proportions(&template, side, &cues[i]);
-            match learnt {
-                Some(est) => match fitter.set_skeleton(est.skeleton) {
-                    Err(e) => self.notes.push(Note::new(
-                        NoteTopic::Proportions,
-                        format!("{side} hand proportions not applied: {e}"),
-                    )),
-                    Ok(()) => {
-                        self.notes.push(note);
-                        self.proportions[i] = Some(est);
-                    }
-                },
-                None => self.notes.push(note),
-            }
-        }
-    }
-
-    /// The frame's hands ([`associate`]): per hand its id, side (voted over its track) and
-    /// the views that see it.
-    fn associate(&self, frame: &VisionFrame) -> Vec<Anchored> {
-        let side = |id: &HandId, h: &DetectedHand| self.tracks.side(*id).unwrap_or(h.side);
-        let candidates: Vec<Vec<Candidate>> = frame
-            .views
-            .iter()
-            .map(|v| match v {
-                Ok(vh) => vh
-                    .detections
-                    .hands
-                    .iter()
-                    .zip(&vh.ids)
-                    .map(|(h, id)| Candidate {
-                        side: side(id, h),
-                        score: f64::from(h.detection_score),
-                    })
-                    .collect(),
-                Err(_) => Vec::new(),
-            })
-            .collect();
-        let slices: Vec<&[Candidate]> = candidates.iter().map(Vec::as_slice).collect();
-        associate(&slices)
-            .into_iter()
-            .filter_map(|views| {
-                let (v, k) = *views.first()?;
-                let id = *frame.views.get(v)?.as_ref().ok()?.ids.get(k)?;
-                Some((id, candidates[v][k].side, views))
-            })
             .collect()
     }
 
@@ -473,7 +317,7 @@ impl<T> HandsFitter<T> {
                 self.tracks.vote(id, hand, index, &self.prototypes);
             }
         }
-        for (id, side, views) in self.associate(&out.vision) {
+        for (id, side, views) in self.tracks.associate(&out.vision) {
             let fit = self.fit_hand(id, &out.vision, &views);
             out.hands.push(TrackedHand {
                 id,
@@ -532,7 +376,6 @@ impl<T> HandsFitter<T> {
     }
 }
 
-/// Hand `k` of view `v` of a frame.
 /// Refits `hand` of a frame towards its neighbours' joints, with its track's fitter; its
 /// output joints get the neighbours' mean fusion offsets, its own refitted offset in its
 /// own share.
@@ -576,8 +419,4 @@ fn refit_hand(
         *out = m + mean + (own - causal) * n.own_share;
     }
     *fit = refit;
-}
-
-fn detected(frame: &VisionFrame, v: usize, k: usize) -> Option<&DetectedHand> {
-    frame.views.get(v)?.as_ref().ok()?.detections.hands.get(k)
 }

@@ -42,6 +42,7 @@ pub mod offline;
 pub mod records;
 mod session;
 pub mod settings;
+mod shape;
 mod tracks;
 
 pub use crops::{CropTracker, HandId, ViewError, ViewHands, VisionFrame};

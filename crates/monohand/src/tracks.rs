@@ -1,7 +1,8 @@
 //! The hands followed over the frames: each identity's voted side, its 3D tracker and its
 //! filters, forgotten after [`FORGET_AFTER_FRAMES`] frames unseen.
 
-use crate::crops::HandId;
+use crate::association::{associate, Candidate};
+use crate::crops::{HandId, VisionFrame};
 use crate::hands::{FitSettings, FORGET_AFTER_FRAMES};
 use monohand_core::filtering::{DepthFilter, OneEuroFilter, OneEuroParams};
 use monohand_core::prelude::*;
@@ -19,6 +20,10 @@ pub(crate) struct Track {
     pub filter: Option<OneEuroFilter<NUM_JOINTS>>,
     pub depth: Option<DepthFilter>,
 }
+
+/// A hand of the first view that sees it: its id, side and the `(view, index)` pairs that
+/// see it.
+pub(crate) type Anchored = (HandId, HandSide, Vec<(usize, usize)>);
 
 /// Index of a side in `[left, right]` arrays.
 pub(crate) fn side_index(side: HandSide) -> usize {
@@ -105,5 +110,37 @@ impl Tracks {
     pub(crate) fn forget_unseen(&mut self, index: u64) {
         self.by_id
             .retain(|_, t| index.saturating_sub(t.last_seen) < FORGET_AFTER_FRAMES);
+    }
+
+    /// The frame's hands ([`associate`]): per hand its id, side (voted over its track) and
+    /// the views that see it.
+    pub(crate) fn associate(&self, frame: &VisionFrame) -> Vec<Anchored> {
+        let side = |id: &HandId, h: &DetectedHand| self.side(*id).unwrap_or(h.side);
+        let candidates: Vec<Vec<Candidate>> = frame
+            .views
+            .iter()
+            .map(|v| match v {
+                Ok(vh) => vh
+                    .detections
+                    .hands
+                    .iter()
+                    .zip(&vh.ids)
+                    .map(|(h, id)| Candidate {
+                        side: side(id, h),
+                        score: f64::from(h.detection_score),
+                    })
+                    .collect(),
+                Err(_) => Vec::new(),
+            })
+            .collect();
+        let slices: Vec<&[Candidate]> = candidates.iter().map(Vec::as_slice).collect();
+        associate(&slices)
+            .into_iter()
+            .filter_map(|views| {
+                let (v, k) = *views.first()?;
+                let id = *frame.views.get(v)?.as_ref().ok()?.ids.get(k)?;
+                Some((id, candidates[v][k].side, views))
+            })
+            .collect()
     }
 }
