@@ -3,7 +3,7 @@
 
 use crate::LiftArgs;
 use anyhow::{bail, Context, Result};
-use monohand::engine::lift::{lift_keypoints, KeypointInput, LiftSettings};
+use monohand::engine::lift::{lift_keypoints, KeypointInput};
 use monohand::engine::{JsonlSink, Observer, RunReport, Sink};
 use monohand::HandScale;
 use std::path::PathBuf;
@@ -79,14 +79,15 @@ pub(crate) fn run(args: &LiftArgs) -> Result<()> {
         .with_context(|| format!("2D input of view {}", i + 1))?;
         views.push(v);
     }
-    let settings = LiftSettings {
-        skeletons,
-        options,
-        tracking: args.track,
-        proportion_frames: args.hand.proportion_frames.map(|n| n as usize),
-    };
+    let mut settings = monohand::Settings::default();
+    settings.fit.skeletons = skeletons;
+    settings.fit.options = options;
+    settings.fit.tracking = args.track;
+    settings.fit.proportion_frames = args.hand.proportion_frames.map(|n| n as usize);
+    settings.fit.depth_filter = None;
+    let settings = crate::resolve(settings)?;
     let out: Box<dyn Sink> = Box::new(JsonlSink::open(&args.output)?);
-    let report = lift_keypoints(&views, cameras, settings, &mut [out], &Terminal)?;
+    let report = lift_keypoints(&views, cameras, &settings, &mut [out], &Terminal)?;
     if report.nothing_readable() {
         bail!(
             "none of the {} input frame(s) could be read (see the warnings above); the output has only empty frames",

@@ -188,6 +188,7 @@ pub(crate) fn resolve(settings: monohand::Settings) -> Result<monohand::Resolved
             Field::SmoothMinCutoff => "--smooth-min-cutoff",
             Field::SmoothBeta => "--smooth-beta",
             Field::Offline => "--offline",
+            Field::DepthFilter => "the depth filter",
         };
         anyhow::anyhow!("{flag} {}", e.why)
     })

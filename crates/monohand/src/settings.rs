@@ -51,6 +51,8 @@ pub enum Field {
     SmoothBeta,
     /// The offline smoother ([`FitSettings::offline`]).
     Offline,
+    /// The depth filter ([`FitSettings::depth_filter`]).
+    DepthFilter,
 }
 
 impl Field {
@@ -71,6 +73,7 @@ impl Field {
             Field::SmoothMinCutoff => "smoothing.min_cutoff",
             Field::SmoothBeta => "smoothing.beta",
             Field::Offline => "offline",
+            Field::DepthFilter => "depth_filter",
         }
     }
 }
@@ -237,6 +240,37 @@ impl ResolvedSettings {
     /// The 3D stage.
     pub fn fit(&self) -> &FitSettings {
         &self.derived.fit
+    }
+
+    /// The 3D stage for lifting 2D keypoints made elsewhere
+    /// ([`crate::engine::lift::lift_keypoints`]), which fits each frame from its keypoints
+    /// alone: the settings that need the images' views or the frames around (the hand size
+    /// measured from two views, smoothing, the offline smoother, the depth filter) are
+    /// refused, not ignored.
+    pub fn lifting(&self) -> Result<&FitSettings, SettingsError> {
+        let fit = &self.derived.fit;
+        let not = |field, what: &str| {
+            Err(SettingsError::new(
+                field,
+                format!("is not done when lifting keypoints ({what}); `run` does it"),
+            ))
+        };
+        if fit.auto_scale_frames.is_some() {
+            return not(
+                Field::HandScale,
+                "the size is measured from two views of the images",
+            );
+        }
+        if fit.smoothing.is_some() {
+            return not(Field::Smoothing, "each frame is fitted on its own");
+        }
+        if fit.offline.is_some() {
+            return not(Field::Offline, "each frame is fitted on its own");
+        }
+        if fit.depth_filter.is_some() {
+            return not(Field::DepthFilter, "each frame is fitted on its own");
+        }
+        Ok(fit)
     }
 
     /// Whether frames are tracked.

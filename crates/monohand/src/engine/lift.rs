@@ -138,28 +138,16 @@ pub enum KeypointError {
     },
 }
 
-/// How the lifting job fits.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct LiftSettings {
-    /// The hand models, left then right.
-    pub skeletons: [HandSkeleton; 2],
-    /// The fitter's settings.
-    pub options: FitOptions,
-    /// Each side's fit starts from its previous one.
-    pub tracking: bool,
-    /// Learn each side's proportions from the network's metric 3D of this many first
-    /// frames of the first view ([`crate::learn_proportions`]).
-    pub proportion_frames: Option<usize>,
-}
-
 /// Lifts every frame of `inputs` (one per view, matched by index) with `cameras` (one per
 /// view, the first the reference) into `sinks`, and closes them. Frames a view cannot read
 /// are written without hands ([`RunReport::unreadable`]); hands that cannot be fitted are
-/// left out, with a warning.
+/// left out, with a warning. The fit is `settings`' ([`crate::ResolvedSettings::lifting`]:
+/// the skeletons, the fitter's options, tracking and the proportions learnt; what needs the
+/// images is refused).
 pub fn lift_keypoints(
     inputs: &[KeypointInput],
     cameras: Vec<Camera>,
-    settings: LiftSettings,
+    settings: &crate::ResolvedSettings,
     sinks: &mut [Box<dyn Sink>],
     observer: &dyn Observer,
 ) -> EngineResult<RunReport> {
@@ -173,6 +161,7 @@ pub fn lift_keypoints(
         }
         .into());
     }
+    let settings = settings.lifting()?;
     let mut skeletons = settings.skeletons;
     if let Some(n) = settings.proportion_frames {
         for (skeleton, side) in skeletons.iter_mut().zip([HandSide::Left, HandSide::Right]) {
