@@ -332,11 +332,19 @@ fn refused(args: &[&str], expect: &str, nothing_at: &Path) {
     );
 }
 
+/// `calibrate --board BOARD --square-mm 25 INPUTS.. -o OUT`, refused with `expect` and
+/// nothing written at `out`.
+fn refused_board(board: &str, inputs: &[&str], out: &Path, expect: &str) {
+    let mut args = vec!["calibrate", "--board", board, "--square-mm", "25"];
+    args.extend_from_slice(inputs);
+    args.extend_from_slice(&["-o", p(out)]);
+    refused(&args, expect, out);
+}
+
 #[test]
 fn bad_inputs_are_refused_with_the_reason_and_no_file() {
     let tmp = tempfile::tempdir().unwrap();
     let cam = tmp.path().join("cam.json");
-    let c = p(&cam);
     // No board: photos of a hand.
     let hands = tmp.path().join("hands");
     std::fs::create_dir_all(&hands).unwrap();
@@ -347,103 +355,40 @@ fn bad_inputs_are_refused_with_the_reason_and_no_file() {
         )
         .unwrap();
     }
-    refused(
-        &[
-            "calibrate",
-            "--board",
-            "9x6",
-            "--square-mm",
-            "25",
-            p(&hands),
-            "-o",
-            c,
-        ],
-        "found in 0 frame(s) of 3",
-        &cam,
-    );
+    refused_board("9x6", &[p(&hands)], &cam, "found in 0 frame(s) of 3");
     // Too few views.
     let two = tmp.path().join("two");
     copy("left", 2, &two);
-    refused(
-        &[
-            "calibrate",
-            "--board",
-            "9x6",
-            "--square-mm",
-            "25",
-            p(&two),
-            "-o",
-            c,
-        ],
-        "found in 2 frame(s) of 2, too few",
-        &cam,
-    );
+    refused_board("9x6", &[p(&two)], &cam, "found in 2 frame(s) of 2, too few");
     // A board size that does not match the photos.
     let left = tmp.path().join("left");
     copy("left", 13, &left);
-    refused(
-        &[
-            "calibrate",
-            "--board",
-            "8x6",
-            "--square-mm",
-            "25",
-            p(&left),
-            "-o",
-            c,
-        ],
-        "a chessboard with 9x6 inner corners",
+    refused_board(
+        "8x6",
+        &[p(&left)],
         &cam,
+        "a chessboard with 9x6 inner corners",
     );
     // A rig whose inputs differ in length.
     let right = tmp.path().join("right");
     copy("right", 12, &right);
     let rig = tmp.path().join("rig");
-    refused(
-        &[
-            "calibrate",
-            "--board",
-            "9x6",
-            "--square-mm",
-            "25",
-            "--view",
-            p(&left),
-            "--view",
-            p(&right),
-            "-o",
-            p(&rig),
-        ],
-        "different numbers of images",
-        &rig,
-    );
+    let views = ["--view", p(&left), "--view", p(&right)];
+    refused_board("9x6", &views, &rig, "different numbers of images");
     // Nothing to read, and a square that is not a length.
-    refused(
-        &[
-            "calibrate",
-            "--board",
-            "9x6",
-            "--square-mm",
-            "25",
-            p(&tmp.path().join("missing")),
-            "-o",
-            c,
-        ],
-        "no such file",
-        &cam,
-    );
-    refused(
-        &[
-            "calibrate",
-            "--board",
-            "9x6",
-            "--square-mm=-3",
-            p(&left),
-            "-o",
-            c,
-        ],
-        "square size",
-        &cam,
-    );
+    let missing = tmp.path().join("missing");
+    refused_board("9x6", &[p(&missing)], &cam, "no such file");
+    let c = p(&cam);
+    let args = [
+        "calibrate",
+        "--board",
+        "9x6",
+        "--square-mm=-3",
+        p(&left),
+        "-o",
+        c,
+    ];
+    refused(&args, "square size", &cam);
     // A board that is not COLSxROWS is clap's usage error.
     let out = monohand(&[
         "calibrate",

@@ -7,7 +7,7 @@ mod common;
 use common::*;
 use monohand_io::jsonl::{read_jsonl, FrameRecord};
 use monohand_testkit::{hand_png, photo_clip, run_ok};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::Command;
 use std::time::{Duration, Instant};
 
@@ -26,6 +26,36 @@ fn records(path: &Path) -> Vec<FrameRecord> {
             r
         })
         .collect()
+}
+
+/// Killed part-way (SIGKILL, by its own process id) and rerun: the same outputs, and no
+/// partial file left.
+fn killed_and_rerun(job: &[&str], outputs: &[PathBuf], want: &[Vec<FrameRecord>], out: &Path) {
+    for o in outputs {
+        std::fs::remove_file(o).unwrap();
+    }
+    let mut child = Command::new(env!("CARGO_BIN_EXE_monohand"))
+        .args(job)
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let t = Instant::now();
+    while !outputs[0].exists() && t.elapsed() < Duration::from_secs(300) {
+        std::thread::sleep(Duration::from_millis(5));
+    }
+    child.kill().unwrap();
+    child.wait().unwrap();
+    let rerun = monohand(job);
+    assert_eq!(rerun.status.code(), Some(3));
+    for (o, w) in outputs.iter().zip(want) {
+        assert_eq!(&records(o), w, "{}", o.display());
+    }
+    let partials: Vec<_> = std::fs::read_dir(out)
+        .unwrap()
+        .filter_map(|e| e.ok())
+        .filter(|e| e.file_name().to_string_lossy().ends_with(".partial"))
+        .collect();
+    assert!(partials.is_empty(), "{partials:?}");
 }
 
 #[test]
@@ -118,32 +148,7 @@ fn each_input_is_complete_or_absent_and_a_rerun_redoes_only_what_is_missing() {
     }
     assert!(!out.join("c.mkv.jsonl.partial").exists());
 
-    // Killed part-way (SIGKILL, by its own process id) and rerun: the same outputs.
-    for o in &outputs {
-        std::fs::remove_file(o).unwrap();
-    }
-    let mut child = Command::new(env!("CARGO_BIN_EXE_monohand"))
-        .args(job)
-        .stderr(std::process::Stdio::null())
-        .spawn()
-        .unwrap();
-    let t = Instant::now();
-    while !outputs[0].exists() && t.elapsed() < Duration::from_secs(300) {
-        std::thread::sleep(Duration::from_millis(5));
-    }
-    child.kill().unwrap();
-    child.wait().unwrap();
-    let rerun = each(&[]);
-    assert_eq!(rerun.status.code(), Some(3));
-    for (o, w) in outputs.iter().zip(&want) {
-        assert_eq!(&records(o), w, "{}", o.display());
-    }
-    let partials: Vec<_> = std::fs::read_dir(&out)
-        .unwrap()
-        .filter_map(|e| e.ok())
-        .filter(|e| e.file_name().to_string_lossy().ends_with(".partial"))
-        .collect();
-    assert!(partials.is_empty(), "{partials:?}");
+    killed_and_rerun(&job, &outputs, &want, &out);
 }
 
 #[test]

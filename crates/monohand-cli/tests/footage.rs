@@ -205,6 +205,11 @@ fn a_photo_with_its_focal_length_in_exif_gets_its_own_camera() {
     );
 }
 
+/// How many pixels differ between two images of one size.
+fn differing(a: &image::RgbImage, b: &image::RgbImage) -> usize {
+    a.pixels().zip(b.pixels()).filter(|(x, y)| x != y).count()
+}
+
 /// A photo whose EXIF states an 18 mm (35 mm equivalent) lens is fitted and drawn with that
 /// camera: its record says so (`cameras`, source `exif`), and the same photo with that
 /// camera given as a calibration file gives the same joints and an overlay that differs
@@ -273,11 +278,7 @@ fn a_photo_is_drawn_with_the_camera_it_was_fitted_with() {
         }
     }
     assert_eq!(exif_overlay.dimensions(), given_overlay.dimensions());
-    let differ = exif_overlay
-        .pixels()
-        .zip(given_overlay.pixels())
-        .filter(|(x, y)| x != y)
-        .count();
+    let differ = differing(&exif_overlay, &given_overlay);
     let share = differ as f64 / (640.0 * 480.0);
     assert!(
         share < 0.005,
@@ -303,11 +304,7 @@ fn a_photo_is_drawn_with_the_camera_it_was_fitted_with() {
         "the overlay is not drawn with the record's camera"
     );
     let generic = draw(&[]);
-    let differ = exif_overlay
-        .pixels()
-        .zip(generic.pixels())
-        .filter(|(x, y)| x != y)
-        .count();
+    let differ = differing(&exif_overlay, &generic);
     assert!(
         differ as f64 > 0.005 * 640.0 * 480.0,
         "only {differ} pixels differ with the generic camera"

@@ -116,6 +116,70 @@ new GLTFLoader().load('hands.glb', (g) => {{
     )
 }
 
+/// The mesh stays near the joints' box `(x0, y0, x1, y1)`: nothing drawn far outside it.
+/// Returns the red and blue drawn inside it (the mesh's colour is the hand's side colour:
+/// orange right, cyan left).
+fn mesh_near_joints(img: &image::RgbImage, (x0, y0, x1, y1): (f64, f64, f64, f64)) -> (u64, u64) {
+    let m = 0.25 * (x1 - x0).max(y1 - y0);
+    let mut inside = 0usize;
+    let mut outside = 0usize;
+    let (mut red, mut blue) = (0u64, 0u64);
+    for (x, y, p) in img.enumerate_pixels() {
+        if p.0.iter().all(|&v| v <= 40) {
+            continue;
+        }
+        let (fx, fy) = (x as f64, y as f64);
+        if fx >= x0 - m && fx <= x1 + m && fy >= y0 - m && fy <= y1 + m {
+            inside += 1;
+            red += p.0[0] as u64;
+            blue += p.0[2] as u64;
+        } else {
+            outside += 1;
+        }
+    }
+    assert!(inside > 2000, "the hand covers {inside} pixels");
+    assert!(
+        outside < inside / 50,
+        "{outside} pixels drawn away from the hand"
+    );
+    (red, blue)
+}
+
+/// A headless Chromium screenshot (640x480) of the page served on `port`.
+fn screenshot(dir: &Path, port: u16) -> PathBuf {
+    let shot = dir.join("shot.png");
+    let profile = dir.join("profile");
+    let run = Command::new("chromium")
+        .args([
+            "--headless",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--disable-quic",
+            "--no-first-run",
+            "--disable-background-networking",
+            "--disable-component-update",
+            "--disable-sync",
+            "--use-angle=swiftshader",
+            "--enable-unsafe-swiftshader",
+            "--hide-scrollbars",
+            "--window-size=640,480",
+            "--virtual-time-budget=20000",
+        ])
+        .arg(format!("--user-data-dir={}", profile.display()))
+        .arg(format!("--screenshot={}", shot.display()))
+        .arg(format!("http://127.0.0.1:{port}/index.html"))
+        .output()
+        .expect(
+            "chromium is needed for the browser test of the glTF export (apt-get install chromium)",
+        );
+    assert!(
+        shot.is_file(),
+        "no screenshot: {}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    shot
+}
+
 #[test]
 fn the_skinned_hand_renders_in_chromium_where_the_fit_says() {
     let photo = hand_png();
@@ -149,36 +213,7 @@ fn the_skinned_hand_renders_in_chromium_where_the_fit_says() {
     std::fs::write(site.join("index.html"), page(640, 480)).unwrap();
     let port = serve(site.clone());
 
-    let shot = dir.path().join("shot.png");
-    let profile = dir.path().join("profile");
-    let run = Command::new("chromium")
-        .args([
-            "--headless",
-            "--no-sandbox",
-            "--disable-gpu",
-            "--disable-quic",
-            "--no-first-run",
-            "--disable-background-networking",
-            "--disable-component-update",
-            "--disable-sync",
-            "--use-angle=swiftshader",
-            "--enable-unsafe-swiftshader",
-            "--hide-scrollbars",
-            "--window-size=640,480",
-            "--virtual-time-budget=20000",
-        ])
-        .arg(format!("--user-data-dir={}", profile.display()))
-        .arg(format!("--screenshot={}", shot.display()))
-        .arg(format!("http://127.0.0.1:{port}/index.html"))
-        .output()
-        .expect(
-            "chromium is needed for the browser test of the glTF export (apt-get install chromium)",
-        );
-    assert!(
-        shot.is_file(),
-        "no screenshot: {}",
-        String::from_utf8_lossy(&run.stderr)
-    );
+    let shot = screenshot(dir.path(), port);
     let img = monohand_vision::image_io::load_rgb(&shot).unwrap();
     assert_eq!(img.dimensions(), (640, 480));
 
@@ -208,30 +243,7 @@ fn the_skinned_hand_renders_in_chromium_where_the_fit_says() {
         on_hand >= 19,
         "{on_hand} of 21 fitted joints on the rendered hand"
     );
-    // The mesh stays near the joints: nothing drawn far outside their box, and the mesh's
-    // colour is the hand's side colour (orange right, cyan left: red vs blue).
-    let m = 0.25 * (x1 - x0).max(y1 - y0);
-    let mut inside = 0usize;
-    let mut outside = 0usize;
-    let (mut red, mut blue) = (0u64, 0u64);
-    for (x, y, p) in img.enumerate_pixels() {
-        if p.0.iter().all(|&v| v <= 40) {
-            continue;
-        }
-        let (fx, fy) = (x as f64, y as f64);
-        if fx >= x0 - m && fx <= x1 + m && fy >= y0 - m && fy <= y1 + m {
-            inside += 1;
-            red += p.0[0] as u64;
-            blue += p.0[2] as u64;
-        } else {
-            outside += 1;
-        }
-    }
-    assert!(inside > 2000, "the hand covers {inside} pixels");
-    assert!(
-        outside < inside / 50,
-        "{outside} pixels drawn away from the hand"
-    );
+    let (red, blue) = mesh_near_joints(&img, (x0, y0, x1, y1));
     let side_is_right = hand.side == monohand_core::hand_model::HandSide::Right;
     assert_eq!(
         red > blue,
