@@ -41,6 +41,48 @@ fn observe(cam: &Camera, joints: &[Vector3<f64>; 21]) -> Keypoints2d {
     kp
 }
 
+/// The network's relative 3D as MediaPipe gives it: metric joints about the hand's
+/// centre, and the depth of each joint behind the wrist in pixels.
+fn network_cues(sk: &HandSkeleton, poses: &[HandPose]) -> Vec<NetworkCues> {
+    poses
+        .iter()
+        .map(|p| {
+            let j = forward_kinematics(sk, p);
+            let z = 822.79 / j[0].z;
+            NetworkCues {
+                world_mm: Some(j.map(|x| [x.x - j[9].x, x.y - j[9].y, x.z - j[9].z])),
+                depth_px: Some(j.map(|x| (x.z - j[0].z) * z)),
+            }
+        })
+        .collect()
+}
+
+/// The kinematics and the depth fusion on their own.
+fn bench_kinematics(
+    c: &mut Criterion,
+    sk: &HandSkeleton,
+    pose: &HandPose,
+    left: &Camera,
+    cues: &NetworkCues,
+) {
+    c.bench_function("forward_kinematics", |b| {
+        b.iter(|| forward_kinematics(sk, black_box(pose)))
+    });
+    c.bench_function("jacobian_analytic", |b| {
+        let mut pts = [Vector3::zeros(); 21];
+        let mut jac = [SMatrix::<f64, 3, LOCAL_DOF>::zeros(); 21];
+        b.iter(|| forward_kinematics_with_jacobian(sk, black_box(pose), &mut pts, &mut jac))
+    });
+    c.bench_function("fuse_network_depth", |b| {
+        let joints = forward_kinematics(sk, pose);
+        let weights = [
+            FitOptions::default().fusion.fuse_world,
+            FitOptions::default().fusion.fuse_depth,
+        ];
+        b.iter(|| fuse_network_depth(black_box(&joints), left, cues, weights))
+    });
+}
+
 fn bench(c: &mut Criterion) {
     let left = Camera::pinhole(822.79, 822.79, 318.47, 250.31, 640, 480).unwrap();
     let right = left.with_extrinsics(Extrinsics {
@@ -64,35 +106,8 @@ fn bench(c: &mut Criterion) {
     let obs = observe_with(&sk.planar_thumb());
     let obs_cued = observe_with(&sk);
 
-    // The network's relative 3D as MediaPipe gives it: metric joints about the hand's
-    // centre, and the depth of each joint behind the wrist in pixels.
-    let cues: Vec<NetworkCues> = poses
-        .iter()
-        .map(|p| {
-            let j = forward_kinematics(&sk, p);
-            let z = 822.79 / j[0].z;
-            NetworkCues {
-                world_mm: Some(j.map(|x| [x.x - j[9].x, x.y - j[9].y, x.z - j[9].z])),
-                depth_px: Some(j.map(|x| (x.z - j[0].z) * z)),
-            }
-        })
-        .collect();
-    c.bench_function("forward_kinematics", |b| {
-        b.iter(|| forward_kinematics(&sk, black_box(&poses[0])))
-    });
-    c.bench_function("jacobian_analytic", |b| {
-        let mut pts = [Vector3::zeros(); 21];
-        let mut jac = [SMatrix::<f64, 3, LOCAL_DOF>::zeros(); 21];
-        b.iter(|| forward_kinematics_with_jacobian(&sk, black_box(&poses[0]), &mut pts, &mut jac))
-    });
-    c.bench_function("fuse_network_depth", |b| {
-        let joints = forward_kinematics(&sk, &poses[0]);
-        let weights = [
-            FitOptions::default().fusion.fuse_world,
-            FitOptions::default().fusion.fuse_depth,
-        ];
-        b.iter(|| fuse_network_depth(black_box(&joints), &left, &cues[0], weights))
-    });
+    let cues = network_cues(&sk, &poses);
+    bench_kinematics(c, &sk, &poses[0], &left, &cues[0]);
     let mut fitter = HandFitter::new(sk, FitOptions::default()).unwrap();
     let mut i = 0;
     c.bench_function("fit_mono_from_scratch", |b| {

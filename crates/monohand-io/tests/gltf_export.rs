@@ -96,6 +96,26 @@ fn hand(side: HandSide, id: u64, t: f64) -> HandRecord {
     h
 }
 
+/// Meshes: triangle indices stay within their vertex counts.
+fn meshes_index_their_vertices(glb: &Glb) {
+    let j = &glb.json;
+    for m in j["meshes"].as_array().unwrap() {
+        let prim = &m["primitives"][0];
+        let pos = prim["attributes"]["POSITION"].as_u64().unwrap() as usize;
+        let verts = j["accessors"][pos]["count"].as_u64().unwrap();
+        let ia = &j["accessors"][prim["indices"].as_u64().unwrap() as usize];
+        assert_eq!(ia["componentType"], 5123);
+        let view = &j["bufferViews"][ia["bufferView"].as_u64().unwrap() as usize];
+        let off = view["byteOffset"].as_u64().unwrap() as usize;
+        let n = ia["count"].as_u64().unwrap() as usize;
+        assert_eq!(n % 3, 0);
+        for i in 0..n {
+            let v = u16::from_le_bytes([glb.bin[off + 2 * i], glb.bin[off + 2 * i + 1]]);
+            assert!((v as u64) < verts);
+        }
+    }
+}
+
 #[test]
 fn animated_glb_parses_back_consistently() {
     let dir = tempfile::tempdir().unwrap();
@@ -188,22 +208,7 @@ fn animated_glb_parses_back_consistently() {
     let sc = glb.floats(sampler_of(bone, "scale")["output"].as_u64().unwrap() as usize);
     let len = (20.0f32 * 20.0 + 10.0 * 10.0 + 1.0).sqrt() / 1000.0;
     assert!((sc[1] - len).abs() < 1e-6, "{} vs {len}", sc[1]);
-    // Meshes: triangle indices stay within their vertex counts.
-    for m in j["meshes"].as_array().unwrap() {
-        let prim = &m["primitives"][0];
-        let pos = prim["attributes"]["POSITION"].as_u64().unwrap() as usize;
-        let verts = j["accessors"][pos]["count"].as_u64().unwrap();
-        let ia = &j["accessors"][prim["indices"].as_u64().unwrap() as usize];
-        assert_eq!(ia["componentType"], 5123);
-        let view = &j["bufferViews"][ia["bufferView"].as_u64().unwrap() as usize];
-        let off = view["byteOffset"].as_u64().unwrap() as usize;
-        let n = ia["count"].as_u64().unwrap() as usize;
-        assert_eq!(n % 3, 0);
-        for i in 0..n {
-            let v = u16::from_le_bytes([glb.bin[off + 2 * i], glb.bin[off + 2 * i + 1]]);
-            assert!((v as u64) < verts);
-        }
-    }
+    meshes_index_their_vertices(&glb);
 }
 
 #[test]

@@ -17,7 +17,7 @@ use monohand_vision::palm::{PalmDetector, PalmOptions};
 use monohand_vision::tflite_import::ImportOptions;
 use monohand_vision::{
     face::FaceDetector, image_io, HandPipeline, ModelFile, ModelOptions, ModelStore,
-    PipelineOptions, TfliteNet,
+    PipelineOptions, RgbImage, TfliteNet,
 };
 
 fn net(store: &ModelStore, f: ModelFile) -> TfliteNet {
@@ -33,6 +33,58 @@ fn net_tract_1x1(store: &ModelStore, f: ModelFile) -> TfliteNet {
     };
     TfliteNet::from_bytes_with(&store.load(f).expect("load"), &store.path_of(f), options)
         .expect("import")
+}
+
+/// One size's networks, stage by stage, on `img`.
+fn bench_networks(
+    c: &mut Criterion,
+    store: &ModelStore,
+    img: &RgbImage,
+    name: &str,
+    palm_file: ModelFile,
+    lm_file: ModelFile,
+) {
+    let palm = PalmDetector::new(net(store, palm_file), PalmOptions::default()).expect("palm");
+    let lm = LandmarkModel::new(net(store, lm_file), LandmarkOptions::default()).expect("lm");
+    let palm_net = net(store, palm_file);
+    let lm_net = net(store, lm_file);
+    let palm_net_tract = net_tract_1x1(store, palm_file);
+    let lm_net_tract = net_tract_1x1(store, lm_file);
+    let detections = palm.detect(img).expect("detect");
+    let roi = detections.first().expect("a palm in hand.png").hand_roi();
+    c.bench_function(&format!("palm_{name}_preprocess"), |b| {
+        b.iter(|| palm.preprocess(img).expect("pre"))
+    });
+    c.bench_function(&format!("palm_{name}_network"), |b| {
+        b.iter(|| {
+            palm_net
+                .run(palm_net.input_tensor().expect("t"))
+                .expect("run")
+        })
+    });
+    c.bench_function(&format!("palm_{name}_network_tract_1x1"), |b| {
+        b.iter(|| {
+            palm_net_tract
+                .run(palm_net_tract.input_tensor().expect("t"))
+                .expect("run")
+        })
+    });
+    c.bench_function(&format!("palm_{name}_detect_total"), |b| {
+        b.iter(|| palm.detect(img).expect("detect"))
+    });
+    c.bench_function(&format!("landmark_{name}_crop"), |b| {
+        b.iter(|| lm.preprocess(img, &roi).expect("crop"))
+    });
+    c.bench_function(&format!("landmark_{name}_network"), |b| {
+        b.iter(|| lm_net.run(lm_net.input_tensor().expect("t")).expect("run"))
+    });
+    c.bench_function(&format!("landmark_{name}_network_tract_1x1"), |b| {
+        b.iter(|| {
+            lm_net_tract
+                .run(lm_net_tract.input_tensor().expect("t"))
+                .expect("run")
+        })
+    });
 }
 
 fn stages(c: &mut Criterion) {
@@ -67,47 +119,7 @@ fn stages(c: &mut Criterion) {
             ModelFile::HandLandmarkLite,
         ),
     ] {
-        let palm = PalmDetector::new(net(&store, palm_file), PalmOptions::default()).expect("palm");
-        let lm = LandmarkModel::new(net(&store, lm_file), LandmarkOptions::default()).expect("lm");
-        let palm_net = net(&store, palm_file);
-        let lm_net = net(&store, lm_file);
-        let palm_net_tract = net_tract_1x1(&store, palm_file);
-        let lm_net_tract = net_tract_1x1(&store, lm_file);
-        let detections = palm.detect(&img).expect("detect");
-        let roi = detections.first().expect("a palm in hand.png").hand_roi();
-        c.bench_function(&format!("palm_{name}_preprocess"), |b| {
-            b.iter(|| palm.preprocess(&img).expect("pre"))
-        });
-        c.bench_function(&format!("palm_{name}_network"), |b| {
-            b.iter(|| {
-                palm_net
-                    .run(palm_net.input_tensor().expect("t"))
-                    .expect("run")
-            })
-        });
-        c.bench_function(&format!("palm_{name}_network_tract_1x1"), |b| {
-            b.iter(|| {
-                palm_net_tract
-                    .run(palm_net_tract.input_tensor().expect("t"))
-                    .expect("run")
-            })
-        });
-        c.bench_function(&format!("palm_{name}_detect_total"), |b| {
-            b.iter(|| palm.detect(&img).expect("detect"))
-        });
-        c.bench_function(&format!("landmark_{name}_crop"), |b| {
-            b.iter(|| lm.preprocess(&img, &roi).expect("crop"))
-        });
-        c.bench_function(&format!("landmark_{name}_network"), |b| {
-            b.iter(|| lm_net.run(lm_net.input_tensor().expect("t")).expect("run"))
-        });
-        c.bench_function(&format!("landmark_{name}_network_tract_1x1"), |b| {
-            b.iter(|| {
-                lm_net_tract
-                    .run(lm_net_tract.input_tensor().expect("t"))
-                    .expect("run")
-            })
-        });
+        bench_networks(c, &store, &img, name, palm_file, lm_file);
     }
     let face = FaceDetector::new(net(&store, ModelFile::FaceDetectionShortRange)).expect("face");
     c.bench_function("face_detect_total", |b| {

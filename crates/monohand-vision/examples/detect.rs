@@ -7,6 +7,49 @@ use std::path::PathBuf;
 
 use monohand_vision::{image_io, HandPipeline, ModelOptions, PipelineOptions};
 
+/// The image with the hands' keypoints (wrist red, thumb yellow, the rest green), their
+/// boxes' corners (blue) and the heads' boxes (magenta) drawn on it.
+fn drawn(img: &image::RgbImage, found: &monohand_vision::Detections) -> image::RgbImage {
+    let mut out = img.clone();
+    let mut dot = |x: f64, y: f64, r: i64, c: [u8; 3]| {
+        for dy in -r..=r {
+            for dx in -r..=r {
+                let (px, py) = (x.round() as i64 + dx, y.round() as i64 + dy);
+                if px >= 0 && py >= 0 && (px as u32) < out.width() && (py as u32) < out.height() {
+                    out.put_pixel(px as u32, py as u32, image::Rgb(c));
+                }
+            }
+        }
+    };
+    let r = (img.width().max(img.height()) / 300).max(1) as i64;
+    for h in &found.hands {
+        for (j, p) in h.keypoints.points.iter().enumerate() {
+            let c = if j == 0 {
+                [255, 0, 0]
+            } else if j <= 4 {
+                [255, 255, 0]
+            } else {
+                [0, 255, 0]
+            };
+            dot(p[0], p[1], r, c);
+        }
+        for c in h.oriented_box.corners() {
+            dot(c[0], c[1], r * 2, [0, 0, 255]);
+        }
+    }
+    for h in &found.heads {
+        let b = h.head_box.to_array();
+        for t in 0..=20 {
+            let f = t as f64 / 20.0;
+            dot(b[0] + f * (b[2] - b[0]), b[1], r, [255, 0, 255]);
+            dot(b[0] + f * (b[2] - b[0]), b[3], r, [255, 0, 255]);
+            dot(b[0], b[1] + f * (b[3] - b[1]), r, [255, 0, 255]);
+            dot(b[2], b[1] + f * (b[3] - b[1]), r, [255, 0, 255]);
+        }
+    }
+    out
+}
+
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut args: Vec<String> = std::env::args().skip(1).collect();
     let overlay = match args.iter().position(|a| a == "--overlay") {
@@ -70,47 +113,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             );
         }
         if let Some(dir) = &overlay {
-            let mut out = img.clone();
-            let mut dot = |x: f64, y: f64, r: i64, c: [u8; 3]| {
-                for dy in -r..=r {
-                    for dx in -r..=r {
-                        let (px, py) = (x.round() as i64 + dx, y.round() as i64 + dy);
-                        if px >= 0
-                            && py >= 0
-                            && (px as u32) < out.width()
-                            && (py as u32) < out.height()
-                        {
-                            out.put_pixel(px as u32, py as u32, image::Rgb(c));
-                        }
-                    }
-                }
-            };
-            let r = (img.width().max(img.height()) / 300).max(1) as i64;
-            for h in &found.hands {
-                for (j, p) in h.keypoints.points.iter().enumerate() {
-                    let c = if j == 0 {
-                        [255, 0, 0]
-                    } else if j <= 4 {
-                        [255, 255, 0]
-                    } else {
-                        [0, 255, 0]
-                    };
-                    dot(p[0], p[1], r, c);
-                }
-                for c in h.oriented_box.corners() {
-                    dot(c[0], c[1], r * 2, [0, 0, 255]);
-                }
-            }
-            for h in &found.heads {
-                let b = h.head_box.to_array();
-                for t in 0..=20 {
-                    let f = t as f64 / 20.0;
-                    dot(b[0] + f * (b[2] - b[0]), b[1], r, [255, 0, 255]);
-                    dot(b[0] + f * (b[2] - b[0]), b[3], r, [255, 0, 255]);
-                    dot(b[0], b[1] + f * (b[3] - b[1]), r, [255, 0, 255]);
-                    dot(b[2], b[1] + f * (b[3] - b[1]), r, [255, 0, 255]);
-                }
-            }
+            let out = drawn(&img, &found);
             let name = path.to_string_lossy().replace('/', "_");
             out.save(dir.join(format!("{name}.png")))?;
         }

@@ -214,6 +214,34 @@ fn save_failure(name: &str, case: usize, input: &[u8]) -> PathBuf {
     path
 }
 
+/// Runs `target` on one input: what went wrong with the run (a panic, a too large
+/// allocation, too slow), the error it returned, its time and its largest allocation.
+fn one_case<R: Outcome>(
+    target: &mut impl FnMut(&[u8]) -> R,
+    input: &[u8],
+) -> (Option<String>, Option<String>, Duration, usize) {
+    LARGEST.with(|l| l.set(0));
+    IN_CASE.with(|c| c.set(true));
+    let t0 = Instant::now();
+    let result = catch_unwind(AssertUnwindSafe(|| target(input)));
+    let dt = t0.elapsed();
+    IN_CASE.with(|c| c.set(false));
+    let largest = LARGEST.with(|l| l.get());
+    let problem = match &result {
+        Err(p) => Some(format!("panicked: {}", panic_message(p.as_ref()))),
+        Ok(_) if largest > ALLOC_LIMIT => Some(format!(
+            "allocated {largest} bytes in one request (limit {ALLOC_LIMIT})"
+        )),
+        Ok(_) if dt > SLOW_CASE => Some(format!("took {dt:?}")),
+        Ok(_) => None,
+    };
+    let error = match &result {
+        Ok(r) => r.error(),
+        Err(_) => Some("panic".to_string()),
+    };
+    (problem, error, dt, largest)
+}
+
 /// Runs every seed unmutated (at least one must be accepted), then `cases` mutated inputs through `target`; panics with the
 /// list of failing cases (and where their inputs were saved) if any failed.
 pub fn run<R: Outcome>(
@@ -244,30 +272,12 @@ pub fn run<R: Outcome>(
         } else {
             mutate(&mut rng, seeds)
         };
-        LARGEST.with(|l| l.set(0));
-        IN_CASE.with(|c| c.set(true));
-        let t0 = Instant::now();
-        let result = catch_unwind(AssertUnwindSafe(|| target(&input)));
-        let dt = t0.elapsed();
-        IN_CASE.with(|c| c.set(false));
-        let largest = LARGEST.with(|l| l.get());
+        let (problem, error, dt, largest) = one_case(&mut target, &input);
         if dt > summary.slowest {
             summary.slowest = dt;
             slowest = (case, input.len());
         }
         summary.largest_alloc = summary.largest_alloc.max(largest);
-        let problem = match &result {
-            Err(p) => Some(format!("panicked: {}", panic_message(p.as_ref()))),
-            Ok(_) if largest > ALLOC_LIMIT => Some(format!(
-                "allocated {largest} bytes in one request (limit {ALLOC_LIMIT})"
-            )),
-            Ok(_) if dt > SLOW_CASE => Some(format!("took {dt:?}")),
-            Ok(_) => None,
-        };
-        let error = match &result {
-            Ok(r) => r.error(),
-            Err(_) => Some("panic".to_string()),
-        };
         if case < seeds.len() {
             if let Some(e) = &error {
                 // Some seeds are refused on purpose (valid syntax, not a calibration...).
