@@ -26,7 +26,7 @@ pub(crate) struct CalibrateArgs {
     views: Vec<String>,
     /// The board's inner corners (where four squares meet), COLSxROWS: 9x6 for a board
     /// of 10 x 7 squares.
-    #[arg(long, value_name = "COLSxROWS", value_parser = board_size)]
+    #[arg(long, value_name = "COLSxROWS", value_parser = calibration::parse_board_size)]
     board: (usize, usize),
     /// The side of a printed square, millimetres: measure it on the print.
     #[arg(long, value_name = "MM")]
@@ -77,10 +77,6 @@ enum Model {
     Standard,
     /// k1 k2 p1 p2 k3 k4 k5 k6.
     Rational,
-}
-
-fn board_size(s: &str) -> Result<(usize, usize), String> {
-    calibration::parse_board_size(s)
 }
 
 pub(crate) fn run(args: &CalibrateArgs) -> Result<()> {

@@ -1232,7 +1232,7 @@ fn calibrate<'py>(
 ) -> PyResult<Bound<'py, PyAny>> {
     use monohand::calibration as cal;
     let value = |what: &str, e: String| PyValueError::new_err(format!("{what}: {e}"));
-    let (cols, rows) = cal::parse_board_size(board).map_err(|e| value("board", e))?;
+    let (cols, rows) = cal::parse_board_size(board).map_err(|e| value("board", e.to_string()))?;
     let board =
         cal::Board::new(cols, rows, square_mm).map_err(|e| value("board", e.to_string()))?;
     let path_text = |p: &std::path::Path| p.to_string_lossy().to_string();

@@ -184,12 +184,17 @@ pub fn parse_input(s: &str) -> Result<Input, CalibrateError> {
     Ok(Input::Images(files))
 }
 
+/// A board size that is not `COLSxROWS` ([`parse_board_size`]).
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{0:?} is not COLSxROWS, e.g. 9x6")]
+pub struct BoardSizeError(pub String);
+
 /// A board's inner corners from `COLSxROWS` (`9x6`), as every face takes it.
-pub fn parse_board_size(s: &str) -> Result<(usize, usize), String> {
+pub fn parse_board_size(s: &str) -> Result<(usize, usize), BoardSizeError> {
     let parse = |v: &str| v.trim().parse::<usize>().ok();
     match s.split_once(['x', 'X']).map(|(c, r)| (parse(c), parse(r))) {
         Some((Some(c), Some(r))) => Ok((c, r)),
-        _ => Err(format!("{s:?} is not COLSxROWS, e.g. 9x6")),
+        _ => Err(BoardSizeError(s.to_string())),
     }
 }
 
