@@ -14,6 +14,8 @@ smoother has to beat.
 the same way): the 2D keypoints are scaled back to 1280x720 before they are scored. The "2D"
 column is the mean distance in 1280x720 pixels between the scored hand's 2D keypoints and
 the 3D labels projected by the dev camera.
+`--labels PATH`: labels in the dev set's schema made from it (tools/fisheye_dev.py's, whose
+camera is a fisheye: the 2D column then projects through it).
 Per frame the left hand with the highest mean keypoint confidence is scored. Needs numpy.
 """
 
@@ -79,14 +81,29 @@ def gaussian(rows: list[tuple[int, np.ndarray, np.ndarray]], sigma: float) -> li
     return out
 
 
+def project(cam: dict, g: np.ndarray) -> np.ndarray:
+    """Pixels of camera-frame points: a pinhole, or OpenCV's fisheye (`model` fisheye)."""
+    x, y = g[:, 0] / g[:, 2], g[:, 1] / g[:, 2]
+    if cam.get("model") == "fisheye":
+        r = np.hypot(g[:, 0], g[:, 1])
+        theta = np.arctan2(r, g[:, 2])
+        t2 = theta * theta
+        k = cam["distortion"]
+        td = theta * (1 + k[0] * t2 + k[1] * t2**2 + k[2] * t2**3 + k[3] * t2**4)
+        s = np.where(r > 1e-12, td / np.maximum(r, 1e-12), 0.0)
+        x, y = g[:, 0] * s, g[:, 1] * s
+    return np.stack([cam["fx"] * x + cam["cx"], cam["fy"] * y + cam["cy"]], axis=1)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser()
     ap.add_argument("records", type=Path)
     ap.add_argument("--first-frame", type=int, default=0)
     ap.add_argument("--gauss", type=float, default=0.0)
     ap.add_argument("--scale", type=float, default=1.0)
+    ap.add_argument("--labels", type=Path, default=DEV / "labels.json")
     args = ap.parse_args()
-    dev = json.loads((DEV / "labels.json").read_text())
+    dev = json.loads(args.labels.read_text())
     cam = dev["camera"]
     labels = {f["frame"]: np.array(f["joints_3d_mm"]) for f in dev["frames"]}
     rows = []
@@ -101,7 +118,7 @@ def main() -> None:
         # Pixel centres at 1280x720 (the first pixel's centre at 0 at every scale).
         uv = (np.array(best["keypoints_2d"])[:, :2] + 0.5) / args.scale - 0.5
         g = labels[frame]
-        proj = np.stack([cam["fx"] * g[:, 0] / g[:, 2] + cam["cx"], cam["fy"] * g[:, 1] / g[:, 2] + cam["cy"]], axis=1)
+        proj = project(cam, g)
         errors_2d[frame] = float(np.linalg.norm(uv - proj, axis=1).mean())
         rows.append((frame, np.array(best["joints_3d_mm"]), labels[frame]))
     if args.gauss > 0:

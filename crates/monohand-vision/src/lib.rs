@@ -38,6 +38,7 @@ pub mod models;
 pub mod network;
 pub mod palm;
 pub mod pipeline;
+pub mod rectify;
 mod reduce;
 pub mod sensor_db;
 pub mod ssd;

@@ -16,6 +16,7 @@ use std::path::{Path, PathBuf};
 
 use image::RgbImage;
 use monohand_core::bbox::BBox;
+use monohand_core::camera::Camera;
 use monohand_core::hand_model::HandSide;
 use monohand_core::observation::{HandObservation, Keypoints2d, NetworkCues};
 
@@ -26,6 +27,7 @@ use crate::landmarks::{HandLandmarks, LandmarkModel, LandmarkOptions, NUM_LANDMA
 use crate::models::{ModelFile, ModelStore};
 use crate::network::TfliteNet;
 use crate::palm::{PalmDetector, PalmOptions};
+use crate::rectify::RectifiedView;
 
 /// A region of the image believed to contain one hand, in image pixels (continuous
 /// coordinates, see [`crate::geometry`]), as produced by a [`HandDetector`].
@@ -585,6 +587,20 @@ impl HandPipeline {
         previous: &[DetectedHand],
         detect_new: bool,
     ) -> Result<(Detections, Vec<Option<usize>>)> {
+        self.track_through(img, None, previous, detect_new)
+    }
+
+    /// [`Self::track`] for frames of a known camera: with `lens`, each hand's crop is the
+    /// view of a virtual pinhole camera aimed at it ([`crate::rectify`]), so that the
+    /// landmark network sees an undistorted, perspective-correct hand anywhere in a wide or
+    /// fisheye frame; its keypoints map back into the image through the same camera.
+    pub fn track_through(
+        &self,
+        img: &RgbImage,
+        lens: Option<&Camera>,
+        previous: &[DetectedHand],
+        detect_new: bool,
+    ) -> Result<(Detections, Vec<Option<usize>>)> {
         // The crop each previous hand's keypoints predict (a hand with non-finite keypoints
         // is dropped).
         let tracked: Vec<(usize, HandRegion)> = previous
@@ -615,6 +631,7 @@ impl HandPipeline {
         let (mut tracked_kp, (regions, faces)) = self.side_by_side(
             &tracked[..ahead],
             img,
+            lens,
             detect_new.then_some(self.detector.as_ref()),
             face,
         );
@@ -627,7 +644,7 @@ impl HandPipeline {
             let kp = match tracked_kp.get_mut(k).and_then(Option::take) {
                 Some(kp) => kp?,
                 // Beyond the passes run ahead (earlier hands were dropped): run it now.
-                None => self.estimate_keypoints(img, region, true)?,
+                None => self.estimate_keypoints(img, lens, region, true)?,
             };
             if let Some(hand) = self.accept(region, kp, &hands) {
                 hands.push(hand);
@@ -647,7 +664,7 @@ impl HandPipeline {
                 if hands.iter().any(|h| h.keypoints.bounds().contains(centre)) {
                     continue;
                 }
-                if let Some(hand) = self.estimate_region(img, &region, false, &hands)? {
+                if let Some(hand) = self.estimate_region(img, lens, &region, false, &hands)? {
                     hands.push(hand);
                     origin.push(None);
                 }
@@ -683,6 +700,7 @@ impl HandPipeline {
         &self,
         tracked: &[(usize, HandRegion)],
         img: &RgbImage,
+        lens: Option<&Camera>,
         detector: Option<&dyn HandDetector>,
         face: Option<&FaceDetector>,
     ) -> (
@@ -692,8 +710,9 @@ impl HandPipeline {
             Option<Result<Vec<HeadDetection>>>,
         ),
     ) {
-        let hand =
-            |(_, region): &(usize, HandRegion)| Some(self.estimate_keypoints(img, region, true));
+        let hand = |(_, region): &(usize, HandRegion)| {
+            Some(self.estimate_keypoints(img, lens, region, true))
+        };
         let palms = || detector.map(|d| d.detect_hands(img));
         let faces = || face.map(|f| f.detect(img));
         let jobs = tracked.len() + usize::from(detector.is_some()) + usize::from(face.is_some());
@@ -707,8 +726,42 @@ impl HandPipeline {
         )
     }
 
-    /// Keypoints in one region (the network passes only).
+    /// Keypoints in one region (the network passes only); with `lens`, read in the region's
+    /// rectified view and mapped back (the region's view cannot be made: read as it is).
     fn estimate_keypoints(
+        &self,
+        img: &RgbImage,
+        lens: Option<&Camera>,
+        region: &HandRegion,
+        tracked: bool,
+    ) -> Result<HandKeypoints> {
+        let Some(camera) = lens else {
+            return self.estimate_unrectified(img, region, tracked);
+        };
+        let roi = shift_rect(region.roi);
+        let view = RectifiedView::aimed_at(camera, &roi)
+            .and_then(|view| view.roi(camera, &roi).map(|r| (view, r)));
+        let Some((view, view_roi)) = view else {
+            return self.estimate_unrectified(img, region, tracked);
+        };
+        let in_view = HandRegion {
+            score: region.score,
+            roi: RotatedRect {
+                center: from_pixel_centres(view_roi.center),
+                ..view_roi
+            },
+        };
+        let mut kp = VIEW.with(|buffer| {
+            let mut patch = buffer.borrow_mut();
+            view.draw(camera, img, &mut patch);
+            self.estimate_unrectified(&patch, &in_view, tracked)
+        })?;
+        view.map_back(camera, &mut kp);
+        Ok(kp)
+    }
+
+    /// Keypoints in one region of `img` as it is (the network passes only).
+    fn estimate_unrectified(
         &self,
         img: &RgbImage,
         region: &HandRegion,
@@ -760,13 +813,19 @@ impl HandPipeline {
     fn estimate_region(
         &self,
         img: &RgbImage,
+        lens: Option<&Camera>,
         region: &HandRegion,
         tracked: bool,
         found: &[DetectedHand],
     ) -> Result<Option<DetectedHand>> {
-        let kp = self.estimate_keypoints(img, region, tracked)?;
+        let kp = self.estimate_keypoints(img, lens, region, tracked)?;
         Ok(self.accept(region, kp, found))
     }
+}
+
+thread_local! {
+    /// The rectified view a thread's last hand was read in, reused.
+    static VIEW: std::cell::RefCell<RgbImage> = std::cell::RefCell::new(RgbImage::new(1, 1));
 }
 
 fn to_head(h: HeadDetection) -> DetectedHead {

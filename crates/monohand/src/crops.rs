@@ -1,6 +1,7 @@
 //! Stages 1 and 2 over every view, with MediaPipe's crop tracking and hand identities.
 
 use crate::clock::Instant;
+use monohand_core::camera::Camera;
 use monohand_vision::image_io::ExifFocal;
 use monohand_vision::{Detections, HandPipeline, RgbImage};
 use std::sync::Arc;
@@ -70,6 +71,9 @@ struct ViewTracks {
 pub struct CropTracker {
     pipeline: Arc<HandPipeline>,
     views: Vec<ViewTracks>,
+    /// Per view, the camera whose rectified views the hands are read in
+    /// ([`HandPipeline::track_through`]); `None`: crops of the image as it is.
+    lenses: Vec<Option<Camera>>,
     tracking: bool,
     detect_every: usize,
     next_id: HandId,
@@ -86,9 +90,28 @@ impl CropTracker {
         CropTracker {
             pipeline,
             views: (0..views).map(|_| ViewTracks::default()).collect(),
+            lenses: Vec::new(),
             tracking: settings.tracking(),
             detect_every: settings.detect_every(),
             next_id: 0,
+        }
+    }
+
+    /// Reads each view's hands in rectified views through its camera (`None`: crops of the
+    /// image as it is); a camera for another frame size is scaled to the frames
+    /// ([`Camera::scaled_to`]; a view whose frames it cannot describe is read unrectified).
+    pub fn rectify_through(&mut self, lenses: Vec<Option<Camera>>) {
+        self.lenses = lenses;
+    }
+
+    /// The camera view `v`'s hands are read through, for a frame of `size`.
+    pub fn lens(&self, v: usize, size: (u32, u32)) -> Option<Camera> {
+        let cam = self.lenses.get(v).copied().flatten()?;
+        let k = &cam.intrinsics;
+        if (k.width, k.height) == size {
+            Some(cam)
+        } else {
+            cam.scaled_to(size.0, size.1).ok()
         }
     }
 
@@ -137,6 +160,10 @@ impl CropTracker {
             self.views.resize_with(images.len(), ViewTracks::default);
         }
         for (v, image) in images.iter().enumerate() {
+            let lens = match image {
+                Ok(i) => self.lens(v, i.dimensions()),
+                Err(_) => None,
+            };
             let state = &mut self.views[v];
             let image = match image {
                 Ok(i) => *i,
@@ -152,10 +179,12 @@ impl CropTracker {
                     || (state.previous.len() < max_hands
                         && state.frames_since_detection + 1 >= self.detect_every);
                 self.pipeline
-                    .track(image, &state.previous, detect_new)
+                    .track_through(image, lens.as_ref(), &state.previous, detect_new)
                     .map(|(d, origin)| (d, origin, detect_new))
             } else {
-                self.pipeline.detect(image).map(|d| (d, Vec::new(), true))
+                self.pipeline
+                    .track_through(image, lens.as_ref(), &[], true)
+                    .map(|(d, _)| (d, Vec::new(), true))
             };
             match result {
                 Ok((detections, origin, detected)) => {

@@ -57,7 +57,7 @@ pub use lifter::{LiftedHand, Lifter};
 pub use notes::{Note, NoteTopic};
 pub use offline::OfflineSettings;
 pub use session::{Session, SessionOptions};
-pub use settings::{Field, ResolvedSettings, Settings, SettingsError};
+pub use settings::{Field, RectifyCrops, ResolvedSettings, Settings, SettingsError};
 
 /// The geometry core (usable without networks).
 pub use monohand_core as core;

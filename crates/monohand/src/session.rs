@@ -140,8 +140,10 @@ impl Session {
         let resolved = options.settings.resolve()?;
         resolved.check_pipeline(&pipeline, Some(options.models.detect_heads))?;
         let views = cameras.len().max(1);
+        let mut crops = CropTracker::new(pipeline, views, &resolved);
+        crops.rectify_through(resolved.lenses(&cameras));
         Ok(Session {
-            crops: CropTracker::new(pipeline, views, &resolved),
+            crops,
             fitter: HandsFitter::new(cameras, &resolved)?,
             views,
             next_index: 0,

@@ -113,6 +113,25 @@ pub struct Settings {
     pub max_frames: Option<u64>,
     /// Worker threads for independent images (`None`: all cores; 1: one core).
     pub threads: Option<usize>,
+    /// Which calibrated cameras' hands are read in rectified views
+    /// ([`monohand_vision::rectify`]).
+    pub rectify: RectifyCrops,
+}
+
+/// Which hands are read in rectified views: the view of a virtual pinhole camera aimed at
+/// the hand, drawn through the calibrated camera's model, instead of a crop of the image as
+/// it is. Without a calibration (the generic camera, a photo's EXIF camera) crops are
+/// always of the image as it is.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum RectifyCrops {
+    /// Never.
+    Off,
+    /// Through calibrated cameras whose lens is not an ideal pinhole (distortion, fisheye).
+    #[default]
+    Lenses,
+    /// Through every calibrated camera (a pinhole's rectified view also undoes the
+    /// perspective stretch of a hand far off the axis).
+    All,
 }
 
 impl Default for Settings {
@@ -127,6 +146,7 @@ impl Default for Settings {
             detect_every: 10,
             max_frames: None,
             threads: None,
+            rectify: RectifyCrops::default(),
         }
     }
 }
@@ -271,6 +291,22 @@ impl ResolvedSettings {
             return not(Field::DepthFilter, "each frame is fitted on its own");
         }
         Ok(fit)
+    }
+
+    /// Per view, the camera its hands are read through ([`RectifyCrops`]), from the
+    /// calibrated `cameras` (none: no view is rectified).
+    pub fn lenses(
+        &self,
+        cameras: &[monohand_core::camera::Camera],
+    ) -> Vec<Option<monohand_core::camera::Camera>> {
+        cameras
+            .iter()
+            .map(|c| match self.derived.rectify {
+                RectifyCrops::Off => None,
+                RectifyCrops::Lenses => (!c.distortion.is_zero()).then_some(*c),
+                RectifyCrops::All => Some(*c),
+            })
+            .collect()
     }
 
     /// Whether frames are tracked.

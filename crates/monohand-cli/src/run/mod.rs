@@ -12,7 +12,7 @@ use crate::vision::ModelArgs;
 use anyhow::{bail, Context, Result};
 use clap::Args;
 use monohand::engine::{Engine, FrameSource, Input, RunReport};
-use monohand::{FitSettings, HandScale, OfflineSettings, Settings};
+use monohand::{FitSettings, HandScale, OfflineSettings, RectifyCrops, Settings};
 use monohand_core::filtering::OneEuroParams;
 use outputs::{GltfStyle, OutputFormat};
 use std::path::PathBuf;
@@ -90,6 +90,11 @@ pub(crate) struct RunArgs {
     /// tracking with one camera: less shake in depth, the pixels unchanged; docs/accuracy.md).
     #[arg(long)]
     pub no_depth_filter: bool,
+    /// Which calibrated cameras' hands are read in a rectified view (a virtual pinhole
+    /// aimed at the hand, drawn through the lens): `lenses` (distortion or fisheye), `all`,
+    /// `off` (docs/calibration.md#rectified-crops).
+    #[arg(long, value_enum, value_name = "WHICH", default_value = "lenses")]
+    pub rectify_crops: Rectify,
     /// One Euro filter: minimum cutoff frequency, Hz (lower: smoother when still).
     #[arg(long, value_name = "HZ", default_value_t = OneEuroParams::default().min_cutoff)]
     pub smooth_min_cutoff: f64,
@@ -190,7 +195,23 @@ fn settings(args: &RunArgs, tracking: bool) -> Result<Settings> {
         detect_every: args.detect_every,
         max_frames: args.max_frames,
         threads: args.threads,
+        rectify: match args.rectify_crops {
+            Rectify::Off => RectifyCrops::Off,
+            Rectify::Lenses => RectifyCrops::Lenses,
+            Rectify::All => RectifyCrops::All,
+        },
     })
+}
+
+/// `--rectify-crops` ([`RectifyCrops`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub(crate) enum Rectify {
+    /// Never.
+    Off,
+    /// Calibrated cameras with distortion or a fisheye lens.
+    Lenses,
+    /// Every calibrated camera.
+    All,
 }
 
 /// How long a video may deliver no frame before it counts as stalled.

@@ -375,6 +375,7 @@ impl Engine {
             let pipe = Arc::clone(&self.pipeline);
             let vision = scope.spawn(move || {
                 let mut stage = CropTracker::new(pipe, n_views, settings);
+                stage.rectify_through(settings.lenses(&self.cameras));
                 loop {
                     // A network alone shares its operators with the other cores only while
                     // frames are waiting: while this thread waits for the decoder, that core
@@ -456,6 +457,7 @@ impl Engine {
         let chunk = 2 * pool.current_num_threads();
         // Not tracking here: every image is detected on its own.
         let mut stage = CropTracker::new(Arc::clone(&self.pipeline), 1, &self.settings);
+        stage.rectify_through(self.settings.lenses(&self.cameras));
         let mut batch: Vec<RawFrame> = Vec::with_capacity(chunk);
         let mut done = false;
         while !done {
@@ -484,13 +486,22 @@ impl Engine {
                 }
             }
             let pipeline = &self.pipeline;
+            let lenses = &stage;
             let detected: Vec<_> = pool.install(|| {
                 batch
                     .par_iter()
                     .map(|raw| {
                         let t = Instant::now();
                         let d = match &raw.images[0] {
-                            Ok(img) => pipeline.detect(img).map_err(ViewError::from),
+                            Ok(img) => pipeline
+                                .track_through(
+                                    img,
+                                    lenses.lens(0, img.dimensions()).as_ref(),
+                                    &[],
+                                    true,
+                                )
+                                .map(|(d, _)| d)
+                                .map_err(ViewError::from),
                             Err(e) => Err(ViewError::Unreadable(e.clone())),
                         };
                         (d, t.elapsed().as_secs_f64() * 1e3)
