@@ -109,13 +109,15 @@ fn joints_array<'py>(py: Python<'py>, rows: &[[f64; 3]; NUM_JOINTS]) -> Bound<'p
     PyArray2::from_owned_array(py, arr)
 }
 
-/// A pinhole camera (optionally with lens distortion) at a pose in the reference frame.
+/// A camera with a lens model (the pinhole, optionally with OpenCV's distortion, or
+/// OpenCV's fisheye) at a pose in the reference frame.
 ///
 /// `Camera(fx, fy, cx, cy, width, height, distortion=None, rotation=None,
-/// translation_mm=None)`, with `x_cam = rotation @ x_ref + translation_mm` for the later
-/// cameras of a rig (the first is the reference); `Camera.generic(width, height)` for footage of
-/// unknown origin; `Camera.load(path)` for a calibration file (the project's JSON, the
-/// WACV'18 JSON, OpenCV YAML or XML).
+/// translation_mm=None, model="pinhole")`, with `x_cam = rotation @ x_ref + translation_mm`
+/// for the later cameras of a rig (the first is the reference); `Camera.generic(width,
+/// height)` for footage of unknown origin; `Camera.load(path)` for a calibration file (the
+/// project's JSON, the WACV'18 JSON, OpenCV YAML or XML, ROS camera_info, one camera of a
+/// Kalibr chain as `FILE#camN`).
 #[pyclass(module = "monohand._monohand", name = "Camera", frozen, eq)]
 #[derive(Clone, Copy, PartialEq)]
 struct PyCamera {
