@@ -28,7 +28,10 @@ fn camera(coeffs: [f64; 8]) -> Camera {
             width: 1280,
             height: 720,
         },
-        Distortion { coeffs },
+        Distortion {
+            coeffs,
+            ..Distortion::default()
+        },
         Extrinsics::default(),
     )
     .unwrap()

@@ -206,7 +206,7 @@ fn a_rendered_board_through_a_strongly_distorted_lens_gives_the_camera_back() {
                         (x as f64 + dx - k.cx) / k.fx,
                         (y as f64 + dy - k.cy) / k.fy,
                     );
-                    let u = truth.distortion.undistort(d);
+                    let u = truth.distortion.undistort(d).unwrap();
                     let ray = Vector3::new(u.x, u.y, 1.0);
                     let s = n.dot(&t) / n.dot(&ray);
                     let p = r.inverse() * (ray * s - t);

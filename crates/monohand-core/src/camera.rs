@@ -1,8 +1,13 @@
-//! Pinhole cameras with OpenCV radial-tangential distortion, and their poses.
+//! Cameras: intrinsics, a lens model ([`LensModel`]: the pinhole with OpenCV's
+//! radial-tangential distortion, or OpenCV's fisheye) and their poses.
 //!
 //! Conventions (OpenCV): x right, y down, z forward, pixel centres at integer
 //! coordinates. A [`Camera`]'s extrinsics map a point from the *reference* frame
 //! (the first camera of a rig) into this camera's frame: `X_cam = R X_ref + t`.
+
+mod lens;
+
+pub use lens::{Distortion, LensModel};
 
 use crate::error::{CoreError, CoreResult};
 use nalgebra::{Matrix2x3, Point2, Rotation3, Vector2, Vector3};
@@ -16,11 +21,16 @@ use serde::{Deserialize, Serialize};
 /// recovered depth by tan(guess/2)/tan(true/2), e.g. 13% for 60 vs 68 degrees.
 pub const GENERIC_HFOV_DEG: f64 = 60.0;
 
-/// Fields of view taken as real, in degrees, across the image's longer side: a camera
-/// outside them (a 2 degree "telephoto" from a resized photo's EXIF, a 170 degree
-/// "fisheye" from a typo) is refused unless the user's own calibration gives it
-/// ([`Camera::field_of_view_deg`], docs/calibration.md).
+/// Fields of view taken as real, in degrees, across the image's longer side, for cameras
+/// that are guessed (a photo's EXIF) and pinhole calibrations: a camera outside them (a 2
+/// degree "telephoto" from a resized photo's EXIF, a 170 degree "fisheye" from a typo) is
+/// refused unless the user's own calibration gives it ([`Camera::field_of_view_deg`],
+/// docs/calibration.md). A fisheye calibration may reach [`MAX_FISHEYE_FOV_DEG`].
 pub const PLAUSIBLE_FOV_DEG: std::ops::RangeInclusive<f64> = 5.0..=150.0;
+
+/// The widest field of view across the image's longer side a fisheye camera may have,
+/// degrees: cameras past 180 degrees are not supported ([`Camera::validate`]).
+pub const MAX_FISHEYE_FOV_DEG: f64 = 180.0;
 
 /// Focal lengths, principal point and image size, in pixels.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -37,68 +47,6 @@ pub struct Intrinsics {
     pub width: u32,
     /// Image height, pixels.
     pub height: u32,
-}
-
-/// OpenCV lens distortion coefficients (`k1, k2, p1, p2, k3, k4, k5, k6`); zero means none.
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
-pub struct Distortion {
-    /// Radial and tangential coefficients in OpenCV order.
-    pub coeffs: [f64; 8],
-}
-
-impl Distortion {
-    /// From an OpenCV coefficient list of length 0, 4, 5 or 8.
-    pub fn from_slice(c: &[f64]) -> CoreResult<Distortion> {
-        if !matches!(c.len(), 0 | 4 | 5 | 8) {
-            return Err(CoreError::InvalidCamera(format!(
-                "distortion needs 0, 4, 5 or 8 coefficients (k1 k2 p1 p2 [k3 [k4 k5 k6]]), got {}",
-                c.len()
-            )));
-        }
-        if c.iter().any(|v| !v.is_finite()) {
-            return Err(CoreError::InvalidCamera(
-                "distortion coefficient is not finite".into(),
-            ));
-        }
-        let mut coeffs = [0.0; 8];
-        coeffs[..c.len()].copy_from_slice(c);
-        Ok(Distortion { coeffs })
-    }
-
-    /// True if all coefficients are zero.
-    pub fn is_zero(&self) -> bool {
-        self.coeffs.iter().all(|&c| c == 0.0)
-    }
-
-    /// Applies the distortion to normalised image coordinates.
-    pub fn distort(&self, p: Vector2<f64>) -> Vector2<f64> {
-        let [k1, k2, p1, p2, k3, k4, k5, k6] = self.coeffs;
-        let (x, y) = (p.x, p.y);
-        let r2 = x * x + y * y;
-        let r4 = r2 * r2;
-        let r6 = r4 * r2;
-        let radial = (1.0 + k1 * r2 + k2 * r4 + k3 * r6) / (1.0 + k4 * r2 + k5 * r4 + k6 * r6);
-        Vector2::new(
-            x * radial + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x),
-            y * radial + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y,
-        )
-    }
-
-    /// Inverts [`Distortion::distort`] by fixed-point iteration (as `cv::undistortPoints`).
-    pub fn undistort(&self, d: Vector2<f64>) -> Vector2<f64> {
-        if self.is_zero() {
-            return d;
-        }
-        let mut p = d;
-        for _ in 0..20 {
-            let err = self.distort(p) - d;
-            p -= err;
-            if err.norm_squared() < 1e-24 {
-                break;
-            }
-        }
-        p
-    }
 }
 
 /// Rigid transform from the reference frame into a camera: `X_cam = rotation * X_ref + translation`.
@@ -219,6 +167,44 @@ impl Camera {
         )
     }
 
+    /// OpenCV's fisheye camera (`cv::fisheye`, Kannala-Brandt coefficients `k1 k2 k3 k4`)
+    /// at the reference pose; checks the numbers.
+    ///
+    /// ```
+    /// use monohand_core::camera::Camera;
+    /// let cam = Camera::fisheye(400.0, 400.0, 639.5, 359.5, 1280, 720, [0.02, -0.005, 0.0, 0.0])
+    ///     .unwrap();
+    /// assert!((cam.field_of_view_deg() - 180.0).abs() < 0.1);
+    /// // Its corners are 104 degrees off the axis: a point 100 degrees off, behind the
+    /// // camera's plane, is in the image's bottom right corner.
+    /// let px = cam.project(&nalgebra::Vector3::new(858.4, 482.8, -173.6)).unwrap();
+    /// assert!(px.x > 1200.0 && px.x < 1280.0 && px.y > 650.0 && px.y < 720.0, "{px}");
+    /// // 120 degrees off is past its field.
+    /// assert!(cam.project(&nalgebra::Vector3::new(750.0, 420.0, -500.0)).is_none());
+    /// ```
+    pub fn fisheye(
+        fx: f64,
+        fy: f64,
+        cx: f64,
+        cy: f64,
+        width: u32,
+        height: u32,
+        k: [f64; 4],
+    ) -> CoreResult<Camera> {
+        Camera::new(
+            Intrinsics {
+                fx,
+                fy,
+                cx,
+                cy,
+                width,
+                height,
+            },
+            Distortion::fisheye(k)?,
+            Extrinsics::default(),
+        )
+    }
+
     /// A camera for footage of unknown origin: principal point at the image centre,
     /// square pixels, horizontal field of view [`GENERIC_HFOV_DEG`].
     pub fn generic(width: u32, height: u32) -> CoreResult<Camera> {
@@ -251,7 +237,11 @@ impl Camera {
     }
 
     /// The field of view across the image's longer side, degrees (the one
-    /// [`PLAUSIBLE_FOV_DEG`] bounds), from the focal length along that side.
+    /// [`PLAUSIBLE_FOV_DEG`] bounds): twice the angle from the axis at the image's edge
+    /// along that side, half the side from the centre. For the pinhole model from the
+    /// focal length (the distortion left out); for a fisheye through its model, so that it
+    /// may reach 180 degrees and more (NaN if the model folds back before the edge, which
+    /// [`Camera::validate`] refuses).
     pub fn field_of_view_deg(&self) -> f64 {
         let k = &self.intrinsics;
         let (side, f) = if k.width >= k.height {
@@ -259,21 +249,73 @@ impl Camera {
         } else {
             (k.height, k.fy)
         };
-        2.0 * (0.5 * side as f64 / f).atan().to_degrees()
+        let r = 0.5 * side as f64 / f;
+        let half = match self.distortion.model {
+            LensModel::Pinhole => r.atan(),
+            LensModel::Fisheye => self.distortion.fisheye_angle(r).unwrap_or(f64::NAN),
+        };
+        2.0 * half.to_degrees()
     }
 
     /// Why this camera's field of view cannot be a real one, if it is outside
-    /// [`PLAUSIBLE_FOV_DEG`].
+    /// [`PLAUSIBLE_FOV_DEG`] (a fisheye: outside 5 to [`MAX_FISHEYE_FOV_DEG`] degrees).
     pub fn implausible_field_of_view(&self) -> Option<String> {
         let fov = self.field_of_view_deg();
-        (!PLAUSIBLE_FOV_DEG.contains(&fov)).then(|| {
+        let (lo, hi) = match self.distortion.model {
+            LensModel::Pinhole => (*PLAUSIBLE_FOV_DEG.start(), *PLAUSIBLE_FOV_DEG.end()),
+            LensModel::Fisheye => (*PLAUSIBLE_FOV_DEG.start(), MAX_FISHEYE_FOV_DEG),
+        };
+        let lens = match self.distortion.model {
+            LensModel::Pinhole => "",
+            LensModel::Fisheye => "fisheye ",
+        };
+        (!(lo..=hi).contains(&fov)).then(|| {
             format!(
-                "a {fov:.1} degree field of view across the longer side, outside the {:.0}-{:.0} \
-                 degrees of real cameras",
-                PLAUSIBLE_FOV_DEG.start(),
-                PLAUSIBLE_FOV_DEG.end()
+                "a {fov:.1} degree field of view across the longer side, outside the \
+                 {lo:.0}-{hi:.0} degrees of real {lens}cameras"
             )
         })
+    }
+
+    /// Why a fisheye's lens cannot be this camera's: its model folds back before the
+    /// image's edge, or its field of view is past [`MAX_FISHEYE_FOV_DEG`].
+    fn check_fisheye_field(&self) -> CoreResult<()> {
+        let fold = self
+            .distortion
+            .fisheye_fold_angle()
+            .unwrap_or(std::f64::consts::PI);
+        let fov = self.field_of_view_deg();
+        if fov.is_nan() {
+            return Err(CoreError::InvalidCamera(format!(
+                "the fisheye's k1..k4 {:?} make its image radius stop growing {:.1} degrees \
+                 from the axis, before the image's edge: not a lens",
+                self.distortion.listed(),
+                fold.to_degrees()
+            )));
+        }
+        if fov > MAX_FISHEYE_FOV_DEG {
+            return Err(CoreError::InvalidCamera(format!(
+                "a fisheye of {fov:.1} degrees across the image's longer side: cameras past \
+                 {MAX_FISHEYE_FOV_DEG:.0} degrees are not supported"
+            )));
+        }
+        Ok(())
+    }
+
+    /// A fisheye's field: the angle from the axis (radians) of the image's farthest
+    /// corner, or of its fold if that comes first. Points past 90 degrees are seen up to
+    /// it.
+    fn fisheye_field_angle(&self) -> f64 {
+        let k = &self.intrinsics;
+        let dx = (k.cx + 0.5).max(k.width as f64 - 0.5 - k.cx) / k.fx;
+        let dy = (k.cy + 0.5).max(k.height as f64 - 0.5 - k.cy) / k.fy;
+        let fold = self
+            .distortion
+            .fisheye_fold_angle()
+            .unwrap_or(std::f64::consts::PI);
+        self.distortion
+            .fisheye_angle(dx.hypot(dy))
+            .map_or(fold, |t| t.min(fold))
     }
 
     /// This camera for the same lens on images of `width` x `height`: the frame scaled as a
@@ -333,8 +375,9 @@ impl Camera {
                 k.width, k.height
             ));
         }
-        if self.distortion.coeffs.iter().any(|c| !c.is_finite()) {
-            return bad("distortion coefficient is not finite".into());
+        self.distortion.check()?;
+        if self.distortion.model == LensModel::Fisheye {
+            self.check_fisheye_field()?;
         }
         let r = self.extrinsics.rotation.matrix();
         if r.iter().any(|v| !v.is_finite())
@@ -355,15 +398,53 @@ impl Camera {
         self
     }
 
-    /// Projects a point given in this camera's own frame (distortion applied).
-    /// `None` behind the camera.
+    /// Projects a point given in this camera's own frame through its lens. `None` where
+    /// the camera does not see it: for the pinhole model behind the camera (`z <= 1e-9`);
+    /// for a fisheye on its axis behind it, or 90 degrees or more off its axis and past its
+    /// field (the angle of the image's farthest corner).
     pub fn project_cam(&self, x: &Vector3<f64>) -> Option<Point2<f64>> {
-        if x.z <= 1e-9 {
-            return None;
-        }
-        let n = self.distortion.distort(Vector2::new(x.x / x.z, x.y / x.z));
+        let n = match self.distortion.model {
+            LensModel::Pinhole => {
+                if x.z <= 1e-9 {
+                    return None;
+                }
+                self.distortion.distort(Vector2::new(x.x / x.z, x.y / x.z))
+            }
+            LensModel::Fisheye => self.fisheye_normalised(x)?.0,
+        };
         let k = &self.intrinsics;
         Some(Point2::new(k.fx * n.x + k.cx, k.fy * n.y + k.cy))
+    }
+
+    /// A fisheye's normalised point of a camera-frame point with its Jacobian, `None`
+    /// past its field.
+    #[inline]
+    fn fisheye_normalised(&self, x: &Vector3<f64>) -> Option<(Vector2<f64>, Matrix2x3<f64>)> {
+        if x.z <= 0.0 && x.x.hypot(x.y).atan2(x.z) > self.fisheye_field_angle() {
+            return None;
+        }
+        self.distortion.project_with_jacobian(x)
+    }
+
+    /// Projects a camera-frame point through the lens, with the 2x3 Jacobian of the pixel
+    /// with respect to the point: what the fit linearises. `None` where
+    /// [`Camera::project_cam`] is `None`. The ideal pinhole (no distortion) is
+    /// [`Camera::pinhole_project_with_jacobian`] exactly.
+    #[inline]
+    pub fn project_with_jacobian(
+        &self,
+        x: &Vector3<f64>,
+    ) -> Option<(Vector2<f64>, Matrix2x3<f64>)> {
+        if self.distortion.is_ideal() {
+            return (x.z > 1e-9).then(|| self.pinhole_project_with_jacobian(x));
+        }
+        let (n, j) = match self.distortion.model {
+            LensModel::Pinhole => self.distortion.project_with_jacobian(x)?,
+            LensModel::Fisheye => self.fisheye_normalised(x)?,
+        };
+        let k = &self.intrinsics;
+        let f = nalgebra::Matrix2::new(k.fx, 0.0, 0.0, k.fy);
+        Some((Vector2::new(k.fx * n.x + k.cx, k.fy * n.y + k.cy), f * j))
     }
 
     /// Projects a reference-frame point into this camera's image (distortion applied).
@@ -372,15 +453,17 @@ impl Camera {
     }
 
     /// Maps an observed (distorted) pixel to the pixel an ideal pinhole camera with
-    /// the same intrinsics would have seen.
-    pub fn undistort_pixel(&self, px: Point2<f64>) -> Point2<f64> {
-        if self.distortion.is_zero() {
-            return px;
+    /// the same intrinsics would have seen. `None` for a fisheye's pixel that no pinhole
+    /// sees (90 degrees or more off the axis, or past the lens's reach): use
+    /// [`Camera::ray`] for those.
+    pub fn undistort_pixel(&self, px: Point2<f64>) -> Option<Point2<f64>> {
+        if self.distortion.is_ideal() {
+            return Some(px);
         }
         let k = &self.intrinsics;
         let d = Vector2::new((px.x - k.cx) / k.fx, (px.y - k.cy) / k.fy);
-        let n = self.distortion.undistort(d);
-        Point2::new(k.fx * n.x + k.cx, k.fy * n.y + k.cy)
+        let n = self.distortion.undistort(d)?;
+        Some(Point2::new(k.fx * n.x + k.cx, k.fy * n.y + k.cy))
     }
 
     /// Ideal pinhole projection of a camera-frame point and its 2x3 Jacobian.
@@ -404,11 +487,17 @@ impl Camera {
         (Vector2::new(u, v), j)
     }
 
-    /// Back-projects a pixel (distorted) to a unit ray in this camera's frame.
-    pub fn ray(&self, px: Point2<f64>) -> Vector3<f64> {
-        let u = self.undistort_pixel(px);
+    /// Back-projects a pixel (distorted) to a unit ray in this camera's frame, through the
+    /// lens: a fisheye's rays may point 90 degrees or more off its axis (`z <= 0`). `None`
+    /// for a fisheye's pixel past the largest radius its lens reaches.
+    pub fn ray(&self, px: Point2<f64>) -> Option<Vector3<f64>> {
         let k = &self.intrinsics;
-        Vector3::new((u.x - k.cx) / k.fx, (u.y - k.cy) / k.fy, 1.0).normalize()
+        if self.distortion.is_ideal() {
+            let d = Vector3::new((px.x - k.cx) / k.fx, (px.y - k.cy) / k.fy, 1.0);
+            return Some(d.normalize());
+        }
+        self.distortion
+            .ray(Vector2::new((px.x - k.cx) / k.fx, (px.y - k.cy) / k.fy))
     }
 
     /// Position of this camera's centre in the reference frame.
@@ -426,7 +515,7 @@ mod tests {
         let d = Distortion::from_slice(&[0.1868, -1.3734, 0.001, -0.002, 2.668]).unwrap();
         for &(x, y) in &[(0.0, 0.0), (0.2, -0.1), (-0.3, 0.25)] {
             let p = Vector2::new(x, y);
-            let back = d.undistort(d.distort(p));
+            let back = d.undistort(d.distort(p)).unwrap();
             assert!((back - p).norm() < 1e-9, "{p:?} -> {back:?}");
         }
         assert!(Distortion::from_slice(&[1.0, 2.0, 3.0]).is_err());
@@ -482,6 +571,131 @@ mod tests {
         let e = cal.scaled_to(640, 480).unwrap_err().to_string();
         assert!(e.contains("1920x1080") && e.contains("640x480"), "{e}");
         assert!(cal.scaled_to(0, 480).is_err());
+    }
+
+    /// The issue's fisheye: 150 degrees across 1280x720, k = (0.02, -0.005, 0, 0).
+    fn wide_fisheye() -> Camera {
+        // theta_d at 75 degrees: the focal length that puts it at the image's edge.
+        let t = 75f64.to_radians();
+        let f = 640.0 / (t * (1.0 + 0.02 * t * t - 0.005 * t.powi(4)));
+        Camera::fisheye(f, f, 639.5, 359.5, 1280, 720, [0.02, -0.005, 0.0, 0.0]).unwrap()
+    }
+
+    #[test]
+    fn a_fisheyes_field_of_view_comes_from_its_model() {
+        let cam = wide_fisheye();
+        assert!(
+            (cam.field_of_view_deg() - 150.0).abs() < 1e-9,
+            "{}",
+            cam.field_of_view_deg()
+        );
+        // Past 150 degrees, but a fisheye's own calibration: no warning up to 180.
+        assert!(cam.implausible_field_of_view().is_none());
+        let k = cam.intrinsics;
+        // A pinhole of the same focal length would be 106 degrees.
+        let pinhole = Camera::pinhole(k.fx, k.fy, k.cx, k.cy, 1280, 720).unwrap();
+        assert!((pinhole.field_of_view_deg() - 106.314).abs() < 1e-3);
+        // Scaling keeps the model and the field of view.
+        let half = cam.scaled_to(640, 360).unwrap();
+        assert_eq!(half.distortion, cam.distortion);
+        assert!((half.field_of_view_deg() - 150.0).abs() < 0.2);
+        // Past 180 degrees: refused, with the reason.
+        let e = Camera::fisheye(
+            300.0,
+            300.0,
+            639.5,
+            359.5,
+            1280,
+            720,
+            [0.02, -0.005, 0.0, 0.0],
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            e.contains("cameras past 180 degrees are not supported"),
+            "{e}"
+        );
+        assert!(e.contains("a fisheye of 24"), "{e}");
+        // A model that folds back before the image's edge is no lens.
+        let e = Camera::fisheye(300.0, 300.0, 639.5, 359.5, 1280, 720, [-0.3, 0.0, 0.0, 0.0])
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("stop growing 60.4 degrees"), "{e}");
+        // Coefficients past the fisheye's four.
+        let mut bad = cam;
+        bad.distortion.coeffs[4] = 0.1;
+        assert!(bad.validate().is_err());
+    }
+
+    #[test]
+    fn a_fisheye_projects_past_90_degrees_within_its_field() {
+        let cam = wide_fisheye();
+        let k = cam.intrinsics;
+        // Every pixel's ray projects back onto it, the corners (86 degrees) included.
+        for (u, v) in [(639.5, 359.5), (0.0, 0.0), (1279.0, 719.0), (100.0, 650.0)] {
+            let ray = cam.ray(Point2::new(u, v)).unwrap();
+            let back = cam.project_cam(&(ray * 500.0)).unwrap();
+            assert!(
+                (back - Point2::new(u, v)).norm() < 1e-9,
+                "({u}, {v}): {back}"
+            );
+        }
+        // A wider fisheye: 178 degrees across, its corners 102 degrees off the axis.
+        let t = 89f64.to_radians();
+        let f = 640.0 / (t * (1.0 + 0.02 * t * t - 0.005 * t.powi(4)));
+        let wide =
+            Camera::fisheye(f, f, 639.5, 359.5, 1280, 720, [0.02, -0.005, 0.0, 0.0]).unwrap();
+        let corner = wide.ray(Point2::new(-0.5, -0.5)).unwrap();
+        assert!(corner.z < 0.0, "{corner}");
+        let behind = Vector3::new(-400.0, -225.0, -50.0);
+        let px = wide.project_cam(&behind).unwrap();
+        assert!(px.x > 0.0 && px.y > 0.0 && px.x < 100.0, "{px}");
+        assert!((wide.ray(px).unwrap() - behind.normalize()).norm() < 1e-12);
+        // It has no pinhole pixel.
+        assert!(wide.undistort_pixel(px).is_none());
+        // Beyond the corners' angle it is not seen; straight behind, never.
+        assert!(wide
+            .project_cam(&Vector3::new(-400.0, -225.0, -400.0))
+            .is_none());
+        assert!(cam.project_cam(&behind).is_none());
+        assert!(wide.project_cam(&Vector3::new(0.0, 0.0, -10.0)).is_none());
+        // The ideal pinhole pixel of a pixel under 90 degrees.
+        let ideal = cam.undistort_pixel(Point2::new(1000.0, 500.0)).unwrap();
+        let ray = cam.ray(Point2::new(1000.0, 500.0)).unwrap();
+        assert!((ideal.x - (k.fx * ray.x / ray.z + k.cx)).abs() < 1e-9);
+    }
+
+    #[test]
+    fn projection_jacobians_are_the_lens_models_through_the_intrinsics() {
+        let fisheye = wide_fisheye();
+        let mut radtan = Camera::pinhole(800.0, 790.0, 320.0, 240.0, 640, 480).unwrap();
+        radtan.distortion = Distortion::from_slice(&[-0.28, 0.07, 1e-3, -5e-4, 0.02]).unwrap();
+        let ideal = Camera::pinhole(800.0, 790.0, 320.0, 240.0, 640, 480).unwrap();
+        let x = Vector3::new(120.0, -80.0, 450.0);
+        for cam in [fisheye, radtan, ideal] {
+            let (uv, j) = cam.project_with_jacobian(&x).unwrap();
+            assert_eq!(uv, cam.project_cam(&x).unwrap().coords);
+            // Central differences (the lens models' own are checked against num-dual).
+            for c in 0..3 {
+                let mut dx = Vector3::zeros();
+                dx[c] = 1e-4;
+                let num = (cam.project_cam(&(x + dx)).unwrap()
+                    - cam.project_cam(&(x - dx)).unwrap())
+                    / 2e-4;
+                assert!(
+                    (num - j.column(c)).norm() < 1e-6 * j.amax(),
+                    "{c}: {num} {j}"
+                );
+            }
+        }
+        // The ideal pinhole's is the pinhole's, to the bit.
+        assert_eq!(
+            ideal.project_with_jacobian(&x).unwrap(),
+            ideal.pinhole_project_with_jacobian(&x)
+        );
+        assert!(ideal
+            .project_with_jacobian(&Vector3::new(1.0, 1.0, -1.0))
+            .is_none());
     }
 
     #[test]

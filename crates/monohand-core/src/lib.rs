@@ -45,7 +45,7 @@ pub use error::{CoreError, CoreResult};
 /// The types most users need.
 pub mod prelude {
     pub use crate::bbox::BBox;
-    pub use crate::camera::{Camera, Distortion, Extrinsics, Intrinsics};
+    pub use crate::camera::{Camera, Distortion, Extrinsics, Intrinsics, LensModel};
     pub use crate::error::{CoreError, CoreResult};
     pub use crate::fitting::{
         CostSettings, FitOptions, FitResult, FusionSettings, HandFitter, HandTracker,

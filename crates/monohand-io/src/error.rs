@@ -51,6 +51,19 @@ pub enum IoError {
         /// What is wrong with it.
         message: String,
     },
+    /// The file states something this reader does not understand, such as a lens model
+    /// it does not implement: refused rather than read as something else.
+    #[error("{file}: {field} {value:?} is not supported ({supported})")]
+    Unsupported {
+        /// The file.
+        file: String,
+        /// The key that states it (`distortion_model`, `camera_model`, ...).
+        field: String,
+        /// What the file states.
+        value: String,
+        /// What is understood instead.
+        supported: String,
+    },
     /// The file is not in the expected format at all (bad header, truncated, ...).
     #[error("{file}: {message}")]
     Format {
@@ -115,6 +128,21 @@ impl IoError {
             file: file.into(),
             field: field.into(),
             message: message.into(),
+        }
+    }
+
+    /// An [`IoError::Unsupported`] error.
+    pub fn unsupported(
+        file: impl Into<String>,
+        field: impl Into<String>,
+        value: impl Into<String>,
+        supported: impl Into<String>,
+    ) -> IoError {
+        IoError::Unsupported {
+            file: file.into(),
+            field: field.into(),
+            value: value.into(),
+            supported: supported.into(),
         }
     }
 

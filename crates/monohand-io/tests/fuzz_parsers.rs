@@ -1,5 +1,6 @@
 //! Fuzzing of monohand-io's parsers of outside input (see docs/fuzzing.md): calibration files
-//! (project JSON, WACV'18 JSON, OpenCV YAML and XML FileStorage), OpenPose JSON, the JSON
+//! (project JSON, WACV'18 JSON, OpenCV YAML and XML FileStorage, ROS camera_info, Kalibr
+//! camera chains), OpenPose JSON, the JSON
 //! Lines input of `lift` and bone-length JSON (ffprobe's JSON: monohand-media's tests). Every mutated input must give
 //! `Ok` or `Err`: no panic, no allocation over the harness limit, no hang.
 //!
@@ -11,7 +12,7 @@
 mod fuzz_support;
 
 use fuzz_support::{cases, mutate_text, run, shared, text, TrackingAlloc};
-use monohand_io::calibration::{camera_to_json, parse_calibration};
+use monohand_io::calibration::{camera_to_json, parse_calibration, parse_calibrations};
 use monohand_io::jsonl::parse_jsonl;
 use monohand_io::openpose::parse_openpose;
 use monohand_io::skeleton::parse_bone_lengths;
@@ -26,9 +27,11 @@ const CI_CASES: usize = 3000;
 const DIR: &str = env!("CARGO_MANIFEST_DIR");
 
 fn calibration(input: &[u8]) -> Result<(), monohand_io::IoError> {
-    let c = parse_calibration(&text(input), "fuzz")?;
-    // What a caller does next with a calibration: project a point.
-    let _ = c.camera.project(&nalgebra::Vector3::new(10.0, 20.0, 500.0));
+    for c in parse_calibrations(&text(input), "fuzz")? {
+        // What a caller does next with a calibration: project a point, and back.
+        let _ = c.camera.project(&nalgebra::Vector3::new(10.0, 20.0, 500.0));
+        let _ = c.camera.ray(nalgebra::Point2::new(10.0, 20.0));
+    }
     Ok(())
 }
 
@@ -98,6 +101,29 @@ fn fuzz_calibration_yaml() {
     let seeds = vec![YAML.as_bytes().to_vec(), STEREO_YAML.as_bytes().to_vec()];
     run(
         "calibration_yaml",
+        &seeds,
+        cases(CI_CASES),
+        mutate_text,
+        calibration,
+    );
+}
+
+#[test]
+fn fuzz_calibration_robotics_yaml() {
+    let seeds: Vec<Vec<u8>> = [
+        "ros_plumb_bob.yaml",
+        "ros_rational.yaml",
+        "ros_equidistant.yaml",
+        "kalibr_camchain_imucam.yaml",
+        "kalibr_camchain_block.yaml",
+        "opencv_fisheye.yaml",
+        "opencv_fisheye_sample.yml",
+    ]
+    .iter()
+    .map(|f| std::fs::read(format!("{DIR}/tests/data/{f}")).unwrap())
+    .collect();
+    run(
+        "calibration_robotics_yaml",
         &seeds,
         cases(CI_CASES),
         mutate_text,

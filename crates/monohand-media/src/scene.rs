@@ -740,7 +740,9 @@ pub fn draw_top_view(frame: &mut RgbImage, hands: &[HandRecord], cameras: &[Came
         let k = &cam.intrinsics;
         let reach = 2.0 * (tv.z_max - tv.z_min);
         for u in [0.0, k.width as f64 - 1.0] {
-            let ray = cam.ray(Point2::new(u, k.cy));
+            let Some(ray) = cam.ray(Point2::new(u, k.cy)) else {
+                continue;
+            };
             let d = cam.extrinsics.rotation.inverse() * ray;
             let e = c + d * reach;
             if let Some((p, q)) = clip_segment(tv.to_pixel(c.x, c.z), tv.to_pixel(e.x, e.z), inner)

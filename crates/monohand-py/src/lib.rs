@@ -109,13 +109,15 @@ fn joints_array<'py>(py: Python<'py>, rows: &[[f64; 3]; NUM_JOINTS]) -> Bound<'p
     PyArray2::from_owned_array(py, arr)
 }
 
-/// A pinhole camera (optionally with lens distortion) at a pose in the reference frame.
+/// A camera with a lens model (the pinhole, optionally with OpenCV's distortion, or
+/// OpenCV's fisheye) at a pose in the reference frame.
 ///
 /// `Camera(fx, fy, cx, cy, width, height, distortion=None, rotation=None,
-/// translation_mm=None)`, with `x_cam = rotation @ x_ref + translation_mm` for the later
-/// cameras of a rig (the first is the reference); `Camera.generic(width, height)` for footage of
-/// unknown origin; `Camera.load(path)` for a calibration file (the project's JSON, the
-/// WACV'18 JSON, OpenCV YAML or XML).
+/// translation_mm=None, model="pinhole")`, with `x_cam = rotation @ x_ref + translation_mm`
+/// for the later cameras of a rig (the first is the reference); `Camera.generic(width,
+/// height)` for footage of unknown origin; `Camera.load(path)` for a calibration file (the
+/// project's JSON, the WACV'18 JSON, OpenCV YAML or XML, ROS camera_info, one camera of a
+/// Kalibr chain as `FILE#camN`).
 #[pyclass(module = "monohand._monohand", name = "Camera", frozen, eq)]
 #[derive(Clone, Copy, PartialEq)]
 struct PyCamera {
@@ -125,7 +127,7 @@ struct PyCamera {
 #[pymethods]
 impl PyCamera {
     #[new]
-    #[pyo3(signature = (fx, fy, cx, cy, width, height, distortion=None, rotation=None, translation_mm=None))]
+    #[pyo3(signature = (fx, fy, cx, cy, width, height, distortion=None, rotation=None, translation_mm=None, model="pinhole"))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         fx: f64,
@@ -137,11 +139,15 @@ impl PyCamera {
         distortion: Option<Vec<f64>>,
         rotation: Option<[[f64; 3]; 3]>,
         translation_mm: Option<[f64; 3]>,
+        model: &str,
     ) -> PyResult<PyCamera> {
-        let distortion = match distortion {
-            Some(d) => Distortion::from_slice(&d).map_err(core_err)?,
-            None => Distortion::default(),
-        };
+        let model = LensModel::from_name(model).ok_or_else(|| {
+            PyValueError::new_err(format!(
+                "model {model:?} is not a lens model (\"pinhole\" or \"fisheye\")"
+            ))
+        })?;
+        let distortion =
+            Distortion::new(model, distortion.as_deref().unwrap_or(&[])).map_err(core_err)?;
         let mut extrinsics = Extrinsics::default();
         if let Some(r) = rotation {
             let m = nalgebra::Matrix3::from_fn(|i, j| r[i][j]);
@@ -172,7 +178,8 @@ impl PyCamera {
         })
     }
 
-    /// The first camera of a calibration file.
+    /// The camera of a calibration file (`FILE#camN` for one camera of a Kalibr camera
+    /// chain).
     #[staticmethod]
     fn load(path: std::path::PathBuf) -> PyResult<PyCamera> {
         Ok(PyCamera {
@@ -209,6 +216,18 @@ impl PyCamera {
     #[getter]
     fn height(&self) -> u32 {
         self.inner.intrinsics.height
+    }
+    /// The lens model: `"pinhole"` (OpenCV's radial-tangential distortion) or `"fisheye"`
+    /// (OpenCV's fisheye, Kannala-Brandt).
+    #[getter]
+    fn model(&self) -> &'static str {
+        self.inner.distortion.model.name()
+    }
+    /// The distortion coefficients as OpenCV lists them for the model (none for an ideal
+    /// pinhole; `k1 k2 k3 k4` for a fisheye).
+    #[getter]
+    fn distortion(&self) -> Vec<f64> {
+        self.inner.distortion.listed().to_vec()
     }
     /// The 3x3 rotation from the reference (first) camera's frame to this camera's:
     /// `x_cam = R x_ref + t`.
@@ -259,8 +278,15 @@ impl PyCamera {
     }
     fn __repr__(&self) -> String {
         let i = &self.inner.intrinsics;
+        let lens = match self.inner.distortion.model {
+            LensModel::Pinhole => String::new(),
+            LensModel::Fisheye => format!(
+                ", distortion={:?}, model=\"fisheye\"",
+                self.inner.distortion.listed()
+            ),
+        };
         format!(
-            "Camera(fx={}, fy={}, cx={}, cy={}, width={}, height={})",
+            "Camera(fx={}, fy={}, cx={}, cy={}, width={}, height={}{lens})",
             i.fx, i.fy, i.cx, i.cy, i.width, i.height
         )
     }

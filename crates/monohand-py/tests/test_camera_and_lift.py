@@ -51,6 +51,26 @@ def test_camera_constructors_agree_and_check_their_numbers(tmp_path):
         monohand.Camera.load(tmp_path / "missing.json")
 
 
+def test_a_fisheye_camera_sees_past_90_degrees(tmp_path):
+    k = [0.02, -0.005, 0.0, 0.0]
+    cam = monohand.Camera(400.0, 400.0, 639.5, 359.5, 1280, 720, distortion=k, model="fisheye")
+    assert cam.model == "fisheye" and cam.distortion == k
+    # 100 degrees off the axis, behind the camera's plane: in the bottom right corner.
+    px = cam.project(np.array([[858.4, 482.8, -173.6]]))
+    assert 1200 < px[0, 0] < 1280 and 650 < px[0, 1] < 720
+    plain = monohand.Camera(923.6, 923.8, 640.0, 362.3, 1280, 720)
+    assert plain.model == "pinhole" and plain.distortion == []
+    path = tmp_path / "fisheye.json"
+    path.write_text(json.dumps({"fx": 400.0, "fy": 400.0, "cx": 639.5, "cy": 359.5, "width": 1280, "height": 720, "model": "fisheye", "dist": k}))
+    assert monohand.Camera.load(path) == cam
+    with pytest.raises(ValueError, match="not a lens model"):
+        monohand.Camera(400.0, 400.0, 639.5, 359.5, 1280, 720, model="omni")
+    with pytest.raises(ValueError, match="4 distortion coefficients"):
+        monohand.Camera(400.0, 400.0, 639.5, 359.5, 1280, 720, distortion=[0.1] * 5, model="fisheye")
+    with pytest.raises(ValueError, match="cameras past 180 degrees are not supported"):
+        monohand.Camera(300.0, 300.0, 639.5, 359.5, 1280, 720, distortion=k, model="fisheye")
+
+
 def test_lift_matches_the_cli_and_recovers_real_hands(tmp_path):
     cam, frames = dev_labels()
     picks = frames[::40]

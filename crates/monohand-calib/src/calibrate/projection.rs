@@ -75,8 +75,10 @@ pub(crate) struct Projection {
     pub d_point: Matrix2x3<f64>,
 }
 
-/// Projects a camera-frame point with OpenCV's model (as
-/// `monohand_core::camera::Distortion::distort`), with the Jacobians. `None` for a point
+/// Projects a camera-frame point with OpenCV's pinhole model (radial-tangential and
+/// rational: `monohand_core::camera::LensModel::Pinhole`, as
+/// `monohand_core::camera::Distortion::distort`), with the Jacobians. The only model this
+/// crate calibrates: its intrinsics (`Intr`) have no lens model to be told another. `None` for a point
 /// that is not in front of the camera or a non-finite result.
 pub(crate) fn project(p: &Intr, x: &Vector3<f64>) -> Option<Projection> {
     if x.z.is_nan() || x.z <= 1e-9 {
@@ -196,6 +198,7 @@ pub(crate) fn corner_pixel(
         return None;
     }
     let d = monohand_core::camera::Distortion {
+        model: monohand_core::camera::LensModel::Pinhole,
         coeffs: [p[4], p[5], p[6], p[7], p[8], p[9], p[10], p[11]],
     }
     .distort(Vector2::new(xc.x / xc.z, xc.y / xc.z));

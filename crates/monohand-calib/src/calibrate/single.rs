@@ -7,7 +7,7 @@ use super::solver::{errors, solve, Problem, Solved, State};
 use super::{BoardView, CalibrateOptions, CameraCalibration, DistortionModel, ViewResult};
 use crate::board::Board;
 use crate::error::{CalibError, CalibResult};
-use monohand_core::camera::{Camera, Distortion, Extrinsics, Intrinsics};
+use monohand_core::camera::{Camera, Distortion, Extrinsics, Intrinsics, LensModel};
 use nalgebra::{Matrix3, Vector3};
 
 /// Views a calibration needs at least.
@@ -77,7 +77,9 @@ pub(crate) fn to_camera(p: &Intr, size: (u32, u32), extrinsics: Extrinsics) -> C
             width: size.0,
             height: size.1,
         },
+        // This crate calibrates the pinhole model (radial-tangential, rational).
         Distortion {
+            model: LensModel::Pinhole,
             coeffs: [p[4], p[5], p[6], p[7], p[8], p[9], p[10], p[11]],
         },
         extrinsics,

@@ -131,7 +131,7 @@ pub fn fuse_keypoints(
             continue;
         }
         let z = ext.transform(x).z;
-        let ray = camera.ray(Point2::new(u, v));
+        let ray = camera.ray(Point2::new(u, v))?;
         if !(z > 0.0 && ray.z > 0.0) {
             return None;
         }

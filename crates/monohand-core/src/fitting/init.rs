@@ -57,7 +57,7 @@ pub(crate) fn root_candidates(fitter: &impl StartSolver, observed: &JointMask) -
     let view = &views[vi];
     let palm_seen = PALM_JOINTS
         .iter()
-        .filter(|&&j| view.weights[j] > 0.0)
+        .filter(|&&j| view.start_weights[j] > 0.0)
         .count();
     let rest = sk.rest_joints();
     let mut root_free: DofMask = [false; NUM_DOF];
@@ -121,9 +121,9 @@ pub(crate) fn best_view(views: &[PreparedView]) -> usize {
         .max_by_key(|&i| {
             let palm = PALM_JOINTS
                 .iter()
-                .filter(|&&j| views[i].weights[j] > 0.0)
+                .filter(|&&j| views[i].start_weights[j] > 0.0)
                 .count();
-            let all = views[i].weights.iter().filter(|&&w| w > 0.0).count();
+            let all = views[i].start_weights.iter().filter(|&&w| w > 0.0).count();
             (palm, all)
         })
         .unwrap_or(0)
@@ -138,8 +138,8 @@ fn image_extent(view: &PreparedView) -> (Vector2<f64>, f64, usize) {
         Vector2::repeat(f64::NEG_INFINITY),
     );
     for j in 0..NUM_JOINTS {
-        if view.weights[j] > 0.0 {
-            let p = Vector2::new(view.targets[j][0], view.targets[j][1]);
+        if view.start_weights[j] > 0.0 {
+            let p = Vector2::new(view.ideal[j][0], view.ideal[j][1]);
             c += p;
             n += 1;
             lo = lo.inf(&p);
@@ -176,11 +176,11 @@ pub(crate) fn weak_perspective_palm(
     let mut mp = Vector2::zeros();
     let mut mm = Vector2::zeros();
     for &j in &PALM_JOINTS {
-        let w = view.weights[j];
+        let w = view.start_weights[j];
         if w > 0.0 {
             let m = Vector2::new(
-                (view.targets[j][0] - k.cx) / k.fx,
-                (view.targets[j][1] - k.cy) / k.fy,
+                (view.ideal[j][0] - k.cx) / k.fx,
+                (view.ideal[j][1] - k.cy) / k.fy,
             );
             sw += w;
             mp += w * rest[j].xy();
@@ -195,11 +195,11 @@ pub(crate) fn weak_perspective_palm(
     let mut spp = Matrix2::zeros();
     let mut smp = Matrix2::zeros();
     for &j in &PALM_JOINTS {
-        let w = view.weights[j];
+        let w = view.start_weights[j];
         if w > 0.0 {
             let m = Vector2::new(
-                (view.targets[j][0] - k.cx) / k.fx,
-                (view.targets[j][1] - k.cy) / k.fy,
+                (view.ideal[j][0] - k.cx) / k.fx,
+                (view.ideal[j][1] - k.cy) / k.fy,
             ) - mm;
             let p = rest[j].xy() - mp;
             spp += w * p * p.transpose();
@@ -286,8 +286,8 @@ pub(crate) fn init_fingers(sk: &HandSkeleton, pose: &mut HandPose, view: &Prepar
     };
     let ray = |j: usize| {
         Vector3::new(
-            (view.targets[j][0] - k.cx) / k.fx,
-            (view.targets[j][1] - k.cy) / k.fy,
+            (view.ideal[j][0] - k.cx) / k.fx,
+            (view.ideal[j][1] - k.cy) / k.fy,
             1.0,
         )
         .normalize()
@@ -297,7 +297,7 @@ pub(crate) fn init_fingers(sk: &HandSkeleton, pose: &mut HandPose, view: &Prepar
         let joints = f.joints();
         // Number of leading bones whose far joint is observed.
         let seen = (1..4)
-            .take_while(|&s| view.weights[joints[s]] > 0.0)
+            .take_while(|&s| view.start_weights[joints[s]] > 0.0)
             .count();
         if seen == 0 {
             continue;
@@ -361,7 +361,7 @@ fn finger_cost(
     let k = &view.camera.intrinsics;
     let mut cost = 0.0;
     for (s, &j) in f.joints().iter().enumerate() {
-        let w = view.weights[j];
+        let w = view.start_weights[j];
         if w <= 0.0 {
             continue;
         }
@@ -372,8 +372,8 @@ fn finger_cost(
         if x.z <= 1.0 {
             return f64::INFINITY;
         }
-        let du = k.fx * x.x / x.z + k.cx - view.targets[j][0];
-        let dv = k.fy * x.y / x.z + k.cy - view.targets[j][1];
+        let du = k.fx * x.x / x.z + k.cx - view.ideal[j][0];
+        let dv = k.fy * x.y / x.z + k.cy - view.ideal[j][1];
         cost += w * w * (du * du + dv * dv);
     }
     cost

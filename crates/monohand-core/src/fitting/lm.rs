@@ -305,8 +305,8 @@ impl HandFitter {
         Ok(self.finish(sol, used))
     }
 
-    /// Validates the views, undistorts and weights the keypoints. Returns the
-    /// number of usable observations.
+    /// Validates the views, weights the keypoints and maps them to the ideal pinhole image
+    /// for the starts. Returns the number of usable observations.
     fn prepare(&mut self, views: &[View]) -> CoreResult<usize> {
         if views.is_empty() {
             return Err(CoreError::ViewMismatch("no views given".into()));
@@ -363,9 +363,10 @@ impl HandFitter {
 
     pub(crate) fn in_front(&self, pose: &HandPose) -> bool {
         let pts = forward_kinematics(&self.posed, pose);
-        self.views
-            .iter()
-            .all(|v| pts.iter().all(|p| v.camera.extrinsics.transform(p).z > 1.0))
+        self.views.iter().all(|v| {
+            pts.iter()
+                .all(|p| v.sees(&v.camera.extrinsics.transform(p)))
+        })
     }
 
     fn finish(&self, sol: Solution, used: usize) -> FitResult {
@@ -442,23 +443,36 @@ impl HandFitter {
     }
 
     /// The pixel and cue terms of the cost for given joints; `None` if a joint
-    /// is behind a camera.
+    /// is where a camera does not see it. The pixels are the observed ones, the joints
+    /// projected through each camera's lens.
     fn data_cost(&self, pts: &[Vector3<f64>; NUM_JOINTS], mask: &JointMask) -> Option<f64> {
         let mut cost = 0.0;
         for v in &self.views {
             let ext = &v.camera.extrinsics;
             let k = &v.camera.intrinsics;
+            let ideal = v.camera.distortion.is_ideal();
             for j in 0..NUM_JOINTS {
                 let w = v.weights[j];
                 if w <= 0.0 || !mask[j] {
                     continue;
                 }
                 let x = ext.transform(&pts[j]);
-                if x.z <= 1.0 {
-                    return None;
-                }
-                let du = (k.fx * x.x / x.z + k.cx - v.targets[j][0]) * v.mrad_per_px[0];
-                let dv = (k.fy * x.y / x.z + k.cy - v.targets[j][1]) * v.mrad_per_px[1];
+                let [pu, pv] = v.raw[j];
+                let (du, dv) = if ideal {
+                    if x.z <= 1.0 {
+                        return None;
+                    }
+                    (
+                        (k.fx * x.x / x.z + k.cx - pu) * v.mrad_per_px[0],
+                        (k.fy * x.y / x.z + k.cy - pv) * v.mrad_per_px[1],
+                    )
+                } else {
+                    let px = v.lens_pixel(&x)?;
+                    (
+                        (px.x - pu) * v.mrad_per_px[0],
+                        (px.y - pv) * v.mrad_per_px[1],
+                    )
+                };
                 cost += w * w * (du * du + dv * dv);
             }
             for cue in 0..NUM_CUES {
@@ -490,20 +504,25 @@ impl HandFitter {
         let mut cost = 0.0;
         for v in &self.views {
             let r = v.camera.extrinsics.rotation.matrix();
+            let ideal = v.camera.distortion.is_ideal();
             for j in 0..NUM_JOINTS {
                 let w = v.weights[j];
                 if w <= 0.0 || !mask[j] {
                     continue;
                 }
                 let x = v.camera.extrinsics.transform(&pts[j]);
-                if x.z <= 1.0 {
-                    return None;
-                }
-                let (uv, pj): (Vector2<f64>, Matrix2x3<f64>) =
-                    v.camera.pinhole_project_with_jacobian(&x);
+                // Through the lens: the ideal pinhole's own, or the lens model's.
+                let (uv, pj): (Vector2<f64>, Matrix2x3<f64>) = if ideal {
+                    if x.z <= 1.0 {
+                        return None;
+                    }
+                    v.camera.pinhole_project_with_jacobian(&x)
+                } else {
+                    v.lens_pixel_with_jacobian(&x)?
+                };
                 // Milliradians: `S = diag(1000 / fx, 1000 / fy)`.
                 let s = Matrix2::from_diagonal(&Vector2::from(v.mrad_per_px));
-                let res = s * (uv - Vector2::new(v.targets[j][0], v.targets[j][1])) * w;
+                let res = s * (uv - Vector2::new(v.raw[j][0], v.raw[j][1])) * w;
                 cost += res.norm_squared();
                 // The block is `M jac_j` with `M = w S P R` (2x3): it adds `MᵀM` and
                 // `Mᵀ res` to joint j's 3x3 form, applied to `jac_j` once below.
@@ -933,14 +952,23 @@ mod tests {
     /// cues that disagree with the pose, and a temporal prior elsewhere: every term of the
     /// cost is non-zero.
     fn problem() -> (HandFitter, HandPose, [bool; NUM_JOINTS]) {
+        let left = Camera::pinhole(800.0, 790.0, 320.0, 240.0, 640, 480).unwrap();
+        problem_seen_by(left, Vector3::new(25.0, -15.0, 420.0))
+    }
+
+    /// [`problem`] with the hand's wrist at `at`, seen by `left` and by a second camera of
+    /// the same lens 100 mm to its right, turned 11 degrees.
+    fn problem_seen_by(
+        left: Camera,
+        at: Vector3<f64>,
+    ) -> (HandFitter, HandPose, [bool; NUM_JOINTS]) {
         let sk = HandSkeleton::default_for(HandSide::Left);
         let mut pose = HandPose::default();
-        pose.translation = Vector3::new(25.0, -15.0, 420.0);
+        pose.translation = at;
         pose.rotation = UnitQuaternion::from_euler_angles(0.5, -0.4, 2.2);
         for (i, a) in pose.angles.iter_mut().enumerate() {
             *a = 0.02 * i as f64;
         }
-        let left = Camera::pinhole(800.0, 790.0, 320.0, 240.0, 640, 480).unwrap();
         let right = left.with_extrinsics(crate::camera::Extrinsics {
             rotation: Rotation3::from_euler_angles(0.02, -0.2, 0.01),
             translation: Vector3::new(-100.0, 2.0, 10.0),
@@ -995,7 +1023,31 @@ mod tests {
 
     #[test]
     fn gradient_and_gauss_newton_matrix_match_the_cost() {
-        let (fitter, pose, mask) = problem();
+        check_gradient(problem());
+    }
+
+    /// The fit in the real image: through a lens with distortion, and through a fisheye
+    /// with the hand 60 degrees off its axis.
+    #[test]
+    fn gradient_and_gauss_newton_matrix_match_the_cost_through_every_lens() {
+        let mut radtan = Camera::pinhole(800.0, 790.0, 320.0, 240.0, 640, 480).unwrap();
+        radtan.distortion =
+            crate::camera::Distortion::from_slice(&[-0.28, 0.07, 1e-3, -5e-4, 0.02]).unwrap();
+        check_gradient(problem_seen_by(radtan, Vector3::new(25.0, -15.0, 420.0)));
+        let fisheye = Camera::fisheye(
+            420.0,
+            420.0,
+            639.5,
+            359.5,
+            1280,
+            720,
+            [0.02, -0.005, 1e-3, -2e-4],
+        )
+        .unwrap();
+        check_gradient(problem_seen_by(fisheye, Vector3::new(300.0, -60.0, 170.0)));
+    }
+
+    fn check_gradient((fitter, pose, mask): (HandFitter, HandPose, [bool; NUM_JOINTS])) {
         let (mut h, mut g) = (Mat26::zeros(), Vec26::zeros());
         let cost = fitter.linearise(&pose, &mask, &mut h, &mut g).unwrap();
         assert!((cost - fitter.cost(&pose, &mask).unwrap()).abs() < 1e-9 * cost);

@@ -1,15 +1,15 @@
 //! What a solve works on: which joints and degrees of freedom it uses, and the
-//! views prepared for it (undistorted, weighted keypoints and the network's bone
-//! directions). Both the solver ([`super::lm`]) and its starts ([`super::init`])
+//! views prepared for it (weighted keypoints, as observed for the fit and mapped to the
+//! ideal pinhole image for its starts, and the network's bone directions). Both the solver ([`super::lm`]) and its starts ([`super::init`])
 //! read these; this module depends on neither.
 
 use super::options::{CostSettings, FitOptions, View};
-use crate::camera::Camera;
+use crate::camera::{Camera, LensModel};
 use crate::error::{CoreError, CoreResult};
 use crate::hand_model::params::ANGLES_PER_FINGER;
 use crate::hand_model::{BONES, NUM_DOF, NUM_JOINTS};
 use crate::observation::NetworkCues;
-use nalgebra::{Rotation3, Vector3};
+use nalgebra::{Matrix2x3, Rotation3, Vector2, Vector3};
 
 /// Which joints a solve uses.
 pub(crate) type JointMask = [bool; NUM_JOINTS];
@@ -33,16 +33,24 @@ pub(crate) fn free_dofs(observed: &JointMask) -> DofMask {
     free
 }
 
-/// One view prepared for the solver: undistorted targets and weights.
+/// One view prepared for the solver: its keypoints as observed, which the fit
+/// reprojects the joints through the camera's lens onto, the same keypoints in the ideal
+/// pinhole image for the starts, and weights.
 #[derive(Debug, Clone, Copy)]
 pub(crate) struct PreparedView {
     pub camera: Camera,
-    /// Observed pixels as given (distorted).
+    /// Observed pixels as given (distorted): the fit's targets.
     pub raw: [[f64; 2]; NUM_JOINTS],
-    /// Observed pixels mapped to the ideal pinhole image.
-    pub targets: [[f64; 2]; NUM_JOINTS],
+    /// Observed pixels mapped to the ideal pinhole image (the camera's intrinsics without
+    /// its lens's distortion), for the starts and the cues' directions; meaningful where
+    /// `start_weights` is above 0.
+    pub ideal: [[f64; 2]; NUM_JOINTS],
     /// `p^k`, or 0 for dropped joints.
     pub weights: [f64; NUM_JOINTS],
+    /// `weights`, except 0 for a keypoint with no ideal pinhole pixel (a fisheye's, 90
+    /// degrees or more off its axis): the starts' weights. Equal to `weights` for every
+    /// pinhole camera.
+    pub start_weights: [f64; NUM_JOINTS],
     /// Milliradians per pixel along x and y (`1000 / fx`, `1000 / fy`). The solver
     /// measures reprojection residuals as angles: the same keypoint error in the
     /// image is the same angle at any resolution, so the balance of the keypoints
@@ -63,9 +71,9 @@ pub(crate) const NUM_BONES: usize = BONES.len();
 pub(crate) const NUM_CUES: usize = 2;
 
 impl PreparedView {
-    /// Validates view `vi` (camera, keypoints, cues), undistorts and weights its
-    /// keypoints and sets its bone-direction targets. Returns the view and its number
-    /// of usable observations.
+    /// Validates view `vi` (camera, keypoints, cues), weights its keypoints, maps them to
+    /// the ideal pinhole image and sets its bone-direction targets. Returns the view and
+    /// its number of usable observations.
     pub(crate) fn prepare(
         v: &View,
         vi: usize,
@@ -79,8 +87,9 @@ impl PreparedView {
         let mut pv = PreparedView {
             camera: *v.camera,
             raw: [[0.0; 2]; NUM_JOINTS],
-            targets: [[0.0; 2]; NUM_JOINTS],
+            ideal: [[0.0; 2]; NUM_JOINTS],
             weights: [0.0; NUM_JOINTS],
+            start_weights: [0.0; NUM_JOINTS],
             mrad_per_px: [
                 1000.0 / v.camera.intrinsics.fx,
                 1000.0 / v.camera.intrinsics.fy,
@@ -91,9 +100,11 @@ impl PreparedView {
         for (j, p) in v.keypoints.points.iter().enumerate() {
             pv.raw[j] = [p[0], p[1]];
             if p[2] > 0.0 && p[2] >= o.cost.min_confidence {
-                let u = v.camera.undistort_pixel(nalgebra::Point2::new(p[0], p[1]));
-                pv.targets[j] = [u.x, u.y];
                 pv.weights[j] = p[2].powf(o.cost.confidence_power);
+                if let Some(u) = v.camera.undistort_pixel(nalgebra::Point2::new(p[0], p[1])) {
+                    pv.ideal[j] = [u.x, u.y];
+                    pv.start_weights[j] = pv.weights[j];
+                }
                 used += 1;
             }
         }
@@ -103,6 +114,43 @@ impl PreparedView {
             set_bone_targets(&mut pv, cues, &o.cost);
         }
         Ok((pv, used))
+    }
+
+    /// Whether the fit may place camera-frame point `x` where it is: more than 1 mm in
+    /// front of a pinhole camera; more than 1 mm from a fisheye's centre, in its field.
+    #[inline]
+    pub(crate) fn sees(&self, x: &Vector3<f64>) -> bool {
+        match self.camera.distortion.model {
+            LensModel::Pinhole => x.z > 1.0,
+            LensModel::Fisheye => x.norm() > 1.0 && self.camera.project_cam(x).is_some(),
+        }
+    }
+
+    /// The pixel of camera-frame point `x` through the camera's lens, `None` where the fit
+    /// may not place it ([`Self::sees`]).
+    #[inline]
+    pub(crate) fn lens_pixel(&self, x: &Vector3<f64>) -> Option<Vector2<f64>> {
+        if !self.sees(x) {
+            return None;
+        }
+        self.camera.project_cam(x).map(|p| p.coords)
+    }
+
+    /// The pixel of camera-frame point `x` through the camera's lens and its 2x3
+    /// Jacobian, `None` where the fit may not place it ([`Self::sees`]).
+    #[inline]
+    pub(crate) fn lens_pixel_with_jacobian(
+        &self,
+        x: &Vector3<f64>,
+    ) -> Option<(Vector2<f64>, Matrix2x3<f64>)> {
+        let in_front = match self.camera.distortion.model {
+            LensModel::Pinhole => x.z > 1.0,
+            LensModel::Fisheye => x.norm() > 1.0,
+        };
+        if !in_front {
+            return None;
+        }
+        self.camera.project_with_jacobian(x)
     }
 }
 
@@ -116,9 +164,9 @@ impl PreparedView {
 /// its two joints.
 fn set_bone_targets(pv: &mut PreparedView, cues: &NetworkCues, o: &CostSettings) {
     let (su, sv, n) = (0..NUM_JOINTS)
-        .filter(|&j| pv.weights[j] > 0.0)
+        .filter(|&j| pv.start_weights[j] > 0.0)
         .fold((0.0, 0.0, 0.0), |(u, v, n), j| {
-            (u + pv.targets[j][0], v + pv.targets[j][1], n + 1.0)
+            (u + pv.ideal[j][0], v + pv.ideal[j][1], n + 1.0)
         });
     if n == 0.0 {
         return;
@@ -134,10 +182,12 @@ fn set_bone_targets(pv: &mut PreparedView, cues: &NetworkCues, o: &CostSettings)
         let world = cues
             .world_mm
             .map(|m| Vector3::from(m[c]) - Vector3::from(m[p]));
-        let depth = cues.depth_px.map(|z| {
+        // The depth cue's bone is in the ideal image, where both joints must have a pixel.
+        let pinhole = pv.start_weights[p] > 0.0 && pv.start_weights[c] > 0.0;
+        let depth = cues.depth_px.filter(|_| pinhole).map(|z| {
             Vector3::new(
-                (pv.targets[c][0] - pv.targets[p][0]) / k.fx,
-                (pv.targets[c][1] - pv.targets[p][1]) / k.fy,
+                (pv.ideal[c][0] - pv.ideal[p][0]) / k.fx,
+                (pv.ideal[c][1] - pv.ideal[p][1]) / k.fy,
                 (z[c] - z[p]) / k.fx,
             )
         });

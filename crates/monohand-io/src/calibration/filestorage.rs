@@ -193,10 +193,12 @@ fn parse_block(
             let rest = l.text[1..].trim_start();
             let no = l.no;
             *pos += 1;
+            let nested_seq = rest == "-" || rest.starts_with("- ");
             if rest.is_empty() {
                 items.push(parse_nested(lines, pos, indent, no, None, depth)?);
-            } else if split_key(rest).is_some() && !rest.starts_with(['[', '{']) {
-                // `- key: value` starts a map whose keys sit at indent + 2.
+            } else if nested_seq || (split_key(rest).is_some() && !rest.starts_with(['[', '{'])) {
+                // `- key: value` starts a map whose keys sit at indent + 2, and `- - x` a
+                // sequence whose items do (PyYAML's block style for a list of lists).
                 let inner = indent + (l.text.len() - rest.len());
                 let virtual_line = Line {
                     no,
@@ -714,6 +716,16 @@ mod tests {
         let y = "%YAML:1.0\n---\n# comment\nimage_width: 640\nname: \"a # b\"\nm: !!opencv-matrix\n   rows: 1\n   cols: 3\n   dt: d\n   data: [ 1., -2.5e+00,\n       .Nan ]\nnested:\n   k: [ 1, 2 ]\n   l:\n      - 3\n      - { x: 1, y: 2 }\n      - a: 1\n        b: 2\nseq:\n- 1\n- 2\n";
         let n = parse_yaml(y).unwrap();
         assert_eq!(n.get("image_width"), Some(&Node::Scalar("640".into())));
+        // A list of lists in block style, as PyYAML writes it by default; negative numbers
+        // are items, not sequences.
+        let n2 = parse_yaml("T:\n- - 1.0\n  - -2.0\n- - 3.0\n  - 4.0\nu: 5\n").unwrap();
+        let s = |v: &str| Node::Scalar(v.into());
+        let row = |a: &str, b: &str| Node::Seq(vec![s(a), s(b)]);
+        assert_eq!(
+            n2.get("T"),
+            Some(&Node::Seq(vec![row("1.0", "-2.0"), row("3.0", "4.0")]))
+        );
+        assert_eq!(n2.get("u"), Some(&s("5")));
         assert_eq!(n.get("name"), Some(&Node::Scalar("a # b".into())));
         let m = n.get("m").unwrap();
         assert_eq!(m.tag(), Some("opencv-matrix"));

@@ -1,14 +1,27 @@
 //! Reading cameras from calibration files, and writing the project's own
 //! camera JSON.
 //!
-//! Four formats are read, told apart by their content ([`detect_format`]):
+//! Six formats are read, told apart by their content ([`detect_format`]):
 //!
 //! | format | looks like |
 //! |---|---|
-//! | [`CalibrationFormat::MonohandJson`] | `{"fx": .., "fy": .., "cx": .., "cy": .., "width": .., "height": .., "dist"?: [..], "R"?: 3x3 or rotation vector, "t"?: [3] (mm)}` |
+//! | [`CalibrationFormat::MonohandJson`] | `{"fx": .., "fy": .., "cx": .., "cy": .., "width": .., "height": .., "model"?: "pinhole" or "fisheye", "dist"?: [..], "R"?: 3x3 or rotation vector, "t"?: [3] (mm)}` |
 //! | [`CalibrationFormat::Wacv18Json`] | the FORTH / WACV'18 tool's JSON: `CameraMatrix`, `Distortion`, `Dims`, `Rotation`, `Translation` |
 //! | [`CalibrationFormat::OpenCvYaml`] | `cv::FileStorage` YAML (`%YAML:1.0`, `!!opencv-matrix`) |
 //! | [`CalibrationFormat::OpenCvXml`] | `cv::FileStorage` XML (`<opencv_storage>`, `type_id="opencv-matrix"`) |
+//! | [`CalibrationFormat::RosCameraInfo`] | ROS `camera_info` YAML: `camera_matrix`, `distortion_model`, `distortion_coefficients`, ... (`ros` module) |
+//! | [`CalibrationFormat::KalibrCamchain`] | Kalibr's camera chain: `cam0: {camera_model, intrinsics, distortion_model, ...}`, `cam1: {..., T_cn_cnm1}` (`kalibr` module) |
+//!
+//! Every file is read as the lens model it states ([`LensModel`]: the pinhole with
+//! OpenCV's radial-tangential distortion, or OpenCV's fisheye), or refused with the model's
+//! name ([`IoError::Unsupported`]); never as another. In OpenCV FileStorage the model is
+//! stated by `distortion_model`, `model` or `camera_model` (`pinhole`, `plumb_bob`,
+//! `radtan`, `rational_polynomial`; `fisheye`, `equidistant`) or `fisheye_model` (`0`,
+//! `1`, as OpenCV's calibration sample writes it); a file stating none is a pinhole, as
+//! OpenCV's `calibrateCamera` writes it.
+//!
+//! A Kalibr chain holds several cameras: [`parse_calibrations`] and [`read_calibrations`]
+//! give them all, and [`read_calibration`] one, named `FILE#camN`.
 //!
 //! In the OpenCV formats the camera matrix is found under `camera_matrix`,
 //! `cameraMatrix` or `K`; the distortion under `distortion_coefficients`,
@@ -38,6 +51,9 @@
 //! ```
 
 mod filestorage;
+mod kalibr;
+mod model;
+mod ros;
 mod write;
 
 pub use write::{
@@ -62,13 +78,18 @@ pub enum CalibrationFormat {
     OpenCvYaml,
     /// OpenCV `cv::FileStorage` XML.
     OpenCvXml,
+    /// ROS `camera_info` YAML (`camera_calibration`, `camera_calibration_parsers`).
+    RosCameraInfo,
+    /// Kalibr's camera chain YAML (`camchain.yaml`).
+    KalibrCamchain,
 }
 
 /// A camera read from a calibration file, with what else the file said.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Calibration {
     /// The camera, validated. Its extrinsics are those of the file for the
-    /// project JSON (`R`, `t`) and OpenCV files (`R`, `T`), identity otherwise.
+    /// project JSON (`R`, `t`) and OpenCV files (`R`, `T`), relative to `cam0` for a Kalibr
+    /// chain (its `T_cn_cnm1`s), identity otherwise.
     pub camera: Camera,
     /// The format the file was in.
     pub format: CalibrationFormat,
@@ -80,7 +101,7 @@ pub struct Calibration {
     pub reprojection_error_px: Option<f64>,
 }
 
-/// Tells the format from the content; `None` if it is none of the four.
+/// Tells the format from the content; `None` if it is none of the six.
 pub fn detect_format(text: &str) -> Option<CalibrationFormat> {
     let t = text.trim_start_matches('\u{feff}').trim_start();
     if t.starts_with('{') {
@@ -96,15 +117,44 @@ pub fn detect_format(text: &str) -> Option<CalibrationFormat> {
     } else if t.starts_with('<') {
         Some(CalibrationFormat::OpenCvXml)
     } else {
+        yaml_format(&filestorage::parse_yaml(t).ok()?)
+    }
+}
+
+/// A plain YAML file's format: a ROS `camera_info` or a Kalibr chain, by their keys.
+fn yaml_format(root: &Node) -> Option<CalibrationFormat> {
+    if kalibr::looks_like(root) {
+        Some(CalibrationFormat::KalibrCamchain)
+    } else if ros::looks_like(root) {
+        Some(CalibrationFormat::RosCameraInfo)
+    } else {
         None
     }
 }
 
-/// Reads a calibration file in any of the supported formats.
+/// Reads a calibration file in any of the supported formats: its one camera, or the
+/// camera `N` of a Kalibr chain given as `FILE#camN` (when no file of that whole name
+/// exists). A chain of several cameras without `#camN` is refused, naming them.
 pub fn read_calibration(path: impl AsRef<Path>) -> IoResult<Calibration> {
     let path = path.as_ref();
+    let (file, camera) = match split_camera(path) {
+        Some((file, camera)) => (file, Some(camera)),
+        None => (path.to_path_buf(), None),
+    };
+    let text = read_text(&file)?;
+    one_camera(
+        parse_calibrations(&text, &name_of(&file))?,
+        camera,
+        &name_of(&file),
+    )
+}
+
+/// Every camera of a calibration file, in its order (`cam0` first in a Kalibr chain; one
+/// camera in every other format).
+pub fn read_calibrations(path: impl AsRef<Path>) -> IoResult<Vec<Calibration>> {
+    let path = path.as_ref();
     let text = read_text(path)?;
-    parse_calibration(&text, &name_of(path))
+    parse_calibrations(&text, &name_of(path))
 }
 
 /// Reads just the camera of a calibration file (see [`read_calibration`]).
@@ -112,8 +162,64 @@ pub fn read_camera(path: impl AsRef<Path>) -> IoResult<Camera> {
     read_calibration(path).map(|c| c.camera)
 }
 
-/// Parses calibration text; `file` names it in errors.
+/// `FILE#camN` as `(FILE, N)` when no file is named `FILE#camN` itself.
+fn split_camera(path: &Path) -> Option<(std::path::PathBuf, usize)> {
+    if path.exists() {
+        return None;
+    }
+    let s = path.to_str()?;
+    let (file, camera) = s.rsplit_once('#')?;
+    let n = camera.strip_prefix("cam")?.parse::<usize>().ok()?;
+    Some((std::path::PathBuf::from(file), n))
+}
+
+/// The one camera of a file, or its camera `N`.
+fn one_camera(
+    mut cals: Vec<Calibration>,
+    camera: Option<usize>,
+    file: &str,
+) -> IoResult<Calibration> {
+    let n = cals.len();
+    match camera {
+        None if n == 1 => Ok(cals.remove(0)),
+        None => Err(IoError::format(
+            file,
+            format!(
+                "a camera chain of {n} cameras: name one, as {file}#cam0 to {file}#cam{}",
+                n.saturating_sub(1)
+            ),
+        )),
+        Some(i) if i < n && cals[i].format == CalibrationFormat::KalibrCamchain => {
+            Ok(cals.remove(i))
+        }
+        Some(i)
+            if cals
+                .iter()
+                .all(|c| c.format == CalibrationFormat::KalibrCamchain) =>
+        {
+            Err(IoError::format(
+                file,
+                format!(
+                    "no cam{i} in a camera chain of {n} (cam0 to cam{})",
+                    n.saturating_sub(1)
+                ),
+            ))
+        }
+        Some(i) => Err(IoError::format(
+            file,
+            format!("#cam{i} names a camera of a Kalibr camera chain; this file has one camera"),
+        )),
+    }
+}
+
+/// Parses calibration text of one camera; `file` names it in errors. A Kalibr chain of
+/// several cameras is refused, naming them ([`parse_calibrations`] reads them all).
 pub fn parse_calibration(text: &str, file: &str) -> IoResult<Calibration> {
+    one_camera(parse_calibrations(text, file)?, None, file)
+}
+
+/// Parses calibration text: every camera it holds (several only in a Kalibr chain).
+pub fn parse_calibrations(text: &str, file: &str) -> IoResult<Vec<Calibration>> {
     let t = text.trim_start_matches('\u{feff}');
     let trimmed = t.trim_start();
     if trimmed.starts_with('{') {
@@ -122,32 +228,36 @@ pub fn parse_calibration(text: &str, file: &str) -> IoResult<Calibration> {
             .as_object()
             .ok_or_else(|| IoError::format(file, "expected a JSON object"))?;
         return if o.contains_key("CameraMatrix") {
-            wacv18(o, file)
+            wacv18(o, file).map(|c| vec![c])
         } else {
-            monohand_json(o, file)
+            monohand_json(o, file).map(|c| vec![c])
         };
     }
-    match detect_format(t) {
-        Some(CalibrationFormat::OpenCvXml) => {
-            let root = filestorage::parse_xml(t).map_err(|e| IoError::Line {
-                file: file.to_string(),
-                line: e.line,
-                message: format!("OpenCV XML: {}", e.message),
-            })?;
-            from_filestorage(&root, file, CalibrationFormat::OpenCvXml)
-        }
-        Some(CalibrationFormat::OpenCvYaml) => {
-            let root = filestorage::parse_yaml(t).map_err(|e| IoError::Line {
-                file: file.to_string(),
-                line: e.line,
-                message: format!("OpenCV YAML: {}", e.message),
-            })?;
-            from_filestorage(&root, file, CalibrationFormat::OpenCvYaml)
-        }
-        _ => Err(IoError::format(
+    let syntax = |what: &str, e: filestorage::SyntaxError| IoError::Line {
+        file: file.to_string(),
+        line: e.line,
+        message: format!("{what}: {}", e.message),
+    };
+    if trimmed.starts_with("%YAML") || t.contains("!!opencv-matrix") {
+        let root = filestorage::parse_yaml(t).map_err(|e| syntax("OpenCV YAML", e))?;
+        return from_filestorage(&root, file, CalibrationFormat::OpenCvYaml).map(|c| vec![c]);
+    }
+    if trimmed.starts_with('<') {
+        let root = filestorage::parse_xml(t).map_err(|e| syntax("OpenCV XML", e))?;
+        return from_filestorage(&root, file, CalibrationFormat::OpenCvXml).map(|c| vec![c]);
+    }
+    let unrecognised = || {
+        IoError::format(
             file,
-            "unrecognised calibration format (expected JSON, OpenCV YAML starting with %YAML, or OpenCV XML)",
-        )),
+            "unrecognised calibration format (expected JSON, OpenCV YAML starting with %YAML, \
+             OpenCV XML, ROS camera_info YAML or a Kalibr camera chain)",
+        )
+    };
+    let root = filestorage::parse_yaml(t).map_err(|_| unrecognised())?;
+    match yaml_format(&root) {
+        Some(CalibrationFormat::KalibrCamchain) => kalibr::from_camchain(&root, file),
+        Some(_) => ros::from_camera_info(&root, file).map(|c| vec![c]),
+        None => Err(unrecognised()),
     }
 }
 
@@ -194,7 +304,9 @@ fn intrinsics_from_k(k: &[f64], file: &str, field: &str) -> IoResult<[f64; 4]> {
     Ok([fx, fy, cx, cy])
 }
 
-fn distortion(d: &[f64], file: &str, field: &str) -> IoResult<Distortion> {
+/// The lens of `model` from coefficients as OpenCV lists them (for the pinhole, 12 or 14
+/// are read when the thin-prism and tilt terms are zero).
+fn distortion(model: LensModel, d: &[f64], file: &str, field: &str) -> IoResult<Distortion> {
     if let Some(v) = d.iter().find(|v| !v.is_finite()) {
         return Err(IoError::field(
             file,
@@ -203,8 +315,8 @@ fn distortion(d: &[f64], file: &str, field: &str) -> IoResult<Distortion> {
         ));
     }
     let used = match d.len() {
-        12 | 14 if d[8..].iter().all(|&v| v == 0.0) => &d[..8],
-        12 | 14 => {
+        12 | 14 if model == LensModel::Pinhole && d[8..].iter().all(|&v| v == 0.0) => &d[..8],
+        12 | 14 if model == LensModel::Pinhole => {
             return Err(IoError::field(
                 file,
                 field,
@@ -213,7 +325,7 @@ fn distortion(d: &[f64], file: &str, field: &str) -> IoResult<Distortion> {
         }
         _ => d,
     };
-    Distortion::from_slice(used).map_err(|e| IoError::field(file, field, strip_core(&e)))
+    Distortion::new(model, used).map_err(|e| IoError::field(file, field, strip_core(&e)))
 }
 
 fn strip_core(e: &CoreError) -> String {
@@ -318,9 +430,9 @@ fn required<'a>(o: &'a Map<String, Value>, key: &str, file: &str) -> IoResult<&'
         .ok_or_else(|| IoError::field(file, key, "missing"))
 }
 
-const MONOHAND_KEYS: [&str; 17] = [
-    "fx", "fy", "cx", "cy", "width", "height", "dist", "R", "t", "name", "comment", "hfov_deg",
-    // Written by `monohand calibrate` (write::calibrated_camera_json).
+const MONOHAND_KEYS: [&str; 18] = [
+    "fx", "fy", "cx", "cy", "width", "height", "model", "dist", "R", "t", "name", "comment",
+    "hfov_deg", // Written by `monohand calibrate` (write::calibrated_camera_json).
     "rms_px", "views", "board", "date", "std",
 ];
 
@@ -345,9 +457,20 @@ fn monohand_json(o: &Map<String, Value>, file: &str) -> IoResult<Calibration> {
     }
     let width = image_dim(num("width")?, file, "width")?;
     let height = image_dim(num("height")?, file, "height")?;
+    let lens = match o.get("model") {
+        Some(Value::String(m)) => model::PROJECT.find(m, file, "model")?,
+        Some(v) => {
+            return Err(IoError::field(
+                file,
+                "model",
+                format!("expected \"pinhole\" or \"fisheye\", got {v}"),
+            ))
+        }
+        None => model::PROJECT.find("pinhole", file, "model")?,
+    };
     let dist = match o.get("dist") {
-        Some(v) => distortion(&json_numbers(v, file, "dist")?, file, "dist")?,
-        None => Distortion::default(),
+        Some(v) => lens.lens(&json_numbers(v, file, "dist")?, file, "dist", "model")?,
+        None => lens.lens(&[], file, "dist", "model")?,
     };
     let rot = match o.get("R") {
         Some(v) => rotation(&json_numbers(v, file, "R")?, file, "R")?,
@@ -399,7 +522,12 @@ fn wacv18(o: &Map<String, Value>, file: &str) -> IoResult<Calibration> {
     let width = image_dim(dims[0], file, "Dims[0]")?;
     let height = image_dim(dims[1], file, "Dims[1]")?;
     let dist = match o.get("Distortion") {
-        Some(v) => distortion(&json_numbers(v, file, "Distortion")?, file, "Distortion")?,
+        Some(v) => distortion(
+            LensModel::Pinhole,
+            &json_numbers(v, file, "Distortion")?,
+            file,
+            "Distortion",
+        )?,
         None => Distortion::default(),
     };
     let target_pose = match (o.get("Rotation"), o.get("Translation")) {
@@ -534,6 +662,32 @@ fn fs_matrix(node: &Node, file: &str, field: &str) -> IoResult<(usize, usize, Ve
     }
 }
 
+/// The lens of a FileStorage file: its coefficients under the model it states, or the
+/// pinhole's when it states none.
+fn fs_distortion(root: &Node, file: &str) -> IoResult<Distortion> {
+    let stated = model::filestorage_model(root, file)?;
+    match find(root, &D_KEYS) {
+        Some((f, n)) => {
+            let (r, c, d) = fs_matrix(n, file, f)?;
+            if r != 1 && c != 1 && r * c != 0 {
+                return Err(IoError::field(
+                    file,
+                    f,
+                    format!("expected a vector, got a {r}x{c} matrix"),
+                ));
+            }
+            match stated {
+                Some((key, name)) => name.lens(&d, file, f, key),
+                None => distortion(LensModel::Pinhole, &d, file, f),
+            }
+        }
+        None => match stated {
+            Some((key, name)) => name.lens(&[], file, "distortion_coefficients", key),
+            None => Ok(Distortion::default()),
+        },
+    }
+}
+
 fn from_filestorage(root: &Node, file: &str, format: CalibrationFormat) -> IoResult<Calibration> {
     let (k_field, k_node) = find(root, &K_KEYS).ok_or_else(|| {
         IoError::field(
@@ -551,20 +705,7 @@ fn from_filestorage(root: &Node, file: &str, format: CalibrationFormat) -> IoRes
         ));
     }
     let [fx, fy, cx, cy] = intrinsics_from_k(&k, file, k_field)?;
-    let dist = match find(root, &D_KEYS) {
-        Some((f, n)) => {
-            let (r, c, d) = fs_matrix(n, file, f)?;
-            if r != 1 && c != 1 && r * c != 0 {
-                return Err(IoError::field(
-                    file,
-                    f,
-                    format!("expected a vector, got a {r}x{c} matrix"),
-                ));
-            }
-            distortion(&d, file, f)?
-        }
-        None => Distortion::default(),
-    };
+    let dist = fs_distortion(root, file)?;
     let (width, height) = match (
         find(root, &W_KEYS),
         find(root, &H_KEYS),
@@ -636,9 +777,10 @@ fn from_filestorage(root: &Node, file: &str, format: CalibrationFormat) -> IoRes
 
 // ------------------------------------------------------------ writer
 
-/// The project JSON for a camera: `fx fy cx cy width height`, plus `dist`
-/// (only if non-zero, shortest OpenCV length), `R` (3x3, row-major rows) and
-/// `t` (mm) only if the extrinsics are not the identity.
+/// The project JSON for a camera: `fx fy cx cy width height`, plus `model` and `dist`
+/// unless the camera is the ideal pinhole (`dist` the shortest OpenCV list; a fisheye's
+/// always its 4), `R` (3x3, row-major rows) and `t` (mm) only if the extrinsics are not
+/// the identity.
 pub fn camera_to_json(camera: &Camera) -> Value {
     let k = &camera.intrinsics;
     let mut o = Map::new();
@@ -648,16 +790,9 @@ pub fn camera_to_json(camera: &Camera) -> Value {
     o.insert("cy".into(), json!(k.cy));
     o.insert("width".into(), json!(k.width));
     o.insert("height".into(), json!(k.height));
-    if !camera.distortion.is_zero() {
-        let c = camera.distortion.coeffs;
-        let n = if c[5..].iter().any(|&v| v != 0.0) {
-            8
-        } else if c[4] != 0.0 {
-            5
-        } else {
-            4
-        };
-        o.insert("dist".into(), json!(c[..n]));
+    if !camera.distortion.is_ideal() {
+        o.insert("model".into(), json!(camera.distortion.model.name()));
+        o.insert("dist".into(), json!(camera.distortion.listed()));
     }
     if !camera.extrinsics.is_identity() {
         let m = camera.extrinsics.rotation.matrix();

@@ -290,3 +290,129 @@ fn bad_opencv_files_name_file_and_field() {
         let _ = parse_calibration(&XML[..cut], "cut.xml");
     }
 }
+
+/// Issue 44's fisheye as cv::FileStorage writes it (`tests/data/cv_reference.py`).
+const FISHEYE_YAML: &str = include_str!("../../tests/data/opencv_fisheye.yaml");
+
+#[test]
+fn opencv_files_are_read_as_the_model_they_state() {
+    let fisheye = |text: &str| {
+        parse_calibration(text, "cam.yml")
+            .unwrap()
+            .camera
+            .distortion
+    };
+    assert_eq!(fisheye(FISHEYE_YAML).model, LensModel::Fisheye);
+    for key in [
+        "model: fisheye",
+        "camera_model: fisheye",
+        "distortion_model: equidistant",
+        "fisheye_model: 1",
+    ] {
+        let text = FISHEYE_YAML.replace("distortion_model: fisheye", key);
+        assert_eq!(fisheye(&text).model, LensModel::Fisheye, "{key}");
+    }
+    // Keys that agree, the more specific name winning.
+    let both = FISHEYE_YAML.replace(
+        "distortion_model: fisheye",
+        "fisheye_model: 1\ndistortion_model: fisheye",
+    );
+    assert_eq!(fisheye(&both).model, LensModel::Fisheye);
+    let pinhole = FISHEYE_YAML.replace("distortion_model: fisheye", "distortion_model: plumb_bob");
+    assert_eq!(fisheye(&pinhole).model, LensModel::Pinhole);
+    // XML states it the same way.
+    let xml = XML
+        .replace(
+            "<image_width>",
+            "<distortion_model>fisheye</distortion_model>\n<image_width>",
+        )
+        .replace("<rows>5</rows>", "<rows>4</rows>")
+        .replace(" 0. 0.\n    2.6679646461641733e+00</data>", " 0. 0.</data>");
+    assert_eq!(fisheye(&xml).model, LensModel::Fisheye);
+}
+
+#[test]
+fn opencv_files_whose_model_is_not_understood_are_refused() {
+    let e = err(&FISHEYE_YAML.replace(
+        "distortion_model: fisheye",
+        "distortion_model: kannala_brandt8",
+    ));
+    assert_eq!(
+        e,
+        "cam.cfg: distortion_model \"kannala_brandt8\" is not supported (pinhole: pinhole, \
+         plumb_bob, radtan, rational_polynomial; fisheye: fisheye, equidistant)"
+    );
+    // A fisheye with five coefficients is neither a fisheye nor a pinhole.
+    let five = FISHEYE_YAML
+        .replace("rows: 4", "rows: 5")
+        .replace("0., 0. ]", "0., 0., 0. ]");
+    let e = err(&five);
+    assert!(
+        e.contains("field distortion_coefficients")
+            && e.contains("distortion_model \"fisheye\" takes 4 coefficients (k1 k2 k3 k4), got 5"),
+        "{e}"
+    );
+    let e = err(&FISHEYE_YAML.replace(
+        "distortion_model: fisheye",
+        "distortion_model: fisheye\nfisheye_model: 0",
+    ));
+    assert!(
+        e.contains("field fisheye_model") && e.contains("states the pinhole model"),
+        "{e}"
+    );
+    let e = err(&FISHEYE_YAML.replace("distortion_model: fisheye", "fisheye_model: 2"));
+    assert!(e.contains("fisheye_model \"2\" is not supported"), "{e}");
+    let e = err(&FISHEYE_YAML.replace("distortion_model: fisheye", "xi: 1.2"));
+    assert!(e.contains("xi \"cv::omnidir\" is not supported"), "{e}");
+    let e = err(&FISHEYE_YAML.replace("distortion_model: fisheye", "camera_model: omni"));
+    assert!(e.contains("camera_model \"omni\" is not supported"), "{e}");
+}
+
+#[test]
+fn the_projects_json_states_its_model() {
+    let base =
+        r#""fx": 479.5, "fy": 479.5, "cx": 639.5, "cy": 359.5, "width": 1280, "height": 720"#;
+    let cam = parse_calibration(
+        &format!(r#"{{{base}, "model": "fisheye", "dist": [0.02, -0.005, 0, 0]}}"#),
+        "cam.json",
+    )
+    .unwrap()
+    .camera;
+    assert_eq!(
+        cam.distortion,
+        Distortion::fisheye([0.02, -0.005, 0.0, 0.0]).unwrap()
+    );
+    // Absent, the model is the pinhole, as before.
+    let cam = parse_calibration(
+        &format!(r#"{{{base}, "dist": [0.02, -0.005, 0, 0]}}"#),
+        "c.json",
+    )
+    .unwrap()
+    .camera;
+    assert_eq!(cam.distortion.model, LensModel::Pinhole);
+    let e = err(&format!(
+        r#"{{{base}, "model": "omni", "dist": [0.1, 0, 0, 0]}}"#
+    ));
+    assert_eq!(
+        e,
+        "cam.cfg: model \"omni\" is not supported (pinhole: pinhole; fisheye: fisheye)"
+    );
+    let e = err(&format!(
+        r#"{{{base}, "model": "fisheye", "dist": [0.1, 0, 0, 0, 0]}}"#
+    ));
+    assert!(
+        e.contains("field dist") && e.contains("takes 0 or 4 coefficients"),
+        "{e}"
+    );
+    let e = err(&format!(r#"{{{base}, "model": 2}}"#));
+    assert!(e.contains("field model"), "{e}");
+    // A fisheye past 180 degrees: refused with the reason.
+    let e = err(concat!(
+        r#"{"fx": 300, "fy": 300, "cx": 639.5, "cy": 359.5, "width": 1280, "height": 720, "#,
+        r#""model": "fisheye", "dist": [0.02, -0.005, 0, 0]}"#
+    ));
+    assert!(
+        e.contains("cameras past 180 degrees are not supported"),
+        "{e}"
+    );
+}

@@ -3,7 +3,7 @@
 
 use super::camera_to_json;
 use crate::error::{IoError, IoResult};
-use monohand_core::camera::Camera;
+use monohand_core::camera::{Camera, LensModel};
 use serde_json::{json, Value};
 use std::path::Path;
 
@@ -70,12 +70,16 @@ pub fn calibrated_camera_json(camera: &Camera, info: &CalibrationInfo) -> Value 
 
 /// A calibrated camera as OpenCV's `cv::FileStorage` writes YAML (the keys of OpenCV's
 /// `calibration` sample: `camera_matrix`, `distortion_coefficients`,
-/// `avg_reprojection_error`, ...; `R` and `T` for a rig's other cameras, as
+/// `avg_reprojection_error`, ...; `fisheye_model: 1` and the 4 coefficients of a fisheye,
+/// as that sample writes them; `R` and `T` for a rig's other cameras, as
 /// `cv::stereoCalibrate` gives them).
 pub fn opencv_yaml(camera: &Camera, info: &CalibrationInfo) -> String {
     let k = &camera.intrinsics;
     let c = camera.distortion.coeffs;
-    let n = if c[5..].iter().any(|&v| v != 0.0) {
+    let fisheye = camera.distortion.model == LensModel::Fisheye;
+    let n = if fisheye {
+        4
+    } else if c[5..].iter().any(|&v| v != 0.0) {
         8
     } else {
         5
@@ -91,6 +95,9 @@ pub fn opencv_yaml(camera: &Camera, info: &CalibrationInfo) -> String {
         info.board_rows,
         num(info.square_mm)
     );
+    if fisheye {
+        out.push_str("fisheye_model: 1\n");
+    }
     let km = [k.fx, 0.0, k.cx, 0.0, k.fy, k.cy, 0.0, 0.0, 1.0];
     out.push_str(&matrix("camera_matrix", 3, 3, &km));
     out.push_str(&matrix("distortion_coefficients", 1, n, &c[..n]));

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from os import PathLike
-from typing import Any, Dict, Iterator, List, Optional, Sequence, Tuple, Union
+from typing import Any, Dict, Iterator, List, Literal, Optional, Sequence, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -17,8 +17,9 @@ class MonohandError(RuntimeError):
     """A model, file, video or fit failed (the message says which and why)."""
 
 class Camera:
-    """A pinhole camera (pixels; pixel centres at integer coordinates), optionally with
-    OpenCV lens distortion ``(k1, k2, p1, p2[, k3[, k4, k5, k6]])``."""
+    """A camera (pixels; pixel centres at integer coordinates) with a lens model:
+    ``"pinhole"``, optionally with OpenCV's distortion ``(k1, k2, p1, p2[, k3[, k4, k5, k6]])``,
+    or ``"fisheye"``, OpenCV's fisheye (Kannala-Brandt) with ``(k1, k2, k3, k4)``."""
 
     def __init__(
         self,
@@ -31,14 +32,18 @@ class Camera:
         distortion: Optional[Sequence[float]] = None,
         rotation: Optional[Sequence[Sequence[float]]] = None,
         translation_mm: Optional[Sequence[float]] = None,
+        model: Literal["pinhole", "fisheye"] = "pinhole",
     ) -> None:
-        """``x_cam = rotation @ x_ref + translation_mm`` for the later cameras of a rig."""
+        """``x_cam = rotation @ x_ref + translation_mm`` for the later cameras of a rig.
+        ``model="fisheye"`` takes 4 coefficients (or none); a fisheye past 180 degrees
+        is refused."""
     @staticmethod
     def generic(width: int, height: int) -> Camera:
         """Principal point at the centre and a 60 degree horizontal field of view."""
     @staticmethod
     def load(path: Union[str, PathLike[str]]) -> Camera:
-        """A calibration file: the project's JSON, WACV'18 JSON, OpenCV YAML or XML."""
+        """A calibration file: the project's JSON, WACV'18 JSON, OpenCV YAML or XML, ROS
+        ``camera_info`` YAML, or one camera of a Kalibr camera chain (``"chain.yaml#cam1"``)."""
     @property
     def fx(self) -> float: ...
     @property
@@ -51,6 +56,12 @@ class Camera:
     def width(self) -> int: ...
     @property
     def height(self) -> int: ...
+    @property
+    def model(self) -> Literal["pinhole", "fisheye"]:
+        """The lens model."""
+    @property
+    def distortion(self) -> List[float]:
+        """The coefficients as OpenCV lists them for the model (``[]`` for none)."""
     @property
     def rotation(self) -> npt.NDArray[np.float64]: ...
     @property

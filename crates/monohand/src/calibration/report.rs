@@ -247,9 +247,11 @@ fn draw_distortion(img: &mut RgbImage, camera: &Camera, cell: f64) -> f64 {
         let mut x = step / 2.0;
         while x < w {
             let n = Vector2::new((x - k.cx) / k.fx, (y - k.cy) / k.fy);
-            let u = camera.distortion.undistort(n);
-            let ideal = [k.cx + k.fx * u.x, k.cy + k.fy * u.y];
-            arrows.push(([x, y], [ideal[0] - x, ideal[1] - y]));
+            // (A calibration's lens is the pinhole's, whose every point has a pinhole point.)
+            if let Some(u) = camera.distortion.undistort(n) {
+                let ideal = [k.cx + k.fx * u.x, k.cy + k.fy * u.y];
+                arrows.push(([x, y], [ideal[0] - x, ideal[1] - y]));
+            }
             x += step;
         }
         y += step;
