@@ -42,10 +42,10 @@ impl RectifiedView {
     /// degenerate there.
     pub fn aimed_at(camera: &Camera, roi: &RotatedRect) -> Option<RectifiedView> {
         let c = Point2::new(roi.center[0], roi.center[1]);
-        let axis = camera.ray(c);
+        let axis = camera.ray(c)?;
         let step = 2.0;
-        let along_x = camera.ray(Point2::new(c.x + step, c.y));
-        let along_y = camera.ray(Point2::new(c.x, c.y + step));
+        let along_x = camera.ray(Point2::new(c.x + step, c.y))?;
+        let along_y = camera.ray(Point2::new(c.x, c.y + step))?;
         let x = along_x - axis * axis.dot(&along_x);
         if !(axis.iter().all(|v| v.is_finite()) && x.norm() > 1e-12) {
             return None;
@@ -96,7 +96,7 @@ impl RectifiedView {
 
     /// An image pixel's place in the view (pixel centres); `None` behind the view.
     pub fn from_image(&self, camera: &Camera, p: [f64; 2]) -> Option<[f64; 2]> {
-        let v = self.rotation * camera.ray(Point2::new(p[0], p[1]));
+        let v = self.rotation * camera.ray(Point2::new(p[0], p[1]))?;
         if v.z.is_nan() || v.z <= 1e-9 {
             return None;
         }

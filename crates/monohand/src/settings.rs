@@ -303,7 +303,7 @@ impl ResolvedSettings {
             .iter()
             .map(|c| match self.derived.rectify {
                 RectifyCrops::Off => None,
-                RectifyCrops::Lenses => (!c.distortion.is_zero()).then_some(*c),
+                RectifyCrops::Lenses => (!c.distortion.is_ideal()).then_some(*c),
                 RectifyCrops::All => Some(*c),
             })
             .collect()
