@@ -91,9 +91,9 @@ pub(crate) struct RunArgs {
     #[arg(long)]
     pub no_depth_filter: bool,
     /// Which calibrated cameras' hands are read in a rectified view (a virtual pinhole
-    /// aimed at the hand, drawn through the lens): `lenses` (distortion or fisheye), `all`,
-    /// `off` (docs/calibration.md#rectified-crops).
-    #[arg(long, value_enum, value_name = "WHICH", default_value = "lenses")]
+    /// aimed at the hand, drawn through the lens): `off`, `lenses` (distortion or fisheye),
+    /// `all` (docs/calibration.md#rectified-crops).
+    #[arg(long, value_enum, value_name = "WHICH", default_value = "off")]
     pub rectify_crops: Rectify,
     /// One Euro filter: minimum cutoff frequency, Hz (lower: smoother when still).
     #[arg(long, value_name = "HZ", default_value_t = OneEuroParams::default().min_cutoff)]
