@@ -44,6 +44,7 @@ mod session;
 pub mod settings;
 mod tracks;
 
+pub use cameras::StatedCamera;
 pub use crops::{CropTracker, HandId, ViewError, ViewHands, VisionFrame};
 pub use error::{SessionError, SessionResult};
 pub use fit::{
