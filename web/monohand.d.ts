@@ -9,7 +9,7 @@ export type Vec3 = [number, number, number];
 export type Joints<T> = [T, T, T, T, T, T, T, T, T, T, T, T, T, T, T, T, T, T, T, T, T];
 
 /** Where a camera came from. */
-export type CameraSource = 'file' | 'file-scaled' | 'exif' | 'exif+sensor-db' | 'generic';
+export type CameraSource = 'file' | 'file-scaled' | 'exif' | 'exif+sensor-db' | 'video-metadata' | 'generic';
 
 /** A camera's intrinsics: focal lengths and principal point, pixels, for an image size. */
 export interface Intrinsics {

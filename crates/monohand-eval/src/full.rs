@@ -237,7 +237,7 @@ impl FrameSource for SequenceImages {
             timestamp_s: index as f64 / FPS,
             image,
             decode_ms: 0.0,
-            focal: monohand::vision::image_io::ExifFocal::None,
+            focal: monohand::StatedCamera::None,
         }))
     }
 

@@ -300,7 +300,7 @@ pub struct FrameRecord {
 }
 
 /// Where a camera came from (in JSON: `file`, `file-scaled`, `exif`, `exif+sensor-db`,
-/// `generic`).
+/// `video-metadata`, `generic`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 pub enum CameraSource {
     /// A calibration the user gave (a file, or a camera object in Python), as given.
@@ -320,6 +320,11 @@ pub enum CameraSource {
     /// the centre.
     #[serde(rename = "exif+sensor-db")]
     ExifSensorDb,
+    /// The 35 mm-equivalent focal length the video file states in its QuickTime metadata
+    /// (`com.apple.quicktime.camera.focal_length.35mm_equivalent`, as iPhones write it),
+    /// principal point at the centre.
+    #[serde(rename = "video-metadata")]
+    VideoMetadata,
     /// The generic guess for the image size (60 degree horizontal field of view).
     #[serde(rename = "generic")]
     Generic,
@@ -333,6 +338,7 @@ impl CameraSource {
             CameraSource::FileScaled => "file-scaled",
             CameraSource::Exif => "exif",
             CameraSource::ExifSensorDb => "exif+sensor-db",
+            CameraSource::VideoMetadata => "video-metadata",
             CameraSource::Generic => "generic",
         }
     }
@@ -573,6 +579,7 @@ mod tests {
             (CameraSource::FileScaled, "file-scaled"),
             (CameraSource::Exif, "exif"),
             (CameraSource::ExifSensorDb, "exif+sensor-db"),
+            (CameraSource::VideoMetadata, "video-metadata"),
             (CameraSource::Generic, "generic"),
         ] {
             let rec = CameraRecord::new(&camera, source).with_reason(Some("why".into()));

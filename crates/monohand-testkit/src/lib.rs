@@ -3,7 +3,8 @@
 //! Test helpers shared by monohand's test suites (a dev-dependency only, never
 //! published): the paths of the shared data (`../shared/data` beside the repository,
 //! which CI always has) and of its sample files, and the system tools the tests drive
-//! (`ffmpeg`, `ffprobe`), with the clips the video tests make from the shared photo.
+//! (`ffmpeg`, `ffprobe`, `exiftool`), with the clips the video tests make from the shared
+//! photo and Apple's camera metadata written into them ([`quicktime`]).
 //!
 //! Missing data or a missing tool fails the calling test with a message that says what
 //! is missing and where it was looked for.
@@ -11,6 +12,8 @@
 #![deny(missing_docs)]
 // Test helpers panic on failure: a failed check fails the test that called it.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
+
+pub mod quicktime;
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -124,8 +127,36 @@ pub fn decodable_frames(video: &Path) -> usize {
         "{}",
         String::from_utf8_lossy(&probe.stderr)
     );
-    String::from_utf8_lossy(&probe.stdout)
-        .trim()
+    // A rotated video's line ends in an empty field for its side data (`3,`).
+    let out = String::from_utf8_lossy(&probe.stdout);
+    let count = out.trim().split(',').next().unwrap_or_default();
+    count
         .parse()
-        .unwrap()
+        .unwrap_or_else(|e| panic!("ffprobe counted {out:?} frames: {e}"))
+}
+
+/// What exiftool reads in `file`, as its JSON (`exiftool -json -a -G1 -ee -n FILE`: every
+/// tag, duplicates too, each named by its group, such as `Keys:Make` or
+/// `Track1:CameraFocalLength35mmEquivalent`, with numbers unformatted); the tests' reader of
+/// metadata independent of monohand's. Fails the test if exiftool is missing (Debian and
+/// Ubuntu: `apt-get install libimage-exiftool-perl`) or cannot read the file.
+pub fn exiftool(file: &Path) -> String {
+    let out = Command::new("exiftool")
+        .args(["-json", "-a", "-G1", "-ee", "-n"])
+        .arg(file)
+        .output()
+        .unwrap_or_else(|e| {
+            panic!(
+                "exiftool, the independent reader of the video metadata tests, cannot run \
+                 ({e}): apt-get install libimage-exiftool-perl"
+            )
+        });
+    assert!(
+        out.status.success(),
+        "exiftool {} ({}): {}",
+        file.display(),
+        out.status,
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8(out.stdout).unwrap()
 }

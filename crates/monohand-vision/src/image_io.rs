@@ -428,20 +428,7 @@ impl FocalReading {
 
     /// Whether `px` (read from `source`) makes a plausible camera for the image, else why not.
     fn check(&self, px: f64, source: &str) -> std::result::Result<(), String> {
-        let (w, h) = (self.w, self.h);
-        let camera = monohand_core::camera::Camera::centred(px, w, h)
-            .map_err(|e| format!("{source}: {e}"))?;
-        let f35 = px * DIAGONAL_35MM / self.diagonal;
-        if let Some(why) = camera.implausible_field_of_view() {
-            return Err(format!("{source} gives fx {px:.0} px for {w}x{h}, {why}"));
-        }
-        if !PhotoFocal::PLAUSIBLE_35MM.contains(&f35) {
-            return Err(format!(
-                "{source} gives a 35 mm equivalent of {f35:.1} mm, outside {:?} mm",
-                PhotoFocal::PLAUSIBLE_35MM
-            ));
-        }
-        Ok(())
+        check_focal(px, source, (self.w, self.h), self.diagonal)
     }
 
     /// The focal `px` used, with the readings `refused` before it and the frame's note.
@@ -564,6 +551,50 @@ impl FocalReading {
 
 /// Diagonal of a 36 x 24 mm frame, mm.
 const DIAGONAL_35MM: f64 = 43.266_615_305_567_875;
+
+/// Whether the focal length `px` (read from `source`) makes a plausible camera for an image
+/// of `size` (width, height) whose lens's frame has a diagonal of `diagonal` pixels, else
+/// why not: a field of view within [`monohand_core::camera::PLAUSIBLE_FOV_DEG`] and a 35 mm
+/// equivalent within [`PhotoFocal::PLAUSIBLE_35MM`].
+fn check_focal(
+    px: f64,
+    source: &str,
+    (w, h): (u32, u32),
+    diagonal: f64,
+) -> std::result::Result<(), String> {
+    let camera =
+        monohand_core::camera::Camera::centred(px, w, h).map_err(|e| format!("{source}: {e}"))?;
+    let f35 = px * DIAGONAL_35MM / diagonal;
+    if let Some(why) = camera.implausible_field_of_view() {
+        return Err(format!("{source} gives fx {px:.0} px for {w}x{h}, {why}"));
+    }
+    if !PhotoFocal::PLAUSIBLE_35MM.contains(&f35) {
+        return Err(format!(
+            "{source} gives a 35 mm equivalent of {f35:.1} mm, outside {:?} mm",
+            PhotoFocal::PLAUSIBLE_35MM
+        ));
+    }
+    Ok(())
+}
+
+/// The focal length in pixels that a 35 mm-equivalent focal length of `f35` mm gives a
+/// `width` x `height` frame, checked as a photo's `FocalLengthIn35mmFilm` is (see
+/// [`PhotoFocal`]): `f35 * diagonal px / 43.27`, the 35 mm equivalent being defined on the
+/// diagonal, with a field of view within [`monohand_core::camera::PLAUSIBLE_FOV_DEG`] and
+/// `f35` within [`PhotoFocal::PLAUSIBLE_35MM`]. `source` names the reading in the refusal
+/// (for a video's metadata, say). The frame must be the whole frame the lens saw, upright
+/// or not (the diagonal is the same).
+pub fn focal_from_35mm(
+    f35: f64,
+    source: &str,
+    width: u32,
+    height: u32,
+) -> std::result::Result<f64, String> {
+    let diagonal = f64::from(width).hypot(f64::from(height));
+    let px = f35 * diagonal / DIAGONAL_35MM;
+    check_focal(px, source, (width, height), diagonal)?;
+    Ok(px)
+}
 
 /// Reads and decodes a photo with its EXIF focal length (see the module docs).
 pub fn load_photo(path: &Path) -> Result<Photo> {
@@ -751,5 +782,28 @@ mod tests {
         // error (a decode error, not the size).
         let e = decode_rgb(&png_header(16_384, 8_192), "big.png").expect_err("no pixels");
         assert!(matches!(e, VisionError::ImageDecode { .. }), "{e}");
+    }
+
+    #[test]
+    fn a_35mm_equivalent_is_read_on_the_diagonal_and_checked() {
+        // 26 mm on 640x480: the diagonal is 800 px, so 26 x 800 / 43.27 px, upright or not.
+        let f = focal_from_35mm(26.0, "26 mm", 640, 480).expect("plausible");
+        assert!(
+            (f - 26.0 * 800.0 / 43.266_615_305_567_875).abs() < 1e-9,
+            "{f}"
+        );
+        assert_eq!(focal_from_35mm(26.0, "26 mm", 480, 640), Ok(f));
+        let e = focal_from_35mm(3000.0, "the video's 3000 mm", 160, 120).expect_err("too long");
+        assert!(
+            e.starts_with("the video's 3000 mm gives fx 13868 px for 160x120, a 0.7 degree"),
+            "{e}"
+        );
+        let e = focal_from_35mm(0.0, "0 mm", 160, 120).expect_err("zero");
+        assert!(e.starts_with("0 mm: "), "{e}");
+        // 5 mm is 147.8 degrees across 160 px; 4.5 mm is 150.8, past 150, before the 4 mm floor of
+        // equivalents.
+        assert!(focal_from_35mm(5.0, "5 mm", 160, 120).is_ok());
+        let e = focal_from_35mm(4.5, "4.5 mm", 160, 120).expect_err("too wide");
+        assert!(e.contains("a 150.8 degree field of view"), "{e}");
     }
 }

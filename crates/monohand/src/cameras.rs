@@ -1,13 +1,41 @@
 //! The camera of each view, frame by frame: the calibrations the user gave (scaled to the
 //! frames' size when it differs and has the same shape), or without them a camera per image
-//! from the focal length its file states (EXIF), else the generic 60 degree guess; each
-//! kind said once.
+//! from the focal length its file states (a photo's EXIF, a video's QuickTime metadata),
+//! else the generic 60 degree guess; each kind said once.
+
+use std::sync::Arc;
 
 use crate::frame::{CameraError, CameraOrigin};
 use crate::notes::{Note, NoteTopic};
 use monohand_core::camera::Camera;
 use monohand_io::jsonl::CameraSource;
-use monohand_vision::image_io::ExifFocal;
+use monohand_media::video::VideoCameraTags;
+use monohand_vision::image_io::{focal_from_35mm, ExifFocal};
+
+/// What the file a frame came from states about its camera, for frames without a
+/// calibration: a photo's EXIF focal length (already read for its image), or a video's
+/// QuickTime metadata (the same for all its frames, read for each frame's size).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub enum StatedCamera {
+    /// Nothing stated (a video without camera metadata, a caller's frames, a photo without
+    /// a focal length in its EXIF).
+    #[default]
+    None,
+    /// What a photo's EXIF gave ([`ExifFocal`]).
+    Exif(ExifFocal),
+    /// A video's QuickTime metadata that states a focal length
+    /// ([`monohand_media::video::read_quicktime_metadata`]).
+    QuickTime(Arc<VideoCameraTags>),
+}
+
+impl From<ExifFocal> for StatedCamera {
+    fn from(f: ExifFocal) -> StatedCamera {
+        match f {
+            ExifFocal::None => StatedCamera::None,
+            f => StatedCamera::Exif(f),
+        }
+    }
+}
 
 /// `reason` and `more` joined, either possibly absent.
 fn join_reasons(reason: Option<String>, more: Option<&String>) -> Option<String> {
@@ -96,19 +124,23 @@ impl CameraChoice {
 
     /// Makes the cameras fit the frame (`sizes`: each view's image size, `None` for an
     /// unreadable view): without calibrated cameras, one for the first view's size from the
-    /// focal length its file states, else the generic guess; with them, the calibrations,
-    /// scaled to the frames' size when it differs and has the same shape (another shape is
-    /// the error).
+    /// focal length its file states (`stated`), else the generic guess; with them, the
+    /// calibrations, scaled to the frames' size when it differs and has the same shape
+    /// (another shape is the error).
     pub(crate) fn camera_for(
         &mut self,
         sizes: &[Option<(u32, u32)>],
-        focal: &ExifFocal,
+        stated: &StatedCamera,
     ) -> Result<(), CameraError> {
         if self.calibrated.is_empty() {
             let Some(&Some((w, h))) = sizes.first() else {
                 return Ok(());
             };
-            return self.photo_camera(w, h, focal);
+            return match stated {
+                StatedCamera::None => self.photo_camera(w, h, &ExifFocal::None),
+                StatedCamera::Exif(focal) => self.photo_camera(w, h, focal),
+                StatedCamera::QuickTime(tags) => self.video_camera(w, h, tags),
+            };
         }
         for (v, size) in sizes.iter().enumerate() {
             let (Some(&(w, h)), Some(cal)) = (size.as_ref(), self.calibrated.get(v)) else {
@@ -156,70 +188,117 @@ impl CameraChoice {
     /// when that passed its checks, else the generic guess (with why, when the EXIF stated
     /// one).
     fn photo_camera(&mut self, w: u32, h: u32, focal: &ExifFocal) -> Result<(), CameraError> {
-        let generic = || Camera::generic(w, h);
-        let (cam, origin) = match focal {
-            ExifFocal::Used(f) => {
-                let cam = Camera::centred(f.px, w, h)?;
-                let source = if f.sensor_width_mm.is_some() {
-                    CameraSource::ExifSensorDb
-                } else {
-                    CameraSource::Exif
-                };
-                let why = f
-                    .fallback
-                    .as_ref()
-                    .map(|why| format!(" ({why})"))
-                    .unwrap_or_default();
-                self.say_once(
-                    source.to_string(),
-                    format!(
-                        "the camera comes from the photo's {}: fx = fy = {:.1} px for {w}x{h} \
-                         ({:.1} degree horizontal field of view; photos without it get the \
-                         generic 60 degree guess){why}",
-                        f.source,
-                        f.px,
-                        2.0 * (0.5 * w as f64 / f.px).atan().to_degrees()
-                    ),
-                );
-                (cam, CameraOrigin::new(source, f.fallback.clone()))
-            }
+        let f = match focal {
+            ExifFocal::Used(f) => f,
             ExifFocal::Refused(why) => {
                 let reason = format!("the EXIF focal length was not used: {why}");
-                self.say_once(
-                    "generic, EXIF refused".into(),
-                    format!(
-                        "{reason}; assuming a generic camera for {w}x{h} (60 degree horizontal \
-                         field of view) instead; absolute depth is only as right as this guess \
-                         (docs/calibration.md)"
-                    ),
-                );
-                (
-                    generic()?,
-                    CameraOrigin::new(CameraSource::Generic, Some(reason)),
-                )
+                return self.generic_camera(w, h, Some(("generic, EXIF refused", reason)));
             }
-            ExifFocal::None => {
-                self.say_once(
-                    "generic".into(),
-                    format!(
-                        "assuming a generic camera for {w}x{h} (60 degree horizontal field of \
-                         view); absolute depth is only as right as this guess \
-                         (docs/calibration.md)"
-                    ),
-                );
-                (generic()?, CameraOrigin::new(CameraSource::Generic, None))
-            }
+            ExifFocal::None => return self.generic_camera(w, h, None),
         };
-        self.cameras = vec![cam];
-        self.origins = vec![origin];
+        let cam = Camera::centred(f.px, w, h)?;
+        let source = if f.sensor_width_mm.is_some() {
+            CameraSource::ExifSensorDb
+        } else {
+            CameraSource::Exif
+        };
+        let why = f
+            .fallback
+            .as_ref()
+            .map(|why| format!(" ({why})"))
+            .unwrap_or_default();
+        self.say_once(
+            source.to_string(),
+            format!(
+                "the camera comes from the photo's {}: fx = fy = {:.1} px for {w}x{h} \
+                 ({:.1} degree horizontal field of view; photos without it get the \
+                 generic 60 degree guess){why}",
+                f.source,
+                f.px,
+                horizontal_fov_deg(f.px, w)
+            ),
+        );
+        self.use_camera(cam, CameraOrigin::new(source, f.fallback.clone()));
         Ok(())
     }
+
+    /// The camera of a video's frame without calibration: from the 35 mm-equivalent focal
+    /// length its QuickTime metadata states, on the frame's diagonal and checked as a
+    /// photo's EXIF is, else the generic guess with why.
+    fn video_camera(&mut self, w: u32, h: u32, tags: &VideoCameraTags) -> Result<(), CameraError> {
+        let stated = tags.describe();
+        let px = match tags.focal_35mm_mm() {
+            None => return self.generic_camera(w, h, None),
+            Some(Ok(f35)) => focal_from_35mm(f35, &stated, w, h),
+            Some(Err(why)) => Err(why),
+        };
+        let px = match px {
+            Ok(px) => px,
+            Err(why) => {
+                let reason = format!("the video's focal length was not used: {why}");
+                return self.generic_camera(
+                    w,
+                    h,
+                    Some(("generic, video metadata refused", reason)),
+                );
+            }
+        };
+        let cam = Camera::centred(px, w, h)?;
+        self.say_once(
+            CameraSource::VideoMetadata.to_string(),
+            format!(
+                "the camera comes from the video's {stated}: fx = fy = {px:.1} px for {w}x{h} \
+                 ({:.1} degree horizontal field of view; the 35 mm equivalent spans the \
+                 frame's diagonal; videos without it get the generic 60 degree guess)",
+                horizontal_fov_deg(px, w)
+            ),
+        );
+        self.use_camera(cam, CameraOrigin::new(CameraSource::VideoMetadata, None));
+        Ok(())
+    }
+
+    /// The generic guess for a `w` x `h` frame; `refused`: the kind of focal length the
+    /// file stated and why it was not used (said once per kind).
+    fn generic_camera(
+        &mut self,
+        w: u32,
+        h: u32,
+        refused: Option<(&str, String)>,
+    ) -> Result<(), CameraError> {
+        let guess =
+            format!("assuming a generic camera for {w}x{h} (60 degree horizontal field of view)");
+        let then = "absolute depth is only as right as this guess (docs/calibration.md)";
+        let origin = match refused {
+            Some((kind, reason)) => {
+                self.say_once(kind.into(), format!("{reason}; {guess} instead; {then}"));
+                CameraOrigin::new(CameraSource::Generic, Some(reason))
+            }
+            None => {
+                self.say_once("generic".into(), format!("{guess}; {then}"));
+                CameraOrigin::new(CameraSource::Generic, None)
+            }
+        };
+        self.use_camera(Camera::generic(w, h)?, origin);
+        Ok(())
+    }
+
+    /// Uses `cam` (the one camera: no calibrations) from `origin`.
+    fn use_camera(&mut self, cam: Camera, origin: CameraOrigin) {
+        self.cameras = vec![cam];
+        self.origins = vec![origin];
+    }
+}
+
+/// The horizontal field of view of focal length `px` across `w` pixels, degrees.
+fn horizontal_fov_deg(px: f64, w: u32) -> f64 {
+    2.0 * (0.5 * f64::from(w) / px).atan().to_degrees()
 }
 
 #[cfg(test)]
 mod tests {
     #![allow(clippy::unwrap_used)]
     use super::*;
+    use monohand_media::video::MetadataValue;
     use monohand_vision::image_io::PhotoFocal;
 
     #[test]
@@ -236,7 +315,7 @@ mod tests {
             notes[0]
         );
         choice
-            .camera_for(&[Some((640, 480))], &ExifFocal::None)
+            .camera_for(&[Some((640, 480))], &StatedCamera::None)
             .unwrap();
         assert_eq!(choice.cameras(), &[tele]);
         let o = &choice.origins[0];
@@ -247,7 +326,7 @@ mod tests {
             .is_some_and(|r| r.contains("used as given")));
         // Scaled, it keeps both reasons.
         choice
-            .camera_for(&[Some((320, 240))], &ExifFocal::None)
+            .camera_for(&[Some((320, 240))], &StatedCamera::None)
             .unwrap();
         let o = &choice.origins[0];
         assert_eq!(o.source, CameraSource::FileScaled);
@@ -261,12 +340,12 @@ mod tests {
     #[test]
     fn photos_get_the_exif_camera_or_the_generic_one_with_the_reason() {
         let mut choice = CameraChoice::new(Vec::new());
-        let db = ExifFocal::Used(PhotoFocal {
+        let db = StatedCamera::from(ExifFocal::Used(PhotoFocal {
             px: 2072.9,
             source: "EXIF FocalLength 88 mm on the Canon EOS 5DS R's 36 mm wide sensor".into(),
             sensor_width_mm: Some(36.0),
             fallback: Some("the photo was resized".into()),
-        });
+        }));
         choice.camera_for(&[Some((848, 565))], &db).unwrap();
         assert_eq!(choice.cameras()[0].intrinsics.fx, 2072.9);
         assert_eq!(
@@ -276,7 +355,7 @@ mod tests {
                 Some("the photo was resized".into())
             )]
         );
-        let refused = ExifFocal::Refused("a 2.3 degree field of view".into());
+        let refused = StatedCamera::from(ExifFocal::Refused("a 2.3 degree field of view".into()));
         choice.camera_for(&[Some((848, 565))], &refused).unwrap();
         assert_eq!(choice.cameras()[0], Camera::generic(848, 565).unwrap());
         assert_eq!(choice.origins[0].source, CameraSource::Generic);
@@ -285,7 +364,7 @@ mod tests {
             Some("the EXIF focal length was not used: a 2.3 degree field of view")
         );
         choice
-            .camera_for(&[Some((640, 480))], &ExifFocal::None)
+            .camera_for(&[Some((640, 480))], &StatedCamera::None)
             .unwrap();
         assert_eq!(
             choice.origins,
@@ -310,5 +389,82 @@ mod tests {
             "{}",
             notes[2]
         );
+    }
+
+    fn iphone(focal: MetadataValue) -> StatedCamera {
+        StatedCamera::QuickTime(Arc::new(VideoCameraTags {
+            focal_35mm: Some(focal),
+            lens_model: Some("iPhone 15 Pro back camera 6.765mm f/1.78".into()),
+            make: Some("Apple".into()),
+            model: Some("iPhone 15 Pro".into()),
+        }))
+    }
+
+    /// A video's stated 35 mm equivalent spans the frame's diagonal, upright or not; an
+    /// implausible or unreadable one falls back to the generic camera with why; a
+    /// calibration wins over it.
+    #[test]
+    fn videos_get_the_camera_their_metadata_states_checked_as_photos_are() {
+        let mut choice = CameraChoice::new(Vec::new());
+        let f26 = 26.0 * 800.0 / 36f64.hypot(24.0);
+        for size in [(640, 480), (480, 640)] {
+            choice
+                .camera_for(&[Some(size)], &iphone(MetadataValue::Integer(26)))
+                .unwrap();
+            let k = choice.cameras()[0].intrinsics;
+            assert!((k.fx - f26).abs() < 1e-9 && k.fy == k.fx, "{k:?}");
+            assert_eq!((k.width, k.height), size);
+            assert_eq!(
+                choice.origins,
+                [CameraOrigin::new(CameraSource::VideoMetadata, None)]
+            );
+        }
+        for (value, why) in [
+            (
+                MetadataValue::Integer(3000),
+                "the video's focal length was not used: QuickTime focal_length.35mm_equivalent \
+                 3000 mm (Apple iPhone 15 Pro, lens \"iPhone 15 Pro back camera 6.765mm \
+                 f/1.78\") gives fx 55470 px for 640x480, a 0.7 degree",
+            ),
+            (
+                MetadataValue::Text("wide".into()),
+                "the video's focal length was not used: QuickTime \
+                 focal_length.35mm_equivalent is \"wide\", not a focal length in mm",
+            ),
+        ] {
+            choice
+                .camera_for(&[Some((640, 480))], &iphone(value))
+                .unwrap();
+            assert_eq!(choice.cameras(), [Camera::generic(640, 480).unwrap()]);
+            assert_eq!(choice.origins[0].source, CameraSource::Generic);
+            let reason = choice.origins[0].reason.clone().unwrap();
+            assert!(reason.starts_with(why), "{reason}");
+        }
+        let notes: Vec<String> = choice.take_notes().into_iter().map(|n| n.message).collect();
+        assert_eq!(notes.len(), 2, "each kind once: {notes:?}");
+        assert!(
+            notes[0].starts_with(
+                "the camera comes from the video's QuickTime focal_length.35mm_equivalent 26 \
+                 mm (Apple iPhone 15 Pro, lens \"iPhone 15 Pro back camera 6.765mm f/1.78\"): \
+                 fx = fy = 480.7 px for 640x480 (67.3 degree horizontal field of view"
+            ),
+            "{}",
+            notes[0]
+        );
+        assert!(
+            notes[1].contains(
+                "; assuming a generic camera for 640x480 (60 degree horizontal \
+                               field of view) instead"
+            ),
+            "{}",
+            notes[1]
+        );
+        let given = Camera::centred(500.0, 640, 480).unwrap();
+        let mut calibrated = CameraChoice::new(vec![given]);
+        calibrated
+            .camera_for(&[Some((640, 480))], &iphone(MetadataValue::Integer(26)))
+            .unwrap();
+        assert_eq!(calibrated.cameras(), [given]);
+        assert_eq!(calibrated.origins[0].source, CameraSource::File);
     }
 }

@@ -1,8 +1,8 @@
 //! Stages 1 and 2 over every view, with MediaPipe's crop tracking and hand identities.
 
+use crate::cameras::StatedCamera;
 use crate::clock::Instant;
 use monohand_core::camera::Camera;
-use monohand_vision::image_io::ExifFocal;
 use monohand_vision::{Detections, HandPipeline, RgbImage};
 use std::sync::Arc;
 
@@ -47,10 +47,11 @@ pub struct VisionFrame {
     pub views: Vec<Result<ViewHands, ViewError>>,
     /// Time the networks took, ms.
     pub vision_ms: f64,
-    /// The focal length the first view's image file states in its EXIF, set by whoever read
-    /// the file. Without calibrated cameras, the 3D stage builds that view's camera from it
-    /// instead of the generic guess ([`crate::HandsFitter::new`]).
-    pub focal: ExifFocal,
+    /// What the first view's file states about its camera (a photo's EXIF focal length, a
+    /// video's QuickTime metadata), set by whoever read the file. Without calibrated
+    /// cameras, the 3D stage builds that view's camera from it instead of the generic guess
+    /// ([`crate::HandsFitter::new`]).
+    pub focal: StatedCamera,
 }
 
 /// Per view: the hands of the previous frame, for the next crops.
@@ -141,7 +142,7 @@ impl CropTracker {
             time_s,
             views: vec![view],
             vision_ms,
-            focal: ExifFocal::None,
+            focal: StatedCamera::None,
         }
     }
 
@@ -227,7 +228,7 @@ impl CropTracker {
             time_s,
             views: out,
             vision_ms: t.elapsed().as_secs_f64() * 1e3,
-            focal: ExifFocal::None,
+            focal: StatedCamera::None,
         }
     }
 }

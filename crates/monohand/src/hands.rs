@@ -109,8 +109,9 @@ pub struct HandsFitter<T = ()> {
 impl<T> HandsFitter<T> {
     /// A 3D stage for these cameras (one per view; the first is the reference whose frame
     /// the 3D is in). With no camera at all, each frame gets a camera for its image size:
-    /// from the focal length its file states ([`VisionFrame::focal`], EXIF), else the
-    /// generic guess ([`Camera::generic`]); each kind is said once in [`Self::take_notes`].
+    /// from the focal length its file states ([`VisionFrame::focal`]: a photo's EXIF, a
+    /// video's QuickTime metadata), else the generic guess ([`Camera::generic`]); each kind
+    /// is said once in [`Self::take_notes`].
     pub fn new(
         cameras: Vec<Camera>,
         settings: &crate::ResolvedSettings,

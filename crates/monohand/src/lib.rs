@@ -45,6 +45,7 @@ pub mod settings;
 mod shape;
 mod tracks;
 
+pub use cameras::StatedCamera;
 pub use crops::{CropTracker, HandId, ViewError, ViewHands, VisionFrame};
 pub use error::{SessionError, SessionResult};
 pub use fit::{

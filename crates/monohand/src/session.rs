@@ -1,5 +1,6 @@
 //! The session: frames of one or several cameras in, tracked absolute 3D hands out.
 
+use crate::cameras::StatedCamera;
 use crate::crops::CropTracker;
 use crate::frame::FittedFrame;
 use crate::hands::HandsFitter;
@@ -7,7 +8,6 @@ use crate::settings::Settings;
 use crate::{SessionError, SessionResult};
 use monohand_core::filtering::OneEuroParams;
 use monohand_core::prelude::*;
-use monohand_vision::image_io::ExifFocal;
 use monohand_vision::{HandPipeline, ModelOptions, RgbImage};
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -158,7 +158,7 @@ impl Session {
         images: &[&RgbImage],
         time_s: f64,
     ) -> SessionResult<Vec<FittedFrame>> {
-        self.process_with_focal(images, time_s, ExifFocal::None)
+        self.process_with_focal(images, time_s, StatedCamera::None)
     }
 
     /// [`Session::process`] for one photo read with
@@ -170,14 +170,14 @@ impl Session {
         photo: &monohand_vision::image_io::Photo,
         time_s: f64,
     ) -> SessionResult<Vec<FittedFrame>> {
-        self.process_with_focal(&[&photo.image], time_s, photo.focal.clone())
+        self.process_with_focal(&[&photo.image], time_s, photo.focal.clone().into())
     }
 
     fn process_with_focal(
         &mut self,
         images: &[&RgbImage],
         time_s: f64,
-        focal: monohand_vision::image_io::ExifFocal,
+        focal: StatedCamera,
     ) -> SessionResult<Vec<FittedFrame>> {
         if images.len() != self.views {
             return Err(SessionError::Views {

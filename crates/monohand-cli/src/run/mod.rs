@@ -38,7 +38,8 @@ pub(crate) struct RunArgs {
     #[arg(long, value_name = "OUT", requires = "each")]
     pub output_dir: Option<PathBuf>,
     /// Camera calibration, one per view (docs/calibration.md). Without it: the photo's
-    /// EXIF focal length, else a generic 60 degree camera, said once.
+    /// EXIF focal length or the video's QuickTime one (an iPhone's), else a generic 60
+    /// degree camera, said once.
     #[arg(long = "camera", value_name = "FILE")]
     pub cameras: Vec<PathBuf>,
     /// Where to write the hands, one record per frame ("-" for standard output).

@@ -35,22 +35,32 @@
 //! writer.finish().unwrap();
 //! ```
 //!
+//! The camera a QuickTime or MP4 file states in its own metadata (an iPhone's focal
+//! length, lens, make and model) is read without ffmpeg, from the file's boxes:
+//! [`read_quicktime_metadata`].
+//!
 //! The code is in one file per concern: `tools.rs` (finding the executables and what
 //! they support), `probe.rs` (ffprobe and [`VideoInfo`]), `reader.rs` ([`VideoReader`],
-//! [`VideoInput`]), `yuv.rs` (4:2:0 YUV to RGB) and `writer.rs` ([`VideoWriter`]);
-//! everything public is re-exported here.
+//! [`VideoInput`]), `yuv.rs` (4:2:0 YUV to RGB), `writer.rs` ([`VideoWriter`]) and
+//! `quicktime.rs` (the metadata boxes); everything public is re-exported here.
 //!
 //! [`probe`]: fn@probe
 //! [`IoError::ToolMissing`]: monohand_io::IoError::ToolMissing
 //! [`IoError::Video`]: monohand_io::IoError::Video
 
 mod probe;
+mod quicktime;
 mod reader;
 mod tools;
 mod writer;
 mod yuv;
 
 pub use probe::{parse_probe_json, probe, probe_with, VideoInfo, DEFAULT_FPS, MAX_FRAME_PIXELS};
+pub use quicktime::{
+    parse_quicktime_metadata, read_quicktime_metadata, MetadataItem, MetadataValue, QuickTimeError,
+    QuickTimeMetadata, VideoCameraTags, KEY_FOCAL_35MM, KEY_LENS_MODEL, KEY_MAKE, KEY_MODEL,
+    MAX_VALUE_BYTES,
+};
 pub use reader::{
     reader_args, FrameRecycler, VideoFrame, VideoInput, VideoReader, DEFAULT_STALL_TIMEOUT,
 };

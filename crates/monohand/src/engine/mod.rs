@@ -25,8 +25,8 @@ mod source;
 
 pub use sinks::{CsvSink, GltfSink, JsonlSink, OpenPoseSink, Output, OverlaySink, Sink, SinkError};
 pub use source::{
-    chain, CallerFrames, FrameSource, ImageFiles, Input, InputError, SourceError, SourceFrame,
-    VideoSource,
+    chain, stated_camera, CallerFrames, FrameSource, ImageFiles, Input, InputError, SourceError,
+    SourceFrame, VideoSource,
 };
 
 /// Overlay file-name conventions (which names are videos, which one image).
@@ -219,8 +219,8 @@ struct RawFrame {
     timestamp_s: f64,
     images: Vec<Result<RgbImage, SourceError>>,
     decode_ms: f64,
-    /// The EXIF focal length of the first view's image file.
-    focal: monohand_vision::image_io::ExifFocal,
+    /// What the first view's file states about its camera.
+    focal: crate::StatedCamera,
 }
 
 /// What the engine carries beside each frame through the fit.

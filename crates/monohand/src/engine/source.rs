@@ -2,10 +2,14 @@
 //! (through [`monohand_media::video`]), or a caller's own frames.
 
 use super::EngineResult;
-use monohand_media::video::{FrameRecycler, VideoInput, VideoReader};
-use monohand_vision::image_io::{images_in_folder, load_photo, ExifFocal, IMAGE_EXTENSIONS};
+use crate::cameras::StatedCamera;
+use monohand_media::video::{
+    read_quicktime_metadata, FrameRecycler, QuickTimeError, VideoInput, VideoReader,
+};
+use monohand_vision::image_io::{images_in_folder, load_photo, IMAGE_EXTENSIONS};
 use monohand_vision::RgbImage;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 /// Why an input could not be opened, or does not fit the cameras and settings (nothing
@@ -154,8 +158,9 @@ pub struct SourceFrame {
     pub image: Result<RgbImage, SourceError>,
     /// Milliseconds spent reading and decoding it.
     pub decode_ms: f64,
-    /// The focal length the image file states in its EXIF (photos only).
-    pub focal: ExifFocal,
+    /// What the file states about its camera: a photo's EXIF focal length, a video's
+    /// QuickTime metadata (the same for each of its frames).
+    pub focal: StatedCamera,
 }
 
 /// Frames of one view, in order.
@@ -280,8 +285,8 @@ impl FrameSource for ImageFiles {
         let index = self.next as u64;
         self.next += 1;
         let (image, focal) = match load_photo(path) {
-            Ok(p) => (Ok(p.image), p.focal),
-            Err(e) => (Err(SourceError::Image(e.to_string())), ExifFocal::None),
+            Ok(p) => (Ok(p.image), p.focal.into()),
+            Err(e) => (Err(SourceError::Image(e.to_string())), StatedCamera::None),
         };
         Ok(Some(SourceFrame {
             index,
@@ -306,6 +311,8 @@ impl FrameSource for ImageFiles {
 pub struct VideoSource {
     /// `None` once finished.
     reader: Option<Box<VideoReader>>,
+    /// What the file's metadata states about its camera.
+    stated: StatedCamera,
 }
 
 impl std::fmt::Debug for VideoSource {
@@ -318,13 +325,47 @@ impl std::fmt::Debug for VideoSource {
 
 impl VideoSource {
     /// Starts ffmpeg on `input`; a source that delivers no frame for `stall` counts as
-    /// stalled and ends with an error.
+    /// stalled and ends with an error. A QuickTime or MP4 file's camera metadata is read
+    /// first ([`stated_camera`]).
     pub fn open(input: &VideoInput, stall: Duration) -> EngineResult<VideoSource> {
+        let stated = stated_camera(input);
         let mut reader = VideoReader::open(input).map_err(|e| InputError::Open(chain(&e)))?;
         reader.set_stall_timeout(stall);
         Ok(VideoSource {
             reader: Some(Box::new(reader)),
+            stated,
         })
+    }
+}
+
+/// What a video file states about its camera: its QuickTime metadata when it states a
+/// focal length (an iPhone's video), else nothing. Only a regular file is read (a named
+/// pipe's bytes are ffmpeg's); a file that is not QuickTime or MP4 states nothing, and one
+/// whose metadata is damaged states nothing either, with a warning in the log.
+pub fn stated_camera(input: &VideoInput) -> StatedCamera {
+    let VideoInput::File(path) = input else {
+        return StatedCamera::None;
+    };
+    if !std::fs::metadata(path).is_ok_and(|m| m.is_file()) {
+        return StatedCamera::None;
+    }
+    match read_quicktime_metadata(path) {
+        Ok(meta) => {
+            let tags = meta.camera();
+            if tags.focal_35mm.is_some() {
+                StatedCamera::QuickTime(Arc::new(tags))
+            } else {
+                StatedCamera::None
+            }
+        }
+        Err(QuickTimeError::NotQuickTime { .. }) => StatedCamera::None,
+        Err(e) => {
+            tracing::warn!(
+                "{}: its QuickTime metadata was not read ({e}); no camera from it",
+                path.display()
+            );
+            StatedCamera::None
+        }
     }
 }
 
@@ -341,7 +382,7 @@ impl FrameSource for VideoSource {
                 timestamp_s: f.timestamp_s,
                 image: Ok(f.image),
                 decode_ms: t.elapsed().as_secs_f64() * 1e3,
-                focal: ExifFocal::None,
+                focal: self.stated.clone(),
             })),
             Ok(None) => {
                 self.reader = None;
@@ -416,7 +457,7 @@ where
             timestamp_s,
             image: Ok(image),
             decode_ms: 0.0,
-            focal: ExifFocal::None,
+            focal: StatedCamera::None,
         }))
     }
 
@@ -438,4 +479,61 @@ pub fn chain(e: &dyn std::error::Error) -> String {
         cause = c.source();
     }
     s
+}
+
+#[cfg(test)]
+mod tests {
+    #![allow(clippy::unwrap_used)]
+    use super::*;
+
+    fn fixture(name: &str) -> PathBuf {
+        Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../monohand-media/tests/data/quicktime")
+            .join(name)
+    }
+
+    /// A video states its camera when its metadata has a focal length; a video without
+    /// it, a damaged one, another format, a folder and a webcam state nothing.
+    #[test]
+    fn a_video_states_the_camera_its_metadata_has() {
+        let StatedCamera::QuickTime(tags) =
+            stated_camera(&VideoInput::File(fixture("iphone_int.mov")))
+        else {
+            panic!("no camera stated");
+        };
+        assert_eq!(tags.focal_35mm_mm(), Some(Ok(24.0)));
+        assert_eq!(tags.model.as_deref(), Some("iPhone 15 Pro"));
+        let dir = tempfile::tempdir().unwrap();
+        let whole = std::fs::read(fixture("iphone_int.mov")).unwrap();
+        let cut = dir.path().join("cut.mov");
+        std::fs::write(&cut, &whole[..whole.len() - 100]).unwrap();
+        let text = dir.path().join("notes.mkv");
+        std::fs::write(&text, b"not a movie at all").unwrap();
+        for input in [
+            VideoInput::File(fixture("plain.mov")),
+            VideoInput::File(fixture("movie_keys_ffmpeg.mov")),
+            VideoInput::File(cut),
+            VideoInput::File(text),
+            VideoInput::File(dir.path().to_path_buf()),
+            VideoInput::File(dir.path().join("absent.mov")),
+            VideoInput::parse("webcam:0"),
+        ] {
+            assert_eq!(stated_camera(&input), StatedCamera::None, "{input:?}");
+        }
+    }
+
+    /// A named pipe is not opened (opening one without a writer would wait forever, and
+    /// its bytes are ffmpeg's to read).
+    #[cfg(unix)]
+    #[test]
+    fn a_named_pipe_is_not_read() {
+        let dir = tempfile::tempdir().unwrap();
+        let fifo = dir.path().join("stream.mov");
+        let made = std::process::Command::new("mkfifo")
+            .arg(&fifo)
+            .status()
+            .unwrap();
+        assert!(made.success());
+        assert_eq!(stated_camera(&VideoInput::File(fifo)), StatedCamera::None);
+    }
 }
