@@ -428,7 +428,7 @@ impl FocalReading {
 
     /// Whether `px` (read from `source`) makes a plausible camera for the image, else why not.
     fn check(&self, px: f64, source: &str) -> std::result::Result<(), String> {
-        check_focal(px, source, (self.w, self.h), self.diagonal)
+        check_focal(px, source, (self.w, self.h), self.diagonal).map_err(|e| e.0)
     }
 
     /// The focal `px` used, with the readings `refused` before it and the frame's note.
@@ -552,6 +552,12 @@ impl FocalReading {
 /// Diagonal of a 36 x 24 mm frame, mm.
 const DIAGONAL_35MM: f64 = 43.266_615_305_567_875;
 
+/// Why a focal length does not make a plausible camera ([`focal_from_35mm`]): the reading
+/// and the reason, for the user.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{0}")]
+pub struct FocalRefused(pub String);
+
 /// Whether the focal length `px` (read from `source`) makes a plausible camera for an image
 /// of `size` (width, height) whose lens's frame has a diagonal of `diagonal` pixels, else
 /// why not: a field of view within [`monohand_core::camera::PLAUSIBLE_FOV_DEG`] and a 35 mm
@@ -561,15 +567,18 @@ fn check_focal(
     source: &str,
     (w, h): (u32, u32),
     diagonal: f64,
-) -> std::result::Result<(), String> {
-    let camera =
-        monohand_core::camera::Camera::centred(px, w, h).map_err(|e| format!("{source}: {e}"))?;
+) -> std::result::Result<(), FocalRefused> {
+    let refused = |why: String| Err(FocalRefused(why));
+    let camera = match monohand_core::camera::Camera::centred(px, w, h) {
+        Ok(c) => c,
+        Err(e) => return refused(format!("{source}: {e}")),
+    };
     let f35 = px * DIAGONAL_35MM / diagonal;
     if let Some(why) = camera.implausible_field_of_view() {
-        return Err(format!("{source} gives fx {px:.0} px for {w}x{h}, {why}"));
+        return refused(format!("{source} gives fx {px:.0} px for {w}x{h}, {why}"));
     }
     if !PhotoFocal::PLAUSIBLE_35MM.contains(&f35) {
-        return Err(format!(
+        return refused(format!(
             "{source} gives a 35 mm equivalent of {f35:.1} mm, outside {:?} mm",
             PhotoFocal::PLAUSIBLE_35MM
         ));
@@ -589,7 +598,7 @@ pub fn focal_from_35mm(
     source: &str,
     width: u32,
     height: u32,
-) -> std::result::Result<f64, String> {
+) -> std::result::Result<f64, FocalRefused> {
     let diagonal = f64::from(width).hypot(f64::from(height));
     let px = f35 * diagonal / DIAGONAL_35MM;
     check_focal(px, source, (width, height), diagonal)?;
@@ -795,15 +804,15 @@ mod tests {
         assert_eq!(focal_from_35mm(26.0, "26 mm", 480, 640), Ok(f));
         let e = focal_from_35mm(3000.0, "the video's 3000 mm", 160, 120).expect_err("too long");
         assert!(
-            e.starts_with("the video's 3000 mm gives fx 13868 px for 160x120, a 0.7 degree"),
+            e.0.starts_with("the video's 3000 mm gives fx 13868 px for 160x120, a 0.7 degree"),
             "{e}"
         );
         let e = focal_from_35mm(0.0, "0 mm", 160, 120).expect_err("zero");
-        assert!(e.starts_with("0 mm: "), "{e}");
+        assert!(e.0.starts_with("0 mm: "), "{e}");
         // 5 mm is 147.8 degrees across 160 px; 4.5 mm is 150.8, past 150, before the 4 mm floor of
         // equivalents.
         assert!(focal_from_35mm(5.0, "5 mm", 160, 120).is_ok());
         let e = focal_from_35mm(4.5, "4.5 mm", 160, 120).expect_err("too wide");
-        assert!(e.contains("a 150.8 degree field of view"), "{e}");
+        assert!(e.0.contains("a 150.8 degree field of view"), "{e}");
     }
 }

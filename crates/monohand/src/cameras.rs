@@ -229,8 +229,8 @@ impl CameraChoice {
         let stated = tags.describe();
         let px = match tags.focal_35mm_mm() {
             None => return self.generic_camera(w, h, None),
-            Some(Ok(f35)) => focal_from_35mm(f35, &stated, w, h),
-            Some(Err(why)) => Err(why),
+            Some(Ok(f35)) => focal_from_35mm(f35, &stated, w, h).map_err(|e| e.to_string()),
+            Some(Err(why)) => Err(why.to_string()),
         };
         let px = match px {
             Ok(px) => px,

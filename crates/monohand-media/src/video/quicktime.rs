@@ -205,15 +205,29 @@ pub struct VideoCameraTags {
     pub model: Option<String>,
 }
 
+/// A stated focal length that is not a number of millimetres
+/// ([`VideoCameraTags::focal_35mm_mm`]).
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[error("{key} is {value}, not a focal length in mm")]
+pub struct NotAFocalLength {
+    /// The key, for the user.
+    pub key: &'static str,
+    /// The value stated.
+    pub value: String,
+}
+
 impl VideoCameraTags {
     /// The 35 mm-equivalent focal length in mm, or why the value stated is none; `None`
     /// when no focal length is stated.
-    pub fn focal_35mm_mm(&self) -> Option<Result<f64, String>> {
+    pub fn focal_35mm_mm(&self) -> Option<Result<f64, NotAFocalLength>> {
         let v = self.focal_35mm.as_ref()?;
         Some(
             v.as_number()
                 .filter(|f| f.is_finite())
-                .ok_or_else(|| format!("{} is {v}, not a focal length in mm", self.focal_name())),
+                .ok_or_else(|| NotAFocalLength {
+                    key: self.focal_name(),
+                    value: v.to_string(),
+                }),
         )
     }
 
@@ -909,7 +923,7 @@ mod tests {
             .unwrap()
             .camera();
         assert_eq!(
-            cam.focal_35mm_mm(),
+            cam.focal_35mm_mm().map(|r| r.map_err(|e| e.to_string())),
             Some(Err(
                 "QuickTime focal_length.35mm_equivalent is \"wide\", not a focal length in mm"
                     .into()
