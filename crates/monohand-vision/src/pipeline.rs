@@ -571,7 +571,13 @@ impl HandPipeline {
 
     /// Hands and heads in an RGB image.
     pub fn detect(&self, img: &RgbImage) -> Result<Detections> {
-        Ok(self.track(img, &[], true)?.0)
+        self.detect_through(img, None)
+    }
+
+    /// [`Self::detect`] for an image of a known camera: with `lens`, each hand is read in
+    /// its rectified view ([`Self::track_through`]).
+    pub fn detect_through(&self, img: &RgbImage, lens: Option<&Camera>) -> Result<Detections> {
+        Ok(self.track_through(img, lens, &[], true)?.0)
     }
 
     /// Video tracking, as MediaPipe does it: each hand of the previous frame is looked for

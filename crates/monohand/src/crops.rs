@@ -184,8 +184,8 @@ impl CropTracker {
                     .map(|(d, origin)| (d, origin, detect_new))
             } else {
                 self.pipeline
-                    .track_through(image, lens.as_ref(), &[], true)
-                    .map(|(d, _)| (d, Vec::new(), true))
+                    .detect_through(image, lens.as_ref())
+                    .map(|d| (d, Vec::new(), true))
             };
             match result {
                 Ok((detections, origin, detected)) => {

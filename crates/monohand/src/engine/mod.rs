@@ -494,13 +494,7 @@ impl Engine {
                         let t = Instant::now();
                         let d = match &raw.images[0] {
                             Ok(img) => pipeline
-                                .track_through(
-                                    img,
-                                    lenses.lens(0, img.dimensions()).as_ref(),
-                                    &[],
-                                    true,
-                                )
-                                .map(|(d, _)| d)
+                                .detect_through(img, lenses.lens(0, img.dimensions()).as_ref())
                                 .map_err(ViewError::from),
                             Err(e) => Err(ViewError::Unreadable(e.clone())),
                         };
