@@ -36,7 +36,7 @@ pub struct FitSettings {
     /// size before fitting them (`None`: keep the skeletons' size).
     pub auto_scale_frames: Option<usize>,
     /// Keep this many first frames back to learn each side's hand proportions from the
-    /// network's metric 3D ([`learn_proportions`]; the size stays the skeleton's), then
+    /// network's metric 3D ([`crate::learn_proportions`]; the size stays the skeleton's), then
     /// fit every frame with them (`None`: keep the skeletons' proportions). Off by
     /// default: on the development set it makes the 3D worse, because the network marks
     /// the joints in another convention than anatomical labels (docs/accuracy.md).
