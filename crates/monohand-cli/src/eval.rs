@@ -2,6 +2,7 @@
 
 use anyhow::{bail, Result};
 use clap::{Args, ValueEnum};
+use monohand::{FitSettings, OfflineSettings, DEPTH_FILTER};
 use monohand_core::prelude::*;
 use monohand_eval::plan::{self, Plan, Selection};
 use monohand_eval::{Dataset, EvalSettings, SkeletonChoice, ViewMode};
@@ -143,16 +144,21 @@ pub(crate) fn run(args: &EvalArgs) -> Result<()> {
         },
         settings: EvalSettings {
             modes,
-            track: args.track,
             skeleton: match args.skeleton {
                 Skeleton::Subject => SkeletonChoice::Subject,
                 Skeleton::Default => SkeletonChoice::Default,
             },
             hand_scale: args.hand_scale,
-            fit_options: args.cues.apply(FitOptions::default()),
-            proportion_frames: args.proportion_frames,
-            offline: args.offline,
-            depth_filter: !args.no_depth_filter,
+            fit: FitSettings {
+                options: args.cues.apply(FitOptions::default()),
+                tracking: args.track,
+                proportion_frames: args.proportion_frames,
+                offline: args.offline.then(OfflineSettings::default),
+                // `run`'s depth filter is the engine's: the full stage's.
+                depth_filter: (args.stage == Stage::Full && !args.no_depth_filter)
+                    .then_some(DEPTH_FILTER),
+                ..FitSettings::default()
+            },
         },
     };
     let left_out = plan.select(&mut ds)?;
@@ -180,7 +186,12 @@ pub(crate) fn run(args: &EvalArgs) -> Result<()> {
         }
         plan::Stage::Lift { .. } => None,
     };
-    let report = plan.run(&ds, networks.as_ref().map(|(p, d)| (p, d.as_str())))?;
+    let report = plan
+        .run(&ds, networks.as_ref().map(|(p, d)| (p, d.as_str())))
+        .map_err(|e| match e.refused_setting() {
+            Some(refused) => crate::refused(refused),
+            None => e.into(),
+        })?;
     println!(
         "monohand {} eval: {} ({}), stage {}, root {}, {} evaluated joints",
         env!("CARGO_PKG_VERSION"),

@@ -171,27 +171,30 @@ pub(crate) fn read_cameras(paths: &[PathBuf]) -> Result<Vec<Camera>> {
 
 /// The library's resolved settings, a refused one said with its flag.
 pub(crate) fn resolve(settings: monohand::Settings) -> Result<monohand::ResolvedSettings> {
+    settings.resolve().map_err(|e| refused(&e))
+}
+
+/// A setting the library refused, said with its flag.
+pub(crate) fn refused(e: &monohand::SettingsError) -> anyhow::Error {
     use monohand::Field;
-    settings.resolve().map_err(|e| {
-        let flag = match e.field {
-            Field::Tracking => "--track",
-            Field::DetectEvery => "--detect-every",
-            Field::Threads => "--threads",
-            Field::MaxHands => "--hands",
-            Field::MinPresence => "--min-presence",
-            Field::MirrorPass => "--no-mirror-pass",
-            Field::Heads => "--no-heads",
-            Field::Pipeline => "the networks' options",
-            Field::FitOptions => "the fit's options",
-            Field::HandScale => "--hand-scale",
-            Field::Smoothing => "--smooth",
-            Field::SmoothMinCutoff => "--smooth-min-cutoff",
-            Field::SmoothBeta => "--smooth-beta",
-            Field::Offline => "--offline",
-            Field::DepthFilter => "the depth filter",
-        };
-        anyhow::anyhow!("{flag} {}", e.why)
-    })
+    let flag = match e.field {
+        Field::Tracking => "--track",
+        Field::DetectEvery => "--detect-every",
+        Field::Threads => "--threads",
+        Field::MaxHands => "--hands",
+        Field::MinPresence => "--min-presence",
+        Field::MirrorPass => "--no-mirror-pass",
+        Field::Heads => "--no-heads",
+        Field::Pipeline => "the networks' options",
+        Field::FitOptions => "the fit's options",
+        Field::HandScale => "--hand-scale",
+        Field::Smoothing => "--smooth",
+        Field::SmoothMinCutoff => "--smooth-min-cutoff",
+        Field::SmoothBeta => "--smooth-beta",
+        Field::Offline => "--offline",
+        Field::DepthFilter => "the depth filter",
+    };
+    anyhow::anyhow!("{flag} {}", e.why)
 }
 
 /// A note of the library, with the flag it is about in front (the library names none).

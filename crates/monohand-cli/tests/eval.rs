@@ -108,6 +108,15 @@ fn user_errors_are_clear() {
     let out = monohand(&["eval", "--dataset", p(tmp.path())]);
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("not a dataset"), "{err}");
+    // The lift stage fits from keypoints: the offline smoother is refused with its flag,
+    // never ignored.
+    let out = monohand(&["eval", "--dataset", p(&m), "--track", "--offline"]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("--offline is not done when lifting keypoints"),
+        "{err}"
+    );
     // One camera, default views: mono only, and it runs.
     let out = monohand(&["eval", "--dataset", p(&m), "--skeleton", "default"]);
     ok(&out);

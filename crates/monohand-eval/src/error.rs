@@ -40,6 +40,10 @@ pub enum EvalError {
     /// The settings of an evaluation are impossible.
     #[error("invalid settings: {0}")]
     Settings(String),
+    /// The fit's settings were refused by the library's one check ([`monohand::Settings::resolve`],
+    /// and for the lift stage [`monohand::ResolvedSettings::lifting`]); the field says which.
+    #[error("{0}")]
+    Refused(monohand::SettingsError),
     /// The keypoint detector of the full stage failed.
     #[error("detector: {0}")]
     Detector(String),
@@ -74,6 +78,16 @@ pub enum EvalError {
 pub type EvalResult<T> = Result<T, EvalError>;
 
 impl EvalError {
+    /// The refused setting behind this error, through its contexts: a face maps its field
+    /// to its own flag.
+    pub fn refused_setting(&self) -> Option<&monohand::SettingsError> {
+        match self {
+            EvalError::Refused(e) => Some(e),
+            EvalError::Context { source, .. } => source.refused_setting(),
+            _ => None,
+        }
+    }
+
     pub(crate) fn core(context: impl Into<String>, error: CoreError) -> EvalError {
         EvalError::Core {
             context: context.into(),

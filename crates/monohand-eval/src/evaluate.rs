@@ -6,7 +6,7 @@
 //! Decisions (documented in `docs/evaluation.md`):
 //! - Mono and stereo see **the same frames and the same keypoints** (noise and
 //!   dropped joints are drawn once per frame and view).
-//! - Each frame is fitted **from scratch** unless [`EvalSettings::track`] is set,
+//! - Each frame is fitted **from scratch** unless the fit tracks ([`EvalSettings::fit`]),
 //!   which warm-starts from the previous frame of the same sequence, mode and hand.
 //! - Skeleton: [`SkeletonChoice::Subject`] fits the model to each sequence's
 //!   ground truth (an oracle hand size: the bound of what the lifting can do);
@@ -18,6 +18,7 @@
 use crate::dataset::{Dataset, Frame, GtHand, RootJoint};
 use crate::error::{EvalError, EvalResult};
 use crate::metrics::{self, HandErrors, JointMask, Joints, ALL_JOINTS};
+use monohand::FitSettings;
 use monohand_core::fitting::estimate_proportions;
 use monohand_core::hand_model::fit_skeleton;
 use monohand_core::observation::NetworkCues;
@@ -73,37 +74,81 @@ impl SkeletonChoice {
 pub struct EvalSettings {
     /// The view modes to evaluate, each on the same frames.
     pub modes: Vec<ViewMode>,
-    /// Warm-start each fit from the previous frame.
-    pub track: bool,
     /// The hand model.
     pub skeleton: SkeletonChoice,
     /// Scale of the default skeleton (ignored for [`SkeletonChoice::Subject`]).
     pub hand_scale: f64,
-    /// Fitter settings.
-    pub fit_options: FitOptions,
-    /// Learn the hand's proportions from the network's 3D of this many first
-    /// frames of each sequence and hand ([`estimate_proportions`]); later
-    /// frames are fitted with them. `None` keeps the skeleton's.
-    pub proportion_frames: Option<usize>,
-    /// The full stage with the offline smoother (tracking only).
-    pub offline: bool,
-    /// The full stage, tracking with one camera: `run`'s depth filter
-    /// ([`monohand::DEPTH_FILTER`]; on by default, as in `run`).
-    pub depth_filter: bool,
+    /// How the hands are fitted: the library's own settings, as `run` and `lift` take them
+    /// (their skeletons are replaced by [`EvalSettings::skeleton`]'s, per sequence).
+    /// - `tracking` warm-starts each fit from the previous frame of the same sequence,
+    ///   mode and hand;
+    /// - `proportion_frames` learns the hand's proportions from the network's 3D of this
+    ///   many first frames of each sequence and hand ([`estimate_proportions`]);
+    /// - the full stage runs `run`'s engine with all of it (the depth filter and the
+    ///   offline smoother included);
+    /// - the lift stage fits from keypoints as `lift` does, and refuses what needs the
+    ///   images or the engine ([`monohand::ResolvedSettings::lifting`]).
+    pub fit: FitSettings,
 }
 
 impl Default for EvalSettings {
+    /// Both view modes, the subject's skeleton, every frame fitted from scratch with the
+    /// library's default fit.
     fn default() -> Self {
         EvalSettings {
             modes: vec![ViewMode::Mono, ViewMode::Stereo],
-            track: false,
             skeleton: SkeletonChoice::Subject,
             hand_scale: 1.0,
-            fit_options: FitOptions::default(),
-            proportion_frames: None,
-            offline: false,
-            depth_filter: true,
+            fit: FitSettings {
+                tracking: false,
+                ..FitSettings::default()
+            },
         }
+    }
+}
+
+impl EvalSettings {
+    /// As [`EvalSettings::default`], with each fit tracked as `run` tracks a video (the
+    /// library's default fit: the depth filter on).
+    pub fn tracked() -> EvalSettings {
+        EvalSettings {
+            fit: FitSettings::default(),
+            ..EvalSettings::default()
+        }
+    }
+
+    /// The library's settings for these fits with `skeletons`, resolved: what the engine
+    /// runs with in the full stage (`pipeline`: the networks' options as loaded,
+    /// `detect_every`: the detection cadence).
+    pub fn resolve(
+        &self,
+        skeletons: [HandSkeleton; 2],
+        pipeline: monohand::vision::PipelineOptions,
+        detect_every: usize,
+    ) -> EvalResult<monohand::ResolvedSettings> {
+        monohand::Settings {
+            pipeline,
+            fit: FitSettings {
+                skeletons,
+                ..self.fit
+            },
+            detect_every,
+            ..monohand::Settings::default()
+        }
+        .resolve()
+        .map_err(EvalError::Refused)
+    }
+
+    /// Checks that the lift stage can fit with these settings: from keypoints alone, as
+    /// `lift` does.
+    fn check_lifting(&self) -> EvalResult<()> {
+        let resolved = self.resolve(
+            self.fit.skeletons,
+            monohand::vision::PipelineOptions::default(),
+            1,
+        )?;
+        resolved.lifting().map_err(EvalError::Refused)?;
+        Ok(())
     }
 }
 
@@ -314,6 +359,7 @@ pub fn evaluate(
     noise_px: Option<f64>,
 ) -> EvalResult<(Vec<RunResult>, Vec<SkeletonNote>)> {
     check_settings(dataset, settings)?;
+    settings.check_lifting()?;
     let (sks, notes) = skeletons(dataset, settings)?;
     let (mut runs, mut network) = empty_runs(settings, &source.describe(), noise_px);
     let mut network_seen = false;
@@ -360,7 +406,8 @@ pub(crate) fn check_settings(dataset: &Dataset, settings: &EvalSettings) -> Eval
         }
     }
     settings
-        .fit_options
+        .fit
+        .options
         .validate()
         .map_err(|e| EvalError::core("fit options", e))
 }
@@ -511,7 +558,7 @@ impl Evaluator<'_> {
         let mut sk = self.sks.get(&key_sk).copied().ok_or_else(|| {
             EvalError::Settings(format!("no skeleton for sequence {:?}", frame.sequence))
         })?;
-        if let Some(n) = self.settings.proportion_frames {
+        if let Some(n) = self.settings.fit.proportion_frames {
             let cues = first.and_then(|o| o.cues);
             if let (Some(c), false) = (cues, self.learnt.contains_key(&key_sk)) {
                 let g = self.gathered.entry(key_sk.clone()).or_default();
@@ -560,14 +607,14 @@ impl Evaluator<'_> {
             .collect();
         let key = (m, frame.sequence.clone(), hand.side);
         if !self.solvers.contains_key(&key) {
-            let t = HandTracker::new(sk, self.settings.fit_options)
+            let t = HandTracker::new(sk, self.settings.fit.options)
                 .map_err(|e| EvalError::core("creating the fitter", e))?;
             self.solvers.insert(key.clone(), t);
         }
         let t1 = Instant::now();
         let fit = match (views.is_empty(), self.solvers.get_mut(&key)) {
             (false, Some(t)) => {
-                if !self.settings.track {
+                if !self.settings.fit.tracking {
                     t.reset();
                 }
                 t.update(&views).ok()

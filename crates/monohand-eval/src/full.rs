@@ -2,7 +2,7 @@
 //! is, and its records scored.
 //!
 //! - Each sequence is one input per view ([`monohand::engine::FrameSource`]), its frames in
-//!   order, so that with [`EvalSettings::track`] the engine tracks as `run` does on a video
+//!   order, so that when the fit tracks ([`EvalSettings::fit`]) the engine tracks as `run` does on a video
 //!   (crops from the last keypoints, fits from the last pose, a palm detection every
 //!   [`DETECT_EVERY`] frames); without it every frame is detected and fitted on its own.
 //! - A sequence whose images are crops of larger frames ([`Frame::crop`], the hand-graph-cnn
@@ -21,7 +21,7 @@ use crate::metrics::{self, HandErrors, Joints};
 use monohand::engine::{
     Engine, FrameSource, Output, Quiet, Sink, SinkError, SourceError, SourceFrame,
 };
-use monohand::{FitSettings, HandPipeline, RgbImage};
+use monohand::{HandPipeline, RgbImage};
 use monohand_core::prelude::*;
 use monohand_io::jsonl::{FrameRecord, HandRecord};
 use std::path::PathBuf;
@@ -152,26 +152,8 @@ fn run_sequence(
             )));
         }
     }
-    let mut engine_settings = monohand::Settings {
-        // The networks as loaded: the engine checks them against these settings.
-        pipeline: pipeline.options,
-        fit: FitSettings {
-            skeletons,
-            options: settings.fit_options,
-            tracking: settings.track,
-            proportion_frames: settings.proportion_frames,
-            offline: settings.offline.then(monohand::OfflineSettings::default),
-            ..FitSettings::default()
-        },
-        detect_every: DETECT_EVERY,
-        ..monohand::Settings::default()
-    };
-    if !settings.depth_filter {
-        engine_settings.fit.depth_filter = None;
-    }
-    let engine_settings = engine_settings
-        .resolve()
-        .map_err(|e| EvalError::Settings(e.to_string()))?;
+    // The networks as loaded: the engine checks them against these settings.
+    let engine_settings = settings.resolve(skeletons, pipeline.options, DETECT_EVERY)?;
     let engine = Engine::new(Arc::clone(pipeline), cameras, engine_settings)
         .map_err(|e| EvalError::Detector(e.to_string()))?;
     let sources: Vec<Box<dyn FrameSource>> = (0..views)
@@ -182,7 +164,7 @@ fn run_sequence(
                     .map(|f| (f.images[v].clone(), if v == 0 { f.crop } else { None }))
                     .collect(),
                 next: 0,
-                video: settings.track,
+                video: settings.fit.tracking,
             }) as Box<dyn FrameSource>
         })
         .collect();

@@ -185,7 +185,7 @@ impl Plan {
         }
         rows.push((
             "fitting".into(),
-            if s.track {
+            if s.fit.tracking {
                 "tracking (warm start from the previous frame)".into()
             } else {
                 "every frame from scratch".into()

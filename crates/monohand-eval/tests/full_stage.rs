@@ -38,8 +38,7 @@ fn the_engine_tracks_the_dev_frames_as_a_video_and_is_scored() {
     let settings = EvalSettings {
         modes: vec![ViewMode::Mono],
         skeleton: SkeletonChoice::Default,
-        track: true,
-        ..EvalSettings::default()
+        ..EvalSettings::tracked()
     };
     let (runs, notes) = evaluate_full(&ds, &pipeline(), "MediaPipe (test)", &settings).unwrap();
     assert_eq!(notes.len(), 1, "one sequence, one hand: {notes:?}");
@@ -82,19 +81,14 @@ fn the_offline_smoother_steadies_the_hand_without_losing_its_shape_or_place() {
     let causal = EvalSettings {
         modes: vec![ViewMode::Mono],
         skeleton: SkeletonChoice::Default,
-        track: true,
-        ..EvalSettings::default()
+        ..EvalSettings::tracked()
     };
     // The causal fit the offline smoother refits: without the depth filter, which the
     // offline mode does not use (its refit steadies the hand itself).
-    let causal = EvalSettings {
-        depth_filter: false,
-        ..causal
-    };
-    let offline = EvalSettings {
-        offline: true,
-        ..causal.clone()
-    };
+    let mut causal = causal;
+    causal.fit.depth_filter = None;
+    let mut offline = causal.clone();
+    offline.fit.offline = Some(monohand::OfflineSettings::default());
     let mask = evaluated_joints(ds.root);
     let run = |s: &EvalSettings| {
         let (runs, _) = evaluate_full(&ds, &pipeline, "-", s).unwrap();
@@ -128,9 +122,8 @@ fn frames_the_engine_cannot_run_are_refused_with_the_reason() {
     let pipeline = pipeline();
     let settings = EvalSettings {
         modes: vec![ViewMode::Mono],
-        track: true,
         skeleton: SkeletonChoice::Default,
-        ..EvalSettings::default()
+        ..EvalSettings::tracked()
     };
     // An unreadable image is an error naming it, not a silent miss.
     let mut ds = dev_frames(3);

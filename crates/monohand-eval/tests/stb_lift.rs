@@ -87,3 +87,33 @@ fn stb_b1counting_lift() {
     let md = std::fs::read_to_string(d.path().join("report.md")).unwrap();
     assert!(md.contains("![") && md.contains("0.941") && md.contains("palm_centre"));
 }
+
+/// The lift stage fits from keypoints as `lift` does: what needs the images or the engine is
+/// refused by the library's one check, naming the setting, never ignored.
+#[test]
+fn the_lift_stage_refuses_what_only_the_engine_does() {
+    let mut ds = Dataset::load(stb_dir()).unwrap();
+    ds.frames.truncate(5);
+    let mut src = ProjectedLabels::new(0.0, 0, 7).unwrap();
+    let tracked = EvalSettings::tracked();
+    let e = evaluate(&ds, &mut src, &tracked, Some(0.0)).unwrap_err();
+    assert_eq!(
+        e.refused_setting().map(|s| s.field),
+        Some(monohand::Field::DepthFilter),
+        "{e}"
+    );
+    let mut offline = EvalSettings::default();
+    offline.fit.offline = Some(monohand::OfflineSettings::default());
+    let e = evaluate(&ds, &mut src, &offline, Some(0.0)).unwrap_err();
+    // Offline needs tracking: the library's resolve says so first.
+    assert_eq!(
+        e.refused_setting().map(|s| s.field),
+        Some(monohand::Field::Offline),
+        "{e}"
+    );
+    // Tracking without the engine's depth filter is what the lift stage does.
+    let mut lifted = EvalSettings::tracked();
+    lifted.fit.depth_filter = None;
+    let (runs, _) = evaluate(&ds, &mut src, &lifted, Some(0.0)).unwrap();
+    assert!(runs.iter().all(|r| r.hands.len() == 5), "{}", runs.len());
+}
