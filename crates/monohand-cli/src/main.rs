@@ -20,6 +20,7 @@ use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, LazyLock};
 
 /// Absolute 3D hand poses (21 joints, millimetres, camera frame) from ordinary RGB
 /// cameras: hands are detected, 21 2D keypoints found by MediaPipe's networks, and a
@@ -133,8 +134,9 @@ pub(crate) mod exit {
     pub const INTERRUPTED: u8 = 130;
 }
 
-/// Set by Ctrl-C: long runs finish the current frame, close their files and stop.
-static INTERRUPTED: AtomicBool = AtomicBool::new(false);
+/// Set by Ctrl-C (or the `--show` window closed): long runs finish the current frame,
+/// close their files and stop.
+static INTERRUPTED: LazyLock<Arc<AtomicBool>> = LazyLock::new(Arc::default);
 /// Whether `--quiet` was given.
 static QUIET: AtomicBool = AtomicBool::new(false);
 
@@ -148,9 +150,10 @@ pub(crate) fn interrupted() -> bool {
     INTERRUPTED.load(Ordering::Relaxed)
 }
 
-/// Stops the run as Ctrl-C does (the `--show` window was closed).
-pub(crate) fn interrupt() {
-    INTERRUPTED.store(true, Ordering::Relaxed);
+/// The flag Ctrl-C raises, for a library part that stops the run too (the `--show`
+/// window).
+pub(crate) fn stop_flag() -> Arc<AtomicBool> {
+    Arc::clone(&INTERRUPTED)
 }
 
 /// Prints a message for the user on stderr unless `--quiet`.

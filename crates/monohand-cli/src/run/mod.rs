@@ -4,7 +4,6 @@
 
 mod each;
 mod outputs;
-mod show;
 
 use crate::hand_args::HandModelArgs;
 use crate::progress::Terminal;

@@ -4,14 +4,9 @@
 use super::RunArgs;
 use anyhow::{anyhow, Result};
 use clap::ValueEnum;
-use monohand::engine::{
-    CsvSink, GltfSink, JsonlSink, OpenPoseSink, Output, OverlaySink, Sink, SinkError,
-};
-use monohand_core::camera::Camera;
+use monohand::engine::{CsvSink, GltfSink, JsonlSink, OpenPoseSink, OverlaySink, Sink, WindowSink};
 use monohand_io::export::GltfHand;
-use monohand_io::jsonl::FrameRecord;
 use monohand_media::scene::Layers;
-use monohand_vision::RgbImage;
 use std::path::Path;
 
 /// Format of the poses file.
@@ -44,7 +39,15 @@ pub(crate) fn create(
     single_image: bool,
 ) -> Result<Vec<Box<dyn Sink>>> {
     let show = match args.show {
-        true => Some(super::show::Show::new(Layers::only(&args.layers))?),
+        true => Some(
+            WindowSink::open(
+                "monohand",
+                Layers::only(&args.layers),
+                single_image,
+                crate::stop_flag(),
+            )
+            .map_err(|e| anyhow!("--show {e}"))?,
+        ),
         false => None,
     };
     let overlay = match &args.overlay {
@@ -90,51 +93,10 @@ pub(crate) fn create(
         sinks.push(Box::new(gltf));
     }
     if let Some(show) = show {
-        sinks.push(Box::new(Window {
-            show,
-            single_image,
-            last: None,
-        }));
+        sinks.push(Box::new(show));
     }
     if let Some(o) = overlay {
         sinks.push(Box::new(o));
     }
     Ok(sinks)
-}
-
-/// The live window (`--show`) as a sink: quitting it cancels the run like Ctrl-C.
-struct Window {
-    show: super::show::Show,
-    /// The input is one image: the window keeps it on screen at the end.
-    single_image: bool,
-    /// The last frame shown, for that.
-    last: Option<(RgbImage, FrameRecord, Vec<Camera>)>,
-}
-
-impl Sink for Window {
-    fn wants_images(&self) -> bool {
-        true
-    }
-
-    fn write(&mut self, frame: &Output<'_>) -> Result<(), SinkError> {
-        let Some(image) = frame.image else {
-            return Ok(());
-        };
-        if !self.show.frame(image, frame.record, frame.cameras)? {
-            crate::interrupt();
-        }
-        if self.single_image {
-            self.last = Some((image.clone(), frame.record.clone(), frame.cameras.to_vec()));
-        }
-        Ok(())
-    }
-
-    fn finish(&mut self) -> Result<(), SinkError> {
-        if let Some((image, record, cameras)) = &self.last {
-            if !crate::interrupted() {
-                self.show.hold(image, record, cameras)?;
-            }
-        }
-        Ok(())
-    }
 }

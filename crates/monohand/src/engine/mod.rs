@@ -23,7 +23,9 @@ pub mod lift;
 mod sinks;
 mod source;
 
-pub use sinks::{CsvSink, GltfSink, JsonlSink, OpenPoseSink, Output, OverlaySink, Sink, SinkError};
+pub use sinks::{
+    CsvSink, GltfSink, JsonlSink, OpenPoseSink, Output, OverlaySink, Sink, SinkError, WindowSink,
+};
 pub use source::{
     chain, stated_camera, CallerFrames, FrameSource, ImageFiles, Input, InputError, SourceError,
     SourceFrame, VideoSource,

@@ -1,17 +1,19 @@
 //! Where the engine's records go. Every output is a [`Sink`]; a new output format is one
-//! file here (or the caller's own type: the CLI's live window is one).
+//! file here (or the caller's own type).
 
 mod csv;
 mod gltf;
 mod jsonl;
 mod openpose;
 mod overlay;
+mod window;
 
 pub use self::csv::CsvSink;
 pub use gltf::GltfSink;
 pub use jsonl::JsonlSink;
 pub use openpose::OpenPoseSink;
 pub use overlay::{has_extension, OverlaySink, IMAGE_EXTENSIONS, VIDEO_EXTENSIONS};
+pub use window::WindowSink;
 
 use monohand_core::camera::Camera;
 use monohand_io::jsonl::FrameRecord;
