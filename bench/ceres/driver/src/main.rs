@@ -227,22 +227,7 @@ fn run() -> Res<()> {
         "{n} STB frames; subject skeleton residual {:.3} mm; {} repeats per solve",
         fit.residual_mm, args.repeats
     );
-
     let opts = FitOptions::default();
-    let mut fitter = HandFitter::new(sk, opts)?;
-    // The LM part alone from a from-scratch start: fit_from with the scratch cap.
-    let mut lm_scratch = HandFitter::new(
-        sk,
-        FitOptions {
-            solver: SolverSettings {
-                max_iterations_tracking: opts.solver.max_iterations,
-                ..opts.solver
-            },
-            ..opts
-        },
-    )?;
-    let mut lm_warm = HandFitter::new(sk, opts)?;
-
     let mut cases = Vec::new();
     for (ni, &noise) in NOISES.iter().enumerate() {
         let mut rng = StdRng::seed_from_u64(args.seed + ni as u64);
@@ -250,100 +235,150 @@ fn run() -> Res<()> {
             .iter()
             .map(|j| project(&cam, j, noise, &mut rng))
             .collect::<Res<Vec<_>>>()?;
-
-        // From scratch.
-        let mut scratch = Case {
-            name: format!("noise{noise}px-scratch"),
-            noise,
-            warm: false,
-            max_iter: opts.solver.max_iterations,
-            problems: Vec::new(),
-            ours_lm: Vec::new(),
-            ours_full: Vec::new(),
-            ceres: Vec::new(),
-            ceres_minimizer_ns: Vec::new(),
-        };
-        for (i, kp) in kps.iter().enumerate() {
-            let views = [View::new(&cam, kp)];
-            let starts = fitter.starting_poses(&views)?;
-            if starts.is_empty() || !starts.iter().all(|s| in_front(&sk, s)) {
-                return Err(format!("frame {i}: no usable start").into());
-            }
-            let (t, (iters, pose, c)) = timed(args.repeats, || {
-                let mut best: Option<FitResult> = None;
-                let mut iters = 0;
-                for s in &starts {
-                    let r = lm_scratch.fit_from(&views, s)?;
-                    iters += r.iterations;
-                    if best.is_none_or(|b| r.cost < b.cost) {
-                        best = Some(r);
-                    }
-                }
-                let b = best.ok_or("no start")?;
-                Ok((iters, b.pose, b.cost))
-            })?;
-            check_cost(px2_from_mrad2(c, &cam)?, cost(&sk, &cam, kp, &pose, &opts))?;
-            scratch.ours_lm.push(Outcome {
-                time_ns: t,
-                iterations: iters,
-                pose,
-            });
-            let (t, full) = timed(args.repeats, || Ok(fitter.fit(&views)?))?;
-            scratch.ours_full.push(Outcome {
-                time_ns: t,
-                iterations: full.iterations,
-                pose: full.pose,
-            });
-            scratch.problems.push(Problem {
-                frame: i,
-                keypoints: *kp,
-                starts,
-            });
-        }
-
-        // Warm-started from the previous frame's solution (our full fit).
-        let mut warm = Case {
-            name: format!("noise{noise}px-warm"),
-            noise,
-            warm: true,
-            max_iter: opts.solver.max_iterations_tracking,
-            problems: Vec::new(),
-            ours_lm: Vec::new(),
-            ours_full: Vec::new(),
-            ceres: Vec::new(),
-            ceres_minimizer_ns: Vec::new(),
-        };
-        for (i, kp) in kps.iter().enumerate().skip(1) {
-            let prev = scratch.ours_full[i - 1].pose;
-            let views = [View::new(&cam, kp)];
-            if !in_front(&sk, &prev) {
-                return Err(
-                    format!("frame {i}: previous solution not in front of the camera").into(),
-                );
-            }
-            let (t, r) = timed(args.repeats, || Ok(lm_warm.fit_from(&views, &prev)?))?;
-            check_cost(
-                px2_from_mrad2(r.cost, &cam)?,
-                cost(&sk, &cam, kp, &r.pose, &opts),
-            )?;
-            warm.ours_lm.push(Outcome {
-                time_ns: t,
-                iterations: r.iterations,
-                pose: r.pose,
-            });
-            warm.problems.push(Problem {
-                frame: i,
-                keypoints: *kp,
-                starts: vec![prev],
-            });
-        }
+        let scratch = scratch_case(&args, &cam, sk, &kps, noise, &opts)?;
+        let warm = warm_case(&args, &cam, sk, &kps, noise, &opts, &scratch)?;
         eprintln!("noise {noise} px: our solves done");
         cases.push(scratch);
         cases.push(warm);
     }
-
-    // Problems for Ceres.
     let problems_path = args.out.join("problems.txt");
+    std::fs::write(
+        &problems_path,
+        problems_text(&cam, &sk, &cases, &opts, args.seed)?,
+    )?;
+    run_ceres(&args, &problems_path, &mut cases, &cam, &sk, &opts)?;
+    let report = report(&args, &cases, &sk, &cam, truth, &opts, fit.residual_mm)?;
+    print!("{report}");
+    std::fs::write(args.out.join("report.md"), &report)?;
+    let tsv = per_problem_tsv(&cases, &cam, &sk, truth, &opts)?;
+    std::fs::write(args.out.join("per_problem.tsv"), tsv)?;
+    Ok(())
+}
+
+/// An empty case of the problems of noise level `noise`.
+fn case(name: &str, noise: f64, warm: bool, max_iter: usize) -> Case {
+    Case {
+        name: format!("noise{noise}px-{name}"),
+        noise,
+        warm,
+        max_iter,
+        problems: Vec::new(),
+        ours_lm: Vec::new(),
+        ours_full: Vec::new(),
+        ceres: Vec::new(),
+        ceres_minimizer_ns: Vec::new(),
+    }
+}
+
+/// Every frame from scratch: our LM from each start (the LM part alone, with the scratch
+/// iteration cap), and our full fit.
+fn scratch_case(
+    args: &Args,
+    cam: &Camera,
+    sk: HandSkeleton,
+    kps: &[Keypoints2d],
+    noise: f64,
+    opts: &FitOptions,
+) -> Res<Case> {
+    let mut fitter = HandFitter::new(sk, *opts)?;
+    let mut lm_scratch = HandFitter::new(
+        sk,
+        FitOptions {
+            solver: SolverSettings {
+                max_iterations_tracking: opts.solver.max_iterations,
+                ..opts.solver
+            },
+            ..*opts
+        },
+    )?;
+    let mut scratch = case("scratch", noise, false, opts.solver.max_iterations);
+    for (i, kp) in kps.iter().enumerate() {
+        let views = [View::new(cam, kp)];
+        let starts = fitter.starting_poses(&views)?;
+        if starts.is_empty() || !starts.iter().all(|s| in_front(&sk, s)) {
+            return Err(format!("frame {i}: no usable start").into());
+        }
+        let (t, (iters, pose, c)) = timed(args.repeats, || {
+            let mut best: Option<FitResult> = None;
+            let mut iters = 0;
+            for s in &starts {
+                let r = lm_scratch.fit_from(&views, s)?;
+                iters += r.iterations;
+                if best.is_none_or(|b| r.cost < b.cost) {
+                    best = Some(r);
+                }
+            }
+            let b = best.ok_or("no start")?;
+            Ok((iters, b.pose, b.cost))
+        })?;
+        check_cost(px2_from_mrad2(c, cam)?, cost(&sk, cam, kp, &pose, opts))?;
+        scratch.ours_lm.push(Outcome {
+            time_ns: t,
+            iterations: iters,
+            pose,
+        });
+        let (t, full) = timed(args.repeats, || Ok(fitter.fit(&views)?))?;
+        scratch.ours_full.push(Outcome {
+            time_ns: t,
+            iterations: full.iterations,
+            pose: full.pose,
+        });
+        scratch.problems.push(Problem {
+            frame: i,
+            keypoints: *kp,
+            starts,
+        });
+    }
+    Ok(scratch)
+}
+
+/// Every frame but the first warm-started from the previous frame's solution (our full
+/// fit, in `scratch`).
+fn warm_case(
+    args: &Args,
+    cam: &Camera,
+    sk: HandSkeleton,
+    kps: &[Keypoints2d],
+    noise: f64,
+    opts: &FitOptions,
+    scratch: &Case,
+) -> Res<Case> {
+    let mut lm_warm = HandFitter::new(sk, *opts)?;
+    let mut warm = case("warm", noise, true, opts.solver.max_iterations_tracking);
+    for (i, kp) in kps.iter().enumerate().skip(1) {
+        let prev = scratch.ours_full[i - 1].pose;
+        let views = [View::new(cam, kp)];
+        if !in_front(&sk, &prev) {
+            return Err(format!("frame {i}: previous solution not in front of the camera").into());
+        }
+        let (t, r) = timed(args.repeats, || Ok(lm_warm.fit_from(&views, &prev)?))?;
+        check_cost(
+            px2_from_mrad2(r.cost, cam)?,
+            cost(&sk, cam, kp, &r.pose, opts),
+        )?;
+        warm.ours_lm.push(Outcome {
+            time_ns: t,
+            iterations: r.iterations,
+            pose: r.pose,
+        });
+        warm.problems.push(Problem {
+            frame: i,
+            keypoints: *kp,
+            starts: vec![prev],
+        });
+    }
+    Ok(warm)
+}
+
+/// The problems file the C++ Ceres program reads: the camera, the skeleton, poses on
+/// which its forward kinematics must match ours, then every case's problems.
+fn problems_text(
+    cam: &Camera,
+    sk: &HandSkeleton,
+    cases: &[Case],
+    opts: &FitOptions,
+    seed: u64,
+) -> Res<String> {
     let mut s = String::new();
     writeln!(s, "monohand-ceres-problems 1")?;
     let k = &cam.intrinsics;
@@ -370,9 +405,41 @@ fn run() -> Res<()> {
     };
     writeln!(s, "lower {}", join(&sk.limits.lower))?;
     writeln!(s, "upper {}", join(&sk.limits.upper))?;
-    // Poses on which the C++ port of the forward kinematics must match ours.
-    let mut rng = StdRng::seed_from_u64(args.seed ^ 0xf00d);
-    let mut checks: Vec<HandPose> = (0..30)
+    let mut checks = random_poses(sk, seed ^ 0xf00d);
+    checks.extend(cases[0].ours_lm.iter().take(10).map(|o| o.pose));
+    writeln!(s, "fkcheck {}", checks.len())?;
+    for p in &checks {
+        let j = forward_kinematics(sk, p);
+        let nums: Vec<String> = j
+            .iter()
+            .flat_map(|x| x.iter().map(|c| format!("{c:e}")))
+            .collect();
+        writeln!(s, "{} {}", params_line(p), nums.join(" "))?;
+    }
+    for c in cases {
+        writeln!(s, "case {} {} {}", c.name, c.max_iter, c.problems.len())?;
+        for p in &c.problems {
+            writeln!(s, "problem {} {}", p.frame, p.starts.len())?;
+            let obs: Vec<String> = p
+                .keypoints
+                .points
+                .iter()
+                .map(|q| format!("{:e} {:e} {:e}", q[0], q[1], weight(q[2], opts)))
+                .collect();
+            writeln!(s, "{}", obs.join(" "))?;
+            for st in &p.starts {
+                writeln!(s, "{}", params_line(st))?;
+            }
+        }
+    }
+    writeln!(s, "end")?;
+    Ok(s)
+}
+
+/// 30 random poses within the limits, in front of the camera.
+fn random_poses(sk: &HandSkeleton, seed: u64) -> Vec<HandPose> {
+    let mut rng = StdRng::seed_from_u64(seed);
+    (0..30)
         .map(|_| {
             let l = &sk.limits;
             HandPose {
@@ -389,41 +456,23 @@ fn run() -> Res<()> {
                 angles: std::array::from_fn(|i| rng.random_range(l.lower[i]..=l.upper[i])),
             }
         })
-        .collect();
-    checks.extend(cases[0].ours_lm.iter().take(10).map(|o| o.pose));
-    writeln!(s, "fkcheck {}", checks.len())?;
-    for p in &checks {
-        let j = forward_kinematics(&sk, p);
-        let nums: Vec<String> = j
-            .iter()
-            .flat_map(|x| x.iter().map(|c| format!("{c:e}")))
-            .collect();
-        writeln!(s, "{} {}", params_line(p), nums.join(" "))?;
-    }
-    for c in &cases {
-        writeln!(s, "case {} {} {}", c.name, c.max_iter, c.problems.len())?;
-        for p in &c.problems {
-            writeln!(s, "problem {} {}", p.frame, p.starts.len())?;
-            let obs: Vec<String> = p
-                .keypoints
-                .points
-                .iter()
-                .map(|q| format!("{:e} {:e} {:e}", q[0], q[1], weight(q[2], &opts)))
-                .collect();
-            writeln!(s, "{}", obs.join(" "))?;
-            for st in &p.starts {
-                writeln!(s, "{}", params_line(st))?;
-            }
-        }
-    }
-    writeln!(s, "end")?;
-    std::fs::write(&problems_path, s)?;
+        .collect()
+}
 
-    // Ceres.
+/// Runs the Ceres program on the problems file and reads its solutions into `cases`,
+/// checking each reported cost against ours.
+fn run_ceres(
+    args: &Args,
+    problems_path: &std::path::Path,
+    cases: &mut [Case],
+    cam: &Camera,
+    sk: &HandSkeleton,
+    opts: &FitOptions,
+) -> Res<()> {
     let ceres_out = args.out.join("ceres_results.txt");
     eprintln!("running {}", args.ceres.display());
     let status = std::process::Command::new(&args.ceres)
-        .arg(&problems_path)
+        .arg(problems_path)
         .arg(&ceres_out)
         .args(["--repeats", &args.repeats.to_string()])
         .args(["--linear-solver", &args.linear_solver])
@@ -433,7 +482,7 @@ fn run() -> Res<()> {
     }
     let text = std::fs::read_to_string(&ceres_out)?;
     let mut lines = text.lines();
-    for c in &mut cases {
+    for c in cases.iter_mut() {
         for p in &c.problems {
             let line = lines.next().ok_or("ceres results too short")?;
             let f: Vec<&str> = line.split_whitespace().collect();
@@ -452,7 +501,7 @@ fn run() -> Res<()> {
                 format!("{} frame {}: Ceres failed on every start", c.name, p.frame)
             })?;
             let reported: f64 = f[6].parse()?;
-            check_cost(reported, cost(&sk, &cam, &p.keypoints, &pose, &opts))?;
+            check_cost(reported, cost(sk, cam, &p.keypoints, &pose, opts))?;
             c.ceres.push(Outcome {
                 time_ns: f[3].parse()?,
                 iterations: f[5].parse()?,
@@ -461,14 +510,21 @@ fn run() -> Res<()> {
             c.ceres_minimizer_ns.push(f[4].parse()?);
         }
     }
+    Ok(())
+}
 
-    let report = report(&args, &cases, &sk, &cam, truth, &opts, fit.residual_mm)?;
-    print!("{report}");
-    std::fs::write(args.out.join("report.md"), &report)?;
+/// One row per problem: ours and Ceres's time, iterations, cost and error.
+fn per_problem_tsv(
+    cases: &[Case],
+    cam: &Camera,
+    sk: &HandSkeleton,
+    truth: &[[Vector3<f64>; NUM_JOINTS]],
+    opts: &FitOptions,
+) -> Res<String> {
     let mut tsv = String::from(
         "case\tframe\tstarts\tours_us\tours_iters\tours_cost\tours_err_mm\tceres_us\tceres_iters\tceres_cost\tceres_err_mm\tfull_us\tfull_cost\tfull_err_mm\n",
     );
-    for c in &cases {
+    for c in cases {
         for (i, p) in c.problems.iter().enumerate() {
             let t = &truth[p.frame];
             let (o, e) = (&c.ours_lm[i], &c.ceres[i]);
@@ -480,27 +536,26 @@ fn run() -> Res<()> {
                 p.starts.len(),
                 o.time_ns / 1e3,
                 o.iterations,
-                cost(&sk, &cam, &p.keypoints, &o.pose, &opts),
-                mean_error(&sk, &o.pose, t),
+                cost(sk, cam, &p.keypoints, &o.pose, opts),
+                mean_error(sk, &o.pose, t),
                 e.time_ns / 1e3,
                 e.iterations,
-                cost(&sk, &cam, &p.keypoints, &e.pose, &opts),
-                mean_error(&sk, &e.pose, t),
+                cost(sk, cam, &p.keypoints, &e.pose, opts),
+                mean_error(sk, &e.pose, t),
             )?;
             match c.ours_full.get(i) {
                 Some(f) => writeln!(
                     tsv,
                     "\t{:.2}\t{:.9e}\t{:.4}",
                     f.time_ns / 1e3,
-                    cost(&sk, &cam, &p.keypoints, &f.pose, &opts),
-                    mean_error(&sk, &f.pose, t)
+                    cost(sk, cam, &p.keypoints, &f.pose, opts),
+                    mean_error(sk, &f.pose, t)
                 )?,
                 None => writeln!(tsv, "\t\t\t")?,
             }
         }
     }
-    std::fs::write(args.out.join("per_problem.tsv"), tsv)?;
-    Ok(())
+    Ok(tsv)
 }
 
 /// The cost a solver reports must be the cost we recompute from its pose.
