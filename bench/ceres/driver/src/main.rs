@@ -660,70 +660,88 @@ fn report(
             100.0 * le as f64 / n as f64
         )?;
         // Details: where the costs differ, per-problem speed ratios, the full fit.
-        let worse: Vec<(usize, f64, f64)> = co
-            .iter()
-            .zip(&cc)
-            .enumerate()
-            .filter(|(_, (o, e))| **o > **e * (1.0 + COST_RTOL) + COST_ATOL)
-            .map(|(i, (o, e))| (c.problems[i].frame, *o, *e))
-            .collect();
-        let better = co
-            .iter()
-            .zip(&cc)
-            .filter(|(o, e)| **e > **o * (1.0 + COST_RTOL) + COST_ATOL)
-            .count();
-        let mut ratios: Vec<f64> = c
-            .ceres
-            .iter()
-            .zip(&c.ours_lm)
-            .map(|(e, o)| e.time_ns / o.time_ns)
-            .collect();
-        let mut cmin: Vec<f64> = c.ceres_minimizer_ns.iter().map(|v| v / 1e3).collect();
-        writeln!(
-            details,
-            "- **{}**: per-solve speed ratio median {:.1}x (min {:.1}x); Ceres minimizer alone (no preprocessing) median {:.1} µs; \
-             ours strictly lower cost on {better}, Ceres strictly lower on {} (ours ≤ Ceres within {COST_RTOL:e} relative).",
-            c.name,
-            median(&mut ratios),
-            ratios.first().copied().unwrap_or(f64::NAN),
-            median(&mut cmin),
-            worse.len()
-        )?;
-        if !worse.is_empty() {
-            let mut w = worse.clone();
-            w.sort_by(|a, b| (b.1 - b.2).total_cmp(&(a.1 - a.2)));
-            let top: Vec<String> = w
-                .iter()
-                .take(5)
-                .map(|(f, o, e)| format!("frame {f}: {o:.4} vs {e:.4}"))
-                .collect();
-            writeln!(
-                details,
-                "  Largest gaps (ours vs Ceres cost): {}.",
-                top.join("; ")
-            )?;
-        }
-        if !c.ours_full.is_empty() {
-            let cf = costs(&c.ours_full);
-            let ef = errs(&c.ours_full);
-            let tf = median(&mut times(&c.ours_full));
-            let lef = cf
-                .iter()
-                .zip(&cc)
-                .filter(|(o, e)| **o <= **e * (1.0 + COST_RTOL) + COST_ATOL)
-                .count();
-            writeln!(
-                details,
-                "  Our whole `fit` (initialisation + LM + second pass): median {:.1} µs ({:.1}x faster than Ceres' LM alone), \
-                 median / mean cost {:.4} / {:.4}, mean 3D error {:.2} mm, cost ≤ Ceres on {lef} / {n}.",
-                tf,
-                tc / tf,
-                median(&mut cf.clone()),
-                mean(&cf),
-                mean(&ef)
-            )?;
-        }
+        let full = (!c.ours_full.is_empty()).then(|| {
+            (
+                costs(&c.ours_full),
+                errs(&c.ours_full),
+                median(&mut times(&c.ours_full)),
+            )
+        });
+        case_details(&mut details, c, (&co, &cc), tc, full)?;
     }
     writeln!(s, "\n{details}")?;
     Ok(s)
+}
+
+/// The details of one case: where the costs differ, per-problem speed ratios, and our
+/// whole fit (`full`: its costs, 3D errors and median time) when it was timed.
+fn case_details(
+    details: &mut String,
+    c: &Case,
+    (co, cc): (&[f64], &[f64]),
+    tc: f64,
+    full: Option<(Vec<f64>, Vec<f64>, f64)>,
+) -> Res<()> {
+    let n = c.problems.len();
+    let worse: Vec<(usize, f64, f64)> = co
+        .iter()
+        .zip(cc)
+        .enumerate()
+        .filter(|(_, (o, e))| **o > **e * (1.0 + COST_RTOL) + COST_ATOL)
+        .map(|(i, (o, e))| (c.problems[i].frame, *o, *e))
+        .collect();
+    let better = co
+        .iter()
+        .zip(cc)
+        .filter(|(o, e)| **e > **o * (1.0 + COST_RTOL) + COST_ATOL)
+        .count();
+    let mut ratios: Vec<f64> = c
+        .ceres
+        .iter()
+        .zip(&c.ours_lm)
+        .map(|(e, o)| e.time_ns / o.time_ns)
+        .collect();
+    let mut cmin: Vec<f64> = c.ceres_minimizer_ns.iter().map(|v| v / 1e3).collect();
+    writeln!(
+        details,
+        "- **{}**: per-solve speed ratio median {:.1}x (min {:.1}x); Ceres minimizer alone (no preprocessing) median {:.1} µs; \
+         ours strictly lower cost on {better}, Ceres strictly lower on {} (ours ≤ Ceres within {COST_RTOL:e} relative).",
+        c.name,
+        median(&mut ratios),
+        ratios.first().copied().unwrap_or(f64::NAN),
+        median(&mut cmin),
+        worse.len()
+    )?;
+    if !worse.is_empty() {
+        let mut w = worse.clone();
+        w.sort_by(|a, b| (b.1 - b.2).total_cmp(&(a.1 - a.2)));
+        let top: Vec<String> = w
+            .iter()
+            .take(5)
+            .map(|(f, o, e)| format!("frame {f}: {o:.4} vs {e:.4}"))
+            .collect();
+        writeln!(
+            details,
+            "  Largest gaps (ours vs Ceres cost): {}.",
+            top.join("; ")
+        )?;
+    }
+    if let Some((cf, ef, tf)) = full {
+        let lef = cf
+            .iter()
+            .zip(cc)
+            .filter(|(o, e)| **o <= **e * (1.0 + COST_RTOL) + COST_ATOL)
+            .count();
+        writeln!(
+            details,
+            "  Our whole `fit` (initialisation + LM + second pass): median {:.1} µs ({:.1}x faster than Ceres' LM alone), \
+             median / mean cost {:.4} / {:.4}, mean 3D error {:.2} mm, cost ≤ Ceres on {lef} / {n}.",
+            tf,
+            tc / tf,
+            median(&mut cf.clone()),
+            mean(&cf),
+            mean(&ef)
+        )?;
+    }
+    Ok(())
 }
