@@ -43,21 +43,6 @@ pub(crate) fn run(args: &LiftArgs) -> Result<()> {
         );
     }
     let cameras = crate::read_cameras(&args.cameras)?;
-    if cameras.first().is_some_and(|c| !c.extrinsics.is_identity()) {
-        warn!(
-            "{}: the first camera has extrinsics; output joints are in the frame they map from, not in this camera's frame",
-            args.cameras[0].display()
-        );
-    }
-    for (cam, p) in cameras.iter().zip(&args.cameras) {
-        if let Some(why) = cam.implausible_field_of_view() {
-            // The user's own calibration is used as given, but not silently.
-            warn!(
-                "{}: the calibration gives {why}; used as given (docs/calibration.md)",
-                p.display()
-            );
-        }
-    }
     let options = args.hand.fit_options()?;
     let scale = match args.hand.hand_scale {
         HandScale::Fixed(s) => s,

@@ -204,6 +204,7 @@ pub(crate) fn refused(e: &monohand::SettingsError) -> anyhow::Error {
 pub(crate) fn flagged(note: &monohand::Note) -> String {
     let flag = match note.topic {
         monohand::NoteTopic::Camera => "no --camera: ",
+        monohand::NoteTopic::Calibration => "--camera: ",
         monohand::NoteTopic::HandScale => "--hand-scale auto: ",
         monohand::NoteTopic::Proportions => "--proportion-frames: ",
         monohand::NoteTopic::Output => "",

@@ -461,7 +461,7 @@ fn a_calibration_outside_the_real_fields_of_view_is_used_and_said() {
     ok(&o);
     let e = stderr(&o);
     assert!(
-        e.contains("cam.json: the calibration gives a 2.3 degree field of view")
+        e.contains("--camera: camera 1: the calibration gives a 2.3 degree field of view")
             && e.contains("used as given"),
         "{e}"
     );

@@ -63,9 +63,36 @@ pub(crate) struct CameraChoice {
     notes: Vec<Note>,
 }
 
+/// What is worth saying about the calibrations given, one note each: a field of view
+/// outside 5-150 degrees (used as given: it is the user's own), and extrinsics on the first
+/// camera (the joints are then in the frame it maps from, not in its own).
+pub(crate) fn calibration_notes(cameras: &[Camera]) -> Vec<Note> {
+    let mut notes = Vec::new();
+    if cameras.first().is_some_and(|c| !c.extrinsics.is_identity()) {
+        notes.push(Note::new(
+            NoteTopic::Calibration,
+            "the first camera has extrinsics: the joints are in the frame they map from, not \
+             in this camera's frame",
+        ));
+    }
+    for (v, c) in cameras.iter().enumerate() {
+        if let Some(why) = c.implausible_field_of_view() {
+            notes.push(Note::new(
+                NoteTopic::Calibration,
+                format!(
+                    "camera {}: the calibration gives {why}; used as given, since it is the \
+                     user's own",
+                    v + 1
+                ),
+            ));
+        }
+    }
+    notes
+}
+
 impl CameraChoice {
-    /// The choice for these calibrations (checked by the caller), with a note for each
-    /// whose field of view is outside 5-150 degrees.
+    /// The choice for these calibrations (checked by the caller), with their notes
+    /// ([`calibration_notes`]).
     pub(crate) fn new(cameras: Vec<Camera>) -> CameraChoice {
         let calibrated_fov: Vec<Option<String>> = cameras
             .iter()
@@ -77,15 +104,7 @@ impl CameraChoice {
                 })
             })
             .collect();
-        let mut notes = Vec::new();
-        for (v, why) in calibrated_fov.iter().enumerate() {
-            if let Some(why) = why {
-                notes.push(Note::new(
-                    NoteTopic::Camera,
-                    format!("camera {}: {why}", v + 1),
-                ));
-            }
-        }
+        let notes = calibration_notes(&cameras);
         CameraChoice {
             origins: calibrated_fov
                 .iter()
@@ -307,6 +326,8 @@ mod tests {
         let mut choice = CameraChoice::new(vec![tele]);
         let notes = choice.take_notes();
         assert_eq!(notes.len(), 1, "{notes:?}");
+        // About the calibration given, not about a camera chosen for want of one.
+        assert_eq!(notes[0].topic, NoteTopic::Calibration);
         assert!(
             notes[0]
                 .message
@@ -314,6 +335,12 @@ mod tests {
             "{}",
             notes[0]
         );
+        // A first camera with extrinsics is said too: the joints are in another frame.
+        let mut moved = tele;
+        moved.extrinsics.translation.x = 100.0;
+        let notes = calibration_notes(&[moved]);
+        assert_eq!(notes.len(), 2, "{notes:?}");
+        assert!(notes[0].message.contains("the first camera has extrinsics"));
         choice
             .camera_for(&[Some((640, 480))], &StatedCamera::None)
             .unwrap();

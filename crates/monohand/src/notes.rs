@@ -6,6 +6,9 @@
 pub enum NoteTopic {
     /// The camera chosen for frames without a calibration (EXIF or generic).
     Camera,
+    /// A calibration the caller gave, used as given but worth saying (a field of view no
+    /// real lens has, extrinsics on the first camera).
+    Calibration,
     /// Measuring the hand's size over the first frames.
     HandScale,
     /// Learning each side's hand proportions over the first frames.

@@ -162,6 +162,9 @@ pub fn lift_keypoints(
         .into());
     }
     let settings = settings.lifting()?;
+    for note in crate::cameras::calibration_notes(&cameras) {
+        observer.note(&note);
+    }
     let mut skeletons = settings.skeletons;
     if let Some(n) = settings.proportion_frames {
         for (skeleton, side) in skeletons.iter_mut().zip([HandSide::Left, HandSide::Right]) {
