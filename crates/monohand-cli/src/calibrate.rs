@@ -2,16 +2,12 @@
 //! (docs/calibration.md#calibrate-your-camera-in-a-minute), and `--print-board`. The work
 //! is `monohand::calibration`'s.
 
-use anyhow::{bail, Context, Result};
+use anyhow::{Context, Result};
 use clap::{Args, ValueEnum};
 use monohand::calibration::{
-    self, draw_seen, Board, CalibrateSettings, DistortionModel, Outputs, SeenFrame,
+    self, Board, CalibrateSettings, CalibrationWindow, DistortionModel, Outputs, SeenFrame,
 };
-use monohand_calib::print::BoardPage;
-use monohand_media::live::draw_status;
-use monohand_media::window::Window;
-use monohand_vision::RgbImage;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// Arguments of `monohand calibrate`.
 #[derive(Debug, Args)]
@@ -98,19 +94,17 @@ pub(crate) fn run(args: &CalibrateArgs) -> Result<()> {
         Model::Rational => DistortionModel::Rational,
     };
     let mut window = match args.show {
-        true => Some(Show {
-            window: Window::new("monohand calibrate").context("--show")?,
-            last: None,
-        }),
+        true => Some(CalibrationWindow::open("monohand calibrate").context("--show")?),
         false => None,
     };
     let mut seen = |f: &SeenFrame<'_>| -> bool {
-        if crate::interrupted() {
-            return false;
-        }
         match window.as_mut() {
-            Some(w) => w.frame(f),
+            _ if crate::interrupted() => false,
             None => true,
+            Some(w) => w.frame(f).unwrap_or_else(|e| {
+                crate::say(&format!("--show: {e}"));
+                false
+            }),
         }
     };
     let result = calibration::calibrate(&inputs, &settings, &mut seen);
@@ -118,7 +112,7 @@ pub(crate) fn run(args: &CalibrateArgs) -> Result<()> {
         Ok(c) => c,
         Err(e) => {
             if let Some(w) = window.as_mut() {
-                w.hold_text(&format!("NOT CALIBRATED: {e}"));
+                let _ = w.hold_text(&format!("NOT CALIBRATED: {e}"));
             }
             return Err(e.into());
         }
@@ -134,24 +128,13 @@ pub(crate) fn run(args: &CalibrateArgs) -> Result<()> {
         crate::say(&format!("wrote {}", p.display()));
     }
     if let Some(w) = window.as_mut() {
-        let _ = w.window.hold(&calibration::picture(&calibrated, 0));
+        let _ = w.hold_result(&calibrated);
     }
     Ok(())
 }
 
-fn print_board(board: &Board, path: &PathBuf) -> Result<()> {
-    let page = BoardPage::new(board);
-    let ext = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(str::to_ascii_lowercase);
-    let bytes = match ext.as_deref() {
-        Some("svg") => page.to_svg().into_bytes(),
-        Some("pdf") => page.to_pdf(),
-        Some("png") => calibration::board_png(&page, 300.0)?,
-        _ => bail!("--print-board {}: write .svg, .pdf or .png", path.display()),
-    };
-    std::fs::write(path, bytes).with_context(|| format!("cannot write {}", path.display()))?;
+fn print_board(board: &Board, path: &Path) -> Result<()> {
+    let page = calibration::write_board(board, path).context("--print-board")?;
     crate::say(&format!(
         "wrote {} ({:.0} x {:.0} mm page): print it at 100% scale, measure a printed square \
          and pass that with --square-mm (it was drawn at {} mm)",
@@ -161,36 +144,4 @@ fn print_board(board: &Board, path: &PathBuf) -> Result<()> {
         board.square_mm
     ));
     Ok(())
-}
-
-/// The live window of `calibrate --show`: each frame as the calibration sees it, then the
-/// result or the reason there is none, until Q.
-struct Show {
-    window: Window,
-    last: Option<RgbImage>,
-}
-
-impl Show {
-    /// Shows a frame with what was found on it; false once the window is closed or Q.
-    fn frame(&mut self, seen: &SeenFrame<'_>) -> bool {
-        let mut frame = seen.image.clone();
-        draw_seen(&mut frame, seen);
-        let open = match self.window.show(&frame) {
-            Ok(shown) => !shown.quit(),
-            Err(e) => {
-                crate::say(&format!("--show: {e}"));
-                false
-            }
-        };
-        self.last = Some(frame);
-        open
-    }
-
-    /// Keeps the last frame on screen with a message until closed.
-    fn hold_text(&mut self, text: &str) {
-        if let Some(mut frame) = self.last.take() {
-            draw_status(&mut frame, &text.to_uppercase());
-            let _ = self.window.hold(&frame);
-        }
-    }
 }

@@ -127,9 +127,9 @@ fn matrix(name: &str, rows: usize, cols: usize, data: &[f64]) -> String {
     )
 }
 
-/// Writes `text` to `path` whole or not at all: into a temporary file beside it, then
-/// renamed over it, so a failure leaves any earlier file as it was.
-pub fn write_atomically(path: impl AsRef<Path>, text: &str) -> IoResult<()> {
+/// Writes `bytes` (text or binary) to `path` whole or not at all: into a temporary file
+/// beside it, then renamed over it, so a failure leaves any earlier file as it was.
+pub fn write_atomically(path: impl AsRef<Path>, bytes: impl AsRef<[u8]>) -> IoResult<()> {
     let path = path.as_ref();
     let err = |error| IoError::Write {
         path: path.to_path_buf(),
@@ -140,7 +140,7 @@ pub fn write_atomically(path: impl AsRef<Path>, text: &str) -> IoResult<()> {
         .map(|n| n.to_string_lossy().to_string())
         .unwrap_or_default();
     let tmp = path.with_file_name(format!(".{name}.partial"));
-    std::fs::write(&tmp, text).map_err(err)?;
+    std::fs::write(&tmp, bytes).map_err(err)?;
     std::fs::rename(&tmp, path).map_err(|e| {
         let _ = std::fs::remove_file(&tmp);
         err(e)

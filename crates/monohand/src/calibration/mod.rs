@@ -14,6 +14,7 @@
 
 mod frames;
 mod report;
+mod window;
 
 pub use frames::{Coverage, SeenFrame};
 pub use monohand_calib::calibrate::{
@@ -24,6 +25,7 @@ pub use report::{
     camera_info, date_utc, depth_std_mm, draw_seen, markdown_report, picture, summary,
     HAND_DEPTH_MM,
 };
+pub use window::CalibrationWindow;
 
 use crate::engine::{EngineError, Input};
 use monohand_calib::calibrate::{calibrate_camera, calibrate_rig, BoardView};
@@ -112,6 +114,12 @@ pub enum CalibrateError {
     /// A file could not be written (those before it were written whole).
     #[error(transparent)]
     Output(#[from] monohand_io::IoError),
+    /// A printable board was asked for in a format that is not made.
+    #[error("{}: write .svg, .pdf or .png", path.display())]
+    BoardFormat {
+        /// The file asked for.
+        path: PathBuf,
+    },
 }
 
 /// One input's frames, as examined: the views kept and why the others were not.
@@ -319,7 +327,7 @@ pub fn write_outputs(c: &Calibrated, out: &Outputs) -> Result<Vec<PathBuf>, Cali
         let info = camera_info(c, k, &date);
         let camera = &c.cameras[k].camera;
         let json = monohand_io::calibration::calibrated_camera_json(camera, &info);
-        monohand_io::calibration::write_atomically(path, &format!("{json:#}\n"))?;
+        monohand_io::calibration::write_atomically(path, format!("{json:#}\n"))?;
         written.push(path.clone());
         if out.opencv_yaml {
             let yaml_path = path.with_extension("yaml");
@@ -359,9 +367,34 @@ fn write_report(c: &Calibrated, report: &Path) -> Result<Vec<PathBuf>, Calibrate
         written.push(path);
         names.push(name);
     }
-    monohand_io::calibration::write_atomically(report, &markdown_report(c, &names))?;
+    monohand_io::calibration::write_atomically(report, markdown_report(c, &names))?;
     written.push(report.to_path_buf());
     Ok(written)
+}
+
+/// Writes a printable `board` (an A4 or larger page with the board at its size) to `path`,
+/// as SVG, PDF or PNG at 300 dpi by its extension; returns the page written.
+pub fn write_board(
+    board: &Board,
+    path: &Path,
+) -> Result<monohand_calib::print::BoardPage, CalibrateError> {
+    let page = monohand_calib::print::BoardPage::new(board);
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
+    let bytes = match ext.as_deref() {
+        Some("svg") => page.to_svg().into_bytes(),
+        Some("pdf") => page.to_pdf(),
+        Some("png") => board_png(&page, 300.0)?,
+        _ => {
+            return Err(CalibrateError::BoardFormat {
+                path: path.to_path_buf(),
+            })
+        }
+    };
+    monohand_io::calibration::write_atomically(path, &bytes)?;
+    Ok(page)
 }
 
 /// A printable board as PNG bytes at `dpi`, with the resolution stated in the file (so
