@@ -3,6 +3,7 @@
 
 use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
+use monohand_core::hand_model::HandSide;
 use monohand_vision::heatmap::{parse_input_size, HeatmapModelConfig};
 use monohand_vision::{HandPipeline, ModelOptions, ModelStore, ModelVariant, PipelineOptions};
 use std::path::PathBuf;
@@ -72,18 +73,10 @@ pub(crate) struct ModelArgs {
     /// Input size of --keypoint-model, WxH (OpenPose hand: 368x368).
     #[arg(long, value_name = "WxH", default_value = "368x368")]
     pub keypoint_input: String,
-    /// The only side --keypoint-model was trained on (the other side is mirrored).
+    /// The only side --keypoint-model was trained on, left or right (the other side is
+    /// mirrored).
     #[arg(long, value_name = "SIDE")]
-    pub keypoint_trained_side: Option<SideArg>,
-}
-
-/// A hand side on the command line.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub(crate) enum SideArg {
-    /// Left hand.
-    Left,
-    /// Right hand.
-    Right,
+    pub keypoint_trained_side: Option<HandSide>,
 }
 
 impl ModelArgs {
@@ -136,10 +129,7 @@ impl ModelArgs {
                             self.keypoint_input
                         )
                     })?,
-                    trained_side: self.keypoint_trained_side.map(|s| match s {
-                        SideArg::Left => monohand_core::hand_model::HandSide::Left,
-                        SideArg::Right => monohand_core::hand_model::HandSide::Right,
-                    }),
+                    trained_side: self.keypoint_trained_side,
                     ..HeatmapModelConfig::default()
                 };
                 let estimator = monohand_vision::heatmap::OnnxHeatmapEstimator::load(path, config)?;

@@ -381,6 +381,47 @@ fn run_rejects_bad_arguments_before_writing() {
     assert!(String::from_utf8_lossy(&r.stderr).contains("webcam:N"));
 }
 
+/// `--rectify-crops` reaches the engine: through a calibrated pinhole, `all` reads the
+/// photo's hand in a rectified view aimed at it, and finds the same hand (other pixels
+/// sampled, so not the same bits); a value it does not know is refused by name.
+#[test]
+fn rectified_crops_find_the_same_hand() {
+    let photo_path = hand_png();
+    assert!(networks_ready());
+    let dir = tempfile::tempdir().unwrap();
+    let img = image_of(&photo_path);
+    let cam = dir.path().join("cam.json");
+    write_camera_json(&cam, &Camera::generic(img.width(), img.height()).unwrap()).unwrap();
+    let run = |which: &str| {
+        let out = dir.path().join(format!("{which}.jsonl"));
+        let args = ["run", p(&photo_path), "--camera", p(&cam), "-o", p(&out)];
+        ok(&monohand(
+            &[&args[..], &["--rectify-crops", which]].concat(),
+        ));
+        read_jsonl(&out).unwrap().remove(0)
+    };
+    let (plain, rectified) = (run("off"), run("all"));
+    assert_eq!(plain.hands.len(), 1);
+    assert_eq!(rectified.hands.len(), 1);
+    let (a, b) = (&plain.hands[0], &rectified.hands[0]);
+    assert_eq!(a.side, b.side);
+    let d: Vec<f64> = (0..21)
+        .map(|j| {
+            let (u, v) = (&a.keypoints_2d[j], &b.keypoints_2d[j]);
+            (u[0] - v[0]).hypot(u[1] - v[1])
+        })
+        .collect();
+    let mean = d.iter().sum::<f64>() / 21.0;
+    assert!(mean > 0.0 && mean < 4.0, "{d:?}");
+    let r = monohand(&["run", p(&photo_path), "--rectify-crops", "sometimes"]);
+    assert!(!r.status.success());
+    assert!(
+        String::from_utf8_lossy(&r.stderr).contains("is not off, lenses or all"),
+        "{}",
+        String::from_utf8_lossy(&r.stderr)
+    );
+}
+
 #[test]
 fn output_formats_and_camera_checks() {
     let photo_path = hand_png();

@@ -136,6 +136,20 @@ pub enum RectifyCrops {
     All,
 }
 
+impl std::str::FromStr for RectifyCrops {
+    type Err = String;
+
+    /// `off`, `lenses` or `all`, as the command line and Python name them.
+    fn from_str(s: &str) -> Result<RectifyCrops, String> {
+        match s {
+            "off" => Ok(RectifyCrops::Off),
+            "lenses" => Ok(RectifyCrops::Lenses),
+            "all" => Ok(RectifyCrops::All),
+            other => Err(format!("{other:?} is not off, lenses or all")),
+        }
+    }
+}
+
 impl Default for Settings {
     /// Video tracking of up to 2 hands, looking for new hands every 10 frames.
     fn default() -> Settings {

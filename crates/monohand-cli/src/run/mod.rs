@@ -93,8 +93,8 @@ pub(crate) struct RunArgs {
     /// Which calibrated cameras' hands are read in a rectified view (a virtual pinhole
     /// aimed at the hand, drawn through the lens): `off`, `lenses` (distortion or fisheye),
     /// `all` (docs/calibration.md#rectified-crops).
-    #[arg(long, value_enum, value_name = "WHICH", default_value = "off")]
-    pub rectify_crops: Rectify,
+    #[arg(long, value_name = "off|lenses|all", default_value = "off")]
+    pub rectify_crops: RectifyCrops,
     /// One Euro filter: minimum cutoff frequency, Hz (lower: smoother when still).
     #[arg(long, value_name = "HZ", default_value_t = OneEuroParams::default().min_cutoff)]
     pub smooth_min_cutoff: f64,
@@ -195,23 +195,8 @@ fn settings(args: &RunArgs, tracking: bool) -> Result<Settings> {
         detect_every: args.detect_every,
         max_frames: args.max_frames,
         threads: args.threads,
-        rectify: match args.rectify_crops {
-            Rectify::Off => RectifyCrops::Off,
-            Rectify::Lenses => RectifyCrops::Lenses,
-            Rectify::All => RectifyCrops::All,
-        },
+        rectify: args.rectify_crops,
     })
-}
-
-/// `--rectify-crops` ([`RectifyCrops`]).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub(crate) enum Rectify {
-    /// Never.
-    Off,
-    /// Calibrated cameras with distortion or a fisheye lens.
-    Lenses,
-    /// Every calibrated camera.
-    All,
 }
 
 /// How long a video may deliver no frame before it counts as stalled.
