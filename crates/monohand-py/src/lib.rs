@@ -588,7 +588,7 @@ impl PySession {
 #[pymethods]
 impl PySession {
     #[new]
-    #[pyo3(signature = (cameras=None, hands=2, tracking=true, model_dir=None, smoothing=false, heads=false, detect_every=10, models=None, hand_scale=1.0, mirror_pass=true))]
+    #[pyo3(signature = (cameras=None, hands=2, tracking=true, model_dir=None, smoothing=false, heads=false, detect_every=10, models=None, hand_scale=1.0, mirror_pass=true, rectify_crops="off"))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -602,8 +602,12 @@ impl PySession {
         models: Option<PyRef<'_, PyModels>>,
         hand_scale: f64,
         mirror_pass: bool,
+        rectify_crops: &str,
     ) -> PyResult<PySession> {
         let cameras = to_cameras(cameras)?;
+        let rectify = rectify_crops
+            .parse()
+            .map_err(|e| PyValueError::new_err(format!("rectify_crops: {e}")))?;
         let mut options = SessionOptions::default()
             .hands(hands)
             .tracking(tracking)
@@ -612,6 +616,7 @@ impl PySession {
             .skeletons(skeletons(hand_scale)?)
             .smoothing(smoothing.then(OneEuroParams::default))
             .detect_every(detect_every);
+        options.settings.rectify = rectify;
         let resolved = options
             .settings
             .clone()

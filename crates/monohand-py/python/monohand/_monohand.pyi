@@ -160,6 +160,7 @@ class Session:
         models: Optional[Models] = None,
         hand_scale: float = 1.0,
         mirror_pass: bool = True,
+        rectify_crops: str = "off",
     ) -> None: ...
     def process(self, image: Union[Image, List[Image]], time_s: Optional[float] = None) -> List[Hand]:
         """One frame (default time: 30 fps); its hands."""
