@@ -183,9 +183,9 @@ fn assert_recovers(label: &str, cal: &CameraCalibration, truth: &Camera) {
             "{label} {name}: {g} vs {w}, {sigmas:.1} sigma"
         );
     }
-    // 0.2 px of noise over 20 views of 54 corners pins the focal length to a fraction of
-    // a pixel and the principal point to about a pixel.
-    assert!(std[0] < 0.5 && std[1] < 0.5, "{label}: focal sigma {std:?}");
+    // 0.2 px of noise over 15-20 views of 54 corners pins the focal length and the
+    // principal point to under a pixel (measured: 0.25-0.48 px).
+    assert!(std[0] < 1.0 && std[1] < 1.0, "{label}: focal sigma {std:?}");
     assert!(
         std[2] < 1.0 && std[3] < 1.0,
         "{label}: centre sigma {std:?}"
