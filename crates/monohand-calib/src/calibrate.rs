@@ -10,6 +10,14 @@
 //! are OpenCV's `stdDeviationsIntrinsics` (`s^2 (J^T J)^-1`). On OpenCV's stereo sample the
 //! results equal OpenCV's (`tests/calibrate.rs`).
 //!
+//! [`DistortionModel::Fisheye`] is OpenCV's `cv::fisheye::calibrate` (with
+//! `CALIB_RECOMPUTE_EXTRINSIC | CALIB_FIX_SKEW`): the Kannala-Brandt model of
+//! `monohand_core::camera::LensModel::Fisheye` with k1..k4. Its start is the principal point
+//! at the centre and an equidistant lens (`k = 0`) whose focal length fits the views best,
+//! each view's pose from the homography of its corners undistorted by that lens; then the
+//! same refinement. On OpenCV's stereo sample it equals `cv2.fisheye.calibrate` and
+//! `cv2.fisheye.stereoCalibrate` on the same corners (`tests/fisheye.rs`).
+//!
 //! A rig ([`calibrate_rig`]) is each camera calibrated alone, the cameras placed from the
 //! instants they share (chordal mean of the rotations, median of the translations), then one
 //! joint refinement as `cv::stereoCalibrate` (with or without its intrinsics, see
@@ -17,7 +25,7 @@
 
 use crate::board::Board;
 use crate::error::CalibResult;
-use monohand_core::camera::{Camera, Extrinsics};
+use monohand_core::camera::{Camera, Extrinsics, LensModel};
 use nalgebra::Point2;
 
 /// The lens distortion estimated.
@@ -28,6 +36,21 @@ pub enum DistortionModel {
     Standard,
     /// OpenCV's rational model, eight coefficients: k1 k2 p1 p2 k3 k4 k5 k6.
     Rational,
+    /// OpenCV's fisheye model (`cv::fisheye`, Kannala-Brandt), four coefficients of the
+    /// angle from the axis: k1 k2 k3 k4 (no tangential terms, no skew). For lenses wider
+    /// than about 120 degrees, where the pinhole's polynomial in `tan(theta)` cannot follow.
+    Fisheye,
+}
+
+impl DistortionModel {
+    /// The lens model the calibration's camera has: [`LensModel::Fisheye`] for
+    /// [`DistortionModel::Fisheye`], [`LensModel::Pinhole`] for the others.
+    pub fn lens(self) -> LensModel {
+        match self {
+            DistortionModel::Standard | DistortionModel::Rational => LensModel::Pinhole,
+            DistortionModel::Fisheye => LensModel::Fisheye,
+        }
+    }
 }
 
 /// Options of a calibration.
@@ -93,7 +116,8 @@ pub struct IntrinsicsStd {
     pub cx: f64,
     /// Principal point y, pixels.
     pub cy: f64,
-    /// Distortion coefficients, OpenCV order (k1 k2 p1 p2 k3 k4 k5 k6; zero where fixed).
+    /// Distortion coefficients in [`monohand_core::camera::Distortion::coeffs`]' order (the
+    /// pinhole's k1 k2 p1 p2 k3 k4 k5 k6, the fisheye's k1 k2 k3 k4; zero where fixed).
     pub distortion: [f64; 8],
 }
 

@@ -14,9 +14,11 @@
 
 use monohand_calib::calibrate::{
     calibrate_camera, calibrate_rig, BoardView, CalibrateOptions, CameraCalibration,
+    DistortionModel,
 };
 use monohand_calib::corners::find_chessboard_with;
 use monohand_calib::{Board, GrayImage};
+use monohand_core::camera::LensModel;
 use monohand_testkit::shared_data;
 use nalgebra::{Rotation3, Vector3};
 
@@ -71,6 +73,34 @@ fn each_camera_matches_opencv_with_a_window_that_fits_the_squares() {
         let cal = calibrate_camera(&board, &views(prefix, &board, None), 640, 480, &opts).unwrap();
         assert_eq!(cal.used_views(), 13, "{prefix}: no view dropped");
         check(prefix, &cal, cv);
+    }
+}
+
+/// What `monohand calibrate --model fisheye` computes on these photos: the fisheye model
+/// (k1..k4) fits a 60 degree lens about as well as the pinhole does, with the same focal
+/// length (both are `f theta` near the axis). OpenCV's pinhole numbers (window 5) are the
+/// reference; tests/fisheye.rs compares with cv2.fisheye.calibrate on the same corners.
+#[test]
+fn the_fisheye_model_fits_the_photos_as_the_pinhole_does() {
+    let board = Board::new(BOARD.0, BOARD.1, BOARD.2).unwrap();
+    let opts = CalibrateOptions {
+        model: DistortionModel::Fisheye,
+        ..CalibrateOptions::default()
+    };
+    for (prefix, cv) in [
+        ("left", [532.827, 532.946, 342.487, 233.856, 0.1954]),
+        ("right", [537.453, 536.969, 327.586, 248.882, 0.2070]),
+    ] {
+        let cal = calibrate_camera(&board, &views(prefix, &board, None), 640, 480, &opts).unwrap();
+        let d = cal.camera.distortion;
+        println!(
+            "{prefix}, fisheye: k {:?}, {} views",
+            d.listed(),
+            cal.used_views()
+        );
+        assert_eq!(d.model, LensModel::Fisheye);
+        assert_eq!(cal.used_views(), 13, "{prefix}: no view dropped");
+        check(&format!("{prefix}, fisheye"), &cal, cv);
     }
 }
 

@@ -36,7 +36,8 @@ pub(crate) struct CalibrateArgs {
         required_unless_present = "print_board"
     )]
     output: Option<PathBuf>,
-    /// The lens distortion estimated: OpenCV's k1 k2 p1 p2 k3, or its rational model (8).
+    /// The lens model estimated: OpenCV's k1 k2 p1 p2 k3, its rational model (8), or its
+    /// fisheye (Kannala-Brandt k1..k4) for lenses wider than about 120 degrees.
     #[arg(long, value_enum, default_value_t = Model::Standard)]
     model: Model,
     /// Also write each camera as OpenCV FileStorage YAML beside its JSON.
@@ -73,6 +74,9 @@ enum Model {
     Standard,
     /// k1 k2 p1 p2 k3 k4 k5 k6.
     Rational,
+    /// OpenCV's fisheye model (`cv::fisheye`, Kannala-Brandt): k1 k2 k3 k4 of the angle
+    /// from the optical axis, no tangential terms; for lenses wider than about 120 degrees.
+    Fisheye,
 }
 
 pub(crate) fn run(args: &CalibrateArgs) -> Result<()> {
@@ -92,6 +96,7 @@ pub(crate) fn run(args: &CalibrateArgs) -> Result<()> {
     settings.options.model = match args.model {
         Model::Standard => DistortionModel::Standard,
         Model::Rational => DistortionModel::Rational,
+        Model::Fisheye => DistortionModel::Fisheye,
     };
     let mut window = match args.show {
         true => Some(CalibrationWindow::open("monohand calibrate").context("--show")?),

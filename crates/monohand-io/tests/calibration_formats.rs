@@ -8,7 +8,7 @@
 use monohand_core::camera::{Camera, Distortion, Extrinsics, LensModel};
 use monohand_io::calibration::{
     calibrated_camera_json, detect_format, opencv_yaml, parse_calibration, read_calibration,
-    read_calibrations, CalibrationFormat, CalibrationInfo,
+    read_calibrations, CalibrationFormat, CalibrationInfo, CameraStd,
 };
 use nalgebra::{Matrix4, Point2, Rotation3, Vector3, Vector4};
 use std::path::PathBuf;
@@ -329,4 +329,52 @@ fn a_fisheye_round_trips_through_the_projects_json_and_opencv_yaml() {
     let json = calibrated_camera_json(&zero, &info()).to_string();
     let back = parse_calibration(&json, "cam.json").unwrap().camera;
     assert_eq!(back.distortion.model, LensModel::Fisheye);
+}
+
+#[test]
+fn a_fisheye_calibration_is_written_with_its_model_and_reads_back_as_one() {
+    // What `monohand calibrate --model fisheye` writes: a fisheye camera of monohand-calib's
+    // (a 168 degree lens, all four coefficients) with its RMS and 4 standard deviations.
+    let cam = Camera::fisheye(
+        399.702,
+        401.098,
+        634.943,
+        363.895,
+        1280,
+        720,
+        [0.08114, -0.03138, 0.00913, -0.00127],
+    )
+    .unwrap();
+    let info = CalibrationInfo {
+        rms_px: 0.196,
+        std: Some(CameraStd {
+            fx: 0.353,
+            fy: 0.394,
+            cx: 0.455,
+            cy: 0.438,
+            dist: vec![0.00214, 0.00321, 0.00205, 0.00044],
+        }),
+        ..info()
+    };
+    let json = calibrated_camera_json(&cam, &info);
+    assert_eq!(json["model"], "fisheye");
+    assert_eq!(json["dist"].as_array().unwrap().len(), 4);
+    assert_eq!(json["std"]["dist"].as_array().unwrap().len(), 4);
+    let back = parse_calibration(&json.to_string(), "cam.json").unwrap();
+    assert_eq!(back.camera.distortion, cam.distortion);
+    assert_eq!(back.camera.intrinsics, cam.intrinsics);
+    assert_eq!(back.reprojection_error_px, Some(0.196));
+    let yaml = opencv_yaml(&cam, &info);
+    assert!(yaml.contains("fisheye_model: 1\n"), "{yaml}");
+    assert!(yaml.contains("rows: 1\n   cols: 4\n"), "{yaml}");
+    let back = parse_calibration(&yaml, "cam.yaml").unwrap();
+    assert_eq!(back.camera.distortion.model, LensModel::Fisheye);
+    assert_eq!(back.camera.distortion, cam.distortion);
+    assert_eq!(back.camera.intrinsics, cam.intrinsics);
+    assert_eq!(back.reprojection_error_px, Some(0.196));
+    // Both read back project a ray 80 degrees off the axis where the camera does.
+    let ray = Vector3::new(80f64.to_radians().tan(), 0.3, 1.0);
+    let want = cam.project_cam(&ray).unwrap();
+    let got = back.camera.project_cam(&ray).unwrap();
+    assert!((got - want).norm() < 1e-9, "{got:?} vs {want:?}");
 }

@@ -1288,10 +1288,11 @@ fn calibrate<'py>(
     settings.options.model = match model {
         "standard" => cal::DistortionModel::Standard,
         "rational" => cal::DistortionModel::Rational,
+        "fisheye" => cal::DistortionModel::Fisheye,
         other => {
             return Err(value(
                 "model",
-                format!("{other:?} is not 'standard' or 'rational'"),
+                format!("{other:?} is not 'standard', 'rational' or 'fisheye'"),
             ))
         }
     };

@@ -49,3 +49,18 @@ def test_a_rig_and_bad_input(tmp_path: Path) -> None:
     with pytest.raises(monohand.MonohandError, match="a chessboard with 9x6 inner corners"):
         monohand.calibrate(f"{PHOTOS}/left*.jpg", board="8x6", square_mm=25, output=tmp_path / "x.json")
     assert not (tmp_path / "x.json").exists()
+
+
+def test_the_fisheye_model(tmp_path: Path) -> None:
+    # OpenCV's fisheye model on a 60 degree lens: the same focal length as the pinhole's
+    # (532.3 here; OpenCV's pinhole 532.827) and an RMS near its 0.195 px (0.203 measured
+    # by crates/monohand-calib/tests/end_to_end.rs on the same corners).
+    out = tmp_path / "fisheye.json"
+    result = monohand.calibrate(f"{PHOTOS}/left*.jpg", board="9x6", square_mm=25, output=out, model="fisheye")
+    cam = result["cameras"][0]
+    assert cam["model"] == "fisheye" and len(cam["dist"]) == 4
+    assert abs(cam["fx"] / 532.827 - 1) < 0.005 and cam["rms_px"] < 0.25
+    assert "fisheye" in result["summary"]
+    assert monohand.Camera.load(out).fx == cam["fx"]
+    with pytest.raises(ValueError, match="'fisheye'"):
+        monohand.calibrate(str(PHOTOS), board="9x6", square_mm=25, model="omni")

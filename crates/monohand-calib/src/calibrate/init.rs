@@ -1,8 +1,12 @@
 //! Zhang's closed-form start: each view's homography (normalised DLT), the focal lengths
 //! from the homographies with the principal point at the image centre (as OpenCV's
-//! `initIntrinsicParams2D`), and each view's pose from `K^-1 H`.
+//! `initIntrinsicParams2D`), and each view's pose from `K^-1 H`. For the fisheye, the same
+//! on the corners undistorted by an equidistant lens (`r = f theta`, the fisheye with
+//! `k = 0`), whose focal length is the one of a ladder under which the views' boards fit
+//! best ([`fisheye_start`]).
 
 use super::projection::Pose;
+use monohand_core::camera::Distortion;
 use nalgebra::{DMatrix, Matrix2, Matrix3, Point2, Rotation3, Vector2, Vector3};
 
 /// The similarity that moves points' centroid to the origin and their mean distance to √2
@@ -160,6 +164,120 @@ pub(crate) fn nearest_rotation(m: &Matrix3<f64>) -> Option<Matrix3<f64>> {
         r = u2 * vt;
     }
     Some(r)
+}
+
+/// The fisheye's start: the focal length `f` of an equidistant lens (`r = f theta`, the
+/// fisheye with `k = 0`) centred at `c`, and each view's board pose under it (or why none).
+///
+/// As `cv::fisheye::calibrate`, the principal point starts at the centre and each view's
+/// pose comes from the homography of its corners undistorted by the current guess. The
+/// guess is the best of a ladder of focal lengths (eighth-octave steps from a 360 degree to
+/// a 3 degree field across the image's longer side, and `pinhole_focal`, Zhang's on the
+/// raw corners, if given): best is the lowest median over the views of their RMS
+/// reprojection error under it (infinite for a view without a pose; views posed under no
+/// focal length of the ladder are left out). A view whose corners are 90 degrees or more
+/// off the axis under the guess has no pose (its undistorted corners are at infinity).
+pub(crate) fn fisheye_start(
+    object: &[Vector3<f64>],
+    views: &[&[Point2<f64>]],
+    size: (u32, u32),
+    c: (f64, f64),
+    pinhole_focal: Option<f64>,
+) -> (f64, Vec<Result<Pose, String>>) {
+    let side = f64::from(size.0.max(size.1));
+    let ladder = (-8..=48).map(|i| side / std::f64::consts::PI * 2f64.powf(i as f64 / 8.0));
+    let focals: Vec<f64> = ladder
+        .chain(pinhole_focal.filter(|f| f.is_finite() && *f > 0.0))
+        .collect();
+    // Per focal length, each view's RMS under it (infinite without a pose).
+    let rms: Vec<Vec<f64>> = focals
+        .iter()
+        .map(|&f| {
+            views
+                .iter()
+                .map(|v| match equidistant_pose(object, v, f, c) {
+                    Ok(p) => equidistant_rms(object, v, &p, f, c),
+                    Err(_) => f64::INFINITY,
+                })
+                .collect()
+        })
+        .collect();
+    // Views posed under no focal length do not take part in the choice.
+    let hopeful: Vec<usize> = (0..views.len())
+        .filter(|&i| rms.iter().any(|r| r[i].is_finite()))
+        .collect();
+    let score = |r: &[f64]| {
+        let mut s: Vec<f64> = hopeful.iter().map(|&i| r[i]).collect();
+        s.sort_by(f64::total_cmp);
+        s.get(s.len() / 2).copied().unwrap_or(f64::INFINITY)
+    };
+    let f = focals
+        .iter()
+        .zip(&rms)
+        .map(|(&f, r)| (f, score(r)))
+        .filter(|(_, s)| s.is_finite())
+        .min_by(|a, b| a.1.total_cmp(&b.1))
+        .map_or(side / std::f64::consts::PI, |(f, _)| f);
+    let poses = views
+        .iter()
+        .map(|v| equidistant_pose(object, v, f, c))
+        .collect();
+    (f, poses)
+}
+
+/// A view's board pose under an equidistant lens of focal length `f` centred at `c`: the
+/// pose from the homography of its corners undistorted to the pinhole's normalised plane.
+fn equidistant_pose(
+    object: &[Vector3<f64>],
+    corners: &[Point2<f64>],
+    f: f64,
+    c: (f64, f64),
+) -> Result<Pose, String> {
+    let lens = Distortion::fisheye([0.0; 4]).map_err(|e| e.to_string())?;
+    let pinhole = corners
+        .iter()
+        .map(|p| {
+            let d = Vector2::new((p.x - c.0) / f, (p.y - c.1) / f);
+            lens.undistort(d).map(Point2::from)
+        })
+        .collect::<Option<Vec<_>>>()
+        .ok_or_else(|| {
+            format!(
+                "a corner 90 degrees or more off the axis under the start's focal length {f:.1} px"
+            )
+        })?;
+    let h = homography(object, &pinhole).map_err(|e| format!("no homography: {e}"))?;
+    pose_from_homography(&Matrix3::identity(), &h)
+        .ok_or_else(|| "no pose from the homography (the board behind the camera?)".into())
+}
+
+/// RMS pixel error of a view's corners against the board at `pose` seen through the
+/// equidistant lens of focal length `f` centred at `c`; infinite if a corner is behind.
+fn equidistant_rms(
+    object: &[Vector3<f64>],
+    corners: &[Point2<f64>],
+    pose: &Pose,
+    f: f64,
+    c: (f64, f64),
+) -> f64 {
+    let Ok(lens) = Distortion::fisheye([0.0; 4]) else {
+        return f64::INFINITY;
+    };
+    let mut sse = 0.0;
+    for (x, p) in object.iter().zip(corners) {
+        let xc = pose.r * x + pose.t;
+        if xc.z.is_nan() || xc.z <= 1e-9 {
+            return f64::INFINITY;
+        }
+        let n = lens.distort(Vector2::new(xc.x / xc.z, xc.y / xc.z));
+        sse += (Vector2::new(f * n.x + c.0, f * n.y + c.1) - p.coords).norm_squared();
+    }
+    let rms = (sse / object.len().max(1) as f64).sqrt();
+    if rms.is_nan() {
+        f64::INFINITY
+    } else {
+        rms
+    }
 }
 
 #[cfg(test)]

@@ -1,10 +1,13 @@
 //! OpenCV's projection of a board corner through a rig (board pose, camera pose, lens), with
 //! its analytic Jacobians.
 //!
-//! Intrinsics are packed as `[fx, fy, cx, cy, k1, k2, p1, p2, k3, k4, k5, k6]`; poses are
-//! updated by a local increment `(w, dt)`: `R <- exp(w) R`, `t <- t + dt`.
+//! Intrinsics are packed as `[fx, fy, cx, cy, c1, .., c8]`, the eight coefficients those of
+//! the lens model ([`LensModel`]): for the pinhole `k1, k2, p1, p2, k3, k4, k5, k6`, for the
+//! fisheye `k1, k2, k3, k4` and four slots held at zero. Poses are updated by a local
+//! increment `(w, dt)`: `R <- exp(w) R`, `t <- t + dt`.
 
-use nalgebra::{Matrix2x3, Matrix3, Rotation3, SMatrix, Vector2, Vector3};
+use monohand_core::camera::{Distortion, LensModel};
+use nalgebra::{Matrix2, Matrix2x3, Matrix3, Rotation3, SMatrix, Vector2, Vector3};
 
 /// Intrinsic parameters of one camera: focal lengths, principal point, 8 distortion coefficients.
 pub(crate) const N_INTR: usize = 12;
@@ -75,15 +78,62 @@ pub(crate) struct Projection {
     pub d_point: Matrix2x3<f64>,
 }
 
-/// Projects a camera-frame point with OpenCV's pinhole model (radial-tangential and
-/// rational: `monohand_core::camera::LensModel::Pinhole`, as
-/// `monohand_core::camera::Distortion::distort`), with the Jacobians. The only model this
-/// crate calibrates: its intrinsics (`Intr`) have no lens model to be told another. `None` for a point
-/// that is not in front of the camera or a non-finite result.
-pub(crate) fn project(p: &Intr, x: &Vector3<f64>) -> Option<Projection> {
+/// Projects a camera-frame point through `lens` with the packed intrinsics `p`, with the
+/// Jacobians. `None` for a point that is not in front of the camera (`z <= 1e-9`; a
+/// fisheye's too: as `cv::fisheye::calibrate`, a board corner is less than 90 degrees off
+/// the axis) or a non-finite result.
+pub(crate) fn project(lens: LensModel, p: &Intr, x: &Vector3<f64>) -> Option<Projection> {
     if x.z.is_nan() || x.z <= 1e-9 {
         return None;
     }
+    match lens {
+        LensModel::Pinhole => project_pinhole(p, x),
+        LensModel::Fisheye => project_fisheye(p, x),
+    }
+}
+
+/// A lens's distortion from packed intrinsics: the fisheye's four coefficients, the
+/// pinhole's eight.
+fn distortion(lens: LensModel, p: &Intr) -> Distortion {
+    let mut coeffs = [p[4], p[5], p[6], p[7], p[8], p[9], p[10], p[11]];
+    if lens == LensModel::Fisheye {
+        coeffs[4..].fill(0.0);
+    }
+    Distortion {
+        model: lens,
+        coeffs,
+    }
+}
+
+/// [`project`] through OpenCV's fisheye (Kannala-Brandt, `monohand_core`'s
+/// [`LensModel::Fisheye`]): the normalised point and its Jacobians from
+/// [`Distortion::project_with_jacobians`], then `(fx n.x + cx, fy n.y + cy)` (no skew).
+fn project_fisheye(p: &Intr, x: &Vector3<f64>) -> Option<Projection> {
+    let (n, jn, jk) = distortion(LensModel::Fisheye, p).project_with_jacobians(x)?;
+    let (fx, fy) = (p[0], p[1]);
+    let px = Vector2::new(fx * n.x + p[2], fy * n.y + p[3]);
+    if !(px.x.is_finite() && px.y.is_finite()) {
+        return None;
+    }
+    let f = Matrix2::new(fx, 0.0, 0.0, fy);
+    let mut d_intr = SMatrix::<f64, 2, N_INTR>::zeros();
+    d_intr[(0, 0)] = n.x;
+    d_intr[(1, 1)] = n.y;
+    d_intr[(0, 2)] = 1.0;
+    d_intr[(1, 3)] = 1.0;
+    d_intr
+        .fixed_view_mut::<2, 4>(0, 4)
+        .copy_from(&(f * jk.fixed_view::<2, 4>(0, 0)));
+    Some(Projection {
+        px,
+        d_intr,
+        d_point: f * jn,
+    })
+}
+
+/// [`project`] through OpenCV's pinhole model (radial-tangential and rational:
+/// [`LensModel::Pinhole`], as [`Distortion::distort`]).
+fn project_pinhole(p: &Intr, x: &Vector3<f64>) -> Option<Projection> {
     let [fx, fy, _cx, _cy, k1, k2, p1, p2, k3, k4, k5, k6] = *p;
     let iz = 1.0 / x.z;
     let (xn, yn) = (x.x * iz, x.y * iz);
@@ -154,8 +204,10 @@ pub(crate) struct CornerProjection {
 }
 
 /// Projects board point `x` (board frame) with the board at `board` in the first camera's
-/// frame and the camera at `rel` from the first camera: `X_cam = rel (board x)`.
+/// frame and the camera at `rel` from the first camera: `X_cam = rel (board x)`, through
+/// `lens`.
 pub(crate) fn project_corner(
+    lens: LensModel,
     p: &Intr,
     rel: &Pose,
     board: &Pose,
@@ -164,7 +216,7 @@ pub(crate) fn project_corner(
     let xb = board.r * x;
     let y = xb + board.t;
     let ry = rel.r * y;
-    let pr = project(p, &(ry + rel.t))?;
+    let pr = project(lens, p, &(ry + rel.t))?;
     let rm = rel.r.matrix();
     let jp = pr.d_point;
     let mut d_rel = SMatrix::<f64, 2, 6>::zeros();
@@ -188,6 +240,7 @@ pub(crate) fn project_corner(
 
 /// Just the pixel of [`project_corner`], without the Jacobians.
 pub(crate) fn corner_pixel(
+    lens: LensModel,
     p: &Intr,
     rel: &Pose,
     board: &Pose,
@@ -197,11 +250,7 @@ pub(crate) fn corner_pixel(
     if xc.z.is_nan() || xc.z <= 1e-9 {
         return None;
     }
-    let d = monohand_core::camera::Distortion {
-        model: monohand_core::camera::LensModel::Pinhole,
-        coeffs: [p[4], p[5], p[6], p[7], p[8], p[9], p[10], p[11]],
-    }
-    .distort(Vector2::new(xc.x / xc.z, xc.y / xc.z));
+    let d = distortion(lens, p).distort(Vector2::new(xc.x / xc.z, xc.y / xc.z));
     let px = Vector2::new(p[0] * d.x + p[2], p[1] * d.y + p[3]);
     (px.x.is_finite() && px.y.is_finite()).then_some(px)
 }
@@ -214,11 +263,11 @@ mod tests {
 
     /// OpenCV's projection over dual numbers: intrinsics, then a rotation-vector increment
     /// (first order, exact for derivatives at zero) and a translation increment of the
-    /// relative pose and of the board pose.
+    /// relative pose and of the board pose, through `lens` written out from its definition.
     fn project_generic<D: DualNum<Primitive = f64> + Copy>(
+        lens: LensModel,
         p: &[D; N_INTR],
-        rel: &Pose,
-        board: &Pose,
+        (rel, board): (&Pose, &Pose),
         d_rel: &[D; 6],
         d_board: &[D; 6],
         x: &Vector3<f64>,
@@ -240,6 +289,15 @@ mod tests {
         let y: [D; 3] = std::array::from_fn(|i| xb[i] + D::from(board.t[i]) + d_board[3 + i]);
         let ry = inc(d_rel, mat(&rel.r, y));
         let xc: [D; 3] = std::array::from_fn(|i| ry[i] + D::from(rel.t[i]) + d_rel[3 + i]);
+        let (xd, yd) = match lens {
+            LensModel::Pinhole => radtan_generic(p, xc),
+            LensModel::Fisheye => fisheye_generic(p, xc),
+        };
+        [p[0] * xd + p[2], p[1] * yd + p[3]]
+    }
+
+    /// OpenCV's radial-tangential (rational) distortion of a camera-frame point.
+    fn radtan_generic<D: DualNum<Primitive = f64> + Copy>(p: &[D; N_INTR], xc: [D; 3]) -> (D, D) {
         let (xn, yn) = (xc[0] / xc[2], xc[1] / xc[2]);
         let r2 = xn * xn + yn * yn;
         let r4 = r2 * r2;
@@ -248,77 +306,112 @@ mod tests {
         let two = D::from(2.0);
         let rad =
             (one + p[4] * r2 + p[5] * r4 + p[8] * r6) / (one + p[9] * r2 + p[10] * r4 + p[11] * r6);
-        let xd = xn * rad + two * p[6] * xn * yn + p[7] * (r2 + two * xn * xn);
-        let yd = yn * rad + p[6] * (r2 + two * yn * yn) + two * p[7] * xn * yn;
-        [p[0] * xd + p[2], p[1] * yd + p[3]]
+        (
+            xn * rad + two * p[6] * xn * yn + p[7] * (r2 + two * xn * xn),
+            yn * rad + p[6] * (r2 + two * yn * yn) + two * p[7] * xn * yn,
+        )
+    }
+
+    /// Kannala-Brandt: `theta_d = theta (1 + k1 theta^2 + .. + k4 theta^8)` along the ray's
+    /// direction, `k` in slots 4-7.
+    fn fisheye_generic<D: DualNum<Primitive = f64> + Copy>(p: &[D; N_INTR], xc: [D; 3]) -> (D, D) {
+        let r = (xc[0] * xc[0] + xc[1] * xc[1]).sqrt();
+        let theta = r.atan2(xc[2]);
+        let t2 = theta * theta;
+        let one = D::from(1.0);
+        let theta_d = theta * (one + t2 * (p[4] + t2 * (p[5] + t2 * (p[6] + t2 * p[7]))));
+        (xc[0] * theta_d / r, xc[1] * theta_d / r)
     }
 
     fn close(a: f64, n: f64, scale: f64) -> bool {
         (a - n).abs() <= 1e-6 * n.abs().max(1e-6 * scale)
     }
 
-    /// The analytic Jacobians against dual numbers: intrinsics, all 8 distortion
-    /// coefficients, the rotation and translation increments of both poses.
+    /// The analytic Jacobians of `project_corner` against dual numbers at `x`: the 12
+    /// intrinsics, the rotation and translation increments of both poses.
+    fn check_against_duals(lens: LensModel, p: &Intr, rel: &Pose, board: &Pose, x: &Vector3<f64>) {
+        let a = project_corner(lens, p, rel, board, x).unwrap();
+        let b = corner_pixel(lens, p, rel, board, x).unwrap();
+        assert!((a.px - b).norm() < 1e-9);
+        let (v, j) = jacobian(
+            |q: SVector<DualVec64<Const<12>>, 12>| {
+                let q: [_; 12] = std::array::from_fn(|i| q[i]);
+                let z = [DualVec64::from(0.0); 6];
+                SVector::from(project_generic(lens, &q, (rel, board), &z, &z, x))
+            },
+            &SVector::from(*p),
+        );
+        assert!((a.px - v).norm() < 1e-9);
+        let scale = j.amax();
+        for (an, nu) in a.d_intr.iter().zip(j.iter()) {
+            assert!(
+                close(*an, *nu, scale),
+                "{lens} intrinsics: {an} vs {nu}\n{}\n{j}",
+                a.d_intr
+            );
+        }
+        let (_, j) = jacobian(
+            |d: SVector<DualVec64<Const<12>>, 12>| {
+                let q = p.map(DualVec64::from);
+                let dr: [_; 6] = std::array::from_fn(|i| d[i]);
+                let db: [_; 6] = std::array::from_fn(|i| d[6 + i]);
+                SVector::from(project_generic(lens, &q, (rel, board), &dr, &db, x))
+            },
+            &SVector::<f64, 12>::zeros(),
+        );
+        let scale = j.amax();
+        for c in 0..6 {
+            for r in 0..2 {
+                assert!(
+                    close(a.d_rel[(r, c)], j[(r, c)], scale),
+                    "{lens} rel {r},{c}"
+                );
+                assert!(
+                    close(a.d_board[(r, c)], j[(r, 6 + c)], scale),
+                    "{lens} board {r},{c}"
+                );
+            }
+        }
+    }
+
+    /// The analytic Jacobians against dual numbers, through both lens models: intrinsics,
+    /// every distortion coefficient, the rotation and translation increments of both
+    /// poses; the fisheye's corners up to 69 degrees off the axis.
     #[test]
     fn jacobians_match_dual_numbers() {
-        let p: Intr = [
+        let pinhole: Intr = [
             900.0, 905.0, 650.0, 350.0, -0.3, 0.12, 1e-3, -5e-4, -0.02, 0.05, -0.01, 0.003,
+        ];
+        let fisheye: Intr = [
+            480.0, 482.0, 641.0, 358.0, 0.02, -0.005, 1e-3, -2e-4, 0.0, 0.0, 0.0, 0.0,
         ];
         let board = Pose {
             r: Rotation3::from_euler_angles(0.4, -0.3, 0.2),
             t: Vector3::new(-60.0, 40.0, 520.0),
         };
+        // Far off the axis: the corners 64-69 degrees from it.
+        let wide = Pose {
+            r: Rotation3::from_euler_angles(0.3, -0.5, -0.1),
+            t: Vector3::new(420.0, -180.0, 200.0),
+        };
         let rel = Pose {
             r: Rotation3::from_euler_angles(0.02, 0.09, -0.04),
             t: Vector3::new(-60.0, 1.0, 2.0),
         };
-        for x in [
+        let corners = [
             Vector3::new(0.0, 0.0, 0.0),
             Vector3::new(200.0, 125.0, 0.0),
             Vector3::new(75.0, 50.0, 0.0),
-        ] {
-            let a = project_corner(&p, &rel, &board, &x).unwrap();
-            let b = corner_pixel(&p, &rel, &board, &x).unwrap();
-            assert!((a.px - b).norm() < 1e-9);
-            // Intrinsics.
-            let (v, j) = jacobian(
-                |q: SVector<DualVec64<Const<12>>, 12>| {
-                    let q: [_; 12] = std::array::from_fn(|i| q[i]);
-                    let z = [DualVec64::from(0.0); 6];
-                    SVector::from(project_generic(&q, &rel, &board, &z, &z, &x))
-                },
-                &SVector::from(p),
-            );
-            assert!((a.px - v).norm() < 1e-9);
-            let scale = j.amax();
-            for (an, nu) in a.d_intr.iter().zip(j.iter()) {
-                assert!(
-                    close(*an, *nu, scale),
-                    "intrinsics: {an} vs {nu}\n{}\n{j}",
-                    a.d_intr
-                );
-            }
-            // The two poses' increments.
-            let (_, j) = jacobian(
-                |d: SVector<DualVec64<Const<12>>, 12>| {
-                    let q = p.map(DualVec64::from);
-                    let dr: [_; 6] = std::array::from_fn(|i| d[i]);
-                    let db: [_; 6] = std::array::from_fn(|i| d[6 + i]);
-                    SVector::from(project_generic(&q, &rel, &board, &dr, &db, &x))
-                },
-                &SVector::<f64, 12>::zeros(),
-            );
-            let scale = j.amax();
-            for c in 0..6 {
-                for r in 0..2 {
-                    assert!(close(a.d_rel[(r, c)], j[(r, c)], scale), "rel {r},{c}");
-                    assert!(
-                        close(a.d_board[(r, c)], j[(r, 6 + c)], scale),
-                        "board {r},{c}"
-                    );
-                }
+        ];
+        for x in &corners {
+            check_against_duals(LensModel::Pinhole, &pinhole, &rel, &board, x);
+            for b in [&board, &wide] {
+                check_against_duals(LensModel::Fisheye, &fisheye, &rel, b, x);
             }
         }
+        let xc = rel.r * (wide.r * corners[1] + wide.t) + rel.t;
+        let deg = xc.xy().norm().atan2(xc.z).to_degrees();
+        assert!((63.0..65.0).contains(&deg), "{deg}");
     }
 
     #[test]
@@ -326,8 +419,16 @@ mod tests {
         let p: Intr = [
             500.0, 500.0, 320.0, 240.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
         ];
-        assert!(project(&p, &Vector3::new(0.0, 0.0, -1.0)).is_none());
-        assert!(project(&p, &Vector3::new(f64::NAN, 0.0, 1.0)).is_none());
+        for lens in LensModel::ALL {
+            assert!(project(lens, &p, &Vector3::new(0.0, 0.0, -1.0)).is_none());
+            assert!(project(lens, &p, &Vector3::new(5.0, 1.0, -1.0)).is_none());
+            assert!(project(lens, &p, &Vector3::new(5.0, 1.0, 0.0)).is_none());
+            assert!(project(lens, &p, &Vector3::new(f64::NAN, 0.0, 1.0)).is_none());
+            let id = Pose::identity();
+            let behind = Vector3::new(1.0, 2.0, -3.0);
+            assert!(corner_pixel(lens, &p, &id, &id, &behind).is_none());
+            assert!(project_corner(lens, &p, &id, &id, &behind).is_none());
+        }
     }
 
     #[test]

@@ -176,6 +176,7 @@ pub(crate) fn calibrate(
             })
             .collect(),
         n_cameras: nc,
+        lens: options.model.lens(),
     };
     let intr: Vec<_> = cals
         .iter()
@@ -228,7 +229,7 @@ fn update_camera(
 ) -> CalibResult<()> {
     let s = &solved.state;
     let errs = errors(pb, s);
-    cal.camera = to_camera(&s.intr[k], size, to_extrinsics(&s.rel[k]))?;
+    cal.camera = to_camera(pb.lens, &s.intr[k], size, to_extrinsics(&s.rel[k]))?;
     // `cal.views` are this camera's views in instant order.
     let mut own = views
         .iter()

@@ -1,6 +1,6 @@
 //! One camera's calibration: closed-form start, LM, outlier views, uncertainty, warnings.
 
-use super::init::{focal_from_homographies, homography, pose_from_homography};
+use super::init::{fisheye_start, focal_from_homographies, homography, pose_from_homography};
 use super::projection::{Intr, Pose, N_INTR};
 use super::quality::{intrinsics_std, warnings};
 use super::solver::{errors, solve, Problem, Solved, State};
@@ -57,17 +57,29 @@ pub(crate) fn check_inputs<'a>(
     Ok(())
 }
 
-/// Which of a camera's 12 intrinsics are estimated under `model`.
+/// Which of a camera's 12 intrinsics are estimated under `model`: fx fy cx cy, then the
+/// model's coefficients (the pinhole's k1 k2 p1 p2 k3 [k4 k5 k6], the fisheye's k1..k4).
 pub(crate) fn free_intrinsics(model: DistortionModel) -> [bool; N_INTR] {
     let n = match model {
         DistortionModel::Standard => 9,
         DistortionModel::Rational => 12,
+        DistortionModel::Fisheye => 8,
     };
     std::array::from_fn(|i| i < n)
 }
 
-/// The packed intrinsics as a validated camera with `extrinsics`.
-pub(crate) fn to_camera(p: &Intr, size: (u32, u32), extrinsics: Extrinsics) -> CalibResult<Camera> {
+/// The packed intrinsics of a camera of lens model `lens` as a validated camera with
+/// `extrinsics` (a fisheye's coefficients past its four are dropped: they are held at zero).
+pub(crate) fn to_camera(
+    lens: LensModel,
+    p: &Intr,
+    size: (u32, u32),
+    extrinsics: Extrinsics,
+) -> CalibResult<Camera> {
+    let mut coeffs = [p[4], p[5], p[6], p[7], p[8], p[9], p[10], p[11]];
+    if lens == LensModel::Fisheye {
+        coeffs[4..].fill(0.0);
+    }
     Camera::new(
         Intrinsics {
             fx: p[0],
@@ -77,10 +89,9 @@ pub(crate) fn to_camera(p: &Intr, size: (u32, u32), extrinsics: Extrinsics) -> C
             width: size.0,
             height: size.1,
         },
-        // This crate calibrates the pinhole model (radial-tangential, rational).
         Distortion {
-            model: LensModel::Pinhole,
-            coeffs: [p[4], p[5], p[6], p[7], p[8], p[9], p[10], p[11]],
+            model: lens,
+            coeffs,
         },
         extrinsics,
     )
@@ -141,6 +152,40 @@ fn closed_form(
     (intr, poses)
 }
 
+/// The fisheye's start ([`fisheye_start`]): the principal point at the centre, an
+/// equidistant lens's focal length (the best of a ladder and of Zhang's on the raw corners)
+/// and each view's pose under it; a view without one is dropped with the reason.
+fn fisheye_closed_form(
+    object: &[Vector3<f64>],
+    views: &[BoardView],
+    size: (u32, u32),
+    dropped: &mut [Option<String>],
+) -> (Intr, Vec<Option<Pose>>) {
+    let (w, h) = (size.0 as f64, size.1 as f64);
+    let (cx, cy) = ((w - 1.0) / 2.0, (h - 1.0) / 2.0);
+    let raw: Vec<Matrix3<f64>> = views
+        .iter()
+        .filter_map(|v| homography(object, &v.corners).ok())
+        .collect();
+    let pinhole = focal_from_homographies(&raw, cx, cy).map(|(fx, fy)| (fx * fy).sqrt());
+    let corners: Vec<&[_]> = views.iter().map(|v| v.corners.as_slice()).collect();
+    let (f, starts) = fisheye_start(object, &corners, size, (cx, cy), pinhole);
+    let poses = starts
+        .into_iter()
+        .zip(dropped.iter_mut())
+        .map(|(p, d)| match p {
+            Ok(p) => Some(p),
+            Err(e) => {
+                *d = Some(format!("no start under the fisheye: {e}"));
+                None
+            }
+        })
+        .collect();
+    let mut intr = [0.0; N_INTR];
+    intr[..4].copy_from_slice(&[f, f, cx, cy]);
+    (intr, poses)
+}
+
 /// Solves over the views `used` (indices into `views`) from `intr` and their poses.
 fn solve_views(
     object: &[Vector3<f64>],
@@ -156,7 +201,7 @@ fn solve_views(
             needed: MIN_VIEWS,
         });
     }
-    let pb = one_camera(object, views, used);
+    let pb = one_camera(object, views, used, options.model.lens());
     let start = State {
         intr: vec![intr],
         rel: vec![Pose::identity()],
@@ -172,8 +217,14 @@ fn solve_views(
 }
 
 /// Per used view, its RMS (OpenCV's: per corner, Euclidean).
-fn view_rms(object: &[Vector3<f64>], views: &[BoardView], used: &[usize], s: &State) -> Vec<f64> {
-    let pb = one_camera(object, views, used);
+fn view_rms(
+    object: &[Vector3<f64>],
+    views: &[BoardView],
+    used: &[usize],
+    s: &State,
+    lens: LensModel,
+) -> Vec<f64> {
+    let pb = one_camera(object, views, used, lens);
     errors(&pb, s)
         .iter()
         .map(|b| match b.first() {
@@ -211,11 +262,15 @@ pub(crate) fn calibrate(
     }
     let object = board.object_points();
     let mut dropped: Vec<Option<String>> = vec![None; views.len()];
-    let (intr, mut poses) = closed_form(&object, views, size, &mut dropped);
+    let lens = options.model.lens();
+    let (intr, mut poses) = match lens {
+        LensModel::Pinhole => closed_form(&object, views, size, &mut dropped),
+        LensModel::Fisheye => fisheye_closed_form(&object, views, size, &mut dropped),
+    };
     let mut rms = vec![f64::NAN; views.len()];
     let mut used: Vec<usize> = (0..views.len()).filter(|&i| dropped[i].is_none()).collect();
     let first = solve_views(&object, views, &used, intr, &poses, options)?;
-    let first_rms = view_rms(&object, views, &used, &first.state);
+    let first_rms = view_rms(&object, views, &used, &first.state, lens);
     let med = median(&first_rms);
     let limit = (options.outlier_factor * med).max(1.0);
     for ((&i, &r), pose) in used.iter().zip(&first_rms).zip(&first.state.boards) {
@@ -234,24 +289,35 @@ pub(crate) fn calibrate(
     } else {
         first
     };
-    finish(views, &object, size, &used, solved, dropped, rms, poses)
+    let fit = Fit {
+        used: &used,
+        solved,
+        lens,
+    };
+    finish(views, &object, size, fit, dropped, rms, poses)
+}
+
+/// The final solve: over which views, through which lens.
+struct Fit<'a> {
+    used: &'a [usize],
+    solved: Solved,
+    lens: LensModel,
 }
 
 /// The result from the final solve.
-#[allow(clippy::too_many_arguments)]
 fn finish(
     views: &[BoardView],
     object: &[Vector3<f64>],
     size: (u32, u32),
-    used: &[usize],
-    solved: Solved,
+    fit: Fit<'_>,
     dropped: Vec<Option<String>>,
     mut rms: Vec<f64>,
     mut poses: Vec<Option<Pose>>,
 ) -> CalibResult<CameraCalibration> {
+    let Fit { used, solved, lens } = fit;
     for ((&i, &r), pose) in used
         .iter()
-        .zip(&view_rms(object, views, used, &solved.state))
+        .zip(&view_rms(object, views, used, &solved.state, lens))
         .zip(&solved.state.boards)
     {
         rms[i] = r;
@@ -259,7 +325,7 @@ fn finish(
     }
     let n_corners = used.len() * object.len();
     let intr = solved.state.intr[0];
-    let camera = to_camera(&intr, size, Extrinsics::default())?;
+    let camera = to_camera(lens, &intr, size, Extrinsics::default())?;
     let std = intrinsics_std(&solved, n_corners, 0);
     let warnings = warnings(
         &solved.state.boards,
@@ -293,6 +359,7 @@ fn one_camera<'a>(
     object: &'a [Vector3<f64>],
     views: &'a [BoardView],
     used: &[usize],
+    lens: LensModel,
 ) -> Problem<'a> {
     Problem {
         object,
@@ -301,5 +368,6 @@ fn one_camera<'a>(
             .map(|&i| vec![(0, views[i].corners.as_slice())])
             .collect(),
         n_cameras: 1,
+        lens,
     }
 }

@@ -14,6 +14,7 @@
 //! a step accepted only if it lowers the cost.
 
 use super::projection::{corner_pixel, project_corner, Intr, Pose, N_INTR};
+use monohand_core::camera::LensModel;
 use nalgebra::{DMatrix, DVector, Matrix6, Point2, Vector2, Vector3, Vector6};
 
 /// Relative cost decrease below which the solve has converged.
@@ -34,6 +35,8 @@ pub(crate) struct Problem<'a> {
     pub blocks: Vec<Vec<Observation<'a>>>,
     /// Number of cameras.
     pub n_cameras: usize,
+    /// The lens model of every camera (what their intrinsics' coefficients distort).
+    pub lens: LensModel,
 }
 
 impl Problem<'_> {
@@ -106,7 +109,7 @@ pub(crate) fn cost(pb: &Problem, s: &State) -> Option<f64> {
     for (b, obs) in pb.blocks.iter().enumerate() {
         for &(k, corners) in obs {
             for (x, c) in pb.object.iter().zip(corners) {
-                let px = corner_pixel(&s.intr[k], &s.rel[k], &s.boards[b], x)?;
+                let px = corner_pixel(pb.lens, &s.intr[k], &s.rel[k], &s.boards[b], x)?;
                 sse += (px - c.coords).norm_squared();
             }
         }
@@ -125,7 +128,7 @@ pub(crate) fn errors(pb: &Problem, s: &State) -> Vec<Vec<Option<(f64, usize)>>> 
                 .map(|&(k, corners)| {
                     let mut sse = 0.0;
                     for (x, c) in pb.object.iter().zip(corners) {
-                        let px = corner_pixel(&s.intr[k], &s.rel[k], &s.boards[b], x)?;
+                        let px = corner_pixel(pb.lens, &s.intr[k], &s.rel[k], &s.boards[b], x)?;
                         sse += (px - c.coords).norm_squared();
                     }
                     Some((sse, corners.len()))
@@ -148,7 +151,7 @@ fn linearise(pb: &Problem, s: &State, map: &[Option<usize>], n: &mut Normal) -> 
         *gb = Vector6::zeros();
         for &(k, corners) in obs {
             for (x, c) in pb.object.iter().zip(corners) {
-                let p = project_corner(&s.intr[k], &s.rel[k], &s.boards[b], x)?;
+                let p = project_corner(pb.lens, &s.intr[k], &s.rel[k], &s.boards[b], x)?;
                 let e = p.px - c.coords;
                 sse += e.norm_squared();
                 cols.clear();

@@ -12,7 +12,7 @@
 //!   images rays 90 degrees or more off its axis (`z <= 0`).
 
 use crate::error::{CoreError, CoreResult};
-use nalgebra::{Matrix2, Matrix2x3, Vector2, Vector3};
+use nalgebra::{Matrix2, Matrix2x3, SMatrix, Vector2, Vector3};
 use serde::{Deserialize, Serialize};
 use std::f64::consts::{FRAC_PI_2, PI};
 
@@ -278,6 +278,59 @@ impl Distortion {
         (out.0.iter().chain(out.1.iter()).all(|v| v.is_finite())).then_some(out)
     }
 
+    /// [`Distortion::project_with_jacobian`] with, third, the Jacobian of the normalised
+    /// point with respect to the eight coefficients ([`Distortion::coeffs`]' order): what
+    /// a calibration linearises. A fisheye's columns 5-8 are zero (its model has no such
+    /// coefficients). `None` where [`Distortion::project_with_jacobian`] is.
+    pub fn project_with_jacobians(
+        &self,
+        x: &Vector3<f64>,
+    ) -> Option<(Vector2<f64>, Matrix2x3<f64>, SMatrix<f64, 2, 8>)> {
+        let (n, j) = self.project_with_jacobian(x)?;
+        let mut dk = SMatrix::<f64, 2, 8>::zeros();
+        match self.model {
+            LensModel::Pinhole => {
+                // n = (x rad + tangential, y rad + tangential), rad = a / b.
+                let [k1, k2, _, _, k3, k4, k5, k6] = self.coeffs;
+                let (xn, yn) = (x.x / x.z, x.y / x.z);
+                let r2 = xn * xn + yn * yn;
+                let (r4, r6) = (r2 * r2, r2 * r2 * r2);
+                let a = 1.0 + k1 * r2 + k2 * r4 + k3 * r6;
+                let ib = 1.0 / (1.0 + k4 * r2 + k5 * r4 + k6 * r6);
+                let rb = a * ib * ib;
+                let cols = [
+                    (xn * r2 * ib, yn * r2 * ib),
+                    (xn * r4 * ib, yn * r4 * ib),
+                    (2.0 * xn * yn, r2 + 2.0 * yn * yn),
+                    (r2 + 2.0 * xn * xn, 2.0 * xn * yn),
+                    (xn * r6 * ib, yn * r6 * ib),
+                    (-xn * r2 * rb, -yn * r2 * rb),
+                    (-xn * r4 * rb, -yn * r4 * rb),
+                    (-xn * r6 * rb, -yn * r6 * rb),
+                ];
+                for (c, (dx, dy)) in cols.into_iter().enumerate() {
+                    dk[(0, c)] = dx;
+                    dk[(1, c)] = dy;
+                }
+            }
+            LensModel::Fisheye => {
+                // n = (x, y) theta_d / r, d theta_d / d k_i = theta^(2i + 3): the column is
+                // (x, y) h theta^(2i + 2) with h = theta / r (1 / z on the axis).
+                let r = x.x.hypot(x.y);
+                let theta = r.atan2(x.z);
+                let h = if r > 0.0 { theta / r } else { 1.0 / x.z };
+                let t2 = theta * theta;
+                let mut p = h * t2;
+                for c in 0..4 {
+                    dk[(0, c)] = x.x * p;
+                    dk[(1, c)] = x.y * p;
+                    p *= t2;
+                }
+            }
+        }
+        dk.iter().all(|v| v.is_finite()).then_some((n, j, dk))
+    }
+
     /// The pinhole projection through the radial-tangential distortion, with its Jacobian.
     fn radtan_with_jacobian(&self, x: &Vector3<f64>) -> Option<(Vector2<f64>, Matrix2x3<f64>)> {
         if x.z.is_nan() || x.z <= 1e-9 {
@@ -461,6 +514,33 @@ mod tests {
         ]
     }
 
+    type D8 = DualVec64<Const<8>>;
+
+    /// The fisheye over dual numbers with dual coefficients, from its definition.
+    fn fisheye_dual_coeffs(k: &[D8; 4], x: [D8; 3]) -> [D8; 2] {
+        let r = (x[0] * x[0] + x[1] * x[1]).sqrt();
+        let theta = r.atan2(x[2]);
+        let t2 = theta * theta;
+        let theta_d = theta * (D8::from(1.0) + t2 * (k[0] + t2 * (k[1] + t2 * (k[2] + t2 * k[3]))));
+        [x[0] * theta_d / r, x[1] * theta_d / r]
+    }
+
+    /// OpenCV's radial-tangential projection with dual coefficients.
+    fn radtan_dual_coeffs(c: &[D8; 8], x: [D8; 3]) -> [D8; 2] {
+        let [k1, k2, p1, p2, k3, k4, k5, k6] = *c;
+        let (u, v) = (x[0] / x[2], x[1] / x[2]);
+        let r2 = u * u + v * v;
+        let r4 = r2 * r2;
+        let r6 = r4 * r2;
+        let two = D8::from(2.0);
+        let rad = (D8::from(1.0) + k1 * r2 + k2 * r4 + k3 * r6)
+            / (D8::from(1.0) + k4 * r2 + k5 * r4 + k6 * r6);
+        [
+            u * rad + two * p1 * u * v + p2 * (r2 + two * u * u),
+            v * rad + p1 * (r2 + two * v * v) + two * p2 * u * v,
+        ]
+    }
+
     /// The largest difference between the analytic Jacobian and num-dual's, over points.
     fn worst_jacobian_error(
         d: &Distortion,
@@ -508,6 +588,60 @@ mod tests {
         assert!((j - want).amax() < 1e-18, "{j}");
         assert!(d
             .project_with_jacobian(&Vector3::new(0.0, 0.0, -5.0))
+            .is_none());
+    }
+
+    /// The coefficient Jacobian of [`Distortion::project_with_jacobians`] against num-dual,
+    /// differentiating `generic(coeffs, x)` with respect to the eight coefficients.
+    fn worst_coefficient_error(
+        d: &Distortion,
+        points: &[Vector3<f64>],
+        generic: impl Fn([D8; 8], [D8; 3]) -> [D8; 2],
+    ) -> f64 {
+        let mut worst: f64 = 0.0;
+        for p in points {
+            let (n, j, dk) = d.project_with_jacobians(p).unwrap();
+            let (n1, j1) = d.project_with_jacobian(p).unwrap();
+            assert!(n == n1 && j == j1);
+            let xs = [p.x, p.y, p.z].map(D8::from);
+            let (val, jd) = jacobian(
+                |c: SVector<D8, 8>| SVector::from(generic(std::array::from_fn(|i| c[i]), xs)),
+                &SVector::<f64, 8>::from(d.coeffs),
+            );
+            assert!((Vector2::new(val[0], val[1]) - n).norm() < 1e-12, "{p:?}");
+            worst = worst.max((jd - dk).amax() / jd.amax().max(1e-300));
+        }
+        worst
+    }
+
+    #[test]
+    fn the_coefficient_jacobians_match_dual_numbers() {
+        let points = [
+            Vector3::new(100.0, -50.0, 400.0),
+            Vector3::new(300.0, 200.0, 100.0),
+            Vector3::new(-250.0, 90.0, 60.0),
+            Vector3::new(1e-7, -2e-7, 300.0),
+        ];
+        let fisheye = Distortion::fisheye([0.02, -0.005, 0.001, -0.0002]).unwrap();
+        let k = fisheye.coeffs;
+        let err = worst_coefficient_error(&fisheye, &points, |c, x| {
+            let k4 = [c[0], c[1], c[2], c[3]];
+            fisheye_dual_coeffs(&k4, x)
+        });
+        println!("fisheye: coefficient Jacobian within {err:.1e} of num-dual's (relative)");
+        assert!(err < 1e-12, "fisheye: {err:e} at {k:?}");
+        // On the axis the point does not move with the coefficients.
+        let (_, _, dk) = fisheye
+            .project_with_jacobians(&Vector3::new(0.0, 0.0, 5.0))
+            .unwrap();
+        assert_eq!(dk, SMatrix::<f64, 2, 8>::zeros());
+        let c = [0.18, -1.37, 2e-3, 1e-3, 2.67, 0.1, -0.2, 0.3];
+        let pinhole = Distortion::new(LensModel::Pinhole, &c).unwrap();
+        let err = worst_coefficient_error(&pinhole, &points, |c, x| radtan_dual_coeffs(&c, x));
+        println!("pinhole: coefficient Jacobian within {err:.1e} of num-dual's (relative)");
+        assert!(err < 1e-12, "pinhole: {err:e}");
+        assert!(fisheye
+            .project_with_jacobians(&Vector3::new(0.0, 0.0, -5.0))
             .is_none());
     }
 

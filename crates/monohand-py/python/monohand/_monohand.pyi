@@ -248,5 +248,8 @@ def calibrate(
 ) -> Dict[str, Any]:
     """A camera's (``input``) or a rig's (``views``, one per camera) calibration from frames
     of a chessboard with ``board`` inner corners (``"9x6"``) of ``square_mm``, as
-    ``monohand calibrate``; files written when ``output`` is given. Returns ``cameras``
-    (each camera's JSON), ``summary``, ``report`` (Markdown) and ``written``."""
+    ``monohand calibrate``; files written when ``output`` is given. ``model`` is the lens
+    model estimated: ``"standard"`` (k1 k2 p1 p2 k3), ``"rational"`` (k1..k6 with p1 p2)
+    or ``"fisheye"`` (OpenCV's ``cv::fisheye``, k1..k4, for lenses wider than about 120
+    degrees). Returns ``cameras`` (each camera's JSON), ``summary``, ``report`` (Markdown)
+    and ``written``."""

@@ -4,7 +4,7 @@
 
 use super::{Calibrated, CameraViews};
 use monohand_calib::calibrate::CameraCalibration;
-use monohand_core::camera::Camera;
+use monohand_core::camera::{Camera, LensModel};
 use monohand_io::calibration::{CalibrationInfo, CameraStd};
 use monohand_media::overlay::{draw_label, draw_line, fill_circle, fill_rect, Pen};
 use monohand_vision::RgbImage;
@@ -59,15 +59,28 @@ pub fn camera_info(c: &Calibrated, k: usize, date: &str) -> CalibrationInfo {
     }
 }
 
-/// The number of distortion coefficients the camera's JSON writes (4, 5 or 8).
+/// The number of distortion coefficients the camera's JSON writes (a fisheye's 4; the
+/// pinhole's 0, 5 or 8).
 fn dist_len(camera: &Camera) -> usize {
     let c = camera.distortion.coeffs;
-    if c[5..].iter().any(|&v| v != 0.0) {
+    if camera.distortion.model == LensModel::Fisheye {
+        4
+    } else if c[5..].iter().any(|&v| v != 0.0) {
         8
     } else if c[4] != 0.0 || c[..4].iter().any(|&v| v != 0.0) {
         5
     } else {
         0
+    }
+}
+
+/// The camera's lens model as the report names it: `fisheye (k1..k4)`, or the pinhole's
+/// `pinhole (k1 k2 p1 p2 k3)` / `pinhole (rational, k1..k6)`.
+fn model_name(camera: &Camera) -> &'static str {
+    match (camera.distortion.model, dist_len(camera)) {
+        (LensModel::Fisheye, _) => "fisheye (k1..k4)",
+        (LensModel::Pinhole, 8) => "pinhole (rational, k1 k2 p1 p2 k3 k4 k5 k6)",
+        (LensModel::Pinhole, _) => "pinhole (k1 k2 p1 p2 k3)",
     }
 }
 
@@ -140,13 +153,16 @@ fn camera_section(k: usize, cam: &CameraCalibration, views: &CameraViews, rig: b
     };
     let mut out = title;
     out.push_str(&format!(
-        "{}x{} pixels; {} views used of {} frames examined; RMS reprojection error **{:.3} px**.\n\n\
+        "{}x{} pixels, the {} model; {} views used of {} frames examined; RMS reprojection error **{:.3} px**.\n\n\
          | | value | one standard deviation |\n|---|---|---|\n\
          | fx | {:.2} | {:.2} |\n| fy | {:.2} | {:.2} |\n| cx | {:.2} | {:.2} |\n| cy | {:.2} | {:.2} |\n",
-        i.width, i.height, cam.used_views(), views.frames, cam.rms_px,
+        i.width, i.height, model_name(&cam.camera), cam.used_views(), views.frames, cam.rms_px,
         i.fx, s.fx, i.fy, s.fy, i.cx, s.cx, i.cy, s.cy
     ));
-    let names = ["k1", "k2", "p1", "p2", "k3", "k4", "k5", "k6"];
+    let names: &[&str] = match cam.camera.distortion.model {
+        LensModel::Pinhole => &["k1", "k2", "p1", "p2", "k3", "k4", "k5", "k6"],
+        LensModel::Fisheye => &["k1", "k2", "k3", "k4"],
+    };
     for (j, name) in names.iter().enumerate().take(dist_len(&cam.camera)) {
         out.push_str(&format!(
             "| {name} | {:.5} | {:.5} |\n",
@@ -285,8 +301,9 @@ pub fn summary(c: &Calibrated) -> String {
         let i = &cam.camera.intrinsics;
         let s = &cam.std;
         out.push_str(&format!(
-            "camera {k} ({}): {} views, RMS {:.3} px; fx {:.2} ± {:.2}, fy {:.2} ± {:.2}, cx {:.2} ± {:.2}, cy {:.2} ± {:.2} px; a hand at {:.1} m is ±{:.1} mm in depth from the focal length\n",
+            "camera {k} ({}): {}, {} views, RMS {:.3} px; fx {:.2} ± {:.2}, fy {:.2} ± {:.2}, cx {:.2} ± {:.2}, cy {:.2} ± {:.2} px; a hand at {:.1} m is ±{:.1} mm in depth from the focal length\n",
             c.views[k].input,
+            model_name(&cam.camera),
             cam.used_views(),
             cam.rms_px,
             i.fx, s.fx, i.fy, s.fy, i.cx, s.cx, i.cy, s.cy,
