@@ -42,6 +42,20 @@ pub enum DistortionModel {
     Fisheye,
 }
 
+impl std::str::FromStr for DistortionModel {
+    type Err = String;
+
+    /// `standard`, `rational` or `fisheye`, as the command line and Python name them.
+    fn from_str(s: &str) -> Result<DistortionModel, String> {
+        match s {
+            "standard" => Ok(DistortionModel::Standard),
+            "rational" => Ok(DistortionModel::Rational),
+            "fisheye" => Ok(DistortionModel::Fisheye),
+            other => Err(format!("{other:?} is not standard, rational or fisheye")),
+        }
+    }
+}
+
 impl DistortionModel {
     /// The lens model the calibration's camera has: [`LensModel::Fisheye`] for
     /// [`DistortionModel::Fisheye`], [`LensModel::Pinhole`] for the others.

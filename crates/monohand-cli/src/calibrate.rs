@@ -3,7 +3,7 @@
 //! is `monohand::calibration`'s.
 
 use anyhow::{Context, Result};
-use clap::{Args, ValueEnum};
+use clap::Args;
 use monohand::calibration::{
     self, Board, CalibrateSettings, CalibrationWindow, DistortionModel, Outputs, SeenFrame,
 };
@@ -36,10 +36,15 @@ pub(crate) struct CalibrateArgs {
         required_unless_present = "print_board"
     )]
     output: Option<PathBuf>,
-    /// The lens model estimated: OpenCV's k1 k2 p1 p2 k3, its rational model (8), or its
-    /// fisheye (Kannala-Brandt k1..k4) for lenses wider than about 120 degrees.
-    #[arg(long, value_enum, default_value_t = Model::Standard)]
-    model: Model,
+    /// The lens model estimated: `standard` (OpenCV's k1 k2 p1 p2 k3), `rational` (its
+    /// k1..k6 p1 p2), or `fisheye` (its Kannala-Brandt k1..k4 of the angle from the axis)
+    /// for lenses wider than about 120 degrees.
+    #[arg(
+        long,
+        value_name = "standard|rational|fisheye",
+        default_value = "standard"
+    )]
+    model: DistortionModel,
     /// Also write each camera as OpenCV FileStorage YAML beside its JSON.
     #[arg(long)]
     opencv_yaml: bool,
@@ -68,17 +73,6 @@ pub(crate) struct CalibrateArgs {
     print_board: Option<PathBuf>,
 }
 
-#[derive(Debug, Clone, Copy, ValueEnum)]
-enum Model {
-    /// k1 k2 p1 p2 k3.
-    Standard,
-    /// k1 k2 p1 p2 k3 k4 k5 k6.
-    Rational,
-    /// OpenCV's fisheye model (`cv::fisheye`, Kannala-Brandt): k1 k2 k3 k4 of the angle
-    /// from the optical axis, no tangential terms; for lenses wider than about 120 degrees.
-    Fisheye,
-}
-
 pub(crate) fn run(args: &CalibrateArgs) -> Result<()> {
     let board = Board::new(args.board.0, args.board.1, args.square_mm)
         .context("--board and --square-mm")?;
@@ -93,11 +87,7 @@ pub(crate) fn run(args: &CalibrateArgs) -> Result<()> {
     if args.keep_all_views {
         settings.options.outlier_factor = f64::INFINITY;
     }
-    settings.options.model = match args.model {
-        Model::Standard => DistortionModel::Standard,
-        Model::Rational => DistortionModel::Rational,
-        Model::Fisheye => DistortionModel::Fisheye,
-    };
+    settings.options.model = args.model;
     let mut window = match args.show {
         true => Some(CalibrationWindow::open("monohand calibrate").context("--show")?),
         false => None,

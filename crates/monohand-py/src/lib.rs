@@ -1285,17 +1285,7 @@ fn calibrate<'py>(
     let mut settings = cal::CalibrateSettings::new(board);
     settings.max_views = max_views.max(3);
     settings.half_window = subpix_window;
-    settings.options.model = match model {
-        "standard" => cal::DistortionModel::Standard,
-        "rational" => cal::DistortionModel::Rational,
-        "fisheye" => cal::DistortionModel::Fisheye,
-        other => {
-            return Err(value(
-                "model",
-                format!("{other:?} is not 'standard', 'rational' or 'fisheye'"),
-            ))
-        }
-    };
+    settings.options.model = model.parse().map_err(|e: String| value("model", e))?;
     if keep_all_views {
         settings.options.outlier_factor = f64::INFINITY;
     }
