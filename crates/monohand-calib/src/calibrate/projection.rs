@@ -86,10 +86,7 @@ pub(crate) fn project(lens: LensModel, p: &Intr, x: &Vector3<f64>) -> Option<Pro
     if x.z.is_nan() || x.z <= 1e-9 {
         return None;
     }
-    match lens {
-        LensModel::Pinhole => project_pinhole(p, x),
-        LensModel::Fisheye => project_fisheye(p, x),
-    }
+    project_through(lens, p, x)
 }
 
 /// A lens's distortion from packed intrinsics: the fisheye's four coefficients, the
@@ -105,11 +102,12 @@ fn distortion(lens: LensModel, p: &Intr) -> Distortion {
     }
 }
 
-/// [`project`] through OpenCV's fisheye (Kannala-Brandt, `monohand_core`'s
-/// [`LensModel::Fisheye`]): the normalised point and its Jacobians from
-/// [`Distortion::project_with_jacobians`], then `(fx n.x + cx, fy n.y + cy)` (no skew).
-fn project_fisheye(p: &Intr, x: &Vector3<f64>) -> Option<Projection> {
-    let (n, jn, jk) = distortion(LensModel::Fisheye, p).project_with_jacobians(x)?;
+/// [`project`] through `monohand_core`'s lens models, the ones the fit uses (OpenCV's
+/// pinhole with radial-tangential and rational distortion, its fisheye): the normalised
+/// point and its Jacobians from [`Distortion::project_with_jacobians`], then
+/// `(fx n.x + cx, fy n.y + cy)` (no skew).
+fn project_through(lens: LensModel, p: &Intr, x: &Vector3<f64>) -> Option<Projection> {
+    let (n, jn, jk) = distortion(lens, p).project_with_jacobians(x)?;
     let (fx, fy) = (p[0], p[1]);
     let px = Vector2::new(fx * n.x + p[2], fy * n.y + p[3]);
     if !(px.x.is_finite() && px.y.is_finite()) {
@@ -121,73 +119,12 @@ fn project_fisheye(p: &Intr, x: &Vector3<f64>) -> Option<Projection> {
     d_intr[(1, 1)] = n.y;
     d_intr[(0, 2)] = 1.0;
     d_intr[(1, 3)] = 1.0;
-    d_intr
-        .fixed_view_mut::<2, 4>(0, 4)
-        .copy_from(&(f * jk.fixed_view::<2, 4>(0, 0)));
+    // A fisheye's columns past its four coefficients are zero.
+    d_intr.fixed_view_mut::<2, 8>(0, 4).copy_from(&(f * jk));
     Some(Projection {
         px,
         d_intr,
         d_point: f * jn,
-    })
-}
-
-/// [`project`] through OpenCV's pinhole model (radial-tangential and rational:
-/// [`LensModel::Pinhole`], as [`Distortion::distort`]).
-fn project_pinhole(p: &Intr, x: &Vector3<f64>) -> Option<Projection> {
-    let [fx, fy, _cx, _cy, k1, k2, p1, p2, k3, k4, k5, k6] = *p;
-    let iz = 1.0 / x.z;
-    let (xn, yn) = (x.x * iz, x.y * iz);
-    let r2 = xn * xn + yn * yn;
-    let r4 = r2 * r2;
-    let r6 = r4 * r2;
-    let a = 1.0 + k1 * r2 + k2 * r4 + k3 * r6;
-    let b = 1.0 + k4 * r2 + k5 * r4 + k6 * r6;
-    let ib = 1.0 / b;
-    let rad = a * ib;
-    let xd = xn * rad + 2.0 * p1 * xn * yn + p2 * (r2 + 2.0 * xn * xn);
-    let yd = yn * rad + p1 * (r2 + 2.0 * yn * yn) + 2.0 * p2 * xn * yn;
-    let px = Vector2::new(fx * xd + p[2], fy * yd + p[3]);
-    if !(px.x.is_finite() && px.y.is_finite()) {
-        return None;
-    }
-    // d rad / d r2.
-    let da = k1 + 2.0 * k2 * r2 + 3.0 * k3 * r4;
-    let db = k4 + 2.0 * k5 * r2 + 3.0 * k6 * r4;
-    let drad = (da * b - a * db) * ib * ib;
-    // d (xd, yd) / d (xn, yn).
-    let dxx = rad + 2.0 * xn * xn * drad + 2.0 * p1 * yn + 6.0 * p2 * xn;
-    let dxy = 2.0 * xn * yn * drad + 2.0 * p1 * xn + 2.0 * p2 * yn;
-    let dyx = dxy;
-    let dyy = rad + 2.0 * yn * yn * drad + 6.0 * p1 * yn + 2.0 * p2 * xn;
-    // d (xn, yn) / d X.
-    let dn = Matrix2x3::new(iz, 0.0, -xn * iz, 0.0, iz, -yn * iz);
-    let dd = nalgebra::Matrix2::new(fx * dxx, fx * dxy, fy * dyx, fy * dyy);
-    let d_point = dd * dn;
-    // d (xd, yd) / d distortion coefficients.
-    let rb = a * ib * ib;
-    let ddist: [(f64, f64); 8] = [
-        (xn * r2 * ib, yn * r2 * ib),
-        (xn * r4 * ib, yn * r4 * ib),
-        (2.0 * xn * yn, r2 + 2.0 * yn * yn),
-        (r2 + 2.0 * xn * xn, 2.0 * xn * yn),
-        (xn * r6 * ib, yn * r6 * ib),
-        (-xn * r2 * rb, -yn * r2 * rb),
-        (-xn * r4 * rb, -yn * r4 * rb),
-        (-xn * r6 * rb, -yn * r6 * rb),
-    ];
-    let mut d_intr = SMatrix::<f64, 2, N_INTR>::zeros();
-    d_intr[(0, 0)] = xd;
-    d_intr[(1, 1)] = yd;
-    d_intr[(0, 2)] = 1.0;
-    d_intr[(1, 3)] = 1.0;
-    for (j, (ddx, ddy)) in ddist.iter().enumerate() {
-        d_intr[(0, 4 + j)] = fx * ddx;
-        d_intr[(1, 4 + j)] = fy * ddy;
-    }
-    Some(Projection {
-        px,
-        d_intr,
-        d_point,
     })
 }
 
