@@ -23,6 +23,10 @@ export interface Intrinsics {
 
 /** The camera a frame's hands were fitted with (docs/output-format.md, "Camera object"). */
 export interface CameraRecord extends Intrinsics {
+  /** The lens model, when the camera is not an ideal pinhole. */
+  model?: 'pinhole' | 'fisheye';
+  /** Its distortion coefficients, with `model` (OpenCV's order; a fisheye's k1..k4). */
+  dist?: number[];
   source: CameraSource;
   /** Why this source and not a better one, when there is something to say. */
   reason?: string;

@@ -357,6 +357,13 @@ pub struct CameraRecord {
     /// Focal lengths, principal point and image size, pixels.
     #[serde(flatten)]
     pub intrinsics: monohand_core::camera::Intrinsics,
+    /// The lens model (`"pinhole"` or `"fisheye"`), when the camera is not an ideal
+    /// pinhole: as its calibration JSON states it ([`crate::calibration::camera_to_json`]).
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub model: Option<String>,
+    /// Its distortion coefficients, with `model` (OpenCV's order; a fisheye's k1..k4).
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub dist: Option<Vec<f64>>,
     /// Where the camera came from.
     pub source: CameraSource,
     /// Why this source and not a better one (a stated EXIF focal length that failed its
@@ -367,10 +374,13 @@ pub struct CameraRecord {
 }
 
 impl CameraRecord {
-    /// The record of a camera's intrinsics, with no reason.
+    /// The record of a camera's intrinsics and lens, with no reason.
     pub fn new(camera: &monohand_core::camera::Camera, source: CameraSource) -> CameraRecord {
+        let lens = (!camera.distortion.is_ideal()).then_some(&camera.distortion);
         CameraRecord {
             intrinsics: camera.intrinsics,
+            model: lens.map(|d| d.model.name().to_string()),
+            dist: lens.map(|d| d.listed().to_vec()),
             source,
             reason: None,
         }
@@ -591,6 +601,22 @@ mod tests {
             assert_eq!(source.to_string(), name);
             assert_eq!(serde_json::from_str::<CameraRecord>(&text).unwrap(), rec);
         }
+        // A lens is said as its calibration states it: the model and its coefficients.
+        let fisheye = monohand_core::camera::Camera::new(
+            camera.intrinsics,
+            monohand_core::camera::Distortion::fisheye([0.02, -0.005, 0.0, 0.0]).unwrap(),
+            monohand_core::camera::Extrinsics::default(),
+        )
+        .unwrap();
+        let rec = CameraRecord::new(&fisheye, CameraSource::File);
+        let text = serde_json::to_string(&rec).unwrap();
+        assert!(
+            text.contains(
+                r#""height":480,"model":"fisheye","dist":[0.02,-0.005,0.0,0.0],"source":"file""#
+            ),
+            "{text}"
+        );
+        assert_eq!(serde_json::from_str::<CameraRecord>(&text).unwrap(), rec);
         // Frames without a fit (detect's records) leave the field out.
         let bare = serde_json::to_string(&FrameRecord::default()).unwrap();
         assert!(!bare.contains("cameras"), "{bare}");
