@@ -757,10 +757,10 @@ impl HandPipeline {
                 ..view_roi
             },
         };
-        let mut kp = VIEW.with(|buffer| {
-            let mut patch = buffer.borrow_mut();
-            view.draw(camera, img, &mut patch);
-            self.estimate_unrectified(&patch, &in_view, tracked)
+        let mut kp = VIEW.with(|buffers| {
+            let (patch, map) = &mut *buffers.borrow_mut();
+            view.draw(camera, img, patch, map);
+            self.estimate_unrectified(patch, &in_view, tracked)
         })?;
         view.map_back(camera, &mut kp);
         Ok(kp)
@@ -830,8 +830,9 @@ impl HandPipeline {
 }
 
 thread_local! {
-    /// The rectified view a thread's last hand was read in, reused.
-    static VIEW: std::cell::RefCell<RgbImage> = std::cell::RefCell::new(RgbImage::new(1, 1));
+    /// The rectified view a thread's last hand was read in, and its grid map: reused.
+    static VIEW: std::cell::RefCell<(RgbImage, Vec<Option<[f64; 2]>>)> =
+        std::cell::RefCell::new((RgbImage::new(1, 1), Vec::new()));
 }
 
 fn to_head(h: HeadDetection) -> DetectedHead {

@@ -149,15 +149,23 @@ impl RectifiedView {
     }
 
     /// Draws the view of `image` into `out` (resized to the view's side); pixels the camera
-    /// does not see are black.
-    pub fn draw(&self, camera: &Camera, image: &RgbImage, out: &mut RgbImage) {
+    /// does not see are black. `map` is the caller's buffer for the view's grid of image
+    /// points (every 8 pixels), reused from hand to hand.
+    pub fn draw(
+        &self,
+        camera: &Camera,
+        image: &RgbImage,
+        out: &mut RgbImage,
+        map: &mut Vec<Option<[f64; 2]>>,
+    ) {
         let n = self.side;
         if out.dimensions() != (n as u32, n as u32) {
             *out = RgbImage::new(n as u32, n as u32);
         }
         let cells = n.div_ceil(GRID);
         let nodes = cells + 1;
-        let mut map: Vec<Option<[f64; 2]>> = Vec::with_capacity(nodes * nodes);
+        map.clear();
+        map.reserve(nodes * nodes);
         for gy in 0..nodes {
             for gx in 0..nodes {
                 map.push(self.to_image(camera, [(gx * GRID) as f64, (gy * GRID) as f64]));
@@ -289,7 +297,7 @@ mod tests {
         let r = roi(600.0, 200.0, 120.0, 0.2);
         let view = RectifiedView::aimed_at(&cam, &r).unwrap();
         let mut out = RgbImage::new(1, 1);
-        view.draw(&cam, &image, &mut out);
+        view.draw(&cam, &image, &mut out, &mut Vec::new());
         assert_eq!(out.width() as usize, view.side());
         let n = view.side();
         let mut worst = 0.0f64;
