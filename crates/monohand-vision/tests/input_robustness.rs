@@ -9,13 +9,6 @@ use std::path::PathBuf;
 use image::{DynamicImage, ImageFormat};
 use monohand_vision::{HandPipeline, ModelOptions, PipelineOptions, VisionError};
 
-fn tmp(name: &str) -> PathBuf {
-    let dir =
-        std::env::temp_dir().join(format!("monohand-vision-robustness-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("tmp dir");
-    dir.join(name)
-}
-
 fn pipeline() -> Option<HandPipeline> {
     let store = common::models()?;
     let models = ModelOptions {
@@ -27,12 +20,13 @@ fn pipeline() -> Option<HandPipeline> {
 
 #[test]
 fn corrupt_truncated_and_non_image_files_give_clear_errors() {
+    let scratch = tempfile::tempdir().expect("tmp dir");
     let Some(src) = common::shared("images/hamer/test2.jpg") else {
         return;
     };
     let Some(p) = pipeline() else { return };
     let bytes = std::fs::read(src).expect("read");
-    let truncated = tmp("truncated.jpg");
+    let truncated = scratch.path().join("truncated.jpg");
     std::fs::write(&truncated, &bytes[..bytes.len() / 3]).expect("write");
     match p.detect_file(&truncated) {
         Err(VisionError::ImageDecode { what, reason }) => {
@@ -46,20 +40,21 @@ fn corrupt_truncated_and_non_image_files_give_clear_errors() {
         ),
         Err(e) => panic!("unexpected error kind: {e}"),
     }
-    let text = tmp("notes.jpg");
+    let text = scratch.path().join("notes.jpg");
     std::fs::write(&text, b"this is not an image").expect("write");
     let e = p.detect_file(&text).expect_err("text file");
     assert!(matches!(e, VisionError::ImageDecode { .. }), "{e}");
     let e = p
-        .detect_file(&tmp("does-not-exist.png"))
+        .detect_file(&scratch.path().join("does-not-exist.png"))
         .expect_err("missing");
     assert!(matches!(e, VisionError::ImageRead { .. }), "{e}");
 }
 
 #[test]
 fn one_pixel_image_is_a_clear_error() {
+    let scratch = tempfile::tempdir().expect("tmp dir");
     let Some(p) = pipeline() else { return };
-    let path = tmp("one.png");
+    let path = scratch.path().join("one.png");
     DynamicImage::new_rgb8(1, 1).save(&path).expect("save");
     let e = p.detect_file(&path).expect_err("1x1");
     assert!(e.to_string().contains("too small"), "{e}");
@@ -67,6 +62,7 @@ fn one_pixel_image_is_a_clear_error() {
 
 #[test]
 fn sixteen_bit_grey_and_rgba_versions_find_the_same_hand() {
+    let scratch = tempfile::tempdir().expect("tmp dir");
     let Some(src) = common::shared("images/pinto/hand.png") else {
         return;
     };
@@ -83,7 +79,7 @@ fn sixteen_bit_grey_and_rgba_versions_find_the_same_hand() {
         ("grey16.png", DynamicImage::ImageLuma16(img.to_luma16())),
     ];
     for (name, v) in variants {
-        let path = tmp(name);
+        let path = scratch.path().join(name);
         v.save_with_format(&path, ImageFormat::Png).expect("save");
         let found = p.detect_file(&path).expect(name);
         assert_eq!(found.hands.len(), 1, "{name}");
@@ -131,9 +127,10 @@ fn cmyk_jpeg_decodes_to_its_colours() {
 
 #[test]
 fn images_without_hands_return_empty() {
+    let scratch = tempfile::tempdir().expect("tmp dir");
     let Some(p) = pipeline() else { return };
     // A flat grey image and a smooth gradient.
-    let grey = tmp("grey.png");
+    let grey = scratch.path().join("grey.png");
     DynamicImage::ImageRgb8(image::RgbImage::from_pixel(
         320,
         240,
@@ -142,7 +139,7 @@ fn images_without_hands_return_empty() {
     .save(&grey)
     .expect("save");
     assert!(p.detect_file(&grey).expect("grey").hands.is_empty());
-    let grad = tmp("gradient.png");
+    let grad = scratch.path().join("gradient.png");
     DynamicImage::ImageRgb8(image::RgbImage::from_fn(400, 300, |x, y| {
         image::Rgb([(x / 2) as u8, (y / 2) as u8, 90])
     }))
@@ -153,7 +150,7 @@ fn images_without_hands_return_empty() {
     if let Some(stb) = common::shared("stb_b1counting/images/B1Counting/BB_left_0.png") {
         let img = image::open(stb).expect("open").to_rgb8();
         let wall = image::imageops::crop_imm(&img, 0, 0, 380, 160).to_image();
-        let path = tmp("wall.png");
+        let path = scratch.path().join("wall.png");
         wall.save(&path).expect("save");
         let found = p.detect_file(&path).expect("wall");
         assert!(
