@@ -76,34 +76,29 @@ pub(crate) fn calibration_notes(cameras: &[Camera]) -> Vec<Note> {
         ));
     }
     for (v, c) in cameras.iter().enumerate() {
-        if let Some(why) = c.implausible_field_of_view() {
+        if let Some(why) = field_of_view_reason(c) {
             notes.push(Note::new(
                 NoteTopic::Calibration,
-                format!(
-                    "camera {}: the calibration gives {why}; used as given, since it is the \
-                     user's own",
-                    v + 1
-                ),
+                format!("camera {}: {why}", v + 1),
             ));
         }
     }
     notes
 }
 
+/// Why a calibration is used although its field of view is outside 5-150 degrees.
+fn field_of_view_reason(camera: &Camera) -> Option<String> {
+    camera.implausible_field_of_view().map(|why| {
+        format!("the calibration gives {why}; used as given, since it is the user's own")
+    })
+}
+
 impl CameraChoice {
     /// The choice for these calibrations (checked by the caller), with their notes
     /// ([`calibration_notes`]).
     pub(crate) fn new(cameras: Vec<Camera>) -> CameraChoice {
-        let calibrated_fov: Vec<Option<String>> = cameras
-            .iter()
-            .map(|c| {
-                c.implausible_field_of_view().map(|why| {
-                    format!(
-                        "the calibration gives {why}; used as given, since it is the user's own"
-                    )
-                })
-            })
-            .collect();
+        let calibrated_fov: Vec<Option<String>> =
+            cameras.iter().map(field_of_view_reason).collect();
         let notes = calibration_notes(&cameras);
         CameraChoice {
             origins: calibrated_fov
