@@ -1,15 +1,19 @@
 #!/usr/bin/env bash
 # Builds monohand in the browser (crates/monohand-web) into web/:
 #   web/pkg/      the WebAssembly module and its JavaScript glue (wasm-bindgen, --target web)
+#   web/pkg-threads/  the same with WebAssembly threads (atomics; rayon's pool on Web
+#                 Workers sharing the module's memory), for cross-origin isolated pages
 #   web/weights/  MediaPipe's palm detector and hand landmark networks, copied from
 #                 `monohand models fetch`'s cache (served beside the page; no CDN)
 # and installs what that needs, pinned, when it is missing: the wasm32-unknown-unknown
-# target (rustup) and wasm-bindgen-cli at the exact version of the wasm-bindgen crate
+# target and the standard library's source (rustup: the threaded module rebuilds std with
+# atomics) and wasm-bindgen-cli at the exact version of the wasm-bindgen crate
 # (crates.io). Both folders are build outputs (not committed).
 #
 #   scripts/web-build.sh                  build (Cargo profile `web`, 4.3 MB), copy the weights
 #   WEB_PROFILE=web-fast scripts/...      everything at opt-level 3 (8.3 MB; to compare)
 #   WEB_PROFILE=dev scripts/...           a debug build (slow; keeps function names)
+#   WEB_THREADS=0 scripts/...             without the threaded module
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -53,4 +57,31 @@ for f in palm_detection_full.tflite palm_detection_lite.tflite \
   fi
   cp "$models/$f" web/weights/
 done
-echo "web-build: web/pkg ($(du -b web/pkg/monohand_web_bg.wasm | cut -f1) bytes of wasm) and web/weights ready"
+
+# The threaded module. Threads in WebAssembly need the whole program, std included,
+# compiled with atomics; the toolchain ships std without them, so std is rebuilt from its
+# source (`-Z build-std`, which stable Rust accepts only with RUSTC_BOOTSTRAP=1: the way
+# wasm-bindgen-rayon documents, until build-std is stable). Its own target folder: other
+# flags than the module above, and its std.
+threads_note="no threaded module (WEB_THREADS=0)"
+rm -rf web/pkg-threads
+if [ "${WEB_THREADS:-1}" != 0 ]; then
+  rustup component list --installed | grep -q '^rust-src' || rustup component add rust-src
+  # The module's memory is shared (imported, so that every worker gets the same one) and
+  # the threads' local storage is set up by wasm-bindgen's glue. Linker arguments of the
+  # module alone (after `--`): changing them relinks it, not every crate.
+  thread_link=()
+  for a in --shared-memory --max-memory=1073741824 --import-memory --export=__wasm_init_tls \
+           --export=__tls_size --export=__tls_align --export=__tls_base; do
+    thread_link+=(-C "link-arg=$a")
+  done
+  RUSTC_BOOTSTRAP=1 CARGO_TARGET_DIR="$target_dir/wasm-threads" \
+    CARGO_TARGET_WASM32_UNKNOWN_UNKNOWN_RUSTFLAGS="-C target-feature=+atomics,+bulk-memory,+simd128" \
+    cargo rustc -p monohand-web --features threads --lib --crate-type cdylib \
+    --target wasm32-unknown-unknown --profile "$profile" -Z build-std=panic_abort,std -- \
+    "${thread_link[@]}"
+  wasm-bindgen --target web --no-typescript "${strip[@]}" --out-dir web/pkg-threads \
+    "$target_dir/wasm-threads/wasm32-unknown-unknown/$out_profile/monohand_web.wasm"
+  threads_note="web/pkg-threads ($(du -b web/pkg-threads/monohand_web_bg.wasm | cut -f1) bytes)"
+fi
+echo "web-build: web/pkg ($(du -b web/pkg/monohand_web_bg.wasm | cut -f1) bytes of wasm), $threads_note and web/weights ready"

@@ -10,6 +10,11 @@
 # this machine (not by another machine's address over plain http). Needs what web-build.sh
 # needs, npm (three.js for the 3D view, and TypeScript, from web/package-lock.json) and
 # python3 (its http.server). Stop with Ctrl-C.
+#
+# The server sends the two headers that make the page cross-origin isolated
+# (Cross-Origin-Opener-Policy: same-origin, Cross-Origin-Embedder-Policy: require-corp), so
+# that the tracker can use WebAssembly threads; a server without them gets the one-thread
+# module, and the page says so once. Serve the page with them in production too.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scripts/web-build.sh
@@ -17,4 +22,18 @@ scripts/web-build.sh
 npm ci --prefix web --no-audit --no-fund --loglevel=error > /dev/null
 port="${PORT:-8000}"
 echo "web-serve: the demo page is at http://localhost:$port/ (Ctrl-C stops)"
-exec python3 -m http.server "$port" --bind 127.0.0.1 --directory web
+exec python3 - "$port" web <<'PY'
+import functools, http.server, sys
+
+class Isolated(http.server.SimpleHTTPRequestHandler):
+    def end_headers(self):
+        self.send_header("Cross-Origin-Opener-Policy", "same-origin")
+        self.send_header("Cross-Origin-Embedder-Policy", "require-corp")
+        super().end_headers()
+
+handler = functools.partial(Isolated, directory=sys.argv[2])
+try:
+    http.server.ThreadingHTTPServer(("127.0.0.1", int(sys.argv[1])), handler).serve_forever()
+except KeyboardInterrupt:
+    pass
+PY

@@ -93,9 +93,26 @@ for style in skinned joints; do
     { echo "web-test: the Khronos glTF validator found fault with $out/$style.glb (above; $out/gltf-$style.json)" >&2; exit 1; }
 done
 
+# The test page, served cross-origin isolated (the tracker on WebAssembly threads), then
+# without the isolation headers (the one-thread module, which must say so in its notes):
+# both must give native's records.
 node --experimental-websocket web/test/run.mjs --web web --clip "$out/clip.rgba" --size 640x480 \
   --fps 30 --out "$out/web.jsonl" --screenshot "$out/screenshot.png" \
   ${CHROMIUM:+--chromium "$CHROMIUM"} 2> "$out/chromium.log" | tail -n 1 > "$out/timings.json"
+node --experimental-websocket web/test/run.mjs --web web --clip "$out/clip.rgba" --size 640x480 \
+  --fps 30 --out "$out/web-one-thread.jsonl" --isolated 0 \
+  ${CHROMIUM:+--chromium "$CHROMIUM"} 2>> "$out/chromium.log" | tail -n 1 > "$out/timings-one-thread.json"
+node -e '
+const [iso, one] = process.argv.slice(1).map((f) => JSON.parse(require("fs").readFileSync(f, "utf8")));
+const want = Math.min(iso.hardware_concurrency, 2);
+if (iso.threads !== want) {
+  console.error(`web-test: cross-origin isolated, the tracker ran on ${iso.threads} threads (expected ${want})`);
+  process.exit(1);
+}
+if (one.threads !== 1 || !(want < 2 || one.notes.some((n) => n.includes("not cross-origin isolated")))) {
+  console.error(`web-test: without isolation the tracker ran on ${one.threads} threads, notes ${JSON.stringify(one.notes)}`);
+  process.exit(1);
+}' "$out/timings.json" "$out/timings-one-thread.json"
 # The camera stream: the same frames as a .y4m file played by Chromium's fake camera into
 # the demo page (web/index.html?start=camera: getUserMedia, a <video>, a canvas, the
 # tracker, the overlay), until it has tracked as many camera frames as the clip has. Not
@@ -165,26 +182,30 @@ node --experimental-websocket web/bench/run.mjs --web web --clip "$out/clip.rgba
 
 status=0
 node web/test/compare.mjs "$out/native.jsonl" "$out/web.jsonl" > "$out/compare.json" || status=$?
+node web/test/compare.mjs "$out/native.jsonl" "$out/web-one-thread.jsonl" > "$out/compare-one-thread.json" || status=$?
 node -e '
 const t = JSON.parse(require("fs").readFileSync(process.argv[1], "utf8"));
 const c = JSON.parse(require("fs").readFileSync(process.argv[2], "utf8"));
 const b = JSON.parse(require("fs").readFileSync(process.argv[5], "utf8"));
 console.log(`web: ${c.frames} frames, ${c.hands_3d} hands in 3D, ${b.monohand.fps.toFixed(1)} fps in Chromium (MediaPipe web: ${b.mediapipe.fps.toFixed(1)} fps)`);
-console.log(`  vs native: max ${c.max_px.toFixed(4)} px, ${c.max_mm.toFixed(4)} mm; ${c.failures} differences beyond 0.5 px / 2 mm`);
+const c1 = JSON.parse(require("fs").readFileSync(process.argv[8], "utf8"));
+const t1 = JSON.parse(require("fs").readFileSync(process.argv[9], "utf8"));
+console.log(`  vs native: max ${c.max_px.toFixed(4)} px, ${c.max_mm.toFixed(4)} mm on ${t.threads} threads (cross-origin isolated), ${c1.max_px.toFixed(4)} px, ${c1.max_mm.toFixed(4)} mm on ${t1.threads} (not isolated: the page says so); ${c.failures + c1.failures} differences beyond 0.02 px / 0.05 mm`);
 console.log(`  weights cut short or missing, no WebAssembly: the demo page says so (${process.argv[3]})`);
 const cam = JSON.parse(require("fs").readFileSync(process.argv[4], "utf8"));
 const vid = JSON.parse(require("fs").readFileSync(process.argv[6], "utf8"));
 console.log(`  video file (demo page, WebM): ${vid.frames} frames tracked, ${vid.frames_with_hand_3d} with a hand in 3D; a file that is no video: the page says so`);
-console.log(`  camera stream (fake camera, demo page): ${cam.frames} frames tracked, ${cam.frames_with_hand_3d} with a hand in 3D (the three.js hand drawn in ${cam.hand3d_view_frames}), median ${cam.median_ms_after_first.toFixed(1)} ms a frame, ${cam.downloaded_frames} records downloaded as JSON Lines; camera denied or absent: the page says so`);
+console.log(`  camera stream (fake camera, demo page): ${cam.frames} frames tracked, ${cam.frames_with_hand_3d} with a hand in 3D (the three.js hand drawn in ${cam.hand3d_view_frames}), median ${cam.median_ms_after_first.toFixed(1)} ms a frame, ${cam.downloaded_frames} records downloaded as JSON Lines; its own timer ticked during ${cam.frames_ticked} of its ${cam.track_calls} tracker calls (the tracker in a Web Worker, ${cam.threads} threads); camera denied or absent: the page says so`);
 const one = JSON.parse(require("fs").readFileSync(process.argv[7], "utf8"));
 console.log(`  the same with the mirror pass off (mirror=0): ${one.frames} frames tracked, ${one.frames_with_hand_3d} with a hand in 3D, median ${one.median_ms_after_first.toFixed(1)} ms a frame`);
 const r = (x) => x.map((v) => v.toFixed(1)).join(", ");
 console.log(`  side by side (web/bench, one hand, ${b.rounds > 1 ? `${b.rounds} rounds alternating` : "one round each"}): monohand ${r(b.monohand.per_round_fps)} fps like for like (median ${b.monohand.median_ms.toFixed(1)} ms; one landmark pass a crop), ${r(b.monohand_defaults.per_round_fps)} fps with its mirror pass (median ${b.monohand_defaults.median_ms.toFixed(1)} ms), @mediapipe/hands ${r(b.mediapipe.per_round_fps)} fps (median ${b.mediapipe.median_ms.toFixed(1)} ms; ${b.mediapipe.files.filter((f) => f.endsWith(".wasm")).join(", ")}; its WebGL on ${b.webgl_renderer})`);
 console.log(`  test page: ${(1000 / t.mean_ms_after_first).toFixed(1)} fps; load ${t.load_ms.toFixed(0)} ms, first frame done ${t.first_frame_ms.toFixed(0)} ms after the page started loading the networks, median ${t.median_ms_after_first.toFixed(1)} ms a frame`);
-' "$out/timings.json" "$out/compare.json" "$out/bad-cut.json, $out/bad-missing.json, $out/no-wasm.json" "$out/camera.json" "$out/bench.json" "$out/video.json" "$out/camera-one-pass.json"
+' "$out/timings.json" "$out/compare.json" "$out/bad-cut.json, $out/bad-missing.json, $out/no-wasm.json" "$out/camera.json" "$out/bench.json" "$out/video.json" "$out/camera-one-pass.json" \
+  "$out/compare-one-thread.json" "$out/timings-one-thread.json"
 node -e '
 const [s, j] = process.argv.slice(1).map((f) => JSON.parse(require("fs").readFileSync(f, "utf8")));
 console.log(`  glTF (native run --gltf, ${s.keys} frames; Khronos validator ${s.validator}): skinned ${s.errors} errors, ${s.warnings} warnings, ${s.infos} infos; joints ${j.errors}, ${j.warnings}, ${j.infos}`);
 ' "$out/gltf-skinned.json" "$out/gltf-joints.json"
-[ "$status" -eq 0 ] || { echo "web-test: the browser's records differ from native (see $out/compare.json and the lines above)" >&2; cat "$out/compare.json" >&2; }
+[ "$status" -eq 0 ] || { echo "web-test: the browser's records differ from native (see $out/compare.json, $out/compare-one-thread.json and the lines above)" >&2; cat "$out/compare.json" "$out/compare-one-thread.json" >&2; }
 exit "$status"

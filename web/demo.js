@@ -12,7 +12,8 @@
 // web/test/camera.mjs): `state` ('loading', 'ready', 'running', 'stopped' or 'error'),
 // `message`, `frames` (frames tracked), `framesWithHand3d`, `hands3d`, `frameMs`,
 // `hand3dFrames` (frames the three.js view drew a hand in), `hand3d` (why there is no such
-// view, if there is none), `mirrorPass` (the tracker's setting).
+// view, if there is none), `mirrorPass` (the tracker's setting), `threads` (the threads it
+// runs on), `framesTicked` (frames during whose tracking the page's own timer ticked).
 
 import { createTracker, unsupportedReason } from './monohand.js';
 import { drawOverlay } from './overlay.js';
@@ -22,7 +23,7 @@ const params = new URLSearchParams(location.search);
 if (params.get('mirror') === '0') $('mirror').checked = false;
 const demo = {
   state: 'loading', message: '', frames: 0, framesWithHand3d: 0, hands3d: 0, frameMs: [],
-  hand3dFrames: 0, hand3d: '', mirrorPass: null,
+  framesTicked: 0, hand3dFrames: 0, hand3d: '', mirrorPass: null, threads: null,
 };
 window.monohandDemo = demo;
 
@@ -62,18 +63,29 @@ let records = [];
 let running = null; // { video, stop() }
 
 const canvas = $('view');
-const ctx = canvas.getContext('2d', { willReadFrequently: true });
+const ctx = canvas.getContext('2d');
+// The frame being tracked, read from the video into a canvas of its own; the page's canvas
+// shows it with its overlay once the tracker is done with it.
+const grab = document.createElement('canvas');
+const grabCtx = grab.getContext('2d', { willReadFrequently: true });
 
 function resetRecords() {
   records = [];
-  Object.assign(demo, { frames: 0, framesWithHand3d: 0, hands3d: 0, frameMs: [], hand3dFrames: 0 });
+  Object.assign(demo, {
+    frames: 0, framesWithHand3d: 0, hands3d: 0, frameMs: [], framesTicked: 0, hand3dFrames: 0,
+  });
   $('download').disabled = true;
 }
 
-function showNotes() {
-  const notes = tracker.notes();
+async function showNotes() {
+  const notes = await tracker.notes();
   if (notes.length) $('notes').textContent = notes.join(' ');
 }
+
+// The page's own clock: a timer that ticks while the tracker works in its worker (the
+// browser test checks that it does, frame by frame: `framesTicked`).
+let ticks = 0;
+setInterval(() => { ticks += 1; }, 4);
 
 /** Tracks the frames of a playing `<video>` until stopped or ended, drawing each. */
 function trackVideo(video, { live, label }) {
@@ -81,11 +93,15 @@ function trackVideo(video, { live, label }) {
   const h = video.videoHeight;
   canvas.width = w;
   canvas.height = h;
+  grab.width = w;
+  grab.height = h;
   const t0 = performance.now();
   let lastTime = -1;
   let stopped = false;
   const recent = [];
   let lastPresented = -1;
+  let busy = false;
+  let inFlight = Promise.resolve();
   const step = (_now, metadata) => {
     if (stopped) return;
     if (!live && video.ended) {
@@ -104,40 +120,47 @@ function trackVideo(video, { live, label }) {
     // A camera's frames get the page's clock; a file's its own times (a time seen already
     // is not tracked twice).
     const timeS = live ? (performance.now() - t0) / 1000 : video.currentTime;
-    if (timeS > lastTime && video.readyState >= 2) {
+    // The tracker works in a worker: the page draws and answers meanwhile. Frames that
+    // come while it works on one are not given to it (a file slows down for them, above).
+    if (timeS > lastTime && video.readyState >= 2 && !busy) {
       lastTime = timeS;
-      ctx.drawImage(video, 0, 0, w, h);
-      const image = ctx.getImageData(0, 0, w, h);
+      grabCtx.drawImage(video, 0, 0, w, h);
+      const image = grabCtx.getImageData(0, 0, w, h);
       const start = performance.now();
-      let done;
-      try {
-        done = tracker.track(image, timeS);
-      } catch (e) {
+      const ticksBefore = ticks;
+      busy = true;
+      inFlight = tracker.track(image, timeS).then((done) => {
+        busy = false;
+        const ms = performance.now() - start;
+        demo.frameMs.push(ms);
+        if (ticks > ticksBefore) demo.framesTicked += 1;
+        for (const frame of done) {
+          records.push(frame);
+          demo.frames += 1;
+          const n = frame.hands.filter((hand) => hand.joints_3d_mm).length;
+          demo.hands3d += n;
+          if (n > 0) demo.framesWithHand3d += 1;
+        }
+        if (stopped) return;
+        // The frame tracked (no other was read meanwhile), with its hands.
+        ctx.drawImage(grab, 0, 0);
+        if (done.length) {
+          drawOverlay(ctx, done[done.length - 1]);
+          if (handView && handView.update(done[done.length - 1]) > 0) demo.hand3dFrames += 1;
+        }
+        recent.push(performance.now());
+        while (recent.length > 30) recent.shift();
+        const fps = recent.length > 1 ? (1000 * (recent.length - 1)) / (recent[recent.length - 1] - recent[0]) : 0;
+        $('stats').textContent = `${fps.toFixed(1)} fps (tracking ${ms.toFixed(0)} ms a frame), `
+          + `${demo.frames} frames, ${demo.framesWithHand3d} with a hand in 3D`
+          + (!live && video.playbackRate < 1 ? `, playing at ${video.playbackRate.toFixed(2)}x` : '');
+        $('download').disabled = records.length === 0;
+        if (demo.frames === 1) showNotes();
+      }, (e) => {
+        busy = false;
         stop();
         say(`Tracking failed: ${e.message}`, { error: true });
-        return;
-      }
-      const ms = performance.now() - start;
-      demo.frameMs.push(ms);
-      for (const frame of done) {
-        records.push(frame);
-        demo.frames += 1;
-        const n = frame.hands.filter((hand) => hand.joints_3d_mm).length;
-        demo.hands3d += n;
-        if (n > 0) demo.framesWithHand3d += 1;
-      }
-      if (done.length) {
-        drawOverlay(ctx, done[done.length - 1]);
-        if (handView && handView.update(done[done.length - 1]) > 0) demo.hand3dFrames += 1;
-      }
-      recent.push(performance.now());
-      while (recent.length > 30) recent.shift();
-      const fps = recent.length > 1 ? (1000 * (recent.length - 1)) / (recent[recent.length - 1] - recent[0]) : 0;
-      $('stats').textContent = `${fps.toFixed(1)} fps (tracking ${ms.toFixed(0)} ms a frame), `
-        + `${demo.frames} frames, ${demo.framesWithHand3d} with a hand in 3D`
-        + (!live && video.playbackRate < 1 ? `, playing at ${video.playbackRate.toFixed(2)}x` : '');
-      $('download').disabled = records.length === 0;
-      if (demo.frames === 1) showNotes();
+      });
     }
     schedule();
   };
@@ -146,12 +169,14 @@ function trackVideo(video, { live, label }) {
     if (video.requestVideoFrameCallback) video.requestVideoFrameCallback(step);
     else requestAnimationFrame(step);
   };
-  const finish = () => {
+  const finish = async () => {
     if (stopped) return;
     stopped = true;
-    for (const frame of tracker.finish()) records.push(frame);
-    demo.state = 'stopped';
     $('stop').disabled = true;
+    // The frame in the worker's hands first, then the frames it kept back.
+    await inFlight;
+    for (const frame of await tracker.finish()) records.push(frame);
+    demo.state = 'stopped';
     say(`${label}: done, ${demo.frames} frames tracked.`);
   };
   const stop = () => {
@@ -181,11 +206,14 @@ function download() {
 
 async function startTracker() {
   // A new session for each source: identities and the fit's warm start begin afresh.
+  tracker?.close();
+  tracker = null;
   tracker = await createTracker({
     weights: params.get('weights') ?? './weights/',
     mirrorPass: $('mirror').checked,
   });
   demo.mirrorPass = $('mirror').checked;
+  demo.threads = tracker.threads;
 }
 
 async function startCamera() {

@@ -7,7 +7,11 @@
 
 import * as THREE from 'three';
 import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
-import { WebHandMesh } from './pkg/monohand_web.js';
+import init, { WebHandMesh } from './pkg/monohand_web.js';
+
+// The tracker runs in its worker; the mesh is made on the page's thread, by the one-thread
+// module loaded here.
+await init();
 
 /** Numbers per mesh joint in WebHandMesh.pose: translation (3), rotation (4), scale. */
 const STRIDE = 8;

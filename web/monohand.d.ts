@@ -111,6 +111,8 @@ export interface TrackerOptions {
   mirrorPass?: boolean;
   /** The camera's intrinsics, for frames of its size (default: a generic 60 degree camera for the frames' size, said in the notes). */
   camera?: Intrinsics;
+  /** The threads to track on (default 2, or 1 on a one-core machine). More than one needs a cross-origin isolated page (COOP/COEP headers); else the tracker runs on one and its notes say so. */
+  threads?: number;
 }
 
 /** Why this browser cannot run monohand (no WebAssembly, or no WebAssembly SIMD), or `null` if it can. */
@@ -119,24 +121,31 @@ export declare function unsupportedReason(): string | null;
 /** The weights files the tracker loads by default (MediaPipe 0.10.14's full networks). */
 export declare const DEFAULT_WEIGHTS: { readonly palm: string; readonly landmark: string };
 
-/** A tracking session over the page's frames. Made by {@link createTracker}. */
+/** A frame for {@link Tracker.track}: an `ImageData` (copied) or an `ImageBitmap` or `VideoFrame` (handed over to the tracker's worker, which closes it). */
+export type Frame = ImageData | ImageBitmap | VideoFrame;
+
+/** A tracking session over the page's frames, run in a Web Worker. Made by {@link createTracker}. */
 export declare class Tracker {
-  private constructor(inner: unknown);
+  private constructor(worker: Worker, threads: number, notes: string[]);
+  /** The threads the tracker runs on (1 unless the page is cross-origin isolated). */
+  readonly threads: number;
   /**
-   * Tracks the hands of one frame (an `ImageData`, e.g. from a canvas that drew a `<video>`
-   * frame) at `timeS` seconds, later than the last frame's. Returns the records of the
-   * frames now done (this one). Throws an `Error` with a message saying what is wrong for a
-   * frame whose bytes do not match its size.
+   * Tracks the hands of one frame at `timeS` seconds, later than the last frame's.
+   * Resolves with the records of the frames now done (this one); calls are answered in
+   * order, and the page's thread is free meanwhile. Rejects with an `Error` whose message
+   * says what is wrong for a frame whose bytes do not match its size.
    */
-  track(imageData: ImageData, timeS: number): FrameRecord[];
+  track(frame: Frame, timeS: number): Promise<FrameRecord[]>;
   /** The records of the frames still kept back (call once at the end of a video). */
-  finish(): FrameRecord[];
+  finish(): Promise<FrameRecord[]>;
   /** Messages for the user since the last call (the camera assumed, for one). */
-  notes(): string[];
+  notes(): Promise<string[]>;
+  /** Stops the worker (and its threads); the tracker cannot be used after. */
+  close(): void;
 }
 
 /**
- * Loads the WebAssembly module and the networks and starts a session. Rejects with an
+ * Loads the WebAssembly module and the networks and starts a session in a Web Worker. Rejects with an
  * `Error` whose message says what is wrong: an unsupported browser ({@link unsupportedReason}),
  * weights missing, cut short or of another network (naming the file), bad options.
  */

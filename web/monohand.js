@@ -3,14 +3,14 @@
 //
 //   import { createTracker } from './monohand.js';
 //   const tracker = await createTracker({ weights: './weights/' });
-//   const frames = tracker.track(ctx.getImageData(0, 0, w, h), video.currentTime);
+//   const frames = await tracker.track(ctx.getImageData(0, 0, w, h), video.currentTime);
 //   for (const frame of frames) for (const hand of frame.hands) console.log(hand.joints_3d_mm);
 //
-// The WebAssembly module (pkg/, from scripts/web-build.sh) and the weights (weights/, copied
-// by the same script from `monohand models fetch`'s cache) are served beside this file; no
-// other network is used.
-
-import init, { WebTracker } from './pkg/monohand_web.js';
+// The tracker runs in a Web Worker (worker.js), so the page's own thread stays free while
+// it works. The WebAssembly modules (pkg/, and pkg-threads/ for cross-origin isolated
+// pages, from scripts/web-build.sh) and the weights (weights/, copied by the same script
+// from `monohand models fetch`'s cache) are served beside this file; no other network is
+// used.
 
 /** The weights files the tracker loads by default (MediaPipe 0.10.14's full networks). */
 export const DEFAULT_WEIGHTS = {
@@ -52,50 +52,95 @@ async function fetchBytes(url, what) {
   return new Uint8Array(await response.arrayBuffer());
 }
 
-/** A tracking session over the page's frames. Made by {@link createTracker}. */
+/** A tracking session over the page's frames, run in a Web Worker. Made by {@link createTracker}. */
 export class Tracker {
-  constructor(inner) {
-    this.inner = inner;
+  constructor(worker, threads, notes) {
+    this.worker = worker;
+    /** The threads the tracker runs on (1 unless the page is cross-origin isolated). */
+    this.threads = threads;
+    this.startNotes = notes;
+    this.nextId = 0;
+    this.waiting = new Map();
+    worker.onmessage = ({ data }) => {
+      const w = this.waiting.get(data.id);
+      this.waiting.delete(data.id);
+      if (data.ok) w?.resolve(data.result);
+      else w?.reject(new Error(data.error));
+    };
+    worker.onerror = (event) => this.failAll(`the tracker's worker failed: ${event.message ?? 'no message'}`);
+  }
+
+  /** Posts a request to the worker; resolves with its answer. */
+  call(request, transfer = []) {
+    if (!this.worker) return Promise.reject(new Error('the tracker is closed'));
+    const id = this.nextId++;
+    return new Promise((resolve, reject) => {
+      this.waiting.set(id, { resolve, reject });
+      this.worker.postMessage({ ...request, id }, transfer);
+    });
+  }
+
+  failAll(message) {
+    for (const w of this.waiting.values()) w.reject(new Error(message));
+    this.waiting.clear();
   }
 
   /**
-   * Tracks the hands of one frame: an `ImageData` (from a canvas that drew a `<video>`
-   * frame, for one) at `timeS` seconds. Returns the records of the frames now done (this
-   * one), each `{frame, time_s, image_size, cameras, hands: [{side, id, keypoints_2d,
-   * joints_3d_mm, pose, ...}], timings_ms}`.
+   * Tracks the hands of one frame at `timeS` seconds: an `ImageData` (from a canvas that
+   * drew a `<video>` frame, for one; its pixels are copied), or an `ImageBitmap` or
+   * `VideoFrame` (handed over to the worker, which closes it). Resolves with the records of
+   * the frames now done (this one), each `{frame, time_s, image_size, cameras, hands:
+   * [{side, id, keypoints_2d, joints_3d_mm, pose, ...}], timings_ms}`. The page's thread is
+   * free meanwhile; calls are answered in order.
    */
-  track(imageData, timeS) {
-    const data = imageData.data;
-    const rgba = new Uint8Array(data.buffer, data.byteOffset, data.byteLength);
-    return JSON.parse(this.inner.process(rgba, imageData.width, imageData.height, timeS));
+  async track(frame, timeS) {
+    let message;
+    let transfer = [];
+    if (typeof ImageData !== 'undefined' && frame instanceof ImageData) {
+      message = { rgba: frame.data, width: frame.width, height: frame.height };
+    } else {
+      message = { image: frame };
+      transfer = [frame];
+    }
+    return JSON.parse(await this.call({ op: 'track', frame: message, timeS }, transfer));
   }
 
   /** The records of the frames still kept back (call once at the end of a video). */
-  finish() {
-    return JSON.parse(this.inner.finish());
+  async finish() {
+    return JSON.parse(await this.call({ op: 'finish' }));
   }
 
   /** Messages for the user since the last call (the camera assumed, for one). */
-  notes() {
-    return JSON.parse(this.inner.notes());
+  async notes() {
+    const notes = [...this.startNotes, ...JSON.parse(await this.call({ op: 'notes' }))];
+    this.startNotes = [];
+    return notes;
+  }
+
+  /** Stops the worker (and its threads); the tracker cannot be used after. */
+  close() {
+    this.worker?.terminate();
+    this.worker = null;
+    this.failAll('the tracker was closed');
   }
 }
 
 /**
- * Loads the WebAssembly module and the networks and starts a session. Options: `weights`
- * (the folder URL of the weights, relative to the page; default: `weights/` beside this
- * file), `palm` and `landmark` (file names
- * in it, or `Uint8Array`s a user picked), `hands` (most hands, default 2), `detectEvery`
- * (default 10), `mirrorPass` (default true; false reads each crop once, as MediaPipe does:
- * about twice as fast, at a higher 3D error), `camera` (`{fx, fy, cx, cy, width, height}`; default: a generic 60 degree
- * camera for the frames' size). Rejects with a message that says what is wrong for an
- * unsupported browser ({@link unsupportedReason}), weights missing, cut short or of
- * another network, and bad options.
+ * Loads the WebAssembly module and the networks and starts a session in a Web Worker.
+ * Options: `weights` (the folder URL of the weights, relative to the page; default:
+ * `weights/` beside this file), `palm` and `landmark` (file names in it, or `Uint8Array`s
+ * a user picked), `hands` (most hands, default 2), `detectEvery` (default 10), `mirrorPass`
+ * (default true; false reads each crop once, as MediaPipe does: about twice as fast, at a
+ * higher 3D error), `camera` (`{fx, fy, cx, cy, width, height}`; default: a generic 60
+ * degree camera for the frames' size), `threads` (default: 2, or 1 on a one-core machine;
+ * more than one needs a cross-origin isolated page, else it runs on one and a note says
+ * so). Rejects with a message that says what is wrong for an unsupported browser
+ * ({@link unsupportedReason}), weights missing, cut short or of another network, and bad
+ * options.
  */
 export async function createTracker(options = {}) {
   const unsupported = unsupportedReason();
   if (unsupported) throw new Error(unsupported);
-  await init();
   // Given: relative to the page. Default: the weights/ folder beside this file (so a copy
   // of the package served anywhere finds its own).
   const base = options.weights !== undefined ? new URL(options.weights, document.baseURI)
@@ -113,5 +158,18 @@ export async function createTracker(options = {}) {
   if (options.detectEvery !== undefined) settings.detect_every = options.detectEvery;
   if (options.mirrorPass !== undefined) settings.mirror_pass = options.mirrorPass;
   if (options.camera !== undefined) settings.camera = options.camera;
-  return new Tracker(new WebTracker(palm, landmark, JSON.stringify(settings)));
+  const threads = options.threads ?? Math.min(navigator.hardwareConcurrency || 1, 2);
+  const worker = new Worker(new URL('./worker.js', import.meta.url), { type: 'module' });
+  const tracker = new Tracker(worker, 1, []);
+  try {
+    const started = await tracker.call({
+      op: 'start', palm, landmark, settings: JSON.stringify(settings), threads,
+    });
+    tracker.threads = started.threads;
+    tracker.startNotes = started.notes;
+  } catch (e) {
+    tracker.close();
+    throw e;
+  }
+  return tracker;
 }

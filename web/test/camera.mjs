@@ -3,7 +3,9 @@
 // --use-file-for-fake-video-capture`), until the page has tracked `--frames` frames of the
 // camera stream; writes a screenshot of the overlay and prints the page's counts as JSON on
 // its last line. Exits 1 if the page failed, found a hand in 3D in fewer than half of them,
-// or its three.js view (web/hand3d.js) drew no hand.
+// its three.js view (web/hand3d.js) drew no hand, or its own timer did not tick while the
+// tracker worked (in a Web Worker) on at least half of the frames: a tracker on the page's
+// thread would block it in every one.
 //
 // With `--expect-error TEXT` the page must fail to open the camera with a message that
 // contains TEXT, and track nothing: with `--deny`, the camera's permission denied
@@ -93,6 +95,9 @@ try {
       hand3d_view_frames: demo.hand3dFrames,
       median_ms_after_first: ms[Math.floor(ms.length / 2)] ?? null,
       mirror_pass: demo.mirrorPass,
+      threads: demo.threads,
+      track_calls: demo.frameMs.length,
+      frames_ticked: demo.framesTicked,
       message: demo.message,
     };
     if (args.download) {
@@ -114,6 +119,10 @@ try {
     console.log(JSON.stringify(result));
     if (demo.hand3d || demo.hand3dFrames === 0) {
       console.error(`camera test: the demo page's 3D view showed no hand: ${demo.hand3d || 'no frame drawn'}`);
+      process.exitCode = 1;
+    }
+    if (!(2 * demo.framesTicked > demo.frameMs.length)) {
+      console.error(`camera test: the page's timer ticked during only ${demo.framesTicked} of ${demo.frameMs.length} tracker calls (its thread was blocked)`);
       process.exitCode = 1;
     }
     if (!(2 * demo.framesWithHand3d > demo.frames)) {

@@ -31,9 +31,11 @@ const TYPES = {
 /**
  * Serves the folders of `mounts` (`{'/': dir, '/extra/': dir, ...}`; the longest prefix
  * wins) and the single files of `files` (`{'/clip.rgba': file}`) on 127.0.0.1. Resolves to
- * `{ port, close() }`. `onRequest(path)` is called with each path asked for.
+ * `{ port, close() }`. `onRequest(path)` is called with each path asked for. `isolated`
+ * (default true) sends the headers that make a page cross-origin isolated (COOP/COEP, as
+ * scripts/web-serve.sh does), which WebAssembly threads need; false leaves them out.
  */
-export async function serve({ mounts, files = {}, onRequest = () => {} }) {
+export async function serve({ mounts, files = {}, onRequest = () => {}, isolated = true }) {
   const roots = Object.entries(mounts).map(([prefix, dir]) => [prefix, resolve(dir)])
     .sort((a, b) => b[0].length - a[0].length);
   const server = createServer((req, res) => {
@@ -57,6 +59,10 @@ export async function serve({ mounts, files = {}, onRequest = () => {} }) {
     res.writeHead(200, {
       'Content-Type': TYPES[extname(file)] ?? 'application/octet-stream',
       'Content-Length': st.size,
+      ...(isolated ? {
+        'Cross-Origin-Opener-Policy': 'same-origin',
+        'Cross-Origin-Embedder-Policy': 'require-corp',
+      } : {}),
     });
     createReadStream(file).pipe(res);
   });

@@ -4,7 +4,10 @@
 // timings as JSON on its last line.
 //
 //   node --experimental-websocket run.mjs --web DIR --clip FILE.rgba --size WxH --fps N \
-//        --out records.jsonl --screenshot shot.png [--chromium PATH] [--timeout SECS]
+//        --out records.jsonl --screenshot shot.png [--isolated 0] [--chromium PATH] [--timeout SECS]
+//
+// `--isolated 0` serves the page without the cross-origin isolation headers: the tracker
+// then runs on one thread (and its notes say so).
 
 import { writeFileSync } from 'node:fs';
 import { launch, parseArgs, serve } from './chromium.mjs';
@@ -16,7 +19,9 @@ for (const need of ['web', 'clip', 'size', 'out']) {
 const [w, h] = args.size.split('x').map(Number);
 const timeoutS = Number(args.timeout ?? 900);
 
-const server = await serve({ mounts: { '/': args.web }, files: { '/clip.rgba': args.clip } });
+const server = await serve({
+  mounts: { '/': args.web }, files: { '/clip.rgba': args.clip }, isolated: args.isolated !== '0',
+});
 let browser = null;
 try {
   browser = await launch({ chromium: args.chromium });
@@ -38,6 +43,8 @@ try {
     mean_ms_after_first: mean(after),
     median_ms_after_first: sorted[Math.floor(sorted.length / 2)] ?? null,
     notes: result.notes,
+    threads: result.threads,
+    hardware_concurrency: result.hardwareConcurrency,
     user_agent: result.userAgent,
   }));
 } finally {

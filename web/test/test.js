@@ -37,18 +37,20 @@ async function main() {
   for (let i = 0; i < n; i++) {
     image = clip.frame(i);
     const t = performance.now();
-    records.push(...tracker.track(image, i / fps));
+    records.push(...await tracker.track(image, i / fps));
     frameMs.push(performance.now() - t);
     say(`frame ${i + 1} of ${n}`);
     // Let the page draw between frames.
     await new Promise((resolve) => setTimeout(resolve, 0));
   }
-  records.push(...tracker.finish());
+  records.push(...await tracker.finish());
   draw(image, records[records.length - 1]);
-  const notes = tracker.notes();
+  const notes = await tracker.notes();
+  const { threads } = tracker;
+  tracker.close();
   say(`${n} frames; ${notes.join('; ')}`);
-  return { records, frameMs, loadMs, firstFrameMs: loadMs + frameMs[0], notes,
-    userAgent: navigator.userAgent };
+  return { records, frameMs, loadMs, firstFrameMs: loadMs + frameMs[0], notes, threads,
+    hardwareConcurrency: navigator.hardwareConcurrency, userAgent: navigator.userAgent };
 }
 
 main().then(

@@ -13,12 +13,16 @@ export async function example(ctx: CanvasRenderingContext2D, video: HTMLVideoEle
   if (why !== null) throw new Error(why);
   const options: TrackerOptions = {
     weights: './weights/', palm: DEFAULT_WEIGHTS.palm, landmark: new Uint8Array(0), hands: 1,
-    detectEvery: 10, mirrorPass: false, camera: { fx: 500, fy: 500, cx: 319.5, cy: 239.5, width: 640, height: 480 },
+    detectEvery: 10, mirrorPass: false, threads: 2, camera: { fx: 500, fy: 500, cx: 319.5, cy: 239.5, width: 640, height: 480 },
   };
   const tracker = await createTracker(options);
-  const frames: FrameRecord[] = tracker.track(ctx.getImageData(0, 0, 640, 480), video.currentTime);
-  const depths: number[] = [];
-  for (const frame of [...frames, ...tracker.finish()]) {
+  const frames: FrameRecord[] = await tracker.track(ctx.getImageData(0, 0, 640, 480), video.currentTime);
+  const bitmap: ImageBitmap = await createImageBitmap(video);
+  const more: FrameRecord[] = await tracker.track(bitmap, video.currentTime + 0.04);
+  // @ts-expect-error: track resolves later; its records are not there at once.
+  const notYet: FrameRecord[] = tracker.track(ctx.getImageData(0, 0, 640, 480), 1);
+  const depths: number[] = [tracker.threads, notYet.length];
+  for (const frame of [...frames, ...more, ...await tracker.finish()]) {
     const cam = frame.cameras?.[0];
     if (cam && cam.source === 'generic') depths.push(cam.fx);
     for (const hand of frame.hands) {
@@ -35,8 +39,9 @@ export async function example(ctx: CanvasRenderingContext2D, video: HTMLVideoEle
     }
     depths.push(frame.frame, frame.time_s ?? 0, frame.timings_ms?.vision ?? 0);
   }
-  const notes: string[] = tracker.notes();
+  const notes: string[] = await tracker.notes();
   depths.push(notes.length);
+  tracker.close();
   // @ts-expect-error: the side is 'left' or 'right'.
   const wrong: HandRecord['side'] = 'up';
   // @ts-expect-error: hands is a number.

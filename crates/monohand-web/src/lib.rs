@@ -21,6 +21,12 @@ pub mod mesh;
 
 pub use error::WebError;
 
+/// `initThreadPool(n)` for JavaScript: starts rayon's pool of `n` Web Workers sharing the
+/// module's memory (the threaded module only, feature `threads`; the page must be
+/// cross-origin isolated). `web/worker.js` calls it once, before making the tracker.
+#[cfg(all(target_arch = "wasm32", feature = "threads"))]
+pub use wasm_bindgen_rayon::init_thread_pool;
+
 use monohand::{FittedFrame, Session, SessionOptions};
 use monohand_core::camera::{Camera, Intrinsics};
 use monohand_io::jsonl::FrameRecord;
