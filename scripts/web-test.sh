@@ -117,7 +117,8 @@ if (one.threads !== 1 || !(want < 2 || one.notes.some((n) => n.includes("not cro
 # the demo page (web/index.html?start=camera: getUserMedia, a <video>, a canvas, the
 # tracker, the overlay), until it has tracked as many camera frames as the clip has. Not
 # frame-exact (the camera's frames are YUV 4:2:0 and come at its own pace): the page must
-# find a hand in 3D in most of them, and its three.js view must show the skinned hand. Then
+# find a hand in 3D in every one it tracked, its three.js view must show the skinned hand,
+# and its own timer must tick while the tracker works (in its Web Worker). Then
 # the camera denied, and no camera at all: the page says so.
 ffmpeg -v error -y -framerate 30 -i "$out/frames/%04d.png" -pix_fmt yuv420p "$out/clip.y4m"
 # The demo's three.js (its 3D view) and TypeScript (below), pinned in web/package-lock.json.
@@ -126,7 +127,7 @@ camera() {
   node --experimental-websocket web/test/camera.mjs --web web ${CHROMIUM:+--chromium "$CHROMIUM"} "$@" \
     2>> "$out/chromium.log" | tail -n 1
 }
-camera --y4m "$out/clip.y4m" --frames "$frames" --screenshot "$out/camera.png" \
+camera --y4m "$out/clip.y4m" --frames "$frames" --screenshot "$out/camera.png" --every-frame \
   --download "$out/camera.jsonl" > "$out/camera.json" ||
   { echo "web-test: the demo page did not find the hand in the camera stream (see $out/camera.json, $out/chromium.log)" >&2; exit 1; }
 # The same stream with the page's "mirror pass" box unticked (`mirror=0`): the tracker must

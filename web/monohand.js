@@ -97,7 +97,11 @@ export class Tracker {
     let message;
     let transfer = [];
     if (typeof ImageData !== 'undefined' && frame instanceof ImageData) {
-      message = { rgba: frame.data, width: frame.width, height: frame.height };
+      // A copy of exactly the frame's bytes, handed over. (Posting `frame.data` itself would
+      // clone the whole buffer it views, which may be far larger than the frame.)
+      const rgba = frame.data.slice();
+      message = { rgba, width: frame.width, height: frame.height };
+      transfer = [rgba.buffer];
     } else {
       message = { image: frame };
       transfer = [frame];

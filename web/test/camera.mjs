@@ -16,7 +16,8 @@
 //   node --experimental-websocket camera.mjs --web DIR --y4m clip.y4m --frames N \
 //        --screenshot shot.png [--download records.jsonl] [--chromium PATH] [--timeout SECS]
 //        [--extra DIR (served as /extra/)] [--query '&weights=/extra/' (added to the URL)]
-//        [--js-flags FLAGS (V8's, e.g. --jitless: no WebAssembly)]
+//        [--js-flags FLAGS (V8's, e.g. --jitless: no WebAssembly)] [--every-frame (a hand in 3D
+//        in every frame tracked, not only in most)]
 //   node --experimental-websocket camera.mjs --web DIR (--deny | --no-device) --expect-error TEXT [...]
 //
 // `--video FILE` opens a video file with the page's file input (DevTools'
@@ -123,6 +124,10 @@ try {
     }
     if (!(2 * demo.framesTicked > demo.frameMs.length)) {
       console.error(`camera test: the page's timer ticked during only ${demo.framesTicked} of ${demo.frameMs.length} tracker calls (its thread was blocked)`);
+      process.exitCode = 1;
+    }
+    if ('every-frame' in args && demo.framesWithHand3d !== demo.frames) {
+      console.error(`camera test: a hand in 3D in ${demo.framesWithHand3d} of ${demo.frames} camera frames, not in every one (--every-frame)`);
       process.exitCode = 1;
     }
     if (!(2 * demo.framesWithHand3d > demo.frames)) {
