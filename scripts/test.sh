@@ -6,10 +6,13 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 
 echo "== Rust tests"
-cargo test --workspace
+# In release, like the CLI and the wheel below: the dependencies are compiled once for all
+# three (one profile, scripts/test-release.toml, and one set of features,
+# crates/monohand-workspace-hack).
+cargo test --workspace --release --config scripts/test-release.toml
 
 echo "== Python package"
-# Release builds, sharing target/ with each other and with the README's first command.
+# Release builds: the dependencies are those the tests built (tract is not compiled again).
 cargo build --release -p monohand-cli
 venv="target/pyvenv"
 rm -rf "$venv" target/wheels-test

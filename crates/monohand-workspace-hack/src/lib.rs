@@ -1,0 +1,1 @@
+//! No code: see Cargo.toml (the features this crate enables, and why).
