@@ -120,7 +120,7 @@ try {
     ...(fetched.includes('/hand_landmarker.task') ? ['hand_landmarker.task'] : [])];
   console.log(JSON.stringify(result));
 } finally {
-  browser?.close();
+  await browser?.close();
   server?.close();
   rmSync(taskDir, { recursive: true, force: true });
 }

@@ -136,6 +136,6 @@ try {
     }
   }
 } finally {
-  browser?.close();
+  await browser?.close();
   server.close();
 }

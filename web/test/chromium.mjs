@@ -74,7 +74,7 @@ export async function serve({ mounts, files = {}, onRequest = () => {}, isolated
  * Starts headless Chromium (`flags` added to the usual ones; `webgl: true` leaves out
  * `--disable-gpu`, for pages that need WebGL from the software renderer) and opens a DevTools session
  * on its page. Resolves to `{ send(method, params), evaluate(expression), waitFor(expression,
- * timeoutS), screenshot(), close() }`; the page's console and exceptions go to stderr.
+ * timeoutS), screenshot(), close() }` (close resolves once Chromium has exited and its profile is removed); the page's console and exceptions go to stderr.
  */
 export async function launch({ chromium = '/usr/bin/chromium', flags = [], webgl = false } = {}) {
   const profile = mkdtempSync(join(tmpdir(), 'monohand-web-chromium-'));
@@ -83,12 +83,43 @@ export async function launch({ chromium = '/usr/bin/chromium', flags = [], webgl
     '--disable-extensions', '--disable-background-networking', '--disable-sync',
     '--remote-debugging-address=127.0.0.1', '--remote-debugging-port=0',
     `--user-data-dir=${profile}`, '--window-size=1040,780', ...flags, 'about:blank',
-  ], { stdio: ['ignore', 'ignore', 'pipe'] });
+  ], { stdio: ['ignore', 'ignore', 'pipe'], detached: true, env: { ...process.env, TMPDIR: profile } });
   let ws = null;
-  const close = () => {
+  // Chromium in a process group of its own (detached), so that its renderer, GPU and
+  // utility processes end with it: killing the browser alone left them running for a
+  // moment, writing into the profile folder after it was removed (one left in /tmp a run).
+  // The group is ended on close, on this script's exit, and on Ctrl-C; the folder is
+  // removed once the browser is gone. Its temporary files (the singleton socket Chromium
+  // leaves in $TMPDIR even when it exits cleanly) go into the profile folder too.
+  const killGroup = (signal) => {
+    try { process.kill(-child.pid, signal); } catch { /* already gone */ }
+  };
+  const onSignal = () => { killGroup('SIGKILL'); process.exit(130); };
+  const onExit = () => killGroup('SIGKILL');
+  process.once('SIGINT', onSignal);
+  process.once('SIGTERM', onSignal);
+  process.once('exit', onExit);
+  const gone = new Promise((ok) => {
+    if (child.exitCode !== null || child.signalCode !== null) ok();
+    else child.once('exit', ok);
+  });
+  const close = async () => {
     try { ws?.close(); } catch { /* already closed */ }
-    child.kill('SIGKILL');
-    try { rmSync(profile, { recursive: true, force: true }); } catch { /* left in /tmp */ }
+    // SIGTERM first: Chromium then removes its own files in /tmp; SIGKILL after 3 s.
+    killGroup('SIGTERM');
+    const late = setTimeout(() => killGroup('SIGKILL'), 3000);
+    await gone;
+    clearTimeout(late);
+    killGroup('SIGKILL');
+    process.off('SIGINT', onSignal);
+    process.off('SIGTERM', onSignal);
+    process.off('exit', onExit);
+    for (let i = 0; i < 10; i++) {
+      try {
+        rmSync(profile, { recursive: true, force: true });
+        return;
+      } catch { await new Promise((ok) => setTimeout(ok, 100)); }
+    }
   };
   try {
     const browserWs = await new Promise((ok, fail) => {
@@ -107,7 +138,7 @@ export async function launch({ chromium = '/usr/bin/chromium', flags = [], webgl
     ws = new WebSocket(target.webSocketDebuggerUrl);
     await new Promise((ok, fail) => { ws.onopen = ok; ws.onerror = () => fail(new Error('DevTools socket failed')); });
   } catch (e) {
-    close();
+    await close();
     throw e;
   }
   let nextId = 1;

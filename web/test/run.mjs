@@ -48,6 +48,6 @@ try {
     user_agent: result.userAgent,
   }));
 } finally {
-  browser?.close();
+  await browser?.close();
   server.close();
 }

@@ -167,6 +167,9 @@ fn screenshot(dir: &Path, port: u16) -> PathBuf {
         ])
         .arg(format!("--user-data-dir={}", profile.display()))
         .arg(format!("--screenshot={}", shot.display()))
+        // Chromium's own temporary files (its singleton socket, left even on a clean exit)
+        // in the test's folder, removed with it, not in /tmp.
+        .env("TMPDIR", dir)
         .arg(format!("http://127.0.0.1:{port}/index.html"))
         .output()
         .expect(
