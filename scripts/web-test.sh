@@ -1,9 +1,11 @@
 #!/usr/bin/env bash
-# monohand in a real browser (issue 31): builds the WebAssembly module (scripts/web-build.sh),
-# makes a clip of the shared photo seen by a moving camera (ffmpeg: zoom 1.25x, a pan and a
-# turn of up to 8.6 degrees, 640x480), runs it through the page in headless Chromium and
-# through native `monohand run` (tracking, as a video), and compares the two frame by frame:
-# the same hands, 2D keypoints within 0.5 px and 3D joints within 2 mm. A 150-frame video of
+# monohand in a real browser (issues 31, 45): builds the WebAssembly modules, one-thread and
+# threaded (scripts/web-build.sh), makes a clip of the shared photo seen by a moving camera
+# (ffmpeg: zoom 1.25x, a pan and a turn of up to 8.6 degrees, 640x480), runs it through the
+# page in headless Chromium (the tracker in its Web Worker: on two threads with the page
+# cross-origin isolated, then on one without) and through native `monohand run` (tracking,
+# as a video), and compares them frame by frame: the same hands, 2D keypoints within
+# 0.02 px and 3D joints within 0.05 mm. A 150-frame video of
 # the same camera goes through native `run --gltf`, and the Khronos glTF validator must find
 # nothing to report in the .glb files. Prints these two lines (and details under them):
 #   web: N frames, M hands in 3D, F fps in Chromium (@mediapipe/hands, MediaPipe's legacy solution on WebGL, software-rendered here: G fps)
@@ -18,7 +20,7 @@
 # exits 1 if the records differ from native, or if Tasks' 2D keypoints disagree with
 # monohand's (below). Then the demo page (web/index.html) tracks the same clip
 # from Chromium's fake camera (a .y4m file behind getUserMedia) and must find a hand in 3D in
-# most camera frames, give its records as JSON Lines with its download button, and say what
+# every camera frame it tracked, keep its own timer ticking while it tracks, give its records as JSON Lines with its download button, and say what
 # is wrong when the camera is denied or absent, the weights are cut short or missing, or the
 # browser has no WebAssembly. web/monohand.d.ts is type-checked. The records, the
 # timings and screenshots (the test page's last frame and the demo page's overlay on the
