@@ -103,14 +103,14 @@ for style in skinned joints; do
     { echo "web-test: the Khronos glTF validator found fault with $out/$style.glb (above; $out/gltf-$style.json)" >&2; exit 1; }
 done
 
-# The test page, served cross-origin isolated (the tracker on WebAssembly threads), then
-# without the isolation headers (the one-thread module, which must say so in its notes):
-# both must give native's records.
+# The test page, served cross-origin isolated (the tracker on WebAssembly threads, the
+# frames as ImageData), then without the isolation headers (the one-thread module, which
+# must say so in its notes; the frames as ImageBitmaps): both must give native's records.
 node --experimental-websocket web/test/run.mjs --web web --clip "$out/clip.rgba" --size 640x480 \
   --fps 30 --out "$out/web.jsonl" --screenshot "$out/screenshot.png" \
   ${CHROMIUM:+--chromium "$CHROMIUM"} 2> "$out/chromium.log" | tail -n 1 > "$out/timings.json"
 node --experimental-websocket web/test/run.mjs --web web --clip "$out/clip.rgba" --size 640x480 \
-  --fps 30 --out "$out/web-one-thread.jsonl" --isolated 0 \
+  --fps 30 --out "$out/web-one-thread.jsonl" --isolated 0 --bitmap \
   ${CHROMIUM:+--chromium "$CHROMIUM"} 2>> "$out/chromium.log" | tail -n 1 > "$out/timings-one-thread.json"
 node -e '
 const [iso, one] = process.argv.slice(1).map((f) => JSON.parse(require("fs").readFileSync(f, "utf8")));
@@ -205,7 +205,7 @@ const gl = /SwiftShader/i.test(b.webgl_renderer) ? "software-rendered here" : `h
 console.log(`web: ${c.frames} frames, ${c.hands_3d} hands in 3D, ${b.monohand.median_round_fps.toFixed(1)} fps in Chromium (@mediapipe/hands, MediaPipe\x27s legacy solution on WebGL, ${gl}: ${b.mediapipe.median_round_fps.toFixed(1)} fps)`);
 const c1 = JSON.parse(require("fs").readFileSync(process.argv[8], "utf8"));
 const t1 = JSON.parse(require("fs").readFileSync(process.argv[9], "utf8"));
-console.log(`  vs native: max ${c.max_px.toFixed(4)} px, ${c.max_mm.toFixed(4)} mm on ${t.threads} threads (cross-origin isolated), ${c1.max_px.toFixed(4)} px, ${c1.max_mm.toFixed(4)} mm on ${t1.threads} (not isolated: the page says so); ${c.failures + c1.failures} differences beyond 0.02 px / 0.05 mm`);
+console.log(`  vs native: max ${c.max_px.toFixed(4)} px, ${c.max_mm.toFixed(4)} mm on ${t.threads} threads (cross-origin isolated), ${c1.max_px.toFixed(4)} px, ${c1.max_mm.toFixed(4)} mm on ${t1.threads} (not isolated, frames as ImageBitmaps: the page says so); ${c.failures + c1.failures} differences beyond 0.02 px / 0.05 mm`);
 console.log(`  weights cut short or missing, no WebAssembly: the demo page says so (${process.argv[3]})`);
 const cam = JSON.parse(require("fs").readFileSync(process.argv[4], "utf8"));
 const vid = JSON.parse(require("fs").readFileSync(process.argv[6], "utf8"));

@@ -4,10 +4,11 @@
 // timings as JSON on its last line.
 //
 //   node --experimental-websocket run.mjs --web DIR --clip FILE.rgba --size WxH --fps N \
-//        --out records.jsonl --screenshot shot.png [--isolated 0] [--chromium PATH] [--timeout SECS]
+//        --out records.jsonl --screenshot shot.png [--isolated 0] [--bitmap] [--chromium PATH] [--timeout SECS]
 //
 // `--isolated 0` serves the page without the cross-origin isolation headers: the tracker
-// then runs on one thread (and its notes say so).
+// then runs on one thread (and its notes say so). `--bitmap` hands the page's frames to the
+// tracker as ImageBitmaps instead of ImageData.
 
 import { writeFileSync } from 'node:fs';
 import { launch, parseArgs, serve } from './chromium.mjs';
@@ -25,7 +26,7 @@ const server = await serve({
 let browser = null;
 try {
   browser = await launch({ chromium: args.chromium });
-  const url = `http://127.0.0.1:${server.port}/test/index.html?clip=/clip.rgba&w=${w}&h=${h}&fps=${args.fps ?? 30}`;
+  const url = `http://127.0.0.1:${server.port}/test/index.html?clip=/clip.rgba&w=${w}&h=${h}&fps=${args.fps ?? 30}${'bitmap' in args ? '&bitmap=1' : ''}`;
   await browser.send('Page.navigate', { url });
   const result = await browser.waitFor(
     'window.monohandResult ? JSON.stringify(window.monohandResult) : null', timeoutS);

@@ -2,7 +2,8 @@
 // a clip (one file, frames one after the other, as ffmpeg's `-f rawvideo -pix_fmt rgba`
 // writes them), draws the last frame with the demo page's overlay (../overlay.js), and leaves the records and the
 // timings in `window.monohandResult` for the driver (run.mjs) to read.
-// URL parameters: clip (the .rgba file), w, h, fps, weights (their folder; default ../weights/).
+// URL parameters: clip (the .rgba file), w, h, fps, weights (their folder; default ../weights/),
+// bitmap (1: the frames as ImageBitmaps).
 
 import { createTracker } from '../monohand.js';
 import { drawOverlay } from '../overlay.js';
@@ -25,6 +26,7 @@ async function main() {
   const w = Number(params.get('w'));
   const h = Number(params.get('h'));
   const fps = Number(params.get('fps') ?? 30);
+  const bitmap = params.get('bitmap') === '1';
   const t0 = performance.now();
   const tracker = await createTracker({ weights: params.get('weights') ?? '../weights/' });
   const loadMs = performance.now() - t0;
@@ -36,8 +38,11 @@ async function main() {
   let image = null;
   for (let i = 0; i < n; i++) {
     image = clip.frame(i);
+    // `bitmap=1`: each frame handed over as an ImageBitmap (transferred; the worker reads
+    // its pixels through an OffscreenCanvas) instead of copied as ImageData.
+    const frame = bitmap ? await createImageBitmap(image) : image;
     const t = performance.now();
-    records.push(...await tracker.track(image, i / fps));
+    records.push(...await tracker.track(frame, i / fps));
     frameMs.push(performance.now() - t);
     say(`frame ${i + 1} of ${n}`);
     // Let the page draw between frames.
