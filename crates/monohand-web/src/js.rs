@@ -1,4 +1,4 @@
-//! The JavaScript class over [`Tracker`] (WebAssembly build only). Records and notes cross
+//! The JavaScript class over [`Tracker`] (used in the WebAssembly build only; it compiles natively for the lints). Records and notes cross
 //! as JSON text, written by the same code as `monohand run`'s lines; `web/monohand.js`
 //! parses them into plain objects.
 

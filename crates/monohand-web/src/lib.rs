@@ -9,13 +9,13 @@
 //! frames into JSON.
 //!
 //! [`Tracker`] is the whole of it in Rust (it builds and is tested natively too); the
-//! WebAssembly build adds the JavaScript class `WebTracker` over it (module `js`, only for
-//! `wasm32`), which `web/monohand.js` wraps for pages. How to build and test it:
+//! WebAssembly build adds the JavaScript class `WebTracker` over it (module `js`; it compiles
+//! natively too, for the lints, but only runs in wasm32), which `web/monohand.js` wraps for
+//! pages. How to build and test it:
 //! `crates/monohand-web/README.md`.
 #![deny(missing_docs)]
 
 mod error;
-#[cfg(target_arch = "wasm32")]
 mod js;
 pub mod mesh;
 
