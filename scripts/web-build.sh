@@ -14,6 +14,7 @@
 #   WEB_PROFILE=web-fast scripts/...      everything at opt-level 3 (8.3 MB; to compare)
 #   WEB_PROFILE=dev scripts/...           a debug build (slow; keeps function names)
 #   WEB_THREADS=0 scripts/...             without the threaded module
+#   WEB_WEIGHTS=0 scripts/...             the modules only, without copying the weights
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -32,38 +33,20 @@ fi
 
 profile="${WEB_PROFILE:-web}"
 target_dir="${CARGO_TARGET_DIR:-target}"
-# simd128: tract's WebAssembly matrix kernels need it (every current browser has it).
-# Only the wasm32 target gets these flags; the native build is untouched.
-export CARGO_TARGET_WASM32_UNKNOWN_UNKNOWN_RUSTFLAGS="-C target-feature=+simd128"
-cargo rustc -p monohand-web --lib --crate-type cdylib --target wasm32-unknown-unknown \
-  --profile "$profile"
 out_profile="$profile"; [ "$profile" = dev ] && out_profile=debug
 # Function names and the producers section are of no use to the page (0.9 MB).
 strip=(--remove-name-section --remove-producers-section)
 [ "$profile" = dev ] && strip=()
-rm -rf web/pkg
-wasm-bindgen --target web --no-typescript "${strip[@]}" --out-dir web/pkg \
-  "$target_dir/wasm32-unknown-unknown/$out_profile/monohand_web.wasm"
 
-# The weights, from the cache (MONOHAND_MODEL_DIR, else XDG_CACHE_HOME or ~/.cache).
-models="${MONOHAND_MODEL_DIR:-${XDG_CACHE_HOME:-$HOME/.cache}/monohand/models}"
-mkdir -p web/weights
-for f in palm_detection_full.tflite palm_detection_lite.tflite \
-         hand_landmark_full.tflite hand_landmark_lite.tflite LICENSE.mediapipe.txt; do
-  if [ ! -f "$models/$f" ]; then
-    echo "web-build: $models/$f is missing: run \`monohand models fetch\` first" \
-         "(cargo run -p monohand-cli -- models fetch)" >&2
-    exit 1
-  fi
-  cp "$models/$f" web/weights/
-done
-
-# The threaded module. Threads in WebAssembly need the whole program, std included,
-# compiled with atomics; the toolchain ships std without them, so std is rebuilt from its
-# source (`-Z build-std`, which stable Rust accepts only with RUSTC_BOOTSTRAP=1: the way
-# wasm-bindgen-rayon documents, until build-std is stable). Its own target folder: other
-# flags than the module above, and its std.
-threads_note="no threaded module (WEB_THREADS=0)"
+# The threaded module, compiled beside the one-thread module below (two cargo processes:
+# each ends in one long single-threaded step, the fat LTO of the whole program, and two
+# such steps side by side use both cores). Threads in WebAssembly need the whole program,
+# std included, compiled with atomics; the toolchain ships std without them, so std is
+# rebuilt from its source (`-Z build-std`, which stable Rust accepts only with
+# RUSTC_BOOTSTRAP=1: the way wasm-bindgen-rayon documents, until build-std is stable). Its
+# own target folder: other flags than the one-thread module, and its std.
+threads_pid=""
+threads_log="$target_dir/web-build-threads.log"
 rm -rf web/pkg-threads
 if [ "${WEB_THREADS:-1}" != 0 ]; then
   rustup component list --installed | grep -q '^rust-src' || rustup component add rust-src
@@ -75,13 +58,51 @@ if [ "${WEB_THREADS:-1}" != 0 ]; then
            --export=__tls_size --export=__tls_align --export=__tls_base; do
     thread_link+=(-C "link-arg=$a")
   done
+  mkdir -p "$target_dir"
   RUSTC_BOOTSTRAP=1 CARGO_TARGET_DIR="$target_dir/wasm-threads" \
     CARGO_TARGET_WASM32_UNKNOWN_UNKNOWN_RUSTFLAGS="-C target-feature=+atomics,+bulk-memory,+simd128" \
     cargo rustc -p monohand-web --features threads --lib --crate-type cdylib \
     --target wasm32-unknown-unknown --profile "$profile" -Z build-std=panic_abort,std -- \
-    "${thread_link[@]}"
+    "${thread_link[@]}" > "$threads_log" 2>&1 &
+  threads_pid=$!
+fi
+
+# The one-thread module. simd128: tract's WebAssembly matrix kernels need it (every
+# current browser has it). Only the wasm32 target gets these flags; the native build is
+# untouched.
+CARGO_TARGET_WASM32_UNKNOWN_UNKNOWN_RUSTFLAGS="-C target-feature=+simd128" \
+  cargo rustc -p monohand-web --lib --crate-type cdylib --target wasm32-unknown-unknown \
+  --profile "$profile" || { [ -z "$threads_pid" ] || kill "$threads_pid" 2>/dev/null; exit 1; }
+rm -rf web/pkg
+wasm-bindgen --target web --no-typescript "${strip[@]}" --out-dir web/pkg \
+  "$target_dir/wasm32-unknown-unknown/$out_profile/monohand_web.wasm"
+
+threads_note="no threaded module (WEB_THREADS=0)"
+if [ -n "$threads_pid" ]; then
+  wait "$threads_pid" ||
+    { cat "$threads_log" >&2; echo "web-build: the threaded module did not build (above; $threads_log)" >&2; exit 1; }
   wasm-bindgen --target web --no-typescript "${strip[@]}" --out-dir web/pkg-threads \
     "$target_dir/wasm-threads/wasm32-unknown-unknown/$out_profile/monohand_web.wasm"
   threads_note="web/pkg-threads ($(du -b web/pkg-threads/monohand_web_bg.wasm | cut -f1) bytes)"
 fi
-echo "web-build: web/pkg ($(du -b web/pkg/monohand_web_bg.wasm | cut -f1) bytes of wasm), $threads_note and web/weights ready"
+
+# The weights, from the cache (MONOHAND_MODEL_DIR, else XDG_CACHE_HOME or ~/.cache).
+# WEB_WEIGHTS=0: the modules only (.ci/run compiles them while the weights may not be
+# fetched yet; web-test.sh runs this script again, which then only copies them).
+weights_note="web/weights"
+if [ "${WEB_WEIGHTS:-1}" != 0 ]; then
+  models="${MONOHAND_MODEL_DIR:-${XDG_CACHE_HOME:-$HOME/.cache}/monohand/models}"
+  mkdir -p web/weights
+  for f in palm_detection_full.tflite palm_detection_lite.tflite \
+           hand_landmark_full.tflite hand_landmark_lite.tflite LICENSE.mediapipe.txt; do
+    if [ ! -f "$models/$f" ]; then
+      echo "web-build: $models/$f is missing: run \`monohand models fetch\` first" \
+           "(cargo run -p monohand-cli -- models fetch)" >&2
+      exit 1
+    fi
+    cp "$models/$f" web/weights/
+  done
+else
+  weights_note="no weights (WEB_WEIGHTS=0)"
+fi
+echo "web-build: web/pkg ($(du -b web/pkg/monohand_web_bg.wasm | cut -f1) bytes of wasm), $threads_note and $weights_note ready"

@@ -38,7 +38,11 @@ shared="${MONOHAND_SHARED:-$(cd .. && pwd)/shared}"
 photo="$shared/data/images/pinto/hand.png"
 [ -f "$photo" ] || { echo "web-test: $photo is missing (the shared data)" >&2; exit 1; }
 
-scripts/web-build.sh
+# WEB_TEST_BUILD_ONLY=1: compile what the browser tests run (both modules, without copying
+# the weights, and the WASI tests below) and stop. .ci/run does that in the background
+# while the native lint and tests run, then runs this script whole, which finds them built.
+build_only="${WEB_TEST_BUILD_ONLY:-0}"
+if [ "$build_only" = 1 ]; then WEB_WEIGHTS=0 scripts/web-build.sh; else scripts/web-build.sh; fi
 # The networks as the browser runs them, with the WebAssembly SIMD kernels: built for
 # wasm32-wasip1 with simd128 and run under Node's WASI (scripts/wasi-run.mjs; the target is
 # installed through rustup when missing). First monohand-tflite's tests of its 1x1,
@@ -49,25 +53,30 @@ scripts/web-build.sh
 # fails, MONOHAND_REQUIRE_MODELS=1).
 rustup target list --installed | grep -qx wasm32-wasip1 || rustup target add wasm32-wasip1
 wasi_log="${CARGO_TARGET_DIR:-target}/wasi-tests.log"
+# wasi_test <cargo test's selection> -- <test filters>: runs them (or, build only, compiles).
 wasi_test() {
+  local sel=() filters=()
+  while [ $# -gt 0 ] && [ "$1" != -- ]; do sel+=("$1"); shift; done
+  [ $# -gt 0 ] && { shift; filters=("$@"); }
+  [ "$build_only" = 1 ] && { sel+=(--no-run); filters=(); }
   CARGO_TARGET_WASM32_WASIP1_RUSTFLAGS="-C target-feature=+simd128" \
     CARGO_TARGET_WASM32_WASIP1_RUNNER="node --no-warnings $PWD/scripts/wasi-run.mjs" \
-    cargo test --target wasm32-wasip1 "$@" >> "$wasi_log" 2>&1 ||
-    { cat "$wasi_log" >&2; echo "web-test: the WebAssembly build's tests failed (cargo test --target wasm32-wasip1 $*)" >&2; exit 1; }
+    cargo test --target wasm32-wasip1 "${sel[@]}" ${filters[@]+-- "${filters[@]}"} >> "$wasi_log" 2>&1 ||
+    { cat "$wasi_log" >&2; echo "web-test: the WebAssembly build's tests failed (cargo test --target wasm32-wasip1 ${sel[*]})" >&2; exit 1; }
 }
 : > "$wasi_log"
 wasi_test -p monohand-tflite --lib -- simd128 naive_reference
 MONOHAND_REQUIRE_MODELS=1 wasi_test -p monohand-vision --no-default-features --test reference_agreement
+if [ "$build_only" = 1 ]; then
+  echo "web-test: built (WEB_TEST_BUILD_ONLY=1): the modules and the WASI tests"
+  exit 0
+fi
 for t in pointwise::tests::the_simd128_kernel_gives_the_portable_kernels_bits \
          depthwise::tests::the_simd128_kernel_is_bit_identical_to_the_portable_loop \
          hand_landmark_full_matches_litert palm_detector_full_matches_litert; do
   grep -q "$t ... ok" "$wasi_log" ||
     { cat "$wasi_log" >&2; echo "web-test: $t did not run under WASI" >&2; exit 1; }
 done
-# The JavaScript bindings (src/js.rs) exist only for wasm32: lint them there (the workspace's
-# clippy is native).
-CARGO_TARGET_WASM32_UNKNOWN_UNKNOWN_RUSTFLAGS="-C target-feature=+simd128" \
-  cargo clippy -q -p monohand-web --target wasm32-unknown-unknown --lib -- -D warnings
 cargo build --release -q -p monohand-cli --bin monohand
 bin="${CARGO_TARGET_DIR:-target}/release/monohand"
 
