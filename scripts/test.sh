@@ -5,6 +5,14 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
+# TEST_BUILD_ONLY=1: compile the Rust tests and the CLI, run nothing (.ci/run does that in
+# the background while it lints, then runs this script whole, which finds them built).
+if [ "${TEST_BUILD_ONLY:-0}" = 1 ]; then
+  cargo test --workspace --release --config scripts/test-release.toml --no-run
+  cargo build --release -p monohand-cli
+  exit 0
+fi
+
 echo "== Rust tests"
 # In release, like the CLI and the wheel below: the dependencies are compiled once for all
 # three (one profile, scripts/test-release.toml, and one set of features,

@@ -3,7 +3,11 @@
 // page fetched (to show which of their WebAssembly builds ran).
 //
 //   node --experimental-websocket web/bench/run.mjs --web web --clip FILE.rgba --size WxH \
-//        [--fps 30] [--rounds 2] [--weights DIR] [--chromium PATH] [--timeout SECS]
+//        [--fps 30] [--rounds 2] [--legacy-frames N] [--weights DIR] [--chromium PATH]
+//        [--timeout SECS]
+//
+// --legacy-frames N: @mediapipe/hands (the legacy solution, on WebGL, software-rendered
+// without a GPU: about 2 s a frame) runs only the clip's first N frames (default: all).
 //
 // MediaPipe Tasks' HandLandmarker takes its networks as one model bundle (a `.task` file),
 // which is not on npm: it is a zip of `hand_detector.tflite` and
@@ -109,7 +113,8 @@ try {
   // reports the renderer).
   browser = await launch({ chromium: args.chromium, webgl: true });
   const url = `http://127.0.0.1:${server.port}/bench/index.html?clip=/clip.rgba&w=${w}&h=${h}`
-    + `&fps=${args.fps ?? 30}&rounds=${args.rounds ?? 2}&task=/hand_landmarker.task`;
+    + `&fps=${args.fps ?? 30}&rounds=${args.rounds ?? 2}&task=/hand_landmarker.task`
+    + `&legacy_frames=${args['legacy-frames'] ?? 0}`;
   await browser.send('Page.navigate', { url });
   const result = await browser.waitFor('window.benchResult ? JSON.stringify(window.benchResult) : null',
     Number(args.timeout ?? 900), 'the benchmark page');
