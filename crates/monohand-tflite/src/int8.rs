@@ -842,6 +842,63 @@ mod avx2 {
     }
 }
 
+/// The range of the input of every [`PointwiseConv`](crate::PointwiseConv) node of `model`
+/// (by node name) over runs on `inputs` (each the model's inputs): what
+/// [`quantize_pointwise`] codes them from. The model runs as it is (not optimised), so the
+/// names are those of the imported graph.
+pub fn pointwise_input_ranges(
+    model: &TypedModel,
+    inputs: &[TVec<Tensor>],
+) -> TractResult<std::collections::HashMap<String, MinMax>> {
+    let plan = model.clone().into_runnable()?;
+    let mut state = plan.spawn()?;
+    let mut ranges: std::collections::HashMap<String, MinMax> = Default::default();
+    for input in inputs {
+        let input: TVec<TValue> = input.iter().map(|t| t.clone().into_tvalue()).collect();
+        state.run_plan_with_eval(input, |ctx, st, node, inputs| {
+            if node.op_as::<crate::PointwiseConv>().is_some() {
+                if let Some(x) = inputs.first() {
+                    let x = x.try_as_plain_ram()?;
+                    ranges
+                        .entry(node.name.clone())
+                        .or_default()
+                        .observe(x.as_slice::<f32>()?);
+                }
+            }
+            tract_core::plan::eval(ctx, st, node, inputs)
+        })?;
+    }
+    Ok(ranges)
+}
+
+/// Replaces every [`PointwiseConv`](crate::PointwiseConv) node of `model` that `ranges` has
+/// a range for, and that `keep_f32` does not name, by the same convolution in int8
+/// ([`PointwiseConvInt8`], its input coded from the range); returns how many were replaced.
+/// An opt-in experiment (issue 46): nothing in the importer calls it.
+pub fn quantize_pointwise(
+    model: &mut TypedModel,
+    ranges: &std::collections::HashMap<String, MinMax>,
+    keep_f32: impl Fn(&str, &crate::PointwiseConv) -> bool,
+) -> TractResult<usize> {
+    let mut replaced = 0;
+    for id in 0..model.nodes().len() {
+        let node = model.node(id);
+        let Some(op) = node.op_as::<crate::PointwiseConv>() else {
+            continue;
+        };
+        let Some(range) = ranges.get(&node.name) else {
+            continue;
+        };
+        if keep_f32(&node.name, op) {
+            continue;
+        }
+        let int8 = op.to_int8(range.quant())?;
+        model.node_mut(id).op = Box::new(int8);
+        replaced += 1;
+    }
+    Ok(replaced)
+}
+
 thread_local! {
     /// Each thread's buffer for the quantized rows of [`PointwiseConvInt8`]'s evaluations
     /// (allocated once per thread, reused).
@@ -1297,6 +1354,75 @@ mod tests {
         let got = got.as_slice::<f32>().expect("f32");
         let want = c.run(&op, Int8Kernel::PORTABLE);
         assert_eq!(differing_bits(got, &want), 0);
+    }
+
+    #[test]
+    fn a_float_operator_converts_and_a_model_is_calibrated_and_quantized() {
+        let mut g = Lcg(29);
+        let c = Case::random(&mut g, (6 * 7, 20, 24));
+        let quant = ActivationQuant::from_min_max(0.0, 5.0);
+        let wt = Tensor::from_shape(&[c.cout, c.cin], &c.w).expect("w");
+        let f32op = crate::PointwiseConv::new(&wt, &tensor1(&c.b), Activation::Relu6)
+            .expect("op")
+            .with_residual(Activation::None)
+            .with_prelu(&tensor1(&c.alpha))
+            .expect("prelu");
+        let want = c.op(quant, Activation::Relu6, Some(Activation::None), true);
+        assert!(f32op.to_int8(quant).expect("to_int8") == want);
+
+        // source -> 1x1 (RELU6) -> 1x1 (no activation): both calibrated and replaced.
+        let mut model = TypedModel::default();
+        let x = model
+            .add_source("x", f32::fact([1, 6, 7, c.cin]))
+            .expect("source");
+        let first = crate::PointwiseConv::new(&wt, &tensor1(&c.b), Activation::Relu6)
+            .expect("op")
+            .with_split(false);
+        let y = model.wire_node("first", first, &[x]).expect("first")[0];
+        let w2 = Tensor::from_shape(&[5, c.cout], &g.vec(5 * c.cout, 1.0)).expect("w2");
+        let second = crate::PointwiseConv::new(&w2, &tensor1(&[0.5f32; 5]), Activation::None)
+            .expect("op")
+            .with_split(false);
+        let z = model.wire_node("second", second, &[y]).expect("second")[0];
+        model.select_output_outlets(&[z]).expect("outputs");
+        let input = Tensor::from_shape(&[1, 6, 7, c.cin], &c.x).expect("x");
+        let ranges = pointwise_input_ranges(&model, &[tvec!(input.clone())]).expect("ranges");
+        assert_eq!(ranges.len(), 2);
+        let (lo, hi) =
+            c.x.iter()
+                .fold((f32::MAX, f32::MIN), |(l, h), &v| (l.min(v), h.max(v)));
+        assert_eq!((ranges["first"].min, ranges["first"].max), (lo, hi));
+        // The second reads RELU6 outputs.
+        assert!(ranges["second"].min >= 0.0 && ranges["second"].max <= 6.0);
+        let run = |m: &TypedModel| -> Vec<f32> {
+            let out = m
+                .clone()
+                .into_runnable()
+                .expect("plan")
+                .run(tvec!(input.clone().into_tvalue()))
+                .expect("run");
+            let o = out[0].try_as_plain_ram().expect("ram");
+            o.as_slice::<f32>().expect("f32").to_vec()
+        };
+        let reference = run(&model);
+        let mut kept = model.clone();
+        let n = quantize_pointwise(&mut kept, &ranges, |name, _| name == "first").expect("q");
+        assert_eq!(n, 1);
+        assert!(kept.node(1).op_as::<crate::PointwiseConv>().is_some());
+        assert!(kept.node(2).op_as::<PointwiseConvInt8>().is_some());
+        let mut all = model.clone();
+        assert_eq!(
+            quantize_pointwise(&mut all, &ranges, |_, _| false).expect("q"),
+            2
+        );
+        let (half, full) = (run(&kept), run(&all));
+        let scale = reference.iter().fold(0f32, |m, v| m.max(v.abs()));
+        for ((r, h), f) in reference.iter().zip(&half).zip(&full) {
+            // 7-bit activations over ranges of about 5 and 6 units, 20 and 24 terms.
+            assert!((r - h).abs() <= 0.05 * scale, "{r} vs {h}");
+            assert!((r - f).abs() <= 0.05 * scale, "{r} vs {f}");
+        }
+        assert!(half != reference && full != half);
     }
 
     #[test]

@@ -43,7 +43,8 @@ mod tensors;
 pub use conv::NhwcConv;
 pub use depthwise::NhwcDepthwise;
 pub use int8::{
-    quantize_weights, ActivationQuant, MinMax, PointwiseConvInt8, ACTIVATION_QMAX, WEIGHT_QMAX,
+    pointwise_input_ranges, quantize_pointwise, quantize_weights, ActivationQuant, MinMax,
+    PointwiseConvInt8, ACTIVATION_QMAX, WEIGHT_QMAX,
 };
 pub use pointwise::{Activation, PointwiseConv};
 pub use prelu::ChannelPrelu;
