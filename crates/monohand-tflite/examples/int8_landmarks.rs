@@ -18,7 +18,9 @@
 //! for f in d['frames']:
 //!     x,y,w,h=f['crop_box_xywh']; s=256/w; r=224/256
 //!     out.write(' '.join('%.4f %.4f'%((c['fx']*s*X/Z+(c['cx']-x)*s)*r,(c['fy']*s*Y/Z+(c['cy']-y)*s)*r)
-//!                        for X,Y,Z in f['joints_3d_mm'])+'\n')"
+//!                        for X,Y,Z in f['joints_3d_mm'])+'\n')
+//! open('$O/dev_gt3d.txt','w').writelines(' '.join('%.3f'%v for j in f['joints_3d_mm'] for v in j)+'\n'
+//!                                        for f in d['frames'])"
 //! MONOHAND_OP_THREADS=1 cargo run --release -p monohand-tflite --example int8_landmarks -- \
 //!   ~/.cache/monohand/models/hand_landmark_full.tflite $O
 //! ```
@@ -63,6 +65,91 @@ fn dist(a: [f32; 2], b: [f32; 2]) -> f64 {
     (((a[0] - b[0]) as f64).powi(2) + ((a[1] - b[1]) as f64).powi(2)).sqrt()
 }
 
+/// Mean distance (mm) between the world landmarks `p` (metres) and the labels `q` (mm)
+/// after the similarity transform that best maps one onto the other (PA-MPJPE): Horn's
+/// quaternion method, its largest eigenvector by power iteration.
+fn pa_mpjpe(p: &[f32], q: &[[f64; 3]]) -> f64 {
+    let p: Vec<[f64; 3]> = p
+        .chunks_exact(3)
+        .map(|v| [v[0] as f64 * 1e3, v[1] as f64 * 1e3, v[2] as f64 * 1e3])
+        .collect();
+    let centre = |v: &[[f64; 3]]| -> Vec<[f64; 3]> {
+        let n = v.len() as f64;
+        let c = v
+            .iter()
+            .fold([0.0; 3], |a, b| [a[0] + b[0], a[1] + b[1], a[2] + b[2]]);
+        let c = [c[0] / n, c[1] / n, c[2] / n];
+        v.iter()
+            .map(|b| [b[0] - c[0], b[1] - c[1], b[2] - c[2]])
+            .collect()
+    };
+    let (p, q) = (centre(&p), centre(q));
+    let mut s = [[0f64; 3]; 3];
+    for (a, b) in p.iter().zip(&q) {
+        for i in 0..3 {
+            for j in 0..3 {
+                s[i][j] += a[i] * b[j];
+            }
+        }
+    }
+    let [[xx, xy, xz], [yx, yy, yz], [zx, zy, zz]] = s;
+    let n = [
+        [xx + yy + zz, yz - zy, zx - xz, xy - yx],
+        [yz - zy, xx - yy - zz, xy + yx, zx + xz],
+        [zx - xz, xy + yx, -xx + yy - zz, yz + zy],
+        [xy - yx, zx + xz, yz + zy, -xx - yy + zz],
+    ];
+    let shift: f64 = n.iter().flatten().map(|v| v.abs()).sum();
+    let mut v = [1.0, 0.3, 0.2, 0.1];
+    for _ in 0..2000 {
+        let mut w = [0f64; 4];
+        for i in 0..4 {
+            w[i] = shift * v[i] + (0..4).map(|j| n[i][j] * v[j]).sum::<f64>();
+        }
+        let len = w.iter().map(|x| x * x).sum::<f64>().sqrt();
+        v = w.map(|x| x / len);
+    }
+    let [w, x, y, z] = v;
+    let r = [
+        [
+            1.0 - 2.0 * (y * y + z * z),
+            2.0 * (x * y - w * z),
+            2.0 * (x * z + w * y),
+        ],
+        [
+            2.0 * (x * y + w * z),
+            1.0 - 2.0 * (x * x + z * z),
+            2.0 * (y * z - w * x),
+        ],
+        [
+            2.0 * (x * z - w * y),
+            2.0 * (y * z + w * x),
+            1.0 - 2.0 * (x * x + y * y),
+        ],
+    ];
+    let rp: Vec<[f64; 3]> = p
+        .iter()
+        .map(|a| [0, 1, 2].map(|i| (0..3).map(|j| r[i][j] * a[j]).sum::<f64>()))
+        .collect();
+    let num: f64 = rp
+        .iter()
+        .zip(&q)
+        .map(|(a, b)| (0..3).map(|i| a[i] * b[i]).sum::<f64>())
+        .sum();
+    let den: f64 = p.iter().map(|a| a.iter().map(|v| v * v).sum::<f64>()).sum();
+    let scale = num / den;
+    rp.iter()
+        .zip(&q)
+        .map(|(a, b)| {
+            (0..3)
+                .map(|i| (scale * a[i] - b[i]).powi(2))
+                .sum::<f64>()
+                .sqrt()
+        })
+        .sum::<f64>()
+        / q.len() as f64
+}
+
 fn time(plan: &mut Plan, x: &Tensor) -> f64 {
     let mut best = f64::MAX;
     for _ in 0..3 {
@@ -86,6 +173,13 @@ fn main() -> TractResult<()> {
         .map(|l| {
             let v: Vec<f32> = l.split_whitespace().map(|t| t.parse().unwrap()).collect();
             v.chunks_exact(2).map(|p| [p[0], p[1]]).collect()
+        })
+        .collect();
+    let gt3: Vec<Vec<[f64; 3]>> = std::fs::read_to_string(format!("{dir}/dev_gt3d.txt"))?
+        .lines()
+        .map(|l| {
+            let v: Vec<f64> = l.split_whitespace().map(|t| t.parse().unwrap()).collect();
+            v.chunks_exact(3).map(|p| [p[0], p[1], p[2]]).collect()
         })
         .collect();
     let frames: Vec<Tensor> = dev.chunks_exact(FRAME).map(input).collect();
@@ -157,6 +251,10 @@ fn main() -> TractResult<()> {
         .sum::<f64>()
             / n
     };
+    let pa = |outs: &[Output], r: std::ops::Range<usize>| -> f64 {
+        let n = r.len() as f64;
+        r.map(|i| pa_mpjpe(&outs[i].1, &gt3[i])).sum::<f64>() / n
+    };
     let halves = [0..half, half..frames.len()];
     let f32_out = &outs[0];
     println!(
@@ -165,8 +263,10 @@ fn main() -> TractResult<()> {
     );
     for (h, r) in halves.iter().enumerate() {
         println!(
-            "  half {h}: 2D error against the labels {:.3} px (224-px crop)",
-            err(f32_out, r.clone())
+            "  half {h}: 2D error against the labels {:.3} px (224-px crop), world landmarks' \
+             PA-MPJPE {:.3} mm",
+            err(f32_out, r.clone()),
+            pa(f32_out, r.clone())
         );
     }
     for ((label, _, n), (outs, t8)) in plans.iter().zip(outs.iter().zip(&times)).skip(1) {
@@ -199,6 +299,12 @@ fn main() -> TractResult<()> {
                 world += w * 1e3 / r.len() as f64;
                 presence = presence.max((outs[i].2 - f32_out[i].2).abs() as f64);
             }
+            println!(
+                "  half {h}: world landmarks' PA-MPJPE {:.3} mm against f32's {:.3} ({:+.3} mm)",
+                pa(outs, r.clone()),
+                pa(f32_out, r.clone()),
+                pa(outs, r.clone()) - pa(f32_out, r.clone())
+            );
             diff.sort_by(|a, b| a.total_cmp(b));
             let mean = diff.iter().sum::<f64>() / diff.len() as f64;
             println!(
