@@ -47,6 +47,9 @@ pub const ACTIVATION_QMAX: u8 = 127;
 pub const WEIGHT_QMAX: i8 = 127;
 /// Input channels per group: one 32-bit broadcast of four activation bytes.
 const KG: usize = 4;
+/// Rows from which a product shared between the cores is cut by rows (fewer: by
+/// channels), as in `PointwiseConv`.
+const ROWS_TO_SPLIT: usize = 256;
 /// Rows (pixels) per micro-tile (AVX2: `2·MR` accumulators, two weight vectors, the
 /// broadcast, the ones and a product in the 16 `ymm` registers).
 const MR: usize = 4;
@@ -237,6 +240,8 @@ pub struct PointwiseConvInt8 {
     epilogue: Arc<Epilogue>,
     activation: Activation,
     residual: Option<Activation>,
+    /// Share large outputs between the cores ([`crate::split`]).
+    split: bool,
 }
 
 impl Eq for PointwiseConvInt8 {}
@@ -332,7 +337,16 @@ impl PointwiseConvInt8 {
             }),
             activation,
             residual: None,
+            split: true,
         })
+    }
+
+    /// Whether large products are shared between the cores when the network runs alone
+    /// (default: true, as [`PointwiseConv`](crate::PointwiseConv)). The results are the
+    /// same bits.
+    pub fn with_split(mut self, split: bool) -> Self {
+        self.split = split;
+        self
     }
 
     /// Adds a second input of the output's shape after the activation, then applies
@@ -394,26 +408,25 @@ impl PointwiseConvInt8 {
 
     /// The product of `x` (rows of `Cin` f32) into `out` (rows of `Cout` f32), with
     /// `residual` (the output's shape) where the operator has one, on the calling thread
-    /// with the best kernel. `scratch` holds the quantized rows of one block; it grows to
-    /// at most about 64 KiB on the first calls and is reused after that.
-    pub fn compute(
-        &self,
-        x: &[f32],
-        residual: Option<&[f32]>,
-        out: &mut [f32],
-        scratch: &mut Vec<u8>,
-    ) -> TractResult<()> {
-        self.compute_with(x, residual, out, scratch, Int8Kernel::best())
+    /// with the best kernel. The quantized rows go to a buffer of the thread's own
+    /// (at most about 64 KiB, or the whole coded input of a layer of fewer than 256 rows),
+    /// allocated on its first call and reused after that.
+    pub fn compute(&self, x: &[f32], residual: Option<&[f32]>, out: &mut [f32]) -> TractResult<()> {
+        self.compute_with(x, residual, out, Int8Kernel::best(), false)
     }
 
-    /// [`compute`](Self::compute) with a given kernel.
+    /// [`compute`](Self::compute) with a given kernel; with `split`, a large product is
+    /// shared between the cores ([`crate::split`]) as [`PointwiseConv`](crate::PointwiseConv)
+    /// shares it: by rows where there are many (each piece coding its own rows), else by
+    /// channels (the input coded once, then shared). Every value is computed as in one
+    /// piece: the same bits.
     pub(crate) fn compute_with(
         &self,
         x: &[f32],
         residual: Option<&[f32]>,
         out: &mut [f32],
-        scratch: &mut Vec<u8>,
         kernel: Int8Kernel,
+        split: bool,
     ) -> TractResult<()> {
         let rows = x.len() / self.cin;
         let panels = self.cout.div_ceil(NR);
@@ -430,83 +443,165 @@ impl PointwiseConvInt8 {
                 && residual.is_some() == self.residual.is_some(),
             "int8 pointwise convolution: inconsistent buffer sizes"
         );
-        let block = (ROW_BLOCK_BYTES / self.kp).max(MR) / MR * MR;
-        let need = block.min(rows) * self.kp;
+        let job = Job {
+            op: self,
+            x,
+            residual,
+            out: crate::split::Out(out.as_mut_ptr()),
+            kernel,
+        };
+        let team = crate::split::team();
+        let work = rows * self.cin * self.cout;
+        if rows >= ROWS_TO_SPLIT {
+            team.pieces(rows, MR, work, split, &|r| {
+                with_scratch(|s| {
+                    // SAFETY: the lengths were checked and `out` is borrowed mutably here;
+                    // the pieces' rows do not overlap and are within `0..rows`.
+                    unsafe { job.run_rows(r, 0..panels, s) }
+                });
+                Ok(())
+            })
+        } else {
+            with_scratch(|s| {
+                let n = rows * self.kp;
+                if s.len() < n {
+                    s.resize(n, 0);
+                }
+                let q = &mut s[..n];
+                quantize_rows(x, self.cin, self.kp, self.input, q, kernel);
+                let q = &*q;
+                team.pieces(panels, 1, work, split, &|p| {
+                    // SAFETY: as above; `q` codes all the rows, and the pieces' panels do not
+                    // overlap and are within `0..panels`.
+                    unsafe { job.tiles(q, 0..rows, p) };
+                    Ok(())
+                })
+            })
+        }
+    }
+}
+
+/// Calls `f` with this thread's buffer for quantized rows (a new one if it is in use).
+fn with_scratch<R>(f: impl FnOnce(&mut Vec<u8>) -> R) -> R {
+    SCRATCH.with(|s| match s.try_borrow_mut() {
+        Ok(mut s) => f(&mut s),
+        // Re-entered on this thread (not expected): a buffer of its own.
+        Err(_) => f(&mut Vec::new()),
+    })
+}
+
+/// One evaluation, its slices checked by [`PointwiseConvInt8::compute_with`].
+struct Job<'a> {
+    op: &'a PointwiseConvInt8,
+    x: &'a [f32],
+    residual: Option<&'a [f32]>,
+    out: crate::split::Out,
+    kernel: Int8Kernel,
+}
+
+impl Job<'_> {
+    /// Rows `rows` and panels `panels` of the output: the rows coded one block at a time
+    /// into `scratch`, then the tiles.
+    ///
+    /// # Safety
+    /// The slices passed `compute_with`'s checks, the output (at `self.out`) is valid for
+    /// writes, `rows` and `panels` are within it, and nothing else reads or writes that part
+    /// of it meanwhile.
+    unsafe fn run_rows(
+        &self,
+        rows: std::ops::Range<usize>,
+        panels: std::ops::Range<usize>,
+        scratch: &mut Vec<u8>,
+    ) {
+        let (cin, kp) = (self.op.cin, self.op.kp);
+        let block = (ROW_BLOCK_BYTES / kp).max(MR) / MR * MR;
+        let need = block.min(rows.len()) * kp;
         if scratch.len() < need {
             scratch.resize(need, 0);
         }
-        let act = self.activation.bounds();
-        let residual_act = self.residual.unwrap_or_default().bounds();
-        let mut r0 = 0;
-        while r0 < rows {
-            let r1 = (r0 + block).min(rows);
-            let q = &mut scratch[..(r1 - r0) * self.kp];
+        let mut r0 = rows.start;
+        while r0 < rows.end {
+            let r1 = (r0 + block).min(rows.end);
+            let q = &mut scratch[..(r1 - r0) * kp];
             quantize_rows(
-                &x[r0 * self.cin..r1 * self.cin],
-                self.cin,
-                self.kp,
-                self.input,
+                &self.x[r0 * cin..r1 * cin],
+                cin,
+                kp,
+                self.op.input,
                 q,
-                kernel,
+                self.kernel,
             );
-            for p in 0..panels {
-                let c0 = p * NR;
-                let width = NR.min(self.cout - c0);
-                let mut r = r0;
-                while r < r1 {
-                    // Rather than a last tile of at most half the height, two of about equal
-                    // height (as `PointwiseConv`).
-                    let left = r1 - r;
-                    let m = if left > MR && left <= MR + MR / 2 {
-                        left.div_ceil(2)
-                    } else {
-                        MR.min(left)
-                    };
-                    // The pointers below stay inside their buffers: r0 <= r, r + m <= r1 <=
-                    // rows (the quantized block holds rows r0..r1 of kp bytes),
-                    // p < panels and c0 + width <= cout, and the lengths were checked above.
-                    let t = Tile {
-                        // SAFETY: row r - r0 < r1 - r0 of the quantized block.
-                        a: unsafe { q.as_ptr().add((r - r0) * self.kp) },
-                        lda: self.kp,
-                        groups: self.kp / KG,
-                        // SAFETY: panel p of `packed` (panels·kp·NR bytes).
-                        b: unsafe { self.packed.as_ptr().add(p * self.kp * NR) },
-                        // SAFETY: row r, channel c0 < cout of the output (rows·cout values).
-                        out: unsafe { out.as_mut_ptr().add(r * self.cout + c0) },
-                        // SAFETY: the same place in the residual (the output's length).
-                        res: residual.map_or(std::ptr::null(), |v| unsafe {
-                            v.as_ptr().add(r * self.cout + c0)
-                        }),
-                        ldo: self.cout,
-                        m,
-                        width,
-                        // SAFETY: c0 < cout <= panels·NR values in each (padded).
-                        zcorr: unsafe { e.zcorr.as_ptr().add(c0) },
-                        // SAFETY: as above.
-                        scale: unsafe { e.scale.as_ptr().add(c0) },
-                        // SAFETY: as above.
-                        bias: unsafe { e.bias.as_ptr().add(c0) },
-                        alpha: e
-                            .alpha
-                            .as_ref()
-                            // SAFETY: as above.
-                            .map_or(std::ptr::null(), |v| unsafe { v.as_ptr().add(c0) }),
-                        act,
-                        residual_act,
-                    };
-                    // SAFETY: `t` satisfies `Tile`'s contract (the pointers above, valid for
-                    // `m` rows from r and `width` channels from c0, `out` borrowed mutably
-                    // here), 1 <= m <= MR and 1 <= width <= NR as `Int8Kernel::tile` asks,
-                    // and the CPU has the kernel's features (an `Int8Kernel` is only made by
-                    // run-time detection).
-                    unsafe { kernel.tile(m, width)(&t) };
-                    r += m;
-                }
-            }
+            // SAFETY: `q` codes rows r0..r1, within `rows` (this function's contract).
+            unsafe { self.tiles(q, r0..r1, panels.clone()) };
             r0 = r1;
         }
-        Ok(())
+    }
+
+    /// The tiles of rows `rows` (coded in `q`, whose first row is row `rows.start`) and
+    /// panels `panels`.
+    ///
+    /// # Safety
+    /// As [`run_rows`](Self::run_rows), and `q` holds `rows.len()` rows of `kp` codes.
+    unsafe fn tiles(&self, q: &[u8], rows: std::ops::Range<usize>, panels: std::ops::Range<usize>) {
+        let op = self.op;
+        let e = &*op.epilogue;
+        let act = op.activation.bounds();
+        let residual_act = op.residual.unwrap_or_default().bounds();
+        for p in panels {
+            let c0 = p * NR;
+            let width = NR.min(op.cout - c0);
+            let mut r = rows.start;
+            while r < rows.end {
+                // Rather than a last tile of at most half the height, two of about equal
+                // height (as `PointwiseConv`).
+                let left = rows.end - r;
+                let m = if left > MR && left <= MR + MR / 2 {
+                    left.div_ceil(2)
+                } else {
+                    MR.min(left)
+                };
+                // The pointers below stay inside their buffers: rows.start <= r, r + m <=
+                // rows.end <= the output's rows (`q` holds rows.start..rows.end of kp
+                // bytes), p < panels and c0 + width <= cout, and the lengths were checked.
+                let t = Tile {
+                    // SAFETY: row r - rows.start < rows.len() of `q`.
+                    a: unsafe { q.as_ptr().add((r - rows.start) * op.kp) },
+                    lda: op.kp,
+                    groups: op.kp / KG,
+                    // SAFETY: panel p of `packed` (panels·kp·NR bytes).
+                    b: unsafe { op.packed.as_ptr().add(p * op.kp * NR) },
+                    // SAFETY: row r, channel c0 < cout of the output (rows·cout values).
+                    out: unsafe { self.out.ptr().add(r * op.cout + c0) },
+                    // SAFETY: the same place in the residual (the output's length).
+                    res: self.residual.map_or(std::ptr::null(), |v| unsafe {
+                        v.as_ptr().add(r * op.cout + c0)
+                    }),
+                    ldo: op.cout,
+                    m,
+                    width,
+                    // SAFETY: c0 < cout <= panels·NR values in each (padded).
+                    zcorr: unsafe { e.zcorr.as_ptr().add(c0) },
+                    // SAFETY: as above.
+                    scale: unsafe { e.scale.as_ptr().add(c0) },
+                    // SAFETY: as above.
+                    bias: unsafe { e.bias.as_ptr().add(c0) },
+                    alpha: e
+                        .alpha
+                        .as_ref()
+                        // SAFETY: as above.
+                        .map_or(std::ptr::null(), |v| unsafe { v.as_ptr().add(c0) }),
+                    act,
+                    residual_act,
+                };
+                // SAFETY: `t` satisfies `Tile`'s contract (the pointers above, valid for `m`
+                // rows from r and `width` channels from c0, a part of the output nothing
+                // else touches: this function's contract), 1 <= m <= MR and
+                // 1 <= width <= NR as `Int8Kernel::tile` asks, and the CPU has the kernel's
+                // features (an `Int8Kernel` is only made by run-time detection).
+                unsafe { self.kernel.tile(m, width)(&t) };
+                r += m;
+            }
+        }
     }
 }
 
@@ -963,11 +1058,7 @@ impl EvalOp for PointwiseConvInt8 {
             let mut o = output.try_as_plain_ram_mut()?;
             let (x, o) = (xr.as_slice::<f32>()?, o.as_slice_mut::<f32>()?);
             let r = rr.as_ref().map(|r| r.as_slice::<f32>()).transpose()?;
-            SCRATCH.with(|s| match s.try_borrow_mut() {
-                Ok(mut s) => self.compute(x, r, o, &mut s),
-                // Re-entered on this thread (not expected): a buffer of its own.
-                Err(_) => self.compute(x, r, o, &mut Vec::new()),
-            })?;
+            self.compute_with(x, r, o, Int8Kernel::best(), self.split)?;
         }
         Ok(tvec!(output.into_tvalue()))
     }
@@ -1070,7 +1161,7 @@ mod tests {
         fn run(&self, op: &PointwiseConvInt8, kernel: Int8Kernel) -> Vec<f32> {
             let mut out = vec![f32::NAN; self.rows * self.cout];
             let res = op.has_residual().then_some(&self.r[..]);
-            op.compute_with(&self.x, res, &mut out, &mut Vec::new(), kernel)
+            op.compute_with(&self.x, res, &mut out, kernel, false)
                 .expect("compute");
             out
         }
@@ -1153,7 +1244,7 @@ mod tests {
                 )
                 .expect("op");
                 let mut want = vec![f32::NAN; rows * cout];
-                op.compute_with(&x, None, &mut want, &mut Vec::new(), Int8Kernel::PORTABLE)
+                op.compute_with(&x, None, &mut want, Int8Kernel::PORTABLE, false)
                     .expect("portable");
                 for r in 0..rows {
                     for o in 0..cout {
@@ -1174,7 +1265,7 @@ mod tests {
                 }
                 for k in Int8Kernel::supported() {
                     let mut got = vec![f32::NAN; rows * cout];
-                    op.compute_with(&x, None, &mut got, &mut Vec::new(), k)
+                    op.compute_with(&x, None, &mut got, k, false)
                         .expect("kernel");
                     assert_eq!(differing_bits(&got, &want), 0, "{k:?} {rows}x{cin}->{cout}");
                 }
@@ -1426,6 +1517,31 @@ mod tests {
     }
 
     #[test]
+    fn shared_between_threads_by_rows_or_channels_gives_the_same_bits() {
+        let mut g = Lcg(5);
+        // (rows, cin, cout): by rows (56x56x24 to 144, with a residual and PRELU), by
+        // channels (7x7x192 to 1152, 14x14x112 to 672).
+        for (rows, cin, cout, residual) in [
+            (3136, 24, 144, true),
+            (49, 192, 1152, false),
+            (196, 112, 672, true),
+        ] {
+            let c = Case::random(&mut g, (rows, cin, cout));
+            let quant = ActivationQuant::from_min_max(-1.0, 5.0);
+            let res = residual.then_some(Activation::None);
+            let make = |split| {
+                c.op(quant, Activation::Relu6, res, residual)
+                    .with_split(split)
+            };
+            let mut inputs = vec![Tensor::from_shape(&[1, rows, 1, cin], &c.x).expect("x")];
+            if residual {
+                inputs.push(Tensor::from_shape(&[1, rows, 1, cout], &c.r).expect("r"));
+            }
+            crate::split::testing::same_bits_split(&make(true), &make(false), &inputs);
+        }
+    }
+
+    #[test]
     fn rejects_inconsistent_buffers_and_codes() {
         assert!(ActivationQuant::new(0.0, 0).is_err());
         assert!(ActivationQuant::new(f32::NAN, 0).is_err());
@@ -1438,15 +1554,9 @@ mod tests {
         )
         .expect("op");
         let mut out = vec![0f32; 4];
-        assert!(op
-            .compute(&[0.5; 6], None, &mut out, &mut Vec::new())
-            .is_ok());
-        assert!(op
-            .compute(&[0.5; 5], None, &mut out, &mut Vec::new())
-            .is_err());
-        assert!(op
-            .compute(&[0.5; 6], Some(&[0.0; 4]), &mut out, &mut Vec::new())
-            .is_err());
+        assert!(op.compute(&[0.5; 6], None, &mut out).is_ok());
+        assert!(op.compute(&[0.5; 5], None, &mut out).is_err());
+        assert!(op.compute(&[0.5; 6], Some(&[0.0; 4]), &mut out).is_err());
         assert!(PointwiseConvInt8::new(
             &Tensor::from_shape(&[2, 3], &[1f32; 6]).expect("w"),
             &tensor1(&[0f32; 3]),
@@ -1489,7 +1599,6 @@ mod speed {
         let (k32, k8) = (Kernel::best(), Int8Kernel::best());
         println!("f32 kernel {}, int8 kernel {}", k32.name(), k8.name());
         let (mut t32, mut t8) = (0.0, 0.0);
-        let mut scratch = Vec::new();
         for &(rows, cin, cout, count) in shapes {
             let mut g = 1u64;
             let mut next = || {
@@ -1511,7 +1620,7 @@ mod speed {
                 f32op.compute(&x, None, &mut out, k32, false).expect("f32");
             });
             let c = time(work, || {
-                i8op.compute_with(&x, None, &mut out, &mut scratch, k8)
+                i8op.compute_with(&x, None, &mut out, k8, false)
                     .expect("int8");
             });
             t32 += a * count as f64;

@@ -222,7 +222,8 @@ impl PointwiseConv {
         };
         let w = Tensor::from_shape(&[self.cout, self.cin], &w)?;
         let mut op =
-            crate::int8::PointwiseConvInt8::new(&w, &first(&self.bias)?, self.activation, input)?;
+            crate::int8::PointwiseConvInt8::new(&w, &first(&self.bias)?, self.activation, input)?
+                .with_split(self.split);
         if let Some(act) = self.residual {
             op = op.with_residual(act);
         }
