@@ -1366,6 +1366,7 @@ mod tests {
             seen.observe(&c.x);
             let quant = seen.quant();
             let (s_x, z) = (quant.scale() as f64, quant.zero_point() as f64);
+            let wq: Vec<(Vec<i8>, f32)> = c.w.chunks_exact(c.cin).map(quantize_weights).collect();
             for act in ACTS {
                 for res in [None, Some(Activation::Relu6)] {
                     for prelu in [false, true] {
@@ -1375,8 +1376,7 @@ mod tests {
                             for o in 0..c.cout {
                                 let w = &c.w[o * c.cin..(o + 1) * c.cin];
                                 let x = &c.x[r * c.cin..(r + 1) * c.cin];
-                                let (wq, s_w) = quantize_weights(w);
-                                let s_w = s_w as f64;
+                                let (wq, s_w) = (&wq[o].0, wq[o].1 as f64);
                                 let (mut exact, mut bound, mut mag) = (c.b[o] as f64, 0.0, 0.0);
                                 for k in 0..c.cin {
                                     let (xv, wv) = (x[k] as f64, w[k] as f64);
