@@ -4,11 +4,11 @@
 //!
 //! * **weights**: symmetric int8 per output channel, quantized once at load
 //!   (`scale_o = max|w_o| / 127`, `q = round(w / scale_o)` in `[-127, 127]`), packed in
-//!   panels of [`NR`] output channels, four input channels at a time (`[Cin/4][NR][4]` bytes
+//!   panels of 16 output channels, four input channels at a time (`[Cin/4][NR][4]` bytes
 //!   per panel, zero padded): the layout of `vpmaddubsw` here and of `vpdpbusd` (VNNI) later;
 //! * **activations**: per tensor, asymmetric, **7-bit unsigned** (`q = clamp(round(x / s) + z,
 //!   0, 127)`, [`ActivationQuant`]), quantized on the fly, one block of input rows at a time,
-//!   into a caller-owned scratch buffer. 7 bits rather than 8 because AVX2's `vpmaddubsw`
+//!   into a buffer of the thread's own (allocated once, reused). 7 bits rather than 8 because AVX2's `vpmaddubsw`
 //!   (u8 x i8, adjacent pairs summed into a *saturating* i16) can then never saturate:
 //!   `2 · 127 · 127 = 32258 <= 32767`. So the AVX2 kernel's integer sums are exact and equal,
 //!   bit for bit, to the portable kernel's; with 8-bit activations (`2 · 255 · 127 = 64770`)
@@ -29,11 +29,12 @@
 //!   that the portable and SIMD kernels round alike.
 //!
 //! Kernels, chosen at run time: AVX2 (`vpmaddubsw` + `vpmaddwd` against ones + `vpaddd`,
-//! tiles of [`MR`] rows x 16 channels in 8 `ymm` accumulators) where the CPU has it, else a
+//! tiles of 4 rows x 16 channels in 8 `ymm` accumulators) where the CPU has it, else a
 //! portable one (the reference). `MONOHAND_KERNEL=portable` forces the portable one (as it
 //! does for the f32 kernels); `avx2` and `avx512` both mean the AVX2 kernel here. An AVX-512
-//! VNNI / AVX-VNNI kernel (`vpdpbusd`) and a WebAssembly one are left for later, as is
-//! sharing one product between the cores.
+//! VNNI / AVX-VNNI kernel (`vpdpbusd`) and a WebAssembly one are left for later. A large
+//! product is shared between the cores as [`PointwiseConv`](crate::PointwiseConv)'s is, with
+//! the same bits.
 
 use std::cell::RefCell;
 
