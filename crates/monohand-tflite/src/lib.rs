@@ -33,6 +33,7 @@
 
 mod conv;
 mod depthwise;
+mod int8;
 mod ops;
 mod pointwise;
 mod prelu;
@@ -41,6 +42,10 @@ mod tensors;
 
 pub use conv::NhwcConv;
 pub use depthwise::NhwcDepthwise;
+pub use int8::{
+    pointwise_input_ranges, quantize_pointwise, quantize_weights, ActivationQuant, MinMax,
+    PointwiseConvInt8, ACTIVATION_QMAX, WEIGHT_QMAX,
+};
 pub use pointwise::{Activation, PointwiseConv};
 pub use prelu::ChannelPrelu;
 pub use split::{allow_split_here, shared_operators, team_size, Running};

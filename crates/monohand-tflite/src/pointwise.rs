@@ -201,6 +201,38 @@ impl PointwiseConv {
         self.prelu.is_some()
     }
 
+    /// The same convolution and epilogue in int8 arithmetic, its input coded with `input`
+    /// (weights, bias and slopes recovered exactly from the packed panels).
+    pub fn to_int8(
+        &self,
+        input: crate::int8::ActivationQuant,
+    ) -> TractResult<crate::int8::PointwiseConvInt8> {
+        let packed = self.packed.try_as_plain_ram()?;
+        let packed = packed.as_slice::<f32>()?;
+        let mut w = vec![0f32; self.cout * self.cin];
+        for (o, row) in w.chunks_exact_mut(self.cin).enumerate() {
+            let (p, j) = (o / NR, o % NR);
+            for (i, v) in row.iter_mut().enumerate() {
+                *v = packed[(p * self.cin + i) * NR + j];
+            }
+        }
+        let first = |t: &Tensor| -> TractResult<Tensor> {
+            let t = t.try_as_plain_ram()?;
+            Ok(tensor1(&t.as_slice::<f32>()?[..self.cout]))
+        };
+        let w = Tensor::from_shape(&[self.cout, self.cin], &w)?;
+        let mut op =
+            crate::int8::PointwiseConvInt8::new(&w, &first(&self.bias)?, self.activation, input)?
+                .with_split(self.split);
+        if let Some(act) = self.residual {
+            op = op.with_residual(act);
+        }
+        if let Some(alpha) = &self.prelu {
+            op = op.with_prelu(&first(alpha)?)?;
+        }
+        Ok(op)
+    }
+
     /// Calls `f` with the evaluation of `x` (rows of `Cin`) with `residual`.
     fn with_job<R>(
         &self,

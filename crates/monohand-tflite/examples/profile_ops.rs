@@ -1,0 +1,104 @@
+//! Time per operator type of a `.tflite` network imported by this crate and optimised by
+//! tract, one thread unless `MONOHAND_OP_THREADS` says otherwise (the share of 1x1, depthwise,
+//! first-layer convolution and the rest):
+//!
+//! `MONOHAND_OP_THREADS=1 cargo run --release -p monohand-tflite --example profile_ops -- \
+//!  ~/.cache/monohand/models/hand_landmark_full.tflite [runs]`
+//!
+//! `PER_NODE=1` times each node (with its first input's and its output's shapes) instead of each operator type.
+//! (monohand-vision's `profile_net` does the same through the model store; this one needs
+//! only this crate.) The input is a constant 0.5 image; timing one node at a time adds a
+//! little overhead per node, so the total is a little above a plain run's.
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a failed measurement is a panic
+
+use std::collections::HashMap;
+use std::time::{Duration, Instant};
+
+use tract_core::internal::*;
+
+fn main() -> TractResult<()> {
+    let path = std::env::args()
+        .nth(1)
+        .context("usage: profile_ops MODEL.tflite [runs]")?;
+    let runs: usize = std::env::args()
+        .nth(2)
+        .map(|r| r.parse())
+        .transpose()?
+        .unwrap_or(50);
+    let bytes = std::fs::read(&path)?;
+    let model = monohand_tflite::import(&bytes).map_err(|e| format_err!("{e}"))?;
+    let model = model.into_optimized()?;
+    let shape: Vec<usize> = model
+        .input_fact(0)?
+        .shape
+        .as_concrete()
+        .context("shape")?
+        .to_vec();
+    let per_node = std::env::var_os("PER_NODE").is_some();
+    let plan = model.into_runnable()?;
+    let input = tract_ndarray::ArrayD::from_elem(shape, 0.5f32).into_tensor();
+    let mut per_op: HashMap<String, (Duration, usize)> = HashMap::new();
+    let mut state = plan.spawn()?;
+    // Warm up (weights into cache, the helper team started).
+    for _ in 0..5 {
+        state.run(tvec!(input.clone().into_tvalue()))?;
+    }
+    let mut plain = Duration::MAX;
+    for _ in 0..runs {
+        let t = Instant::now();
+        state.run(tvec!(input.clone().into_tvalue()))?;
+        plain = plain.min(t.elapsed());
+    }
+    let t_all = Instant::now();
+    for _ in 0..runs {
+        state.run_plan_with_eval(
+            tvec!(input.clone().into_tvalue()),
+            |ctx, st, node, inputs| {
+                let input = inputs.first().map(|i| format!("{:?}", i.shape()));
+                let t = Instant::now();
+                let r = tract_core::plan::eval(ctx, st, node, inputs);
+                let key = if per_node {
+                    let facts: Vec<String> = node
+                        .outputs
+                        .iter()
+                        .map(|o| format!("{:?}", o.fact.shape))
+                        .collect();
+                    format!(
+                        "{} #{} {} -> {}",
+                        node.op().name(),
+                        node.id,
+                        input.unwrap_or_default(),
+                        facts.join(" ")
+                    )
+                } else {
+                    node.op().name().to_string()
+                };
+                let e = per_op.entry(key).or_default();
+                e.0 += t.elapsed();
+                e.1 += 1;
+                r
+            },
+        )?;
+    }
+    let total = t_all.elapsed() / runs as u32;
+    let mut v: Vec<_> = per_op.into_iter().collect();
+    v.sort_by_key(|e| std::cmp::Reverse(e.1 .0));
+    let sum: f64 = v.iter().map(|e| e.1 .0.as_secs_f64()).sum::<f64>() / runs as f64;
+    println!(
+        "{path}: best plain run {:.2} ms; timed per node {:.2} ms per run (nodes sum {:.2} ms)",
+        plain.as_secs_f64() * 1e3,
+        total.as_secs_f64() * 1e3,
+        sum * 1e3
+    );
+    for (name, (d, n)) in v {
+        let ms = d.as_secs_f64() * 1e3 / runs as f64;
+        println!(
+            "  {:<60} {:7.3} ms {:5.1} %  ({} nodes)",
+            name,
+            ms,
+            100.0 * ms / (sum * 1e3),
+            n / runs
+        );
+    }
+    Ok(())
+}

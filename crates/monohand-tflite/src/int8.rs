@@ -1,0 +1,1668 @@
+//! An int8 pointwise (1x1, stride 1) convolution with f32 input and output, the first step of
+//! issue 46 (int8 inference). It is a drop-in for [`PointwiseConv`](crate::PointwiseConv)
+//! between f32 layers, with the same fused epilogue:
+//!
+//! * **weights**: symmetric int8 per output channel, quantized once at load
+//!   (`scale_o = max|w_o| / 127`, `q = round(w / scale_o)` in `[-127, 127]`), packed in
+//!   panels of 16 output channels, four input channels at a time (`[Cin/4][NR][4]` bytes
+//!   per panel, zero padded): the layout of `vpmaddubsw` here and of `vpdpbusd` (VNNI) later;
+//! * **activations**: per tensor, asymmetric, **7-bit unsigned** (`q = clamp(round(x / s) + z,
+//!   0, 127)`, [`ActivationQuant`]), quantized on the fly, one block of input rows at a time,
+//!   into a buffer of the thread's own (allocated once, reused). 7 bits rather than 8 because AVX2's `vpmaddubsw`
+//!   (u8 x i8, adjacent pairs summed into a *saturating* i16) can then never saturate:
+//!   `2 · 127 · 127 = 32258 <= 32767`. So the AVX2 kernel's integer sums are exact and equal,
+//!   bit for bit, to the portable kernel's; with 8-bit activations (`2 · 255 · 127 = 64770`)
+//!   they would saturate on some inputs, and a kernel that differs from the reference on
+//!   some inputs is hard to test and to trust. (The other exact route on AVX2 widens both
+//!   operands to i16 and uses `vpmaddwd` alone: 8-bit activations, but twice the weight
+//!   bytes and register traffic for the same multiply-port throughput. Whether the 8th bit
+//!   matters for accuracy is for the calibration step to show; AVX-512 VNNI's `vpdpbusd`
+//!   accumulates in i32 and would take 8-bit activations exactly.) Asymmetric because most
+//!   1x1 inputs in these networks follow a RELU6 or a PRELU, i.e. are mostly one-sided: a
+//!   symmetric code would waste most of its levels;
+//! * **accumulation** in i32 of the raw `x_q · w_q` products (exact: at most
+//!   `Cin · 127 · 127`, far below 2³¹ for `Cin <= 100 000`); the zero point is taken out
+//!   in the epilogue with a per-channel `z · Σ_k w_q` precomputed at load;
+//! * **epilogue** in f32: `y = (acc - z·Σw_q) · (s_x · s_w,o) + b_o`, then the
+//!   convolution's activation, the optional residual `ADD` with its activation, the optional
+//!   PRELU — as [`PointwiseConv`](crate::PointwiseConv)'s, without fused multiply-adds so
+//!   that the portable and SIMD kernels round alike.
+//!
+//! Kernels, chosen at run time: AVX2 (`vpmaddubsw` + `vpmaddwd` against ones + `vpaddd`,
+//! tiles of 4 rows x 16 channels in 8 `ymm` accumulators) where the CPU has it, else a
+//! portable one (the reference). `MONOHAND_KERNEL=portable` forces the portable one (as it
+//! does for the f32 kernels); `avx2` and `avx512` both mean the AVX2 kernel here. An AVX-512
+//! VNNI / AVX-VNNI kernel (`vpdpbusd`) and a WebAssembly one are left for later. A large
+//! product is shared between the cores as [`PointwiseConv`](crate::PointwiseConv)'s is, with
+//! the same bits.
+
+use std::cell::RefCell;
+
+use tract_core::internal::*;
+
+use crate::pointwise::{Activation, NR};
+
+/// The largest activation code (7-bit unsigned activations; see the module documentation).
+pub const ACTIVATION_QMAX: u8 = 127;
+/// The largest weight magnitude (weights in `[-127, 127]`).
+pub const WEIGHT_QMAX: i8 = 127;
+/// Input channels per group: one 32-bit broadcast of four activation bytes.
+const KG: usize = 4;
+/// Rows from which a product shared between the cores is cut by rows (fewer: by
+/// channels), as in `PointwiseConv`.
+const ROWS_TO_SPLIT: usize = 256;
+/// Rows (pixels) per micro-tile (AVX2: `2·MR` accumulators, two weight vectors, the
+/// broadcast, the ones and a product in the 16 `ymm` registers).
+const MR: usize = 4;
+/// Quantized input bytes of one block of rows, kept in L2 while every panel passes over it.
+const ROW_BLOCK_BYTES: usize = 64 * 1024;
+/// The most input channels (so that the i32 sums cannot overflow: `Cin · 127 · 127 < 2³¹`).
+const MAX_CIN: usize = 100_000;
+
+/// `a` if it is greater than `b`, else `b` (x86's `maxps` rule: `b` where either is NaN or
+/// both are zeros), so that the portable and SIMD kernels give the same bits.
+#[inline(always)]
+fn max_ps(a: f32, b: f32) -> f32 {
+    if a > b {
+        a
+    } else {
+        b
+    }
+}
+
+/// `a` if it is less than `b`, else `b` (x86's `minps` rule).
+#[inline(always)]
+fn min_ps(a: f32, b: f32) -> f32 {
+    if a < b {
+        a
+    } else {
+        b
+    }
+}
+
+/// How an f32 activation tensor is coded in 7 bits: `x ≈ scale · (q - zero_point)` with
+/// `q` in `[0, 127]` ([`ACTIVATION_QMAX`]).
+#[derive(Debug, Clone, Copy)]
+pub struct ActivationQuant {
+    scale: f32,
+    /// `1 / scale`, the factor the quantizer multiplies by.
+    inv_scale: f32,
+    zero_point: u8,
+}
+
+impl PartialEq for ActivationQuant {
+    fn eq(&self, other: &Self) -> bool {
+        self.scale.to_bits() == other.scale.to_bits() && self.zero_point == other.zero_point
+    }
+}
+
+impl Eq for ActivationQuant {}
+
+impl ActivationQuant {
+    /// A code of step `scale` (finite, > 0) with `zero_point` (at most 127) coding 0.0.
+    pub fn new(scale: f32, zero_point: u8) -> TractResult<Self> {
+        ensure!(
+            scale.is_finite() && scale > 0.0 && (1.0 / scale).is_finite(),
+            "activation scale {scale} is not a finite positive number"
+        );
+        ensure!(
+            zero_point <= ACTIVATION_QMAX,
+            "activation zero point {zero_point} above {ACTIVATION_QMAX}"
+        );
+        Ok(ActivationQuant {
+            scale,
+            inv_scale: 1.0 / scale,
+            zero_point,
+        })
+    }
+
+    /// The code spanning observed values from `min` to `max` (widened to include 0.0, which
+    /// is then coded exactly, as zero padding and RELU outputs need): the step is
+    /// `(max - min) / 127` and the zero point the code nearest to 0.0. Non-finite or empty
+    /// ranges give the step 1.
+    pub fn from_min_max(min: f32, max: f32) -> Self {
+        let (lo, hi) = (min.min(0.0), max.max(0.0));
+        let mut scale = (hi - lo) / ACTIVATION_QMAX as f32;
+        if !(scale.is_finite() && scale > 0.0 && (1.0 / scale).is_finite()) {
+            scale = 1.0;
+        }
+        let zero = (-lo / scale)
+            .round_ties_even()
+            .clamp(0.0, ACTIVATION_QMAX as f32) as u8;
+        ActivationQuant {
+            scale,
+            inv_scale: 1.0 / scale,
+            zero_point: zero,
+        }
+    }
+
+    /// The step between codes.
+    pub fn scale(&self) -> f32 {
+        self.scale
+    }
+
+    /// The code of 0.0.
+    pub fn zero_point(&self) -> u8 {
+        self.zero_point
+    }
+
+    /// The code of `x`: `round(x / scale) + zero_point` (ties to even, the division a
+    /// multiplication by `1 / scale`), clamped to `[0, 127]`; NaN gives 0.
+    #[inline(always)]
+    pub fn quantize(&self, x: f32) -> u8 {
+        let z = self.zero_point as f32;
+        let t = (x * self.inv_scale).round_ties_even();
+        let t = min_ps(max_ps(t, -z), ACTIVATION_QMAX as f32 - z);
+        (t as i32 + self.zero_point as i32) as u8
+    }
+
+    /// The value code `q` stands for.
+    pub fn dequantize(&self, q: u8) -> f32 {
+        self.scale * (q as f32 - self.zero_point as f32)
+    }
+}
+
+/// The smallest and largest finite values seen in a tensor over some runs: what
+/// [`ActivationQuant::from_min_max`] is computed from (the calibration of a later step).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct MinMax {
+    /// The smallest finite value seen (`+inf` before any).
+    pub min: f32,
+    /// The largest finite value seen (`-inf` before any).
+    pub max: f32,
+}
+
+impl Default for MinMax {
+    fn default() -> Self {
+        MinMax {
+            min: f32::INFINITY,
+            max: f32::NEG_INFINITY,
+        }
+    }
+}
+
+impl MinMax {
+    /// Widens the range to the finite values of `values`.
+    pub fn observe(&mut self, values: &[f32]) {
+        for &v in values.iter().filter(|v| v.is_finite()) {
+            self.min = self.min.min(v);
+            self.max = self.max.max(v);
+        }
+    }
+
+    /// The code for the range seen so far (see [`ActivationQuant::from_min_max`]).
+    pub fn quant(&self) -> ActivationQuant {
+        ActivationQuant::from_min_max(self.min, self.max)
+    }
+}
+
+/// The per-channel constants of the epilogue, padded to whole panels.
+#[derive(Debug, Clone)]
+struct Epilogue {
+    /// `zero_point · Σ_k w_q[o][k]`.
+    zcorr: Vec<i32>,
+    /// `s_x · s_w[o]`.
+    scale: Vec<f32>,
+    bias: Vec<f32>,
+    alpha: Option<Vec<f32>>,
+}
+
+impl PartialEq for Epilogue {
+    fn eq(&self, other: &Self) -> bool {
+        let bits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        self.zcorr == other.zcorr
+            && bits(&self.scale) == bits(&other.scale)
+            && bits(&self.bias) == bits(&other.bias)
+            && self.alpha.as_deref().map(bits) == other.alpha.as_deref().map(bits)
+    }
+}
+
+/// 1x1 stride-1 convolution of f32 NHWC tensors in int8 arithmetic (see the module
+/// documentation): the input is coded in 7 bits with a fixed [`ActivationQuant`], the
+/// weights in int8 per output channel; the result is f32, with the fused epilogue of
+/// [`PointwiseConv`](crate::PointwiseConv):
+///
+/// `y = act(x·W + b)`, then if a residual input `r` is wired `y = act_r(y + r)`, then if PRELU
+/// slopes `α` are set `y = max(y, 0) + α · min(y, 0)`.
+///
+/// Input 0 is the activation tensor; input 1, present only when built
+/// [`with_residual`](Self::with_residual), has the output's shape.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PointwiseConvInt8 {
+    cin: usize,
+    /// `cin` rounded up to a multiple of the group of 4.
+    kp: usize,
+    cout: usize,
+    input: ActivationQuant,
+    /// `[Cout.div_ceil(NR), kp / 4, NR, 4]`, zero padded.
+    packed: Arc<Vec<i8>>,
+    /// `max|w_o| / 127` per output channel (unpadded).
+    weight_scales: Arc<Vec<f32>>,
+    epilogue: Arc<Epilogue>,
+    activation: Activation,
+    residual: Option<Activation>,
+    /// Share large outputs between the cores ([`crate::split`]).
+    split: bool,
+}
+
+impl Eq for PointwiseConvInt8 {}
+
+/// `values` (length `n`) zero padded to a whole number of panels.
+fn padded<T: Copy + Default>(values: &[T], n: usize) -> Vec<T> {
+    let mut v = vec![T::default(); n.div_ceil(NR) * NR];
+    v[..n].copy_from_slice(&values[..n]);
+    v
+}
+
+/// The f32 values of a tensor.
+fn floats(t: &Tensor) -> TractResult<Vec<f32>> {
+    let t = t.cast_to::<f32>()?;
+    let t = t.try_as_plain_ram()?;
+    Ok(t.as_slice::<f32>()?.to_vec())
+}
+
+/// Symmetric int8 codes of one output channel's weights and their scale `max|w| / 127`
+/// (1 for an all-zero channel).
+pub fn quantize_weights(w: &[f32]) -> (Vec<i8>, f32) {
+    let max = w
+        .iter()
+        .filter(|v| v.is_finite())
+        .fold(0f32, |m, v| m.max(v.abs()));
+    let scale = if max > 0.0 && (max / WEIGHT_QMAX as f32) > 0.0 {
+        max / WEIGHT_QMAX as f32
+    } else {
+        1.0
+    };
+    let q = w
+        .iter()
+        .map(|&v| {
+            (v / scale)
+                .round_ties_even()
+                .clamp(-(WEIGHT_QMAX as f32), WEIGHT_QMAX as f32) as i8
+        })
+        .collect();
+    (q, scale)
+}
+
+impl PointwiseConvInt8 {
+    /// Quantizes and packs `weights` (`[Cout, Cin]`, or TFLite's OHWI `[Cout, 1, 1, Cin]`),
+    /// with `bias` (`[Cout]`), the convolution's own `activation`, and the code `input` of
+    /// its input tensor.
+    pub fn new(
+        weights: &Tensor,
+        bias: &Tensor,
+        activation: Activation,
+        input: ActivationQuant,
+    ) -> TractResult<Self> {
+        let s = weights.shape();
+        ensure!(
+            (s.len() == 2 || (s.len() == 4 && s[1] == 1 && s[2] == 1)) && s[0] > 0,
+            "pointwise weights must be [Cout, Cin] or [Cout, 1, 1, Cin], got {s:?}"
+        );
+        let (cout, cin) = (s[0], s[s.len() - 1]);
+        ensure!(
+            cin > 0 && cin <= MAX_CIN,
+            "pointwise convolution over {cin} input channels (1 to {MAX_CIN})"
+        );
+        let w = floats(weights)?;
+        let b = floats(bias)?;
+        ensure!(b.len() == cout, "{} biases for {cout} channels", b.len());
+        let kp = cin.div_ceil(KG) * KG;
+        let panels = cout.div_ceil(NR);
+        let mut packed = vec![0i8; panels * kp * NR];
+        let mut scales = Vec::with_capacity(cout);
+        let mut zcorr = Vec::with_capacity(cout);
+        for (o, row) in w.chunks_exact(cin).enumerate() {
+            let (q, scale) = quantize_weights(row);
+            let (p, j) = (o / NR, o % NR);
+            for (k, &v) in q.iter().enumerate() {
+                packed[((p * kp / KG + k / KG) * NR + j) * KG + k % KG] = v;
+            }
+            let sum: i32 = q.iter().map(|&v| v as i32).sum();
+            zcorr.push(input.zero_point as i32 * sum);
+            scales.push(scale);
+        }
+        let combined: Vec<f32> = scales.iter().map(|s| input.scale * s).collect();
+        Ok(PointwiseConvInt8 {
+            cin,
+            kp,
+            cout,
+            input,
+            packed: Arc::new(packed),
+            weight_scales: Arc::new(scales),
+            epilogue: Arc::new(Epilogue {
+                zcorr: padded(&zcorr, cout),
+                scale: padded(&combined, cout),
+                bias: padded(&b, cout),
+                alpha: None,
+            }),
+            activation,
+            residual: None,
+            split: true,
+        })
+    }
+
+    /// Whether large products are shared between the cores when the network runs alone
+    /// (default: true, as [`PointwiseConv`](crate::PointwiseConv)). The results are the
+    /// same bits.
+    pub fn with_split(mut self, split: bool) -> Self {
+        self.split = split;
+        self
+    }
+
+    /// Adds a second input of the output's shape after the activation, then applies
+    /// `activation` to the sum (a following residual `ADD` with its fused activation).
+    pub fn with_residual(mut self, activation: Activation) -> Self {
+        self.residual = Some(activation);
+        self
+    }
+
+    /// Ends the epilogue with a PRELU of per-channel slopes `alpha` (`[Cout]`).
+    pub fn with_prelu(mut self, alpha: &Tensor) -> TractResult<Self> {
+        let a = floats(alpha)?;
+        ensure!(
+            a.len() == self.cout,
+            "{} PRELU slopes for {} channels",
+            a.len(),
+            self.cout
+        );
+        let mut e = (*self.epilogue).clone();
+        e.alpha = Some(padded(&a, self.cout));
+        self.epilogue = Arc::new(e);
+        Ok(self)
+    }
+
+    /// Input channels.
+    pub fn input_channels(&self) -> usize {
+        self.cin
+    }
+
+    /// Output channels.
+    pub fn output_channels(&self) -> usize {
+        self.cout
+    }
+
+    /// The code of the input tensor.
+    pub fn input_quant(&self) -> ActivationQuant {
+        self.input
+    }
+
+    /// The weights' scale per output channel (`max|w_o| / 127`).
+    pub fn weight_scales(&self) -> &[f32] {
+        &self.weight_scales
+    }
+
+    /// Whether a residual input is added (see [`with_residual`](Self::with_residual)).
+    pub fn has_residual(&self) -> bool {
+        self.residual.is_some()
+    }
+
+    /// Whether the epilogue ends with a PRELU (see [`with_prelu`](Self::with_prelu)).
+    pub fn has_prelu(&self) -> bool {
+        self.epilogue.alpha.is_some()
+    }
+
+    /// The name of the kernel this process runs (`portable` or `avx2`).
+    pub fn kernel_name() -> &'static str {
+        Int8Kernel::best().name()
+    }
+
+    /// The product of `x` (rows of `Cin` f32) into `out` (rows of `Cout` f32), with
+    /// `residual` (the output's shape) where the operator has one, on the calling thread
+    /// with the best kernel. The quantized rows go to a buffer of the thread's own
+    /// (at most about 64 KiB, or the whole coded input of a layer of fewer than 256 rows),
+    /// allocated on its first call and reused after that.
+    pub fn compute(&self, x: &[f32], residual: Option<&[f32]>, out: &mut [f32]) -> TractResult<()> {
+        self.compute_with(x, residual, out, Int8Kernel::best(), false)
+    }
+
+    /// [`compute`](Self::compute) with a given kernel; with `split`, a large product is
+    /// shared between the cores ([`crate::split`]) as [`PointwiseConv`](crate::PointwiseConv)
+    /// shares it: by rows where there are many (each piece coding its own rows), else by
+    /// channels (the input coded once, then shared). Every value is computed as in one
+    /// piece: the same bits.
+    pub(crate) fn compute_with(
+        &self,
+        x: &[f32],
+        residual: Option<&[f32]>,
+        out: &mut [f32],
+        kernel: Int8Kernel,
+        split: bool,
+    ) -> TractResult<()> {
+        let rows = x.len() / self.cin;
+        let panels = self.cout.div_ceil(NR);
+        let e = &*self.epilogue;
+        ensure!(
+            x.len() == rows * self.cin
+                && out.len() == rows * self.cout
+                && self.packed.len() == panels * self.kp * NR
+                && e.zcorr.len() == panels * NR
+                && e.scale.len() == panels * NR
+                && e.bias.len() == panels * NR
+                && e.alpha.as_ref().is_none_or(|a| a.len() == panels * NR)
+                && residual.is_none_or(|r| r.len() == out.len())
+                && residual.is_some() == self.residual.is_some(),
+            "int8 pointwise convolution: inconsistent buffer sizes"
+        );
+        let job = Job {
+            op: self,
+            x,
+            residual,
+            out: crate::split::Out(out.as_mut_ptr()),
+            kernel,
+        };
+        let team = crate::split::team();
+        let work = rows * self.cin * self.cout;
+        if rows >= ROWS_TO_SPLIT {
+            team.pieces(rows, MR, work, split, &|r| {
+                with_scratch(|s| {
+                    // SAFETY: the lengths were checked and `out` is borrowed mutably here;
+                    // the pieces' rows do not overlap and are within `0..rows`.
+                    unsafe { job.run_rows(r, 0..panels, s) }
+                });
+                Ok(())
+            })
+        } else {
+            with_scratch(|s| {
+                let n = rows * self.kp;
+                if s.len() < n {
+                    s.resize(n, 0);
+                }
+                let q = &mut s[..n];
+                quantize_rows(x, self.cin, self.kp, self.input, q, kernel);
+                let q = &*q;
+                team.pieces(panels, 1, work, split, &|p| {
+                    // SAFETY: as above; `q` codes all the rows, and the pieces' panels do not
+                    // overlap and are within `0..panels`.
+                    unsafe { job.tiles(q, 0..rows, p) };
+                    Ok(())
+                })
+            })
+        }
+    }
+}
+
+/// Calls `f` with this thread's buffer for quantized rows (a new one if it is in use).
+fn with_scratch<R>(f: impl FnOnce(&mut Vec<u8>) -> R) -> R {
+    SCRATCH.with(|s| match s.try_borrow_mut() {
+        Ok(mut s) => f(&mut s),
+        // Re-entered on this thread (not expected): a buffer of its own.
+        Err(_) => f(&mut Vec::new()),
+    })
+}
+
+/// One evaluation, its slices checked by [`PointwiseConvInt8::compute_with`].
+struct Job<'a> {
+    op: &'a PointwiseConvInt8,
+    x: &'a [f32],
+    residual: Option<&'a [f32]>,
+    out: crate::split::Out,
+    kernel: Int8Kernel,
+}
+
+impl Job<'_> {
+    /// Rows `rows` and panels `panels` of the output: the rows coded one block at a time
+    /// into `scratch`, then the tiles.
+    ///
+    /// # Safety
+    /// The slices passed `compute_with`'s checks, the output (at `self.out`) is valid for
+    /// writes, `rows` and `panels` are within it, and nothing else reads or writes that part
+    /// of it meanwhile.
+    unsafe fn run_rows(
+        &self,
+        rows: std::ops::Range<usize>,
+        panels: std::ops::Range<usize>,
+        scratch: &mut Vec<u8>,
+    ) {
+        let (cin, kp) = (self.op.cin, self.op.kp);
+        let block = (ROW_BLOCK_BYTES / kp).max(MR) / MR * MR;
+        let need = block.min(rows.len()) * kp;
+        if scratch.len() < need {
+            scratch.resize(need, 0);
+        }
+        let mut r0 = rows.start;
+        while r0 < rows.end {
+            let r1 = (r0 + block).min(rows.end);
+            let q = &mut scratch[..(r1 - r0) * kp];
+            quantize_rows(
+                &self.x[r0 * cin..r1 * cin],
+                cin,
+                kp,
+                self.op.input,
+                q,
+                self.kernel,
+            );
+            // SAFETY: `q` codes rows r0..r1, within `rows` (this function's contract).
+            unsafe { self.tiles(q, r0..r1, panels.clone()) };
+            r0 = r1;
+        }
+    }
+
+    /// The tiles of rows `rows` (coded in `q`, whose first row is row `rows.start`) and
+    /// panels `panels`.
+    ///
+    /// # Safety
+    /// As [`run_rows`](Self::run_rows), and `q` holds `rows.len()` rows of `kp` codes.
+    unsafe fn tiles(&self, q: &[u8], rows: std::ops::Range<usize>, panels: std::ops::Range<usize>) {
+        let op = self.op;
+        let e = &*op.epilogue;
+        let act = op.activation.bounds();
+        let residual_act = op.residual.unwrap_or_default().bounds();
+        for p in panels {
+            let c0 = p * NR;
+            let width = NR.min(op.cout - c0);
+            let mut r = rows.start;
+            while r < rows.end {
+                // Rather than a last tile of at most half the height, two of about equal
+                // height (as `PointwiseConv`).
+                let left = rows.end - r;
+                let m = if left > MR && left <= MR + MR / 2 {
+                    left.div_ceil(2)
+                } else {
+                    MR.min(left)
+                };
+                // The pointers below stay inside their buffers: rows.start <= r, r + m <=
+                // rows.end <= the output's rows (`q` holds rows.start..rows.end of kp
+                // bytes), p < panels and c0 + width <= cout, and the lengths were checked.
+                let t = Tile {
+                    // SAFETY: row r - rows.start < rows.len() of `q`.
+                    a: unsafe { q.as_ptr().add((r - rows.start) * op.kp) },
+                    lda: op.kp,
+                    groups: op.kp / KG,
+                    // SAFETY: panel p of `packed` (panels·kp·NR bytes).
+                    b: unsafe { op.packed.as_ptr().add(p * op.kp * NR) },
+                    // SAFETY: row r, channel c0 < cout of the output (rows·cout values).
+                    out: unsafe { self.out.ptr().add(r * op.cout + c0) },
+                    // SAFETY: the same place in the residual (the output's length).
+                    res: self.residual.map_or(std::ptr::null(), |v| unsafe {
+                        v.as_ptr().add(r * op.cout + c0)
+                    }),
+                    ldo: op.cout,
+                    m,
+                    width,
+                    // SAFETY: c0 < cout <= panels·NR values in each (padded).
+                    zcorr: unsafe { e.zcorr.as_ptr().add(c0) },
+                    // SAFETY: as above.
+                    scale: unsafe { e.scale.as_ptr().add(c0) },
+                    // SAFETY: as above.
+                    bias: unsafe { e.bias.as_ptr().add(c0) },
+                    alpha: e
+                        .alpha
+                        .as_ref()
+                        // SAFETY: as above.
+                        .map_or(std::ptr::null(), |v| unsafe { v.as_ptr().add(c0) }),
+                    act,
+                    residual_act,
+                };
+                // SAFETY: `t` satisfies `Tile`'s contract (the pointers above, valid for `m`
+                // rows from r and `width` channels from c0, a part of the output nothing
+                // else touches: this function's contract), 1 <= m <= MR and
+                // 1 <= width <= NR as `Int8Kernel::tile` asks, and the CPU has the kernel's
+                // features (an `Int8Kernel` is only made by run-time detection).
+                unsafe { self.kernel.tile(m, width)(&t) };
+                r += m;
+            }
+        }
+    }
+}
+
+/// Codes `x` (rows of `cin` f32) into `q` (rows of `kp` bytes, the `kp - cin` last ones 0).
+fn quantize_rows(
+    x: &[f32],
+    cin: usize,
+    kp: usize,
+    quant: ActivationQuant,
+    q: &mut [u8],
+    kernel: Int8Kernel,
+) {
+    for (x, q) in x.chunks_exact(cin).zip(q.chunks_exact_mut(kp)) {
+        let (q, pad) = q.split_at_mut(cin);
+        match kernel.isa() {
+            Isa::Portable => {
+                for (q, &x) in q.iter_mut().zip(x) {
+                    *q = quant.quantize(x);
+                }
+            }
+            // SAFETY: the CPU has AVX2 (an `Int8Kernel` of this ISA is only made by run-time
+            // detection), and `x` and `q` have the same length.
+            #[cfg(target_arch = "x86_64")]
+            Isa::Avx2 => unsafe { avx2::quantize(x, q, quant) },
+        }
+        pad.fill(0);
+    }
+}
+
+pub(crate) use kernel::{Int8Kernel, Isa};
+
+/// The kernel type, in a module of its own so that nothing else can make one.
+mod kernel {
+    /// The instruction set of an int8 micro-kernel.
+    #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+    pub(crate) enum Isa {
+        /// Plain Rust, any CPU: the reference.
+        Portable,
+        /// `std::arch` AVX2 intrinsics (`vpmaddubsw`, `vpmaddwd`).
+        #[cfg(target_arch = "x86_64")]
+        Avx2,
+    }
+
+    /// An int8 micro-kernel that this CPU runs. Its field is private: one is made only by
+    /// run-time detection ([`Int8Kernel::supported`], [`Int8Kernel::best`]) or is the
+    /// portable one, so holding one shows that the CPU has the features of its [`Isa`].
+    #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+    pub(crate) struct Int8Kernel(Isa);
+
+    impl Int8Kernel {
+        /// The portable kernel (any CPU).
+        pub(crate) const PORTABLE: Int8Kernel = Int8Kernel(Isa::Portable);
+
+        /// Its instruction set (which the CPU has).
+        pub(crate) fn isa(self) -> Isa {
+            self.0
+        }
+
+        /// Its name.
+        pub(crate) fn name(self) -> &'static str {
+            match self.0 {
+                Isa::Portable => "portable",
+                #[cfg(target_arch = "x86_64")]
+                Isa::Avx2 => "avx2",
+            }
+        }
+
+        /// Every int8 kernel this CPU runs, slowest first (detected at run time).
+        pub(crate) fn supported() -> Vec<Int8Kernel> {
+            #[allow(unused_mut)]
+            let mut v = vec![Int8Kernel::PORTABLE];
+            #[cfg(target_arch = "x86_64")]
+            if std::arch::is_x86_feature_detected!("avx2") {
+                v.push(Int8Kernel(Isa::Avx2));
+            }
+            v
+        }
+
+        /// The fastest kernel this CPU runs, or the portable one when `MONOHAND_KERNEL` is
+        /// `portable` (decided once per process).
+        pub(crate) fn best() -> Int8Kernel {
+            static BEST: std::sync::OnceLock<Int8Kernel> = std::sync::OnceLock::new();
+            *BEST.get_or_init(|| {
+                if std::env::var("MONOHAND_KERNEL").ok().as_deref() == Some("portable") {
+                    return Int8Kernel::PORTABLE;
+                }
+                Int8Kernel::supported()
+                    .last()
+                    .copied()
+                    .unwrap_or(Int8Kernel::PORTABLE)
+            })
+        }
+    }
+}
+
+impl Int8Kernel {
+    /// The tile function for `m` rows and `width` channels (`1 <= m <= MR`,
+    /// `1 <= width <= NR`).
+    fn tile(self, m: usize, width: usize) -> TileFn {
+        #[cfg(not(target_arch = "x86_64"))]
+        let _ = (m, width);
+        match self.isa() {
+            Isa::Portable => tile_portable,
+            #[cfg(target_arch = "x86_64")]
+            Isa::Avx2 => avx2::tile(m, width.div_ceil(8)),
+        }
+    }
+}
+
+/// One micro-tile: `m` quantized rows against one weight panel, epilogue included.
+///
+/// Pointers are valid for: `a`: `m` rows of `lda` bytes, of which the first `4·groups <=
+/// lda` are read; `b`: `groups` groups of `4·NR` bytes (one panel); `zcorr`, `scale`,
+/// `bias`, `alpha`: `NR` values; `out`, `res`: `m` rows of stride `ldo`, `width` floats
+/// each. `alpha`, `res` may be null (absent).
+struct Tile {
+    a: *const u8,
+    lda: usize,
+    groups: usize,
+    b: *const i8,
+    out: *mut f32,
+    res: *const f32,
+    ldo: usize,
+    m: usize,
+    width: usize,
+    zcorr: *const i32,
+    scale: *const f32,
+    bias: *const f32,
+    alpha: *const f32,
+    act: (f32, f32),
+    residual_act: (f32, f32),
+}
+
+/// A micro-kernel for one tile (see [`Int8Kernel::tile`]).
+///
+/// # Safety
+/// Call it only with a [`Tile`] that satisfies `Tile`'s contract and the `m` and `width` it
+/// was chosen for, on a CPU with the features of the kernel that gave it.
+type TileFn = unsafe fn(&Tile);
+
+/// The epilogue on the sum `acc` of channel `j` of the tile's row `i`.
+///
+/// # Safety
+/// `t` satisfies `Tile`'s contract, `i < t.m` and `j < t.width`.
+#[inline(always)]
+unsafe fn epilogue_scalar(t: &Tile, acc: i32, i: usize, j: usize) -> f32 {
+    // SAFETY: i < m and j < width within `Tile`'s contract (this function's contract).
+    unsafe {
+        let v = (acc.wrapping_sub(*t.zcorr.add(j))) as f32 * *t.scale.add(j) + *t.bias.add(j);
+        let mut y = min_ps(max_ps(v, t.act.0), t.act.1);
+        if !t.res.is_null() {
+            y = min_ps(
+                max_ps(y + *t.res.add(i * t.ldo + j), t.residual_act.0),
+                t.residual_act.1,
+            );
+        }
+        if !t.alpha.is_null() {
+            y = max_ps(y, 0.0) + *t.alpha.add(j) * min_ps(y, 0.0);
+        }
+        y
+    }
+}
+
+/// Portable tile, the reference: exact i32 sums of the products.
+///
+/// # Safety
+/// `t` satisfies `Tile`'s contract (no CPU feature is needed; `t.m <= MR`,
+/// `t.width <= NR`).
+unsafe fn tile_portable(t: &Tile) {
+    let mut acc = [[0i32; NR]; MR];
+    for g in 0..t.groups {
+        // SAFETY: group g < groups of 4·NR bytes in the panel (`Tile`'s contract); an array
+        // of i8 has i8's alignment.
+        let b: &[i8; KG * NR] = unsafe { &*(t.b.add(g * KG * NR) as *const [i8; KG * NR]) };
+        for (i, acc) in acc.iter_mut().enumerate().take(t.m) {
+            // SAFETY: i < m rows (`take`), 4·g + 4 <= 4·groups <= lda bytes of the row.
+            let a: &[u8; KG] = unsafe { &*(t.a.add(i * t.lda + KG * g) as *const [u8; KG]) };
+            for (acc, w) in acc.iter_mut().zip(b.chunks_exact(KG)) {
+                for (&a, &w) in a.iter().zip(w) {
+                    *acc += a as i32 * w as i32;
+                }
+            }
+        }
+    }
+    for (i, acc) in acc.iter().enumerate().take(t.m) {
+        for (j, &acc) in acc.iter().enumerate().take(t.width) {
+            // SAFETY: `t` satisfies `Tile`'s contract (ours), i < m and j < width (`take`).
+            let y = unsafe { epilogue_scalar(t, acc, i, j) };
+            // SAFETY: i < m rows and j < width channels of the output (`take`).
+            unsafe { *t.out.add(i * t.ldo + j) = y };
+        }
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+mod avx2 {
+    use super::{ActivationQuant, Tile, TileFn, ACTIVATION_QMAX, KG, MR, NR};
+    use std::arch::x86_64::*;
+
+    /// The monomorphised tile for `m` rows and `v` vectors of 8 channels.
+    pub(super) fn tile(m: usize, v: usize) -> TileFn {
+        const _: () = assert!(MR == 4 && NR == 16 && KG == 4);
+        match (m, v) {
+            (1, 1) => micro::<1, 1>,
+            (2, 1) => micro::<2, 1>,
+            (3, 1) => micro::<3, 1>,
+            (4, 1) => micro::<4, 1>,
+            (1, _) => micro::<1, 2>,
+            (2, _) => micro::<2, 2>,
+            (3, _) => micro::<3, 2>,
+            _ => micro::<4, 2>,
+        }
+    }
+
+    /// Codes `x` into `q` as [`ActivationQuant::quantize`] does, 8 values at a time
+    /// (`vroundps` to nearest even, the same clamp, an exact conversion).
+    ///
+    /// # Safety
+    /// The CPU has AVX2; `x.len() == q.len()`.
+    #[target_feature(enable = "avx2")]
+    pub(super) unsafe fn quantize(x: &[f32], q: &mut [u8], quant: ActivationQuant) {
+        let n = x.len().min(q.len());
+        let z = quant.zero_point as f32;
+        let inv = _mm256_set1_ps(quant.inv_scale);
+        let lo = _mm256_set1_ps(-z);
+        let hi = _mm256_set1_ps(ACTIVATION_QMAX as f32 - z);
+        let zp = _mm256_set1_epi32(quant.zero_point as i32);
+        let mut k = 0;
+        while k + 8 <= n {
+            // SAFETY: k + 8 <= n values of `x` and of `q`; the CPU has AVX2 (the contract).
+            unsafe {
+                let v = _mm256_mul_ps(_mm256_loadu_ps(x.as_ptr().add(k)), inv);
+                let v = _mm256_round_ps::<{ _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC }>(v);
+                // `maxps` returns its second operand for NaN: NaN becomes `lo`, as in
+                // `quantize`.
+                let v = _mm256_min_ps(_mm256_max_ps(v, lo), hi);
+                let v = _mm256_add_epi32(_mm256_cvtps_epi32(v), zp);
+                let w = _mm_packs_epi32(_mm256_castsi256_si128(v), _mm256_extracti128_si256(v, 1));
+                let b = _mm_packus_epi16(w, w);
+                _mm_storel_epi64(q.as_mut_ptr().add(k) as *mut __m128i, b);
+            }
+            k += 8;
+        }
+        for (q, &x) in q[k..n].iter_mut().zip(&x[k..n]) {
+            *q = quant.quantize(x);
+        }
+    }
+
+    /// `M` rows x `V` vectors of 8 channels accumulated in `M·V` i32 registers: per group
+    /// of 4 input channels one broadcast of the row's 4 bytes, `vpmaddubsw` against the
+    /// panel (never saturating: activations are at most 127, weights within ±127) and
+    /// `vpmaddwd` against ones to sum the pairs; the epilogue runs on the registers (no FMA,
+    /// as the portable one) and stores with a mask where the panel is narrower than `8·V`.
+    ///
+    /// # Safety
+    /// The CPU has AVX2; `t` satisfies `Tile`'s contract with `t.m == M` and
+    /// `8·(V-1) < t.width <= 8·V`.
+    #[target_feature(enable = "avx2")]
+    unsafe fn micro<const M: usize, const V: usize>(t: &Tile) {
+        // SAFETY: the CPU has AVX2 (the contract). The reads and writes stay in the tile
+        // (`Tile`'s contract, m == M, 8·(V-1) < width <= 8·V <= NR): `a` at rows i < M,
+        // 4 bytes of group g < groups (4·groups <= lda); `b` at `groups` groups of 4·NR
+        // bytes, 32·V <= 4·NR of each; `zcorr`, `scale`, `bias`, `alpha` at 8·V <= NR
+        // values; `res` and `out` at rows i < M, 8·V channels of which the last vector's
+        // lanes at and past `width` are masked off.
+        unsafe {
+            let ones = _mm256_set1_epi16(1);
+            let mut acc = [[_mm256_setzero_si256(); V]; M];
+            let mut a = t.a;
+            let mut b = t.b;
+            for _ in 0..t.groups {
+                let mut bv = [_mm256_setzero_si256(); V];
+                for (v, bv) in bv.iter_mut().enumerate() {
+                    *bv = _mm256_loadu_si256(b.add(32 * v) as *const __m256i);
+                }
+                for (i, acc) in acc.iter_mut().enumerate() {
+                    let x = _mm256_set1_epi32((a.add(i * t.lda) as *const i32).read_unaligned());
+                    for (acc, &bv) in acc.iter_mut().zip(&bv) {
+                        let p = _mm256_madd_epi16(_mm256_maddubs_epi16(x, bv), ones);
+                        *acc = _mm256_add_epi32(*acc, p);
+                    }
+                }
+                a = a.add(KG);
+                b = b.add(KG * NR);
+            }
+            let lanes = (t.width - 8 * (V - 1)) as i32;
+            let mask = _mm256_cmpgt_epi32(
+                _mm256_set1_epi32(lanes),
+                _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7),
+            );
+            let (lo, hi) = (_mm256_set1_ps(t.act.0), _mm256_set1_ps(t.act.1));
+            let (rlo, rhi) = (
+                _mm256_set1_ps(t.residual_act.0),
+                _mm256_set1_ps(t.residual_act.1),
+            );
+            let zero = _mm256_setzero_ps();
+            for (i, acc) in acc.iter().enumerate() {
+                for (v, &acc) in acc.iter().enumerate() {
+                    let full = v + 1 < V || lanes == 8;
+                    let at = i * t.ldo + 8 * v;
+                    let c = _mm256_sub_epi32(
+                        acc,
+                        _mm256_loadu_si256(t.zcorr.add(8 * v) as *const __m256i),
+                    );
+                    let mut y = _mm256_add_ps(
+                        _mm256_mul_ps(_mm256_cvtepi32_ps(c), _mm256_loadu_ps(t.scale.add(8 * v))),
+                        _mm256_loadu_ps(t.bias.add(8 * v)),
+                    );
+                    y = _mm256_min_ps(_mm256_max_ps(y, lo), hi);
+                    if !t.res.is_null() {
+                        let r = if full {
+                            _mm256_loadu_ps(t.res.add(at))
+                        } else {
+                            _mm256_maskload_ps(t.res.add(at), mask)
+                        };
+                        y = _mm256_min_ps(_mm256_max_ps(_mm256_add_ps(y, r), rlo), rhi);
+                    }
+                    if !t.alpha.is_null() {
+                        let al = _mm256_loadu_ps(t.alpha.add(8 * v));
+                        y = _mm256_add_ps(
+                            _mm256_max_ps(y, zero),
+                            _mm256_mul_ps(al, _mm256_min_ps(y, zero)),
+                        );
+                    }
+                    if full {
+                        _mm256_storeu_ps(t.out.add(at), y);
+                    } else {
+                        _mm256_maskstore_ps(t.out.add(at), mask, y);
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// The range of the input of every [`PointwiseConv`](crate::PointwiseConv) node of `model`
+/// (by node name) over runs on `inputs` (each the model's inputs): what
+/// [`quantize_pointwise`] codes them from. The model runs as it is (not optimised), so the
+/// names are those of the imported graph.
+pub fn pointwise_input_ranges(
+    model: &TypedModel,
+    inputs: &[TVec<Tensor>],
+) -> TractResult<std::collections::HashMap<String, MinMax>> {
+    let plan = model.clone().into_runnable()?;
+    let mut state = plan.spawn()?;
+    let mut ranges: std::collections::HashMap<String, MinMax> = Default::default();
+    for input in inputs {
+        let input: TVec<TValue> = input.iter().map(|t| t.clone().into_tvalue()).collect();
+        state.run_plan_with_eval(input, |ctx, st, node, inputs| {
+            if node.op_as::<crate::PointwiseConv>().is_some() {
+                if let Some(x) = inputs.first() {
+                    let x = x.try_as_plain_ram()?;
+                    ranges
+                        .entry(node.name.clone())
+                        .or_default()
+                        .observe(x.as_slice::<f32>()?);
+                }
+            }
+            tract_core::plan::eval(ctx, st, node, inputs)
+        })?;
+    }
+    Ok(ranges)
+}
+
+/// Replaces every [`PointwiseConv`](crate::PointwiseConv) node of `model` that `ranges` has
+/// a range for, and that `keep_f32` does not name, by the same convolution in int8
+/// ([`PointwiseConvInt8`], its input coded from the range); returns how many were replaced.
+/// An opt-in experiment (issue 46): nothing in the importer calls it.
+pub fn quantize_pointwise(
+    model: &mut TypedModel,
+    ranges: &std::collections::HashMap<String, MinMax>,
+    keep_f32: impl Fn(&str, &crate::PointwiseConv) -> bool,
+) -> TractResult<usize> {
+    let mut replaced = 0;
+    for id in 0..model.nodes().len() {
+        let node = model.node(id);
+        let Some(op) = node.op_as::<crate::PointwiseConv>() else {
+            continue;
+        };
+        let Some(range) = ranges.get(&node.name) else {
+            continue;
+        };
+        if keep_f32(&node.name, op) {
+            continue;
+        }
+        let int8 = op.to_int8(range.quant())?;
+        model.node_mut(id).op = Box::new(int8);
+        replaced += 1;
+    }
+    Ok(replaced)
+}
+
+thread_local! {
+    /// Each thread's buffer for the quantized rows of [`PointwiseConvInt8`]'s evaluations
+    /// (allocated once per thread, reused).
+    static SCRATCH: RefCell<Vec<u8>> = const { RefCell::new(Vec::new()) };
+}
+
+impl Op for PointwiseConvInt8 {
+    fn name(&self) -> StaticName {
+        "MonohandPointwiseConvInt8".into()
+    }
+
+    fn info(&self) -> TractResult<Vec<String>> {
+        Ok(vec![format!(
+            "{}->{} act {:?} residual {:?} prelu {} input scale {} zero {}",
+            self.cin,
+            self.cout,
+            self.activation,
+            self.residual,
+            self.has_prelu(),
+            self.input.scale,
+            self.input.zero_point
+        )])
+    }
+
+    op_as_typed_op!();
+}
+
+impl EvalOp for PointwiseConvInt8 {
+    op_out_of_plan!();
+
+    fn eval(&self, _ctx: &EvalContext, inputs: TVec<TValue>) -> TractResult<TVec<TValue>> {
+        ensure!(
+            inputs.len() == 1 + self.residual.is_some() as usize,
+            "int8 pointwise convolution got {} inputs",
+            inputs.len()
+        );
+        let x = &inputs[0];
+        let mut shape: TVec<usize> = x.shape().into();
+        ensure!(
+            shape.last() == Some(&self.cin),
+            "pointwise convolution over {} channels, input {shape:?}",
+            self.cin
+        );
+        if let Some(last) = shape.last_mut() {
+            *last = self.cout;
+        }
+        if let Some(r) = inputs.get(1) {
+            ensure!(
+                r.shape() == &*shape,
+                "residual {:?} for an output {shape:?}",
+                r.shape()
+            );
+        }
+        // SAFETY: the tensor's values are left unwritten, and nothing reads one before it is
+        // written: `compute` stores every output value from its epilogue (the tiles cover
+        // all rows and channels, and only store into the output), and an error drops the
+        // tensor without reading it (f32 has no drop).
+        let mut output = unsafe { Tensor::uninitialized::<f32>(&shape)? };
+        {
+            let xr = x.try_as_plain_ram()?;
+            let rr = inputs.get(1).map(|r| r.try_as_plain_ram()).transpose()?;
+            let mut o = output.try_as_plain_ram_mut()?;
+            let (x, o) = (xr.as_slice::<f32>()?, o.as_slice_mut::<f32>()?);
+            let r = rr.as_ref().map(|r| r.as_slice::<f32>()).transpose()?;
+            self.compute_with(x, r, o, Int8Kernel::best(), self.split)?;
+        }
+        Ok(tvec!(output.into_tvalue()))
+    }
+}
+
+impl TypedOp for PointwiseConvInt8 {
+    as_op!();
+
+    fn output_facts(&self, inputs: &[&TypedFact]) -> TractResult<TVec<TypedFact>> {
+        let mut shape = inputs[0].shape.to_tvec();
+        let last = shape
+            .last_mut()
+            .context("pointwise convolution on a scalar")?;
+        ensure!(
+            last.to_usize().ok() == Some(self.cin),
+            "pointwise convolution over {} channels, input has {last}",
+            self.cin
+        );
+        *last = self.cout.to_dim();
+        if let Some(r) = inputs.get(1) {
+            ensure!(
+                r.shape.to_tvec() == shape,
+                "residual {:?} for an output {shape:?}",
+                r.shape
+            );
+        }
+        Ok(tvec!(f32::fact(shape)))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::split::testing::differing_bits;
+
+    /// A small deterministic generator of values in [-1, 1).
+    struct Lcg(u64);
+
+    impl Lcg {
+        fn next(&mut self) -> f32 {
+            self.0 = self
+                .0
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((self.0 >> 40) as f32 / (1u64 << 24) as f32) * 2.0 - 1.0
+        }
+
+        fn vec(&mut self, n: usize, scale: f32) -> Vec<f32> {
+            (0..n).map(|_| self.next() * scale).collect()
+        }
+    }
+
+    const ACTS: [Activation; 3] = [Activation::None, Activation::Relu, Activation::Relu6];
+
+    /// The operator for `(rows, cin, cout)` with one of every epilogue.
+    struct Case {
+        rows: usize,
+        cin: usize,
+        cout: usize,
+        x: Vec<f32>,
+        w: Vec<f32>,
+        b: Vec<f32>,
+        r: Vec<f32>,
+        alpha: Vec<f32>,
+    }
+
+    impl Case {
+        fn random(g: &mut Lcg, (rows, cin, cout): (usize, usize, usize)) -> Case {
+            Case {
+                rows,
+                cin,
+                cout,
+                // Mostly one-sided, as after a RELU6 or a PRELU.
+                x: g.vec(rows * cin, 3.0).iter().map(|v| v + 2.0).collect(),
+                w: g.vec(cout * cin, 1.0),
+                b: g.vec(cout, 2.0),
+                r: g.vec(rows * cout, 4.0),
+                alpha: g.vec(cout, 2.0),
+            }
+        }
+
+        fn op(
+            &self,
+            quant: ActivationQuant,
+            act: Activation,
+            res: Option<Activation>,
+            prelu: bool,
+        ) -> PointwiseConvInt8 {
+            let wt = Tensor::from_shape(&[self.cout, 1, 1, self.cin], &self.w).expect("w");
+            let mut op = PointwiseConvInt8::new(&wt, &tensor1(&self.b), act, quant).expect("op");
+            if let Some(ract) = res {
+                op = op.with_residual(ract);
+            }
+            if prelu {
+                op = op.with_prelu(&tensor1(&self.alpha)).expect("prelu");
+            }
+            op
+        }
+
+        fn run(&self, op: &PointwiseConvInt8, kernel: Int8Kernel) -> Vec<f32> {
+            let mut out = vec![f32::NAN; self.rows * self.cout];
+            let res = op.has_residual().then_some(&self.r[..]);
+            op.compute_with(&self.x, res, &mut out, kernel, false)
+                .expect("compute");
+            out
+        }
+    }
+
+    /// (rows, cin, cout): input channels off the group of 4 and the vector of 8, output
+    /// channels off the 8- and 16-channel vectors and panels, row counts off the tile
+    /// height, and inputs larger than one block of rows.
+    const SHAPES: [(usize, usize, usize); 12] = [
+        (1, 1, 1),
+        (5, 3, 7),
+        (4, 4, 16),
+        (6, 8, 16),
+        (7, 17, 23),
+        (13, 16, 24),
+        (11, 33, 2),
+        (25, 19, 36),
+        (9, 40, 108),
+        (12, 64, 9),
+        (3000, 24, 40),
+        (700, 150, 17),
+    ];
+
+    #[test]
+    fn the_simd_kernels_give_the_portable_kernels_bits() {
+        let kernels = Int8Kernel::supported();
+        #[cfg(target_arch = "x86_64")]
+        if std::arch::is_x86_feature_detected!("avx2") {
+            assert!(kernels.iter().any(|k| k.isa() == Isa::Avx2));
+        }
+        let mut g = Lcg(3);
+        for shape in SHAPES {
+            let c = Case::random(&mut g, shape);
+            // A range narrower than the inputs', so that some are clamped.
+            let quant = ActivationQuant::from_min_max(-0.5, 4.0);
+            for act in ACTS {
+                for res in [None, Some(Activation::None), Some(Activation::Relu6)] {
+                    for prelu in [false, true] {
+                        let op = c.op(quant, act, res, prelu);
+                        let want = c.run(&op, Int8Kernel::PORTABLE);
+                        assert!(want.iter().all(|v| v.is_finite()));
+                        for &k in &kernels {
+                            let got = c.run(&op, k);
+                            assert_eq!(
+                                differing_bits(&got, &want),
+                                0,
+                                "{k:?} {shape:?} act {act:?} res {res:?} prelu {prelu}"
+                            );
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    /// Every pair summed by `vpmaddubsw` at its extremes: codes 127 (and 0) against weights
+    /// of ±127, as many input channels as the deepest layer's and more: the sums are exact
+    /// (checked against i64 arithmetic) and the same in every kernel.
+    #[test]
+    fn extreme_codes_do_not_saturate() {
+        for (rows, cin, cout) in [(5, 1152, 19), (6, 4, 16), (9, 2001, 8)] {
+            // Weights all ±1 (codes ±127), signs by a pattern; each channel's largest is 1.
+            let w: Vec<f32> = (0..cout * cin)
+                .map(|i| if (i * 7 + i / 3) % 5 < 3 { 1.0 } else { -1.0 })
+                .collect();
+            let wt = Tensor::from_shape(&[cout, cin], &w).expect("w");
+            // Codes from 0 to 127: a zero point of 0 and a step of 1.
+            let quant = ActivationQuant::new(1.0, 0).expect("quant");
+            for x_code in [127.0f32, 0.0, 1e9] {
+                let mut x = vec![x_code; rows * cin];
+                // And a row of alternating extremes.
+                for (k, v) in x[..cin].iter_mut().enumerate() {
+                    *v = if k % 2 == 0 { 127.0 } else { 0.0 };
+                }
+                let op = PointwiseConvInt8::new(
+                    &wt,
+                    &tensor1(&vec![0f32; cout]),
+                    Activation::None,
+                    quant,
+                )
+                .expect("op");
+                let mut want = vec![f32::NAN; rows * cout];
+                op.compute_with(&x, None, &mut want, Int8Kernel::PORTABLE, false)
+                    .expect("portable");
+                for r in 0..rows {
+                    for o in 0..cout {
+                        let exact: i64 = (0..cin)
+                            .map(|k| {
+                                let q = x[r * cin + k].clamp(0.0, 127.0) as i64;
+                                q * (w[o * cin + k] as i64 * 127)
+                            })
+                            .sum();
+                        // Scale 1 · 1/127 per unit of weight code: the sum in units of x·w.
+                        let want_v = exact as f32 * (1.0 / 127.0);
+                        let got = want[r * cout + o];
+                        assert!(
+                            (got - want_v).abs() <= 1e-6 * (1.0 + want_v.abs()),
+                            "{rows}x{cin}->{cout} row {r} ch {o}: {got} vs {want_v}"
+                        );
+                    }
+                }
+                for k in Int8Kernel::supported() {
+                    let mut got = vec![f32::NAN; rows * cout];
+                    op.compute_with(&x, None, &mut got, k, false)
+                        .expect("kernel");
+                    assert_eq!(differing_bits(&got, &want), 0, "{k:?} {rows}x{cin}->{cout}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn every_quantizer_codes_edge_values_alike() {
+        let quant = ActivationQuant::from_min_max(-1.0, 3.0);
+        let s = quant.scale();
+        let z = quant.zero_point() as f32;
+        // Ties on both sides, the range's ends and beyond, zeros, infinities and NaN.
+        let mut x = vec![
+            0.0,
+            -0.0,
+            0.5 * s,
+            1.5 * s,
+            2.5 * s,
+            -0.5 * s,
+            -1.5 * s,
+            -z * s,
+            (127.0 - z) * s,
+            (127.0 - z + 0.5) * s,
+            (-z - 0.5) * s,
+            1e30,
+            -1e30,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::NAN,
+            f32::MIN_POSITIVE,
+        ];
+        x.extend(Lcg(9).vec(61, 5.0));
+        let cin = x.len();
+        let kp = cin.div_ceil(KG) * KG;
+        let mut want = vec![0xAAu8; kp];
+        quantize_rows(&x, cin, kp, quant, &mut want, Int8Kernel::PORTABLE);
+        assert!(want.iter().all(|&q| q <= ACTIVATION_QMAX));
+        assert_eq!(want[0], quant.zero_point());
+        assert_eq!(want[1], quant.zero_point());
+        assert_eq!(want[11], ACTIVATION_QMAX);
+        assert_eq!(want[12], 0);
+        assert_eq!(want[15], 0, "NaN");
+        assert!(want[cin..].iter().all(|&q| q == 0), "padding");
+        for k in Int8Kernel::supported() {
+            let mut got = vec![0x55u8; kp];
+            quantize_rows(&x, cin, kp, quant, &mut got, k);
+            assert_eq!(got, want, "{k:?}");
+        }
+    }
+
+    #[test]
+    fn activation_codes_span_the_observed_range_and_code_zero_exactly() {
+        let mut g = Lcg(21);
+        for (lo, hi) in [
+            (0.0, 6.0),
+            (-1.3, 4.7),
+            (-8.0, -2.0),
+            (0.25, 0.5),
+            (0.0, 0.0),
+        ] {
+            let values: Vec<f32> = g
+                .vec(1000, 1.0)
+                .iter()
+                .map(|v| lo + (hi - lo) * (v + 1.0) / 2.0)
+                .chain([lo, hi])
+                .collect();
+            let mut seen = MinMax::default();
+            seen.observe(&values);
+            seen.observe(&[f32::NAN, f32::INFINITY]);
+            assert_eq!((seen.min, seen.max), (lo, hi));
+            let q = seen.quant();
+            assert_eq!(q.dequantize(q.quantize(0.0)), 0.0);
+            for &v in &values {
+                let back = q.dequantize(q.quantize(v));
+                assert!(
+                    (back - v).abs() <= 0.5 * q.scale() * (1.0 + 1e-5),
+                    "[{lo}, {hi}]: {v} -> {back} (step {})",
+                    q.scale()
+                );
+            }
+        }
+    }
+
+    /// The portable int8 result against the exact (f64) value of the f32 operator:
+    /// with `x̂ = s_x (q_x - z)` and `ŵ = s_w q_w`, `x·w - x̂·ŵ = x (w - ŵ) + ŵ (x - x̂)`, and
+    /// `|w - ŵ| <= s_w / 2`, `|x - x̂| <= s_x / 2` for inputs inside the coded range, so each
+    /// output before its epilogue is off by at most `Σ_k (|x_k| s_w + |ŵ_k| s_x) / 2` (plus
+    /// the f32 rounding of the epilogue). The clamps and the residual add do not widen it;
+    /// the PRELU multiplies it by at most `max(1, |α|)`.
+    #[test]
+    fn the_int8_result_is_within_the_quantization_error_of_the_f32_one() {
+        let mut g = Lcg(17);
+        let mut worst = 0f64;
+        for shape in SHAPES {
+            let c = Case::random(&mut g, shape);
+            let mut seen = MinMax::default();
+            seen.observe(&c.x);
+            let quant = seen.quant();
+            let (s_x, z) = (quant.scale() as f64, quant.zero_point() as f64);
+            let wq: Vec<(Vec<i8>, f32)> = c.w.chunks_exact(c.cin).map(quantize_weights).collect();
+            for act in ACTS {
+                for res in [None, Some(Activation::Relu6)] {
+                    for prelu in [false, true] {
+                        let op = c.op(quant, act, res, prelu);
+                        let got = c.run(&op, Int8Kernel::PORTABLE);
+                        for r in 0..c.rows {
+                            for o in 0..c.cout {
+                                let w = &c.w[o * c.cin..(o + 1) * c.cin];
+                                let x = &c.x[r * c.cin..(r + 1) * c.cin];
+                                let (wq, s_w) = (&wq[o].0, wq[o].1 as f64);
+                                let (mut exact, mut bound, mut mag) = (c.b[o] as f64, 0.0, 0.0);
+                                for k in 0..c.cin {
+                                    let (xv, wv) = (x[k] as f64, w[k] as f64);
+                                    exact += xv * wv;
+                                    let w_hat = s_w * wq[k] as f64;
+                                    bound += 0.5 * (xv.abs() * s_w + w_hat.abs() * s_x);
+                                    mag += xv.abs() * wv.abs();
+                                    // The coded input is the nearest code (no clamp here).
+                                    let x_hat = s_x * (quant.quantize(x[k]) as f64 - z);
+                                    assert!((x_hat - xv).abs() <= 0.5 * s_x * (1.0 + 1e-5));
+                                }
+                                let clamp = |y: f64, a: Activation| {
+                                    let (lo, hi) = a.bounds();
+                                    y.max(lo as f64).min(hi as f64)
+                                };
+                                let mut y = clamp(exact, act);
+                                if let Some(ract) = res {
+                                    y = clamp(y + c.r[r * c.cout + o] as f64, ract);
+                                }
+                                let mut gain = 1.0;
+                                if prelu {
+                                    let a = c.alpha[o] as f64;
+                                    y = y.max(0.0) + a * y.min(0.0);
+                                    gain = a.abs().max(1.0);
+                                }
+                                let slack = 1e-5 * (1.0 + mag + c.b[o].abs() as f64);
+                                let err = (got[r * c.cout + o] as f64 - y).abs();
+                                assert!(
+                                    err <= gain * bound + slack,
+                                    "{shape:?} act {act:?} res {res:?} prelu {prelu} \
+                                     ({r}, {o}): {} vs {y}, bound {}",
+                                    got[r * c.cout + o],
+                                    gain * bound + slack
+                                );
+                                worst = worst.max(err / (gain * bound + slack));
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        // The bound is a worst case; the errors of random data stay well inside it.
+        assert!(worst < 0.8, "worst error {worst} of the bound");
+    }
+
+    #[test]
+    fn evaluates_as_a_tract_operator_with_a_residual() {
+        let mut g = Lcg(11);
+        let (h, w, cin, cout) = (3, 5, 10, 12);
+        let c = Case::random(&mut g, (h * w, cin, cout));
+        let quant = ActivationQuant::from_min_max(-1.0, 5.0);
+        let op = c.op(quant, Activation::Relu, Some(Activation::None), true);
+        let out = op
+            .eval_out_of_plan(tvec!(
+                Tensor::from_shape(&[1, h, w, cin], &c.x)
+                    .expect("x")
+                    .into_tvalue(),
+                Tensor::from_shape(&[1, h, w, cout], &c.r)
+                    .expect("r")
+                    .into_tvalue()
+            ))
+            .expect("eval")
+            .expect("evaluates out of plan");
+        assert_eq!(out[0].shape(), &[1, h, w, cout]);
+        let got = out[0].try_as_plain_ram().expect("ram");
+        let got = got.as_slice::<f32>().expect("f32");
+        let want = c.run(&op, Int8Kernel::PORTABLE);
+        assert_eq!(differing_bits(got, &want), 0);
+    }
+
+    #[test]
+    fn a_float_operator_converts_and_a_model_is_calibrated_and_quantized() {
+        let mut g = Lcg(29);
+        let c = Case::random(&mut g, (6 * 7, 20, 24));
+        let quant = ActivationQuant::from_min_max(0.0, 5.0);
+        let wt = Tensor::from_shape(&[c.cout, c.cin], &c.w).expect("w");
+        let f32op = crate::PointwiseConv::new(&wt, &tensor1(&c.b), Activation::Relu6)
+            .expect("op")
+            .with_residual(Activation::None)
+            .with_prelu(&tensor1(&c.alpha))
+            .expect("prelu");
+        let want = c.op(quant, Activation::Relu6, Some(Activation::None), true);
+        assert!(f32op.to_int8(quant).expect("to_int8") == want);
+
+        // source -> 1x1 (RELU6) -> 1x1 (no activation): both calibrated and replaced.
+        let mut model = TypedModel::default();
+        let x = model
+            .add_source("x", f32::fact([1, 6, 7, c.cin]))
+            .expect("source");
+        let first = crate::PointwiseConv::new(&wt, &tensor1(&c.b), Activation::Relu6)
+            .expect("op")
+            .with_split(false);
+        let y = model.wire_node("first", first, &[x]).expect("first")[0];
+        let w2 = Tensor::from_shape(&[5, c.cout], &g.vec(5 * c.cout, 1.0)).expect("w2");
+        let second = crate::PointwiseConv::new(&w2, &tensor1(&[0.5f32; 5]), Activation::None)
+            .expect("op")
+            .with_split(false);
+        let z = model.wire_node("second", second, &[y]).expect("second")[0];
+        model.select_output_outlets(&[z]).expect("outputs");
+        let input = Tensor::from_shape(&[1, 6, 7, c.cin], &c.x).expect("x");
+        let ranges = pointwise_input_ranges(&model, &[tvec!(input.clone())]).expect("ranges");
+        assert_eq!(ranges.len(), 2);
+        let (lo, hi) =
+            c.x.iter()
+                .fold((f32::MAX, f32::MIN), |(l, h), &v| (l.min(v), h.max(v)));
+        assert_eq!((ranges["first"].min, ranges["first"].max), (lo, hi));
+        // The second reads RELU6 outputs.
+        assert!(ranges["second"].min >= 0.0 && ranges["second"].max <= 6.0);
+        let run = |m: &TypedModel| -> Vec<f32> {
+            let out = m
+                .clone()
+                .into_runnable()
+                .expect("plan")
+                .run(tvec!(input.clone().into_tvalue()))
+                .expect("run");
+            let o = out[0].try_as_plain_ram().expect("ram");
+            o.as_slice::<f32>().expect("f32").to_vec()
+        };
+        let reference = run(&model);
+        let mut kept = model.clone();
+        let n = quantize_pointwise(&mut kept, &ranges, |name, _| name == "first").expect("q");
+        assert_eq!(n, 1);
+        assert!(kept.node(1).op_as::<crate::PointwiseConv>().is_some());
+        assert!(kept.node(2).op_as::<PointwiseConvInt8>().is_some());
+        let mut all = model.clone();
+        assert_eq!(
+            quantize_pointwise(&mut all, &ranges, |_, _| false).expect("q"),
+            2
+        );
+        let (half, full) = (run(&kept), run(&all));
+        let scale = reference.iter().fold(0f32, |m, v| m.max(v.abs()));
+        for ((r, h), f) in reference.iter().zip(&half).zip(&full) {
+            // 7-bit activations over ranges of about 5 and 6 units, 20 and 24 terms.
+            assert!((r - h).abs() <= 0.05 * scale, "{r} vs {h}");
+            assert!((r - f).abs() <= 0.05 * scale, "{r} vs {f}");
+        }
+        assert!(half != reference && full != half);
+    }
+
+    #[test]
+    fn shared_between_threads_by_rows_or_channels_gives_the_same_bits() {
+        let mut g = Lcg(5);
+        // (rows, cin, cout): by rows (56x56x24 to 144, with a residual and PRELU), by
+        // channels (7x7x192 to 1152, 14x14x112 to 672).
+        for (rows, cin, cout, residual) in [
+            (3136, 24, 144, true),
+            (49, 192, 1152, false),
+            (196, 112, 672, true),
+        ] {
+            let c = Case::random(&mut g, (rows, cin, cout));
+            let quant = ActivationQuant::from_min_max(-1.0, 5.0);
+            let res = residual.then_some(Activation::None);
+            let make = |split| {
+                c.op(quant, Activation::Relu6, res, residual)
+                    .with_split(split)
+            };
+            let mut inputs = vec![Tensor::from_shape(&[1, rows, 1, cin], &c.x).expect("x")];
+            if residual {
+                inputs.push(Tensor::from_shape(&[1, rows, 1, cout], &c.r).expect("r"));
+            }
+            crate::split::testing::same_bits_split(&make(true), &make(false), &inputs);
+        }
+    }
+
+    #[test]
+    fn rejects_inconsistent_buffers_and_codes() {
+        assert!(ActivationQuant::new(0.0, 0).is_err());
+        assert!(ActivationQuant::new(f32::NAN, 0).is_err());
+        assert!(ActivationQuant::new(1.0, 128).is_err());
+        let op = PointwiseConvInt8::new(
+            &Tensor::from_shape(&[2, 3], &[1f32; 6]).expect("w"),
+            &tensor1(&[0f32; 2]),
+            Activation::None,
+            ActivationQuant::from_min_max(0.0, 1.0),
+        )
+        .expect("op");
+        let mut out = vec![0f32; 4];
+        assert!(op.compute(&[0.5; 6], None, &mut out).is_ok());
+        assert!(op.compute(&[0.5; 5], None, &mut out).is_err());
+        assert!(op.compute(&[0.5; 6], Some(&[0.0; 4]), &mut out).is_err());
+        assert!(PointwiseConvInt8::new(
+            &Tensor::from_shape(&[2, 3], &[1f32; 6]).expect("w"),
+            &tensor1(&[0f32; 3]),
+            Activation::None,
+            ActivationQuant::from_min_max(0.0, 1.0),
+        )
+        .is_err());
+    }
+}
+
+#[cfg(test)]
+mod speed {
+    use super::*;
+    use crate::pointwise::{Kernel, PointwiseConv};
+
+    /// Times `f` (best of 7 rounds of enough calls for about 0.2 s), in seconds per call.
+    fn time(work: usize, mut f: impl FnMut()) -> f64 {
+        let n = (2e8 / work as f64).max(3.0) as usize;
+        let mut best = f64::MAX;
+        for _ in 0..7 {
+            let t = std::time::Instant::now();
+            for _ in 0..n {
+                f();
+            }
+            best = best.min(t.elapsed().as_secs_f64() / n as f64);
+        }
+        best
+    }
+
+    /// The f32 and the int8 1x1 convolution on hand_landmark_full's 1x1 shapes, one
+    /// thread, hot caches, the dispatched kernels (`MONOHAND_KERNEL` as for the f32 ones):
+    /// `cargo test --release -p monohand-tflite int8::speed -- --ignored --nocapture`.
+    /// The int8 time includes quantizing the f32 input; both write f32 outputs.
+    #[test]
+    #[ignore = "a measurement, not a test"]
+    fn landmark_shapes() {
+        // (rows, cin, cout, how many such layers in hand_landmark_full), from
+        // `PER_NODE=1 cargo run --release -p monohand-tflite --example profile_ops`.
+        let shapes = SHAPES_LANDMARK_FULL;
+        let (k32, k8) = (Kernel::best(), Int8Kernel::best());
+        println!("f32 kernel {}, int8 kernel {}", k32.name(), k8.name());
+        let (mut t32, mut t8) = (0.0, 0.0);
+        for &(rows, cin, cout, count) in shapes {
+            let mut g = 1u64;
+            let mut next = || {
+                g = g
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
+                ((g >> 40) as f32 / (1u64 << 24) as f32) * 2.0 - 1.0
+            };
+            let x: Vec<f32> = (0..rows * cin).map(|_| 3.0 * next() + 3.0).collect();
+            let w: Vec<f32> = (0..cout * cin).map(|_| next()).collect();
+            let w = Tensor::from_shape(&[cout, cin], &w).expect("w");
+            let b = Tensor::zero::<f32>(&[cout]).expect("b");
+            let f32op = PointwiseConv::new(&w, &b, Activation::Relu6).expect("op");
+            let q = ActivationQuant::from_min_max(0.0, 6.0);
+            let i8op = PointwiseConvInt8::new(&w, &b, Activation::Relu6, q).expect("op");
+            let mut out = vec![0f32; rows * cout];
+            let work = rows * cin * cout;
+            let a = time(work, || {
+                f32op.compute(&x, None, &mut out, k32, false).expect("f32");
+            });
+            let c = time(work, || {
+                i8op.compute_with(&x, None, &mut out, k8, false)
+                    .expect("int8");
+            });
+            t32 += a * count as f64;
+            t8 += c * count as f64;
+            let gmac = |t: f64| work as f64 / t / 1e9;
+            println!(
+                "{rows:>6} x {cin:>5} -> {cout:>5} (x{count}): f32 {:7.3} ms {:5.1} GMAC/s, \
+                 int8 {:7.3} ms {:5.1} GMAC/s, speedup {:4.2}",
+                a * 1e3,
+                gmac(a),
+                c * 1e3,
+                gmac(c),
+                a / c
+            );
+        }
+        println!(
+            "all 1x1 layers of the network: f32 {:.3} ms, int8 {:.3} ms, speedup {:.2}",
+            t32 * 1e3,
+            t8 * 1e3,
+            t32 / t8
+        );
+    }
+
+    /// hand_landmark_full's 30 1x1 convolutions: (rows, cin, cout, count).
+    const SHAPES_LANDMARK_FULL: &[(usize, usize, usize, usize)] = &[
+        (12544, 24, 16, 1),
+        (12544, 16, 64, 1),
+        (3136, 64, 24, 1),
+        (3136, 24, 144, 2),
+        (3136, 144, 24, 1),
+        (784, 144, 40, 1),
+        (784, 40, 240, 2),
+        (784, 240, 40, 1),
+        (196, 240, 80, 1),
+        (196, 80, 480, 3),
+        (196, 480, 80, 2),
+        (196, 480, 112, 1),
+        (196, 112, 672, 3),
+        (196, 672, 112, 2),
+        (49, 672, 192, 1),
+        (49, 192, 1152, 4),
+        (49, 1152, 192, 3),
+    ];
+}
