@@ -1026,42 +1026,14 @@ impl EvalOp for PointwiseConvInt8 {
     op_out_of_plan!();
 
     fn eval(&self, _ctx: &EvalContext, inputs: TVec<TValue>) -> TractResult<TVec<TValue>> {
-        ensure!(
-            inputs.len() == 1 + self.residual.is_some() as usize,
-            "int8 pointwise convolution got {} inputs",
-            inputs.len()
-        );
-        let x = &inputs[0];
-        let mut shape: TVec<usize> = x.shape().into();
-        ensure!(
-            shape.last() == Some(&self.cin),
-            "pointwise convolution over {} channels, input {shape:?}",
-            self.cin
-        );
-        if let Some(last) = shape.last_mut() {
-            *last = self.cout;
-        }
-        if let Some(r) = inputs.get(1) {
-            ensure!(
-                r.shape() == &*shape,
-                "residual {:?} for an output {shape:?}",
-                r.shape()
-            );
-        }
-        // SAFETY: the tensor's values are left unwritten, and nothing reads one before it is
-        // written: `compute` stores every output value from its epilogue (the tiles cover
-        // all rows and channels, and only store into the output), and an error drops the
-        // tensor without reading it (f32 has no drop).
-        let mut output = unsafe { Tensor::uninitialized::<f32>(&shape)? };
-        {
-            let xr = x.try_as_plain_ram()?;
-            let rr = inputs.get(1).map(|r| r.try_as_plain_ram()).transpose()?;
-            let mut o = output.try_as_plain_ram_mut()?;
-            let (x, o) = (xr.as_slice::<f32>()?, o.as_slice_mut::<f32>()?);
-            let r = rr.as_ref().map(|r| r.as_slice::<f32>()).transpose()?;
-            self.compute_with(x, r, o, Int8Kernel::best(), self.split)?;
-        }
-        Ok(tvec!(output.into_tvalue()))
+        crate::pointwise::eval_1x1(
+            &inputs,
+            self.cin,
+            self.cout,
+            self.residual.is_some(),
+            "int8 pointwise convolution",
+            |x, r, o| self.compute_with(x, r, o, Int8Kernel::best(), self.split),
+        )
     }
 }
 

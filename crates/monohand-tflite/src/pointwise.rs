@@ -302,47 +302,66 @@ impl EvalOp for PointwiseConv {
     op_out_of_plan!();
 
     fn eval(&self, _ctx: &EvalContext, inputs: TVec<TValue>) -> TractResult<TVec<TValue>> {
-        ensure!(
-            inputs.len() == 1 + self.residual.is_some() as usize,
-            "pointwise convolution got {} inputs",
-            inputs.len()
-        );
-        let x = &inputs[0];
-        let mut shape: TVec<usize> = x.shape().into();
-        ensure!(
-            shape.last() == Some(&self.cin),
-            "pointwise convolution over {} channels, input {shape:?}",
-            self.cin
-        );
-        if let Some(last) = shape.last_mut() {
-            *last = self.cout;
-        }
-        if let Some(r) = inputs.get(1) {
-            ensure!(
-                r.shape() == &*shape,
-                "residual {:?} for an output {shape:?}",
-                r.shape()
-            );
-        }
-        // SAFETY: the tensor's values are left unwritten, and nothing reads one before it is
-        // written: `compute` stores every output value from its epilogue (the tiles cover
-        // all rows and channels, and only store into the output), and an error (`check`)
-        // drops the tensor without reading it (f32 has no drop).
-        let mut output = unsafe { Tensor::uninitialized::<f32>(&shape)? };
-        {
-            let xr = x.try_as_plain_ram()?;
-            let rr = inputs.get(1).map(|r| r.try_as_plain_ram()).transpose()?;
-            let mut o = output.try_as_plain_ram_mut()?;
-            self.compute(
-                xr.as_slice::<f32>()?,
-                rr.as_ref().map(|r| r.as_slice::<f32>()).transpose()?,
-                o.as_slice_mut::<f32>()?,
-                Kernel::best(),
-                self.split,
-            )?;
-        }
-        Ok(tvec!(output.into_tvalue()))
+        eval_1x1(
+            &inputs,
+            self.cin,
+            self.cout,
+            self.residual.is_some(),
+            "pointwise convolution",
+            |x, r, o| self.compute(x, r, o, Kernel::best(), self.split),
+        )
     }
+}
+
+/// The `eval` of a 1x1 convolution over channels-last f32 tensors (this operator's and
+/// [`crate::PointwiseConvInt8`]'s): checks the inputs (`cin` channels, a residual of the
+/// output's shape when `has_residual`), makes the output (`cout` channels) and has
+/// `compute(input, residual, output)` write every one of its values.
+pub(crate) fn eval_1x1(
+    inputs: &TVec<TValue>,
+    cin: usize,
+    cout: usize,
+    has_residual: bool,
+    what: &str,
+    compute: impl FnOnce(&[f32], Option<&[f32]>, &mut [f32]) -> TractResult<()>,
+) -> TractResult<TVec<TValue>> {
+    ensure!(
+        inputs.len() == 1 + has_residual as usize,
+        "{what} got {} inputs",
+        inputs.len()
+    );
+    let x = &inputs[0];
+    let mut shape: TVec<usize> = x.shape().into();
+    ensure!(
+        shape.last() == Some(&cin),
+        "{what} over {cin} channels, input {shape:?}"
+    );
+    if let Some(last) = shape.last_mut() {
+        *last = cout;
+    }
+    if let Some(r) = inputs.get(1) {
+        ensure!(
+            r.shape() == &*shape,
+            "residual {:?} for an output {shape:?}",
+            r.shape()
+        );
+    }
+    // SAFETY: the tensor's values are left unwritten, and nothing reads one before it is
+    // written: `compute` (each operator's) stores every output value from its epilogue (the
+    // tiles cover all rows and channels, and only store into the output), and an error
+    // drops the tensor without reading it (f32 has no drop).
+    let mut output = unsafe { Tensor::uninitialized::<f32>(&shape)? };
+    {
+        let xr = x.try_as_plain_ram()?;
+        let rr = inputs.get(1).map(|r| r.try_as_plain_ram()).transpose()?;
+        let mut o = output.try_as_plain_ram_mut()?;
+        compute(
+            xr.as_slice::<f32>()?,
+            rr.as_ref().map(|r| r.as_slice::<f32>()).transpose()?,
+            o.as_slice_mut::<f32>()?,
+        )?;
+    }
+    Ok(tvec!(output.into_tvalue()))
 }
 
 impl TypedOp for PointwiseConv {
