@@ -5,23 +5,27 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
+# The Rust tests in release, like the CLI and the wheel below: the dependencies are
+# compiled once for all three (one profile, scripts/test-release.toml, and one set of
+# features, crates/monohand-workspace-hack).
+rust_tests=(cargo test --workspace --release --config scripts/test-release.toml)
+# The CLI the Python tests run (release: the dependencies are those the tests built, tract
+# is not compiled again).
+cli_build=(cargo build --release -p monohand-cli)
+
 # TEST_BUILD_ONLY=1: compile the Rust tests and the CLI, run nothing (.ci/run does that in
 # the background while it lints, then runs this script whole, which finds them built).
 if [ "${TEST_BUILD_ONLY:-0}" = 1 ]; then
-  cargo test --workspace --release --config scripts/test-release.toml --no-run
-  cargo build --release -p monohand-cli
+  "${rust_tests[@]}" --no-run
+  "${cli_build[@]}"
   exit 0
 fi
 
 echo "== Rust tests"
-# In release, like the CLI and the wheel below: the dependencies are compiled once for all
-# three (one profile, scripts/test-release.toml, and one set of features,
-# crates/monohand-workspace-hack).
-cargo test --workspace --release --config scripts/test-release.toml
+"${rust_tests[@]}"
 
 echo "== Python package"
-# Release builds: the dependencies are those the tests built (tract is not compiled again).
-cargo build --release -p monohand-cli
+"${cli_build[@]}"
 venv="target/pyvenv"
 rm -rf "$venv" target/wheels-test
 python3 -m venv "$venv"
