@@ -161,6 +161,7 @@ export async function createTracker(options = {}) {
   if (options.hands !== undefined) settings.hands = options.hands;
   if (options.detectEvery !== undefined) settings.detect_every = options.detectEvery;
   if (options.mirrorPass !== undefined) settings.mirror_pass = options.mirrorPass;
+  if (options.precision !== undefined) settings.precision = options.precision;
   if (options.camera !== undefined) settings.camera = options.camera;
   const threads = options.threads ?? Math.min(navigator.hardwareConcurrency || 1, 2);
   const worker = new Worker(new URL('./worker.js', import.meta.url), { type: 'module' });

@@ -71,9 +71,9 @@ def main():
     ap.add_argument("--fixtures", required=True, help="crates/monohand-vision/tests/fixtures")
     ap.add_argument("--rounds", type=int, default=5)
     ap.add_argument("--runs", type=int, default=20, help="timed runs per round and runtime")
-    ap.add_argument("--variants", default="no-pointwise",
+    ap.add_argument("--variants", default="int8",
                     help="comma-separated extra monohand variants, each a '+'-joined list of "
-                         "net_timer options (e.g. no-pointwise,no-epilogue)")
+                         "net_timer options (e.g. int8,no-pointwise,no-epilogue)")
     ap.add_argument("--threads", type=int, default=1,
                     help="threads for both runtimes (default 1)")
     a = ap.parse_args()

@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # The four hand networks (palm and landmark, full and lite), monohand (tract with its own
 # operators, loaded through TfliteNet, 1 thread) against LiteRT 2.3 (XNNPACK, 1 thread),
-# interleaved on the same input; also monohand with some of its own operators switched back
-# to tract's (`--variants`). Prints the CPU model and flags and a table of ms and ratios.
+# interleaved on the same input; also monohand in int8 (its shipped calibration, the 1x1
+# convolutions in int8) and other variants (`--variants`). Prints the CPU model and flags and a table of ms and ratios.
 # Not part of .ci/run (it installs ai-edge-litert from PyPI). See docs/performance.md.
 #
 # Usage: bench/networks/run.sh [--rounds N] [--runs N] [--threads N] [--variants LIST]
@@ -11,9 +11,9 @@
 #   --threads N      threads for both runtimes (default 1): LiteRT's num_threads, and
 #                    monohand's operators sharing their rows (MONOHAND_OP_THREADS)
 #   --variants LIST  extra monohand variants, comma-separated, each a '+'-joined list of
-#                    no-pointwise, no-epilogue, no-depthwise, no-prelu, no-dw-act,
+#                    int8, no-pointwise, no-epilogue, no-depthwise, no-prelu, no-dw-act,
 #                    no-dw-blocking, no-conv, no-split
-#                    (default no-pointwise)
+#                    (default int8)
 # Environment: MODELS (default ~/.cache/monohand/models), CARGO_TARGET_DIR (default target),
 #   VENV (default /tmp/monohand-litert-venv), PYTHON (default python3).
 set -euo pipefail

@@ -182,7 +182,7 @@ pub(crate) fn run(args: &EvalArgs) -> Result<()> {
         plan::Stage::Full => {
             let pipeline = args.models.pipeline_for(args.track)?;
             let (models, options) = args.models.options();
-            Some((Arc::new(pipeline), models.describe(&options.landmarks)))
+            Some((Arc::new(pipeline), models.describe(&options)))
         }
         plan::Stage::Lift { .. } => None,
     };

@@ -188,6 +188,7 @@ pub(crate) fn refused(e: &monohand::SettingsError) -> anyhow::Error {
         Field::MinPresence => "--min-presence",
         Field::MirrorPass => "--no-mirror-pass",
         Field::Heads => "--no-heads",
+        Field::Precision => "--precision",
         Field::Pipeline => "the networks' options",
         Field::FitOptions => "the fit's options",
         Field::HandScale => "--hand-scale",

@@ -26,6 +26,25 @@ impl From<Variant> for ModelVariant {
     }
 }
 
+/// The arithmetic of the networks' quantizable layers.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub(crate) enum PrecisionArg {
+    /// f32 throughout, MediaPipe's own arithmetic.
+    F32,
+    /// The 1x1 convolutions of the palm and landmark networks in int8, with the
+    /// calibration monohand ships (docs/performance.md, docs/accuracy.md).
+    Int8,
+}
+
+impl From<PrecisionArg> for monohand_vision::Precision {
+    fn from(p: PrecisionArg) -> Self {
+        match p {
+            PrecisionArg::F32 => monohand_vision::Precision::F32,
+            PrecisionArg::Int8 => monohand_vision::Precision::Int8,
+        }
+    }
+}
+
 /// How a custom keypoint network's output is read.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub(crate) enum KeypointFormat {
@@ -47,6 +66,10 @@ pub(crate) struct ModelArgs {
     /// Hand landmark model size.
     #[arg(long, value_enum, default_value = "full", value_name = "SIZE")]
     pub landmark_model: Variant,
+    /// The arithmetic of the palm and landmark networks: f32, or int8 (faster, with the
+    /// shipped calibration; the records say which ran).
+    #[arg(long, value_enum, default_value = "f32", value_name = "PRECISION")]
+    pub precision: PrecisionArg,
     /// Do not detect heads (the paper's context for left/right; they cost ~3 ms per image).
     #[arg(long)]
     pub no_heads: bool,
@@ -98,6 +121,7 @@ impl ModelArgs {
             max_hands: self.max_hands,
             min_presence: self.min_presence,
             mirrored_input: self.mirrored,
+            precision: self.precision.into(),
             landmarks: monohand_vision::landmarks::LandmarkOptions {
                 mirror_pass: !self.no_mirror_pass,
                 ..Default::default()

@@ -297,6 +297,9 @@ pub struct FrameRecord {
     /// Per-stage processing times, milliseconds.
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub timings_ms: Option<BTreeMap<String, f64>>,
+    /// The arithmetic the networks ran in when it was not f32 (`"int8"`); absent: f32.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub precision: Option<String>,
 }
 
 /// Where a camera came from (in JSON: `file`, `file-scaled`, `exif`, `exif+sensor-db`,

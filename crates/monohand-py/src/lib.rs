@@ -8,7 +8,7 @@
 
 use monohand::engine::{Engine, EngineError, Input, Observer, Output, RunReport, Sink};
 use monohand::records::fitted_record;
-use monohand::vision::HandPipeline;
+use monohand::vision::{HandPipeline, Precision};
 use monohand::{Field, SessionError, SessionOptions, SettingsError};
 use monohand_core::filtering::OneEuroParams;
 use monohand_core::prelude::*;
@@ -488,9 +488,10 @@ fn py_bool(b: bool) -> &'static str {
 
 /// The networks, loaded once and shared by any number of sessions (for example one per
 /// video on a worker): `Models(hands=2, tracking=True, model_dir=None, heads=False,
-/// mirror_pass=True)`. `tracking=False` is for independent images (one extra landmark pass
-/// per hand). `mirror_pass=False` reads each crop once instead of also reading its mirror
-/// image (faster, larger 3D error; docs/accuracy.md).
+/// mirror_pass=True, precision="f32")`. `tracking=False` is for independent images (one
+/// extra landmark pass per hand). `mirror_pass=False` reads each crop once instead of also
+/// reading its mirror image (faster, larger 3D error; docs/accuracy.md). `precision="int8"`
+/// runs the palm and landmark networks' 1x1 convolutions in int8 (docs/performance.md).
 #[pyclass(module = "monohand._monohand", name = "Models", frozen)]
 struct PyModels {
     pipeline: Arc<HandPipeline>,
@@ -498,12 +499,21 @@ struct PyModels {
     tracking: bool,
     heads: bool,
     mirror_pass: bool,
+    precision: Precision,
+}
+
+/// `precision=` of the Python API: "f32" or "int8".
+fn precision_arg(precision: &str) -> PyResult<Precision> {
+    precision
+        .parse()
+        .map_err(|e: String| PyValueError::new_err(format!("precision: {e}")))
 }
 
 #[pymethods]
 impl PyModels {
     #[new]
-    #[pyo3(signature = (hands=2, tracking=true, model_dir=None, heads=false, mirror_pass=true))]
+    #[pyo3(signature = (hands=2, tracking=true, model_dir=None, heads=false, mirror_pass=true, precision="f32"))]
+    #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
         hands: usize,
@@ -511,14 +521,17 @@ impl PyModels {
         model_dir: Option<std::path::PathBuf>,
         heads: bool,
         mirror_pass: bool,
+        precision: &str,
     ) -> PyResult<PyModels> {
         if hands == 0 {
             return Err(PyValueError::new_err("at least one hand per frame"));
         }
+        let precision = precision_arg(precision)?;
         let mut options = SessionOptions::default()
             .hands(hands)
             .heads(heads)
-            .mirror_pass(mirror_pass);
+            .mirror_pass(mirror_pass)
+            .precision(precision);
         if let Some(dir) = model_dir {
             options = options.model_dir(dir);
         }
@@ -532,7 +545,14 @@ impl PyModels {
             tracking,
             heads,
             mirror_pass,
+            precision,
         })
+    }
+
+    /// The networks' arithmetic: "f32" or "int8".
+    #[getter]
+    fn precision(&self) -> &'static str {
+        self.precision.name()
     }
 
     /// The most hands per frame.
@@ -552,11 +572,12 @@ impl PyModels {
     }
     fn __repr__(&self) -> String {
         format!(
-            "Models(hands={}, tracking={}, heads={}, mirror_pass={})",
+            "Models(hands={}, tracking={}, heads={}, mirror_pass={}, precision={:?})",
             self.hands,
             py_bool(self.tracking),
             py_bool(self.heads),
-            py_bool(self.mirror_pass)
+            py_bool(self.mirror_pass),
+            self.precision.name()
         )
     }
 }
@@ -588,7 +609,7 @@ impl PySession {
 #[pymethods]
 impl PySession {
     #[new]
-    #[pyo3(signature = (cameras=None, hands=2, tracking=true, model_dir=None, smoothing=false, heads=false, detect_every=10, models=None, hand_scale=1.0, mirror_pass=true, rectify_crops="off"))]
+    #[pyo3(signature = (cameras=None, hands=2, tracking=true, model_dir=None, smoothing=false, heads=false, detect_every=10, models=None, hand_scale=1.0, mirror_pass=true, rectify_crops="off", precision="f32"))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -603,8 +624,10 @@ impl PySession {
         hand_scale: f64,
         mirror_pass: bool,
         rectify_crops: &str,
+        precision: &str,
     ) -> PyResult<PySession> {
         let cameras = to_cameras(cameras)?;
+        let precision = precision_arg(precision)?;
         let rectify = rectify_crops
             .parse()
             .map_err(|e| PyValueError::new_err(format!("rectify_crops: {e}")))?;
@@ -613,6 +636,7 @@ impl PySession {
             .tracking(tracking)
             .heads(heads)
             .mirror_pass(mirror_pass)
+            .precision(precision)
             .skeletons(skeletons(hand_scale)?)
             .smoothing(smoothing.then(OneEuroParams::default))
             .detect_every(detect_every);
@@ -627,15 +651,16 @@ impl PySession {
         }
         let pipeline = match models {
             Some(m) => {
-                if (m.hands, m.tracking, m.heads, m.mirror_pass)
-                    != (hands, tracking, heads, mirror_pass)
+                if (m.hands, m.tracking, m.heads, m.mirror_pass, m.precision)
+                    != (hands, tracking, heads, mirror_pass, precision)
                 {
                     return Err(PyValueError::new_err(format!(
                         "the session asks for hands={hands}, tracking={}, heads={}, \
-                         mirror_pass={} but the models were loaded with {}",
+                         mirror_pass={}, precision={:?} but the models were loaded with {}",
                         py_bool(tracking),
                         py_bool(heads),
                         py_bool(mirror_pass),
+                        precision.name(),
                         m.__repr__()
                     )));
                 }

@@ -57,6 +57,48 @@ use tract_tflite::tflite;
 
 pub use ops::SUPPORTED_OPERATORS;
 
+/// The arithmetic a network's convolutions run in.
+///
+/// [`Precision::Int8`] runs the quantizable layers (today the 1x1 convolutions,
+/// [`PointwiseConvInt8`]) in int8 with activation codes from a calibration
+/// ([`pointwise_input_ranges`], [`quantize_pointwise`]); everything else stays f32.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Hash)]
+pub enum Precision {
+    /// f32 throughout (MediaPipe's own arithmetic; the default).
+    #[default]
+    F32,
+    /// int8 where a calibration codes the layer's input, f32 elsewhere.
+    Int8,
+}
+
+impl Precision {
+    /// Its name in options and records: `f32` or `int8`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Precision::F32 => "f32",
+            Precision::Int8 => "int8",
+        }
+    }
+}
+
+impl std::fmt::Display for Precision {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl std::str::FromStr for Precision {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        match s {
+            "f32" => Ok(Precision::F32),
+            "int8" => Ok(Precision::Int8),
+            other => Err(format!("precision {other:?} is neither f32 nor int8")),
+        }
+    }
+}
+
 /// Why a `.tflite` file could not be turned into a tract model.
 #[derive(Debug, thiserror::Error)]
 pub enum ImportError {

@@ -8,7 +8,8 @@
 //!   input as raw little-endian f32 (NHWC); `OPTIONS` is `default` or a comma-separated
 //!   list among `no-pointwise`, `no-epilogue`, `no-depthwise`, `no-prelu`, `no-dw-act`, `no-dw-blocking`,
 //!   `no-conv`, `no-split`
-//!   (switching monohand's own operators back to tract's). Answers `ok`.
+//!   (switching monohand's own operators back to tract's), and `int8` (the network's
+//!   shipped int8 calibration: its 1x1 convolutions in int8). Answers `ok`.
 //! * `time NAME RUNS`: runs the network `RUNS` times on a reused run state, as the pipeline
 //!   does (the input is copied into the state's buffer before each timed run, like LiteRT's
 //!   `set_tensor` before `invoke`; only the run is timed); answers the milliseconds of each
@@ -22,7 +23,7 @@ use std::path::Path;
 use std::time::Instant;
 
 use monohand_vision::tflite_import::ImportOptions;
-use monohand_vision::{NetState, TfliteNet};
+use monohand_vision::{NetState, Precision, TfliteNet};
 use tract_core::internal::*;
 
 fn main() {
@@ -35,9 +36,11 @@ fn main() {
         match words.as_slice() {
             ["load", name, model, input, options] => {
                 let mut o = ImportOptions::default();
+                let mut precision = Precision::F32;
                 for opt in options.split(',') {
                     match opt {
                         "default" => {}
+                        "int8" => precision = Precision::Int8,
                         "no-pointwise" => o.fast_pointwise = false,
                         "no-epilogue" => o.fused_pointwise_epilogue = false,
                         "no-depthwise" => o.fast_depthwise = false,
@@ -50,7 +53,8 @@ fn main() {
                     }
                 }
                 let bytes = std::fs::read(model).expect("model");
-                let net = TfliteNet::from_bytes_with(&bytes, Path::new(model), o).expect("import");
+                let net = TfliteNet::from_bytes_in(&bytes, Path::new(model), o, precision)
+                    .expect("import");
                 let raw = std::fs::read(input).expect("input");
                 let values: Vec<f32> = raw
                     .chunks_exact(4)

@@ -58,6 +58,9 @@ pub enum VisionError {
     /// tract failed while optimising or running a network.
     #[error("inference failed: {0}")]
     Inference(String),
+    /// A network's int8 calibration is missing, damaged or cannot be applied.
+    #[error("int8: {0}")]
+    Calibration(String),
     /// A model produced outputs of an unexpected shape.
     #[error("unexpected model output: {0}")]
     ModelOutput(String),

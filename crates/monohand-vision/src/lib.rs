@@ -33,6 +33,7 @@ pub mod face;
 pub mod geometry;
 pub mod heatmap;
 pub mod image_io;
+pub mod int8;
 pub mod landmarks;
 pub mod models;
 pub mod network;
@@ -50,6 +51,7 @@ pub use error::{Result, VisionError};
 /// Re-exported so callers can build inputs without depending on `image` themselves.
 pub use image::RgbImage;
 pub use models::{ModelFile, ModelStore};
+pub use monohand_tflite::Precision;
 pub use network::{NetOutputs, NetState, TfliteNet};
 pub use pipeline::{
     DetectedHand, DetectedHead, Detections, HandDetector, HandKeypoints, HandPipeline, HandRegion,

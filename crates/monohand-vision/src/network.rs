@@ -19,6 +19,12 @@ use monohand_tflite as tflite_import;
 #[derive(Debug, Clone)]
 pub struct TfliteNet {
     plan: Arc<TypedSimplePlan>,
+    /// The model's file name (what [`crate::int8::record_inputs`] files its inputs under).
+    name: Arc<str>,
+    /// The arithmetic of its quantizable layers.
+    precision: tflite_import::Precision,
+    /// How many layers run in int8.
+    int8_layers: usize,
     input_shape: [usize; 4],
     /// Idle run states, reused by [`Self::run_pooled`].
     pool: Arc<Mutex<Vec<NetState>>>,
@@ -96,11 +102,18 @@ impl TfliteNet {
         origin: &Path,
         options: tflite_import::ImportOptions,
     ) -> Result<Self> {
-        let model =
-            tflite_import::import_with(bytes, options).map_err(|source| VisionError::Import {
-                path: origin.into(),
-                source,
-            })?;
+        Self::from_bytes_in(bytes, origin, options, tflite_import::Precision::F32)
+    }
+
+    /// [`from_bytes_with`](Self::from_bytes_with) in `precision`: in int8, the layers the
+    /// network's shipped calibration covers run in int8 ([`crate::int8::import`]).
+    pub fn from_bytes_in(
+        bytes: &[u8],
+        origin: &Path,
+        options: tflite_import::ImportOptions,
+        precision: tflite_import::Precision,
+    ) -> Result<Self> {
+        let (model, int8_layers) = crate::int8::import(bytes, origin, options, precision)?;
         let fact = model.input_fact(0)?.clone();
         let shape = fact
             .shape
@@ -114,11 +127,27 @@ impl TfliteNet {
                 ))
             })?;
         let plan = model.into_optimized()?.into_runnable()?;
+        let name = origin
+            .file_name()
+            .map_or_else(|| origin.to_string_lossy(), |n| n.to_string_lossy());
         Ok(TfliteNet {
             plan,
+            name: name.into(),
+            precision,
+            int8_layers,
             input_shape: shape,
             pool: Arc::new(Mutex::new(Vec::new())),
         })
+    }
+
+    /// The arithmetic it was built in.
+    pub fn precision(&self) -> tflite_import::Precision {
+        self.precision
+    }
+
+    /// How many of its layers run in int8 (0 in f32).
+    pub fn int8_layers(&self) -> usize {
+        self.int8_layers
     }
 
     /// Input shape `[1, height, width, channels]`.
@@ -187,6 +216,7 @@ impl TfliteNet {
         state: &mut NetState,
         read: impl FnOnce(NetOutputs<'_>) -> Result<R>,
     ) -> Result<R> {
+        crate::int8::observe_input(&self.name, &state.input);
         // Counted while it runs: alone, its operators share their rows between the cores.
         let _running = monohand_tflite::Running::start();
         state

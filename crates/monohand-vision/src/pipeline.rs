@@ -271,17 +271,18 @@ impl ModelVariant {
 
 impl ModelOptions {
     /// What these networks are, for a report: MediaPipe's release, the two networks' sizes,
-    /// and whether each crop's mirror image is averaged in (`landmarks`).
-    pub fn describe(&self, landmarks: &LandmarkOptions) -> String {
+    /// whether each crop's mirror image is averaged in, and the precision (`options`).
+    pub fn describe(&self, options: &PipelineOptions) -> String {
         format!(
-            "MediaPipe 0.10.14 palm detector ({:?}) + hand landmarks ({:?}{}) in tract",
+            "MediaPipe 0.10.14 palm detector ({:?}) + hand landmarks ({:?}{}) in tract, {}",
             self.palm,
             self.landmark,
-            if landmarks.mirror_pass {
+            if options.landmarks.mirror_pass {
                 ", mean of each crop and its mirror image"
             } else {
                 ", one pass per crop"
-            }
+            },
+            options.precision
         )
     }
 }
@@ -304,6 +305,10 @@ pub struct PipelineOptions {
     pub refine_passes: usize,
     /// Whether images are selfie-mirrored (affects the reported side only).
     pub mirrored_input: bool,
+    /// The arithmetic of the palm and landmark networks' quantizable layers: f32 (the
+    /// default), or int8 with monohand's shipped calibration ([`crate::int8`]). The face
+    /// detector always runs in f32.
+    pub precision: crate::Precision,
 }
 
 impl Default for PipelineOptions {
@@ -316,6 +321,7 @@ impl Default for PipelineOptions {
             duplicate_iou: 0.5,
             refine_passes: 1,
             mirrored_input: false,
+            precision: crate::Precision::F32,
         }
     }
 }
@@ -398,6 +404,14 @@ pub struct Detections {
     pub hands: Vec<DetectedHand>,
     /// Heads (empty unless the face detector is loaded).
     pub heads: Vec<DetectedHead>,
+    /// The arithmetic the palm and landmark networks ran in
+    /// ([`PipelineOptions::precision`]).
+    #[serde(serialize_with = "precision_name")]
+    pub precision: crate::Precision,
+}
+
+fn precision_name<S: serde::Serializer>(p: &crate::Precision, s: S) -> Result<S::Ok, S::Error> {
+    s.serialize_str(p.name())
 }
 
 /// Hand (and head) detection with 21 keypoints per hand.
@@ -424,9 +438,9 @@ impl std::fmt::Debug for HandPipeline {
     }
 }
 
-fn load_net(store: &ModelStore, file: ModelFile) -> Result<TfliteNet> {
+fn load_net(store: &ModelStore, file: ModelFile, precision: crate::Precision) -> Result<TfliteNet> {
     let bytes = store.load(file)?;
-    TfliteNet::from_bytes(&bytes, &store.path_of(file))
+    TfliteNet::from_bytes_in(&bytes, &store.path_of(file), Default::default(), precision)
 }
 
 /// The weights of a pipeline's networks as bytes, each with the name it is known by in
@@ -474,14 +488,11 @@ impl HandPipeline {
     /// from the networks' bytes: what [`HandPipeline::new`] builds once it has read them.
     pub fn from_bytes(nets: NetworkBytes<'_>, options: PipelineOptions) -> Result<Self> {
         options.validate()?;
-        let detector = PalmDetector::new(
-            TfliteNet::from_bytes(nets.palm.0, nets.palm.1)?,
-            options.palm,
-        )?;
-        let model = LandmarkModel::new(
-            TfliteNet::from_bytes(nets.landmark.0, nets.landmark.1)?,
-            options.landmarks,
-        )?;
+        let net = |(bytes, origin): (&[u8], &Path)| {
+            TfliteNet::from_bytes_in(bytes, origin, Default::default(), options.precision)
+        };
+        let detector = PalmDetector::new(net(nets.palm)?, options.palm)?;
+        let model = LandmarkModel::new(net(nets.landmark)?, options.landmarks)?;
         let estimator = MediaPipeKeypoints {
             model,
             mirrored_input: options.mirrored_input,
@@ -515,7 +526,7 @@ impl HandPipeline {
         let mut p = HandPipeline::new(models, options)?;
         let store = ModelStore::new(models.model_dir.clone())?;
         let model = LandmarkModel::new(
-            load_net(&store, models.landmark.landmark_file())?,
+            load_net(&store, models.landmark.landmark_file(), options.precision)?,
             options.landmarks,
         )?;
         p.side_source = Some(MediaPipeKeypoints {
@@ -694,6 +705,7 @@ impl HandPipeline {
             image_size: img.dimensions(),
             hands,
             heads,
+            precision: self.options.precision,
         };
         Ok((detections, origin))
     }
@@ -951,8 +963,10 @@ mod tests {
             image_size: (4, 3),
             hands: Vec::new(),
             heads: Vec::new(),
+            precision: crate::Precision::Int8,
         };
         let json = serde_json::to_string(&d).expect("json");
         assert!(json.contains("\"image_size\":[4,3]"), "{json}");
+        assert!(json.contains("\"precision\":\"int8\""), "{json}");
     }
 }

@@ -36,8 +36,8 @@ use std::path::Path;
 use std::sync::Arc;
 
 /// What a page may set, as JSON (every field optional):
-/// `{"hands": 2, "detect_every": 10, "mirror_pass": true, "camera": {"fx": .., "fy": ..,
-/// "cx": .., "cy": .., "width": .., "height": ..}}`.
+/// `{"hands": 2, "detect_every": 10, "mirror_pass": true, "precision": "f32", "camera":
+/// {"fx": .., "fy": .., "cx": .., "cy": .., "width": .., "height": ..}}`.
 #[derive(Debug, Clone, Default, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct TrackerOptions {
@@ -49,6 +49,8 @@ pub struct TrackerOptions {
     /// session's, on; off is `run --no-mirror-pass`: one network pass a hand instead of two,
     /// as MediaPipe does, at a higher 3D error, docs/accuracy.md).
     pub mirror_pass: Option<bool>,
+    /// The networks' arithmetic, `"f32"` (the default) or `"int8"` (`run --precision`).
+    pub precision: Option<String>,
     /// The camera's intrinsics, for frames of its size; without them, the generic 60
     /// degree camera for the frames' size, said once in the notes (as the CLI does).
     pub camera: Option<Intrinsics>,
@@ -117,6 +119,12 @@ impl Tracker {
         }
         if let Some(on) = options.mirror_pass {
             session_options = session_options.mirror_pass(on);
+        }
+        if let Some(p) = &options.precision {
+            let p = p
+                .parse()
+                .map_err(|e: String| WebError::Options(format!("precision: {e}")))?;
+            session_options = session_options.precision(p);
         }
         let resolved = session_options
             .settings

@@ -39,6 +39,8 @@ pub fn detections_record(frame: u64, source: Option<String>, found: &Detections)
                 score: f64::from(h.score),
             })
             .collect(),
+        precision: (found.precision != monohand_vision::Precision::F32)
+            .then(|| found.precision.name().to_owned()),
         ..FrameRecord::default()
     }
 }

@@ -73,6 +73,13 @@ impl SessionOptions {
         self
     }
 
+    /// The arithmetic of the palm and landmark networks (f32 by default; see
+    /// [`monohand_vision::PipelineOptions::precision`]).
+    pub fn precision(mut self, precision: monohand_vision::Precision) -> Self {
+        self.settings.pipeline.precision = precision;
+        self
+    }
+
     /// Also report heads (the paper's context for left and right; about 3 ms per frame).
     pub fn heads(mut self, on: bool) -> Self {
         self.models.detect_heads = on;

@@ -37,6 +37,8 @@ pub enum Field {
     MirrorPass,
     /// Whether heads are detected (a pipeline's face detector).
     Heads,
+    /// The networks' arithmetic ([`PipelineOptions::precision`]).
+    Precision,
     /// The networks' other options ([`PipelineOptions`]).
     Pipeline,
     /// The fitter's options ([`FitSettings::options`]).
@@ -66,6 +68,7 @@ impl Field {
             Field::MinPresence => "min_presence",
             Field::MirrorPass => "mirror_pass",
             Field::Heads => "heads",
+            Field::Precision => "precision",
             Field::Pipeline => "pipeline",
             Field::FitOptions => "fit_options",
             Field::HandScale => "hand_scale",
@@ -411,6 +414,12 @@ impl ResolvedSettings {
             return Err(SettingsError::new(
                 Field::MirrorPass,
                 loaded(format!("with mirror pass {}", have.landmarks.mirror_pass)),
+            ));
+        }
+        if have.precision != want.precision {
+            return Err(SettingsError::new(
+                Field::Precision,
+                loaded(format!("in {}", have.precision)),
             ));
         }
         if heads.is_some_and(|h| h != pipeline.detects_heads()) {

@@ -131,6 +131,7 @@ def video_rows(
     models: Optional[Models] = None,
     mirror_pass: bool = True,
     offline: bool = False,
+    precision: str = "f32",
 ) -> Iterator[dict]:
     """Tracks a whole video and yields plain rows: one per frame per hand, plus (with
     ``empty_frames``) one row with ``hand_id=None`` for each frame without hands, so that
@@ -144,6 +145,7 @@ def video_rows(
         smoothing=smoothing,
         models=models,
         mirror_pass=mirror_pass,
+        precision=precision,
     ) as session, session.track(str(path), max_frames=max_frames, offline=offline) as frames:
         for frame in frames:
             found = frame.hands
@@ -164,6 +166,7 @@ def track_video(
     output: str = "pandas",
     mirror_pass: bool = True,
     offline: bool = False,
+    precision: str = "f32",
 ) -> Any:
     """Tracks a whole video and returns a table with one row per frame per hand (and one
     row with null hand fields for each frame without hands): a pandas DataFrame
@@ -191,6 +194,7 @@ def track_video(
         max_frames=max_frames,
         mirror_pass=mirror_pass,
         offline=offline,
+        precision=precision,
     )
     table = pa.Table.from_pylist(list(rows), schema=row_schema())
     return table.to_pandas() if output == "pandas" else table

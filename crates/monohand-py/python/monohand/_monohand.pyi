@@ -135,7 +135,10 @@ class Models:
         model_dir: Optional[Union[str, PathLike[str]]] = None,
         heads: bool = False,
         mirror_pass: bool = True,
+        precision: str = "f32",
     ) -> None: ...
+    @property
+    def precision(self) -> str: ...
     @property
     def hands(self) -> int: ...
     @property
@@ -161,6 +164,7 @@ class Session:
         hand_scale: float = 1.0,
         mirror_pass: bool = True,
         rectify_crops: str = "off",
+        precision: str = "f32",
     ) -> None: ...
     def process(self, image: Union[Image, List[Image]], time_s: Optional[float] = None) -> List[Hand]:
         """One frame (default time: 30 fps); its hands."""

@@ -1,0 +1,386 @@
+//! The networks in int8 ([`Precision::Int8`]): the calibration tables that code each
+//! quantized layer's input, shipped with monohand, and how they are made.
+//!
+//! A table holds, for every 1x1 convolution of one network (by its node name in the
+//! imported graph), the smallest and largest value its input took while the f32 pipeline
+//! ran on the calibration frames: what [`monohand_tflite::ActivationQuant::from_min_max`]
+//! codes that input from. Tables are plain text (`int8/<network>.txt` in this crate,
+//! compiled in), stamped with the SHA-256 of the network they were measured on and ending
+//! with the SHA-256 of their own lines, both checked when one is read. A table is only
+//! used with the network whose checksum it names.
+//!
+//! **The calibration frames** ([`calibration_images`]): the shared photos
+//! (`../shared/data/images`, every `.jpg` and `.png`, 36 in all) and every 5th frame of
+//! the first half of the dev video (`hand_graph_cnn_dev`, frames 0, 5, ..., 145); nothing
+//! else, and never the second half (frames 146-291), on which int8 is checked unseen.
+//! Each is read by [`HandPipeline::detect`] with the default options (the detector, the
+//! landmark network's two passes, the mirror pass) in f32, and the inputs the palm and
+//! landmark networks were given are recorded ([`record_inputs`]); each network's table
+//! comes from running its imported f32 graph on those inputs
+//! ([`monohand_tflite::pointwise_input_ranges`]). The same frames give the same table, bit
+//! for bit, with any thread count (`tests/int8_calibration.rs` makes them again and
+//! compares). `examples/int8_calibrate.rs` writes them.
+//!
+//! The face detector (heads) always runs in f32.
+
+use std::collections::{BTreeMap, HashMap};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Mutex;
+
+use tract_core::internal::*;
+
+use crate::error::{Result, VisionError};
+use crate::models::{sha256_hex, ModelFile};
+use monohand_tflite::{MinMax, Precision};
+
+/// How the shipped tables name their frames ([`calibration_images`]).
+pub const FRAMES: &str =
+    "the shared photos and dev frames 0-145 every 5th, f32 pipeline, default options";
+
+/// The first line of every table.
+const HEADER: &str = "monohand int8 calibration 1";
+
+/// The tables shipped with monohand: the network each is for, and its text.
+const SHIPPED: [(ModelFile, &str); 4] = [
+    (
+        ModelFile::PalmDetectionFull,
+        include_str!("../int8/palm_detection_full.txt"),
+    ),
+    (
+        ModelFile::PalmDetectionLite,
+        include_str!("../int8/palm_detection_lite.txt"),
+    ),
+    (
+        ModelFile::HandLandmarkFull,
+        include_str!("../int8/hand_landmark_full.txt"),
+    ),
+    (
+        ModelFile::HandLandmarkLite,
+        include_str!("../int8/hand_landmark_lite.txt"),
+    ),
+];
+
+/// The networks a table is shipped for (the face detector runs in f32).
+pub fn quantized_networks() -> impl Iterator<Item = ModelFile> {
+    SHIPPED.iter().map(|(f, _)| *f)
+}
+
+/// One network's calibration: the range of the input of each of its 1x1 convolutions.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Int8Table {
+    /// SHA-256 (lower-case hex) of the `.tflite` file the ranges were measured on.
+    pub network_sha256: String,
+    /// What the ranges were measured on, in a few words.
+    pub frames: String,
+    /// Input range of each 1x1 convolution, by node name in the imported graph.
+    pub ranges: BTreeMap<String, MinMax>,
+}
+
+fn bad(why: impl Into<String>) -> VisionError {
+    VisionError::Calibration(why.into())
+}
+
+impl Int8Table {
+    /// The table as text: the header, the network's checksum, the frames, one line per
+    /// layer (`name min max`, each bound as the hex of its f32 bits then as a decimal for
+    /// the reader), and the checksum of those lines.
+    pub fn to_text(&self) -> String {
+        let mut body = format!(
+            "{HEADER}\nnetwork {}\nframes {}\n",
+            self.network_sha256, self.frames
+        );
+        for (name, r) in &self.ranges {
+            body.push_str(&format!(
+                "{name} {:08x} {:08x} # {} {}\n",
+                r.min.to_bits(),
+                r.max.to_bits(),
+                r.min,
+                r.max
+            ));
+        }
+        let sum = sha256_hex(body.as_bytes());
+        format!("{body}checksum {sum}\n")
+    }
+
+    /// Reads [`to_text`](Self::to_text)'s format; an error if the header, a line or the
+    /// checksum is wrong.
+    pub fn parse(text: &str) -> Result<Int8Table> {
+        let (body, last) = text
+            .trim_end_matches('\n')
+            .rsplit_once('\n')
+            .ok_or_else(|| bad("an int8 table of fewer than two lines"))?;
+        let body = format!("{body}\n");
+        let sum = last
+            .strip_prefix("checksum ")
+            .ok_or_else(|| bad("an int8 table without its checksum line"))?;
+        if sha256_hex(body.as_bytes()) != sum {
+            return Err(bad("an int8 table whose checksum does not match its lines"));
+        }
+        let mut lines = body.lines();
+        if lines.next() != Some(HEADER) {
+            return Err(bad(format!("an int8 table not starting with {HEADER:?}")));
+        }
+        let field = |line: Option<&str>, key: &str| -> Result<String> {
+            line.and_then(|l| l.strip_prefix(key))
+                .and_then(|l| l.strip_prefix(' '))
+                .map(str::to_owned)
+                .ok_or_else(|| bad(format!("an int8 table without its {key:?} line")))
+        };
+        let network_sha256 = field(lines.next(), "network")?;
+        let frames = field(lines.next(), "frames")?;
+        let mut ranges = BTreeMap::new();
+        for line in lines {
+            let data = line.split('#').next().unwrap_or("");
+            let parts: Vec<&str> = data.split_whitespace().collect();
+            let bits = |s: &str| u32::from_str_radix(s, 16).ok().map(f32::from_bits);
+            match parts[..] {
+                [name, lo, hi] => match (bits(lo), bits(hi)) {
+                    (Some(min), Some(max)) if min.is_finite() && max.is_finite() && min <= max => {
+                        ranges.insert(name.to_owned(), MinMax { min, max });
+                    }
+                    _ => return Err(bad(format!("int8 table line {line:?}: not a range"))),
+                },
+                _ => return Err(bad(format!("int8 table line {line:?}: not `name min max`"))),
+            }
+        }
+        Ok(Int8Table {
+            network_sha256,
+            frames,
+            ranges,
+        })
+    }
+
+    /// The table shipped for the network whose `.tflite` bytes have SHA-256 `sha256`, if
+    /// there is one.
+    pub fn shipped_for(sha256: &str) -> Option<Result<Int8Table>> {
+        let (_, text) = SHIPPED.iter().find(|(f, _)| f.sha256() == sha256)?;
+        Some(Int8Table::parse(text).and_then(|t| {
+            if t.network_sha256 == sha256 {
+                Ok(t)
+            } else {
+                Err(bad("a shipped int8 table names another network"))
+            }
+        }))
+    }
+}
+
+/// The network `bytes` (named `origin` in errors) imported, in `precision`: unchanged in
+/// f32; in int8, every 1x1 convolution the shipped table has a range for replaced by its
+/// int8 twin. Returns the graph (not yet optimised) and how many layers run in int8. An
+/// error if int8 is asked of a network with no shipped table, or if none of its layers
+/// could be replaced (a CPU without the fast 1x1 operator).
+pub fn import(
+    bytes: &[u8],
+    origin: &Path,
+    options: monohand_tflite::ImportOptions,
+    precision: Precision,
+) -> Result<(TypedModel, usize)> {
+    let mut model =
+        monohand_tflite::import_with(bytes, options).map_err(|source| VisionError::Import {
+            path: origin.into(),
+            source,
+        })?;
+    if precision == Precision::F32 {
+        return Ok((model, 0));
+    }
+    let table = Int8Table::shipped_for(&sha256_hex(bytes)).ok_or_else(|| {
+        bad(format!(
+            "{}: no int8 calibration for this network (int8 runs the palm and landmark \
+             networks of MediaPipe 0.10.14; use precision f32)",
+            origin.display()
+        ))
+    })??;
+    let ranges: HashMap<String, MinMax> = table.ranges.into_iter().collect();
+    let replaced = monohand_tflite::quantize_pointwise(&mut model, &ranges, |_, _| false)?;
+    if replaced == 0 {
+        return Err(bad(format!(
+            "{}: no layer could run in int8 on this CPU (the int8 layers replace the fast 1x1 \
+             operator, which needs AVX2 + FMA or WebAssembly simd128); use precision f32",
+            origin.display()
+        )));
+    }
+    Ok((model, replaced))
+}
+
+/// Whether the networks' inputs are being recorded ([`record_inputs`]).
+static RECORDING: AtomicBool = AtomicBool::new(false);
+/// The recorded inputs, by network name.
+static RECORDED: Mutex<Option<HashMap<String, Vec<Tensor>>>> = Mutex::new(None);
+
+/// Records `input` as network `name`'s, while [`record_inputs`] runs.
+pub(crate) fn observe_input(name: &str, input: &Tensor) {
+    if !RECORDING.load(Ordering::Relaxed) {
+        return;
+    }
+    if let Ok(mut guard) = RECORDED.lock() {
+        if let Some(map) = guard.as_mut() {
+            map.entry(name.to_owned()).or_default().push(input.clone());
+        }
+    }
+}
+
+/// Runs `f`, recording the input of every network run in this process meanwhile (by the
+/// network's file name); returns `f`'s result and the inputs. One recording at a time:
+/// an error if another is under way.
+pub fn record_inputs<R>(f: impl FnOnce() -> R) -> Result<(R, HashMap<String, Vec<Tensor>>)> {
+    {
+        let mut guard = RECORDED
+            .lock()
+            .map_err(|_| bad("the input recorder was poisoned"))?;
+        if guard.is_some() {
+            return Err(bad("another recording of network inputs is under way"));
+        }
+        *guard = Some(HashMap::new());
+    }
+    RECORDING.store(true, Ordering::SeqCst);
+    let out = f();
+    RECORDING.store(false, Ordering::SeqCst);
+    let map = RECORDED
+        .lock()
+        .map_err(|_| bad("the input recorder was poisoned"))?
+        .take()
+        .unwrap_or_default();
+    Ok((out, map))
+}
+
+/// The calibration frames (see the module documentation), in a fixed order: the shared
+/// photos under `data/images` sorted by path, then the dev video's frames 0, 5, ..., 145
+/// under `data/hand_graph_cnn_dev/images`. `data` is `../shared/data`.
+pub fn calibration_images(data: &Path) -> Result<Vec<PathBuf>> {
+    let mut photos = Vec::new();
+    let mut dirs = vec![data.join("images")];
+    while let Some(dir) = dirs.pop() {
+        let entries = std::fs::read_dir(&dir).map_err(|source| VisionError::Io {
+            path: dir.clone(),
+            source,
+        })?;
+        for e in entries {
+            let path = e
+                .map_err(|source| VisionError::Io {
+                    path: dir.clone(),
+                    source,
+                })?
+                .path();
+            if path.is_dir() {
+                dirs.push(path);
+            } else if matches!(
+                path.extension().and_then(|e| e.to_str()),
+                Some("jpg" | "png")
+            ) {
+                photos.push(path);
+            }
+        }
+    }
+    photos.sort();
+    let dev = data.join("hand_graph_cnn_dev/images");
+    photos.extend((0..146).step_by(5).map(|i| dev.join(format!("{i:05}.jpg"))));
+    Ok(photos)
+}
+
+/// The tables of the palm and landmark networks of `models`, measured on `images` with
+/// the f32 pipeline (see the module documentation); `frames` describes the images in the
+/// tables.
+pub fn calibrate(
+    models: &crate::ModelOptions,
+    images: &[PathBuf],
+    frames: &str,
+) -> Result<Vec<(ModelFile, Int8Table)>> {
+    let mut options = crate::PipelineOptions::default();
+    options.precision = Precision::F32;
+    let f32_models = crate::ModelOptions {
+        detect_heads: false,
+        ..models.clone()
+    };
+    let pipeline = crate::HandPipeline::new(&f32_models, options)?;
+    let (done, inputs) = record_inputs(|| -> Result<()> {
+        for path in images {
+            pipeline.detect_file(path)?;
+        }
+        Ok(())
+    })?;
+    done?;
+    let store = crate::ModelStore::new(models.model_dir.clone())?;
+    let mut tables = Vec::new();
+    for file in [models.palm.palm_file(), models.landmark.landmark_file()] {
+        let recorded = inputs.get(file.file_name()).ok_or_else(|| {
+            bad(format!(
+                "{} never ran on the calibration frames",
+                file.file_name()
+            ))
+        })?;
+        let bytes = store.load(file)?;
+        let model = monohand_tflite::import(&bytes).map_err(|source| VisionError::Import {
+            path: store.path_of(file),
+            source,
+        })?;
+        let runs: Vec<TVec<Tensor>> = recorded.iter().map(|t| tvec!(t.clone())).collect();
+        let ranges = monohand_tflite::pointwise_input_ranges(&model, &runs)?;
+        tables.push((
+            file,
+            Int8Table {
+                network_sha256: sha256_hex(&bytes),
+                frames: format!("{frames}; {} network runs", recorded.len()),
+                ranges: ranges.into_iter().collect(),
+            },
+        ));
+    }
+    Ok(tables)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn table() -> Int8Table {
+        let mut ranges = BTreeMap::new();
+        ranges.insert(
+            "conv_a".to_owned(),
+            MinMax {
+                min: -0.25,
+                max: 6.0,
+            },
+        );
+        ranges.insert(
+            "conv_b".to_owned(),
+            MinMax {
+                min: 0.0,
+                max: 1.0e-3,
+            },
+        );
+        Int8Table {
+            network_sha256: "ab".repeat(32),
+            frames: "two test ranges".into(),
+            ranges,
+        }
+    }
+
+    #[test]
+    fn a_table_reads_back_bit_for_bit() {
+        let t = table();
+        let text = t.to_text();
+        assert!(text.starts_with(HEADER));
+        assert_eq!(Int8Table::parse(&text).expect("parse"), t);
+    }
+
+    #[test]
+    fn a_changed_line_fails_the_checksum() {
+        let text = table().to_text().replace("conv_b", "conv_c");
+        let e = Int8Table::parse(&text).expect_err("changed");
+        assert!(e.to_string().contains("checksum"), "{e}");
+        assert!(Int8Table::parse("").is_err());
+        assert!(Int8Table::parse("checksum 00\n").is_err());
+    }
+
+    #[test]
+    fn every_shipped_table_reads_and_names_its_network() {
+        for (file, _) in SHIPPED {
+            let t = Int8Table::shipped_for(file.sha256())
+                .expect("shipped")
+                .expect("valid");
+            assert_eq!(t.network_sha256, file.sha256());
+            assert!(t.ranges.len() >= 10, "{file:?}: {} layers", t.ranges.len());
+        }
+        assert!(Int8Table::shipped_for(ModelFile::FaceDetectionShortRange.sha256()).is_none());
+    }
+}
