@@ -30,8 +30,9 @@
 //!
 //! Kernels, chosen at run time: AVX2 (`vpmaddubsw` + `vpmaddwd` against ones + `vpaddd`,
 //! tiles of 4 rows x 16 channels in 8 `ymm` accumulators) where the CPU has it, else a
-//! portable one (the reference). `MONOHAND_KERNEL=portable` forces the portable one (as it
-//! does for the f32 kernels); `avx2` and `avx512` both mean the AVX2 kernel here. An AVX-512
+//! portable one (the reference). The CPU's features and `MONOHAND_KERNEL` come from
+//! [`crate::isa`], as for the f32 kernels: `portable` forces the portable one; `avx2` and
+//! `avx512` both mean the AVX2 kernel here. An AVX-512
 //! VNNI / AVX-VNNI kernel (`vpdpbusd`) and a WebAssembly one are left for later. A large
 //! product is shared between the cores as [`PointwiseConv`](crate::PointwiseConv)'s is, with
 //! the same bits.
@@ -636,6 +637,10 @@ pub(crate) use kernel::{Int8Kernel, Isa};
 
 /// The kernel type, in a module of its own so that nothing else can make one.
 mod kernel {
+    #[cfg(target_arch = "x86_64")]
+    use crate::isa::Cpu;
+    use crate::isa::Level;
+
     /// The instruction set of an int8 micro-kernel.
     #[derive(Debug, Clone, Copy, PartialEq, Eq)]
     pub(crate) enum Isa {
@@ -670,29 +675,37 @@ mod kernel {
             }
         }
 
+        /// Its instruction-set level (what `MONOHAND_KERNEL` caps).
+        pub(crate) fn level(self) -> Level {
+            match self.0 {
+                Isa::Portable => Level::Portable,
+                #[cfg(target_arch = "x86_64")]
+                Isa::Avx2 => Level::Avx2,
+            }
+        }
+
         /// Every int8 kernel this CPU runs, slowest first (detected at run time).
         pub(crate) fn supported() -> Vec<Int8Kernel> {
             #[allow(unused_mut)]
             let mut v = vec![Int8Kernel::PORTABLE];
             #[cfg(target_arch = "x86_64")]
-            if std::arch::is_x86_feature_detected!("avx2") {
+            if Cpu::get().avx2() {
                 v.push(Int8Kernel(Isa::Avx2));
             }
             v
         }
 
-        /// The fastest kernel this CPU runs, or the portable one when `MONOHAND_KERNEL` is
-        /// `portable` (decided once per process).
+        /// The fastest kernel this CPU runs at or below the level `MONOHAND_KERNEL` names
+        /// (decided once per process; see [`crate::isa`]).
         pub(crate) fn best() -> Int8Kernel {
             static BEST: std::sync::OnceLock<Int8Kernel> = std::sync::OnceLock::new();
             *BEST.get_or_init(|| {
-                if std::env::var("MONOHAND_KERNEL").ok().as_deref() == Some("portable") {
-                    return Int8Kernel::PORTABLE;
-                }
-                Int8Kernel::supported()
-                    .last()
-                    .copied()
-                    .unwrap_or(Int8Kernel::PORTABLE)
+                crate::isa::choose(
+                    &Int8Kernel::supported(),
+                    Int8Kernel::level,
+                    crate::isa::cap(),
+                    Int8Kernel::PORTABLE,
+                )
             })
         }
     }
