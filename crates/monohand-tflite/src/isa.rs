@@ -8,9 +8,10 @@
 //!
 //! `MONOHAND_KERNEL` names a [`Level`]: `portable`, `avx2`, `avxvnni`, `avx512` or
 //! `avx512vnni` (and `simd128`, the same level as `avx2`). Each kind of kernel then runs its
-//! fastest kernel at or below that level which the CPU has (the VNNI levels are for int8
-//! kernels to come: the f32 kernels run AVX2 + FMA at `avxvnni` and AVX-512 at
-//! `avx512vnni`). An unknown name caps nothing.
+//! fastest kernel at or below that level which the CPU has: `avx2` runs the f32 AVX2 + FMA
+//! kernel and the int8 AVX2 one, `avx512` the f32 AVX-512 kernel and the int8 AVX-VNNI one
+//! where the CPU has it (else AVX2), `avx512vnni` (or nothing) the fastest of each. An
+//! unknown name caps nothing.
 
 use std::sync::OnceLock;
 
@@ -80,7 +81,10 @@ pub(crate) struct Cpu {
     avx2: bool,
     fma: bool,
     avx512f: bool,
+    avx512bw: bool,
     avx512vl: bool,
+    avx512vnni: bool,
+    avxvnni: bool,
 }
 
 impl Cpu {
@@ -97,7 +101,10 @@ impl Cpu {
             avx2: has!("avx2"),
             fma: has!("fma"),
             avx512f: has!("avx512f"),
+            avx512bw: has!("avx512bw"),
             avx512vl: has!("avx512vl"),
+            avx512vnni: has!("avx512vnni"),
+            avxvnni: has!("avxvnni"),
         }
     }
 
@@ -119,6 +126,16 @@ impl Cpu {
     /// AVX-512F and AVX-512VL.
     pub(crate) fn avx512f_vl(self) -> bool {
         self.avx512f && self.avx512vl
+    }
+
+    /// AVX2 and AVX-VNNI (the VEX-coded 256-bit `vpdpbusd`).
+    pub(crate) fn avx_vnni(self) -> bool {
+        self.avx2 && self.avxvnni
+    }
+
+    /// AVX-512F, BW, VL and VNNI.
+    pub(crate) fn avx512_vnni(self) -> bool {
+        self.avx512f && self.avx512bw && self.avx512vl && self.avx512vnni
     }
 }
 
@@ -156,8 +173,10 @@ mod tests {
             use std::arch::is_x86_feature_detected as has;
             assert_eq!(cpu.avx2_fma(), has!("avx2") && has!("fma"));
             assert_eq!(cpu.avx512f_vl(), has!("avx512f") && has!("avx512vl"));
+            assert_eq!(cpu.avx_vnni(), has!("avx2") && has!("avxvnni"));
+            assert_eq!(cpu.avx512_vnni(), has!("avx512vnni") && has!("avx512bw"));
         }
         #[cfg(not(target_arch = "x86_64"))]
-        assert!(!cpu.avx2() && !cpu.avx512f_vl());
+        assert!(!cpu.avx2() && !cpu.avx512_vnni());
     }
 }
