@@ -1945,11 +1945,12 @@ mod speed {
     use super::*;
     use crate::pointwise::{Kernel, PointwiseConv};
 
-    /// Times `f` (best of 7 rounds of enough calls for about 0.2 s), in seconds per call.
+    /// Times `f` (best of 5 rounds of enough calls for about 2·10⁸ multiply-adds, a few
+    /// milliseconds), in seconds per call.
     fn time(work: usize, mut f: impl FnMut()) -> f64 {
         let n = (2e8 / work as f64).max(3.0) as usize;
         let mut best = f64::MAX;
-        for _ in 0..7 {
+        for _ in 0..5 {
             let t = std::time::Instant::now();
             for _ in 0..n {
                 f();
@@ -1960,18 +1961,36 @@ mod speed {
     }
 
     /// The f32 and the int8 1x1 convolution on hand_landmark_full's 1x1 shapes, one
-    /// thread, hot caches, the dispatched kernels (`MONOHAND_KERNEL` as for the f32 ones):
+    /// thread, hot caches: the dispatched f32 kernel (`MONOHAND_KERNEL` caps it) against
+    /// every int8 kernel this CPU runs but the portable one, interleaved (per shape, `ROUNDS`
+    /// rounds over all kernels, the best time of each kept):
     /// `cargo test --release -p monohand-tflite int8::speed -- --ignored --nocapture`.
-    /// The int8 time includes quantizing the f32 input; both write f32 outputs.
+    /// The int8 times include quantizing the f32 input; all write f32 outputs.
     #[test]
     #[ignore = "a measurement, not a test"]
     fn landmark_shapes() {
+        const ROUNDS: usize = 4;
         // (rows, cin, cout, how many such layers in hand_landmark_full), from
         // `PER_NODE=1 cargo run --release -p monohand-tflite --example profile_ops`.
         let shapes = SHAPES_LANDMARK_FULL;
-        let (k32, k8) = (Kernel::best(), Int8Kernel::best());
-        println!("f32 kernel {}, int8 kernel {}", k32.name(), k8.name());
-        let (mut t32, mut t8) = (0.0, 0.0);
+        let k32 = Kernel::best();
+        let k8: Vec<Int8Kernel> = Int8Kernel::supported()
+            .into_iter()
+            .filter(|&k| k != Int8Kernel::PORTABLE)
+            .collect();
+        let mut names = vec![format!("f32 {}", k32.name())];
+        names.extend(k8.iter().map(|k| format!("int8 {}", k.name())));
+        println!("ms per call (GMAC/s), speedup against f32 in []");
+        println!(
+            "{:>24} | {}",
+            "rows x cin -> cout (n)",
+            names
+                .iter()
+                .map(|n| format!("{n:>24}"))
+                .collect::<Vec<_>>()
+                .join(" | ")
+        );
+        let mut totals = vec![0.0; names.len()];
         for &(rows, cin, cout, count) in shapes {
             let mut g = 1u64;
             let mut next = || {
@@ -1989,32 +2008,43 @@ mod speed {
             let i8op = PointwiseConvInt8::new(&w, &b, Activation::Relu6, q).expect("op");
             let mut out = vec![0f32; rows * cout];
             let work = rows * cin * cout;
-            let a = time(work, || {
-                f32op.compute(&x, None, &mut out, k32, false).expect("f32");
-            });
-            let c = time(work, || {
-                i8op.compute_with(&x, None, &mut out, k8, false)
-                    .expect("int8");
-            });
-            t32 += a * count as f64;
-            t8 += c * count as f64;
-            let gmac = |t: f64| work as f64 / t / 1e9;
+            let mut best = vec![f64::MAX; names.len()];
+            for _ in 0..ROUNDS {
+                best[0] = best[0].min(time(work, || {
+                    f32op.compute(&x, None, &mut out, k32, false).expect("f32");
+                }));
+                for (b, &k) in best[1..].iter_mut().zip(&k8) {
+                    *b = b.min(time(work, || {
+                        i8op.compute_with(&x, None, &mut out, k, false)
+                            .expect("int8");
+                    }));
+                }
+            }
+            for (t, b) in totals.iter_mut().zip(&best) {
+                *t += b * count as f64;
+            }
+            let cells: Vec<String> = best
+                .iter()
+                .map(|&t| {
+                    format!(
+                        "{:7.3} ({:5.1}) [{:4.2}]",
+                        t * 1e3,
+                        work as f64 / t / 1e9,
+                        best[0] / t
+                    )
+                })
+                .collect();
             println!(
-                "{rows:>6} x {cin:>5} -> {cout:>5} (x{count}): f32 {:7.3} ms {:5.1} GMAC/s, \
-                 int8 {:7.3} ms {:5.1} GMAC/s, speedup {:4.2}",
-                a * 1e3,
-                gmac(a),
-                c * 1e3,
-                gmac(c),
-                a / c
+                "{:>24} | {}",
+                format!("{rows} x {cin} -> {cout} ({count})"),
+                cells.join(" | ")
             );
         }
-        println!(
-            "all 1x1 layers of the network: f32 {:.3} ms, int8 {:.3} ms, speedup {:.2}",
-            t32 * 1e3,
-            t8 * 1e3,
-            t32 / t8
-        );
+        let cells: Vec<String> = totals
+            .iter()
+            .map(|&t| format!("{:>15.3} [{:4.2}]", t * 1e3, totals[0] / t))
+            .collect();
+        println!("{:>24} | {}", "all 30 layers", cells.join(" | "));
     }
 
     /// hand_landmark_full's 30 1x1 convolutions: (rows, cin, cout, count).
