@@ -1688,6 +1688,21 @@ mod tests {
             quantize_rows(&x, cin, kp, quant, &mut got, k);
             assert_eq!(got, want, "{k:?}");
         }
+        // Three rows of 76 channels (a multiple of 4: coded as one run of 228 values, the
+        // vector quantizers' tails at the end only).
+        let x3: Vec<f32> = [&x[..76], &x[1..77], &x[2..78]].concat();
+        let mut want = vec![0xAAu8; x3.len()];
+        quantize_rows(&x3, 76, 76, quant, &mut want, Int8Kernel::PORTABLE);
+        for (r, row) in want.chunks_exact(76).enumerate() {
+            for (q, &v) in row.iter().zip(&x[r..r + 76]) {
+                assert_eq!(*q, quant.quantize(v));
+            }
+        }
+        for k in Int8Kernel::supported() {
+            let mut got = vec![0x55u8; x3.len()];
+            quantize_rows(&x3, 76, 76, quant, &mut got, k);
+            assert_eq!(got, want, "{k:?}, whole rows");
+        }
     }
 
     #[test]
