@@ -75,8 +75,9 @@ pub(crate) fn choose<K: Copy>(
 
 /// The CPU features the kernels use, detected at run time once per process. Its fields are
 /// private and set only by detection ([`Cpu::get`]): a feature reported here is one the CPU
-/// has. (All false off x86-64.)
+/// has. (All false off x86-64, where no kernel asks for them: hence the `allow`s.)
 #[derive(Debug, Clone, Copy, Default)]
+#[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
 pub(crate) struct Cpu {
     avx2: bool,
     fma: bool,
@@ -87,6 +88,7 @@ pub(crate) struct Cpu {
     avxvnni: bool,
 }
 
+#[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
 impl Cpu {
     /// This CPU's features (detected on the first call).
     pub(crate) fn get() -> Cpu {
