@@ -5,7 +5,7 @@
 //! * **weights**: symmetric int8 per output channel, quantized once at load
 //!   (`scale_o = max|w_o| / 127`, `q = round(w / scale_o)` in `[-127, 127]`), packed in
 //!   panels of 16 output channels, four input channels at a time (`[Cin/4][NR][4]` bytes
-//!   per panel, zero padded): the layout of `vpmaddubsw` here and of `vpdpbusd` (VNNI) later;
+//!   per panel, zero padded): the layout of both `vpmaddubsw` and `vpdpbusd` (VNNI);
 //! * **activations**: per tensor, asymmetric, **7-bit unsigned** (`q = clamp(round(x / s) + z,
 //!   0, 127)`, [`ActivationQuant`]), quantized on the fly, one block of input rows at a time,
 //!   into a buffer of the thread's own (allocated once, reused). 7 bits rather than 8 because AVX2's `vpmaddubsw`
@@ -16,8 +16,9 @@
 //!   some inputs is hard to test and to trust. (The other exact route on AVX2 widens both
 //!   operands to i16 and uses `vpmaddwd` alone: 8-bit activations, but twice the weight
 //!   bytes and register traffic for the same multiply-port throughput. Whether the 8th bit
-//!   matters for accuracy is for the calibration step to show; AVX-512 VNNI's `vpdpbusd`
-//!   accumulates in i32 and would take 8-bit activations exactly.) Asymmetric because most
+//!   matters for accuracy is for the calibration step to show; VNNI's `vpdpbusd`
+//!   accumulates in i32 and would take 8-bit activations exactly, but the codes stay 7-bit
+//!   so that every kernel gives the same bits.) Asymmetric because most
 //!   1x1 inputs in these networks follow a RELU6 or a PRELU, i.e. are mostly one-sided: a
 //!   symmetric code would waste most of its levels;
 //! * **accumulation** in i32 of the raw `x_q · w_q` products (exact: at most
@@ -28,13 +29,28 @@
 //!   PRELU — as [`PointwiseConv`](crate::PointwiseConv)'s, without fused multiply-adds so
 //!   that the portable and SIMD kernels round alike.
 //!
-//! Kernels, chosen at run time: AVX2 (`vpmaddubsw` + `vpmaddwd` against ones + `vpaddd`,
-//! tiles of 4 rows x 16 channels in 8 `ymm` accumulators) where the CPU has it, else a
-//! portable one (the reference). `MONOHAND_KERNEL=portable` forces the portable one (as it
-//! does for the f32 kernels); `avx2` and `avx512` both mean the AVX2 kernel here. An AVX-512
-//! VNNI / AVX-VNNI kernel (`vpdpbusd`) and a WebAssembly one are left for later. A large
-//! product is shared between the cores as [`PointwiseConv`](crate::PointwiseConv)'s is, with
-//! the same bits.
+//! Kernels, chosen at run time (the CPU's features and `MONOHAND_KERNEL` come from
+//! [`crate::isa`], as for the f32 kernels), fastest first:
+//!
+//! * **AVX-512 VNNI** (`avx512vnni`: AVX-512F + BW + VL + VNNI): `vpdpbusd` on `zmm`, one
+//!   panel of 16 channels per register, the four u8 x i8 products of a group added straight
+//!   into the i32 lanes (no i16 step); tiles of 8 rows x 2 panels (16 accumulators, two
+//!   weight vectors, the broadcast), masked stores for a narrower last panel, and a
+//!   16-lane quantizer with masked tails;
+//! * **AVX-VNNI** (`avxvnni`: AVX2 + the VEX-coded 256-bit `vpdpbusd` of Alder Lake and
+//!   later, Zen 5): the AVX2 kernel with `vpdpbusd` in place of `vpmaddubsw` + `vpmaddwd`,
+//!   which frees the ones and the product registers: tiles of 6 rows x 16 channels in 12
+//!   `ymm` accumulators; the AVX2 quantizer;
+//! * **AVX2** (`avx2`): `vpmaddubsw` + `vpmaddwd` against ones + `vpaddd`, tiles of 4 rows x
+//!   16 channels in 8 `ymm` accumulators;
+//! * **portable**, the reference.
+//!
+//! Every kernel gives the portable one's bits: the sums are exact in all of them, and the
+//! epilogues round alike. (The VNNI kernels start their accumulators at `-z·Σw_q`, which
+//! leaves the same i32 as subtracting it at the end.) `MONOHAND_KERNEL` caps the level
+//! (`portable`, `avx2`, `avxvnni`, `avx512` — the AVX-VNNI kernel where the CPU has it —
+//! `avx512vnni`). A WebAssembly kernel is left for later. A large product is shared between
+//! the cores as [`PointwiseConv`](crate::PointwiseConv)'s is, with the same bits.
 
 use std::cell::RefCell;
 
@@ -51,9 +67,19 @@ const KG: usize = 4;
 /// Rows from which a product shared between the cores is cut by rows (fewer: by
 /// channels), as in `PointwiseConv`.
 const ROWS_TO_SPLIT: usize = 256;
-/// Rows (pixels) per micro-tile (AVX2: `2·MR` accumulators, two weight vectors, the
-/// broadcast, the ones and a product in the 16 `ymm` registers).
+/// Rows (pixels) per micro-tile of the portable and AVX2 kernels (AVX2: `2·MR`
+/// accumulators, two weight vectors, the broadcast, the ones and a product in the 16 `ymm`
+/// registers).
 const MR: usize = 4;
+/// Rows per micro-tile of the AVX-VNNI kernel: `vpdpbusd` needs neither the ones nor a
+/// product register, so `2·6` accumulators, two weight vectors and the broadcast fill 15 of
+/// the 16 `ymm` registers.
+#[cfg(target_arch = "x86_64")]
+const MR_AVX_VNNI: usize = 6;
+/// Rows per micro-tile of the AVX-512 VNNI kernel, whose tiles are two panels wide:
+/// `2·MR_512` accumulators, two weight vectors and the broadcast of the 32 `zmm` registers.
+#[cfg(target_arch = "x86_64")]
+const MR_512: usize = 8;
 /// Quantized input bytes of one block of rows, kept in L2 while every panel passes over it.
 const ROW_BLOCK_BYTES: usize = 64 * 1024;
 /// The most input channels (so that the i32 sums cannot overflow: `Cin · 127 · 127 < 2³¹`).
@@ -402,7 +428,8 @@ impl PointwiseConvInt8 {
         self.epilogue.alpha.is_some()
     }
 
-    /// The name of the kernel this process runs (`portable` or `avx2`).
+    /// The name of the int8 kernel this process runs (`portable`, `avx2`, `avxvnni` or
+    /// `avx512vnni`).
     pub fn kernel_name() -> &'static str {
         Int8Kernel::best().name()
     }
@@ -454,7 +481,7 @@ impl PointwiseConvInt8 {
         let team = crate::split::team();
         let work = rows * self.cin * self.cout;
         if rows >= ROWS_TO_SPLIT {
-            team.pieces(rows, MR, work, split, &|r| {
+            team.pieces(rows, kernel.rows(), work, split, &|r| {
                 with_scratch(|s| {
                     // SAFETY: the lengths were checked and `out` is borrowed mutably here;
                     // the pieces' rows do not overlap and are within `0..rows`.
@@ -471,7 +498,7 @@ impl PointwiseConvInt8 {
                 let q = &mut s[..n];
                 quantize_rows(x, self.cin, self.kp, self.input, q, kernel);
                 let q = &*q;
-                team.pieces(panels, 1, work, split, &|p| {
+                team.pieces(panels, kernel.panels(), work, split, &|p| {
                     // SAFETY: as above; `q` codes all the rows, and the pieces' panels do not
                     // overlap and are within `0..panels`.
                     unsafe { job.tiles(q, 0..rows, p) };
@@ -514,8 +541,8 @@ impl Job<'_> {
         panels: std::ops::Range<usize>,
         scratch: &mut Vec<u8>,
     ) {
-        let (cin, kp) = (self.op.cin, self.op.kp);
-        let block = (ROW_BLOCK_BYTES / kp).max(MR) / MR * MR;
+        let (cin, kp, mr) = (self.op.cin, self.op.kp, self.kernel.rows());
+        let block = (ROW_BLOCK_BYTES / kp).max(mr) / mr * mr;
         let need = block.min(rows.len()) * kp;
         if scratch.len() < need {
             scratch.resize(need, 0);
@@ -548,22 +575,24 @@ impl Job<'_> {
         let e = &*op.epilogue;
         let act = op.activation.bounds();
         let residual_act = op.residual.unwrap_or_default().bounds();
-        for p in panels {
+        let (mr, step) = (self.kernel.rows(), self.kernel.panels());
+        for p in panels.clone().step_by(step) {
             let c0 = p * NR;
-            let width = NR.min(op.cout - c0);
+            let width = (step.min(panels.end - p) * NR).min(op.cout - c0);
             let mut r = rows.start;
             while r < rows.end {
                 // Rather than a last tile of at most half the height, two of about equal
                 // height (as `PointwiseConv`).
                 let left = rows.end - r;
-                let m = if left > MR && left <= MR + MR / 2 {
+                let m = if left > mr && left <= mr + mr / 2 {
                     left.div_ceil(2)
                 } else {
-                    MR.min(left)
+                    mr.min(left)
                 };
                 // The pointers below stay inside their buffers: rows.start <= r, r + m <=
                 // rows.end <= the output's rows (`q` holds rows.start..rows.end of kp
-                // bytes), p < panels and c0 + width <= cout, and the lengths were checked.
+                // bytes), p < panels.end <= the panels and c0 + width <= cout, and the
+                // lengths were checked.
                 let t = Tile {
                     // SAFETY: row r - rows.start < rows.len() of `q`.
                     a: unsafe { q.as_ptr().add((r - rows.start) * op.kp) },
@@ -595,10 +624,12 @@ impl Job<'_> {
                     residual_act,
                 };
                 // SAFETY: `t` satisfies `Tile`'s contract (the pointers above, valid for `m`
-                // rows from r and `width` channels from c0, a part of the output nothing
-                // else touches: this function's contract), 1 <= m <= MR and
-                // 1 <= width <= NR as `Int8Kernel::tile` asks, and the CPU has the kernel's
-                // features (an `Int8Kernel` is only made by run-time detection).
+                // rows from r and `width` channels from c0 — two panels only where width >
+                // NR, i.e. `step` is 2 and panel p + 1 < panels.end exists — with the
+                // epilogue's values padded to whole panels, a part of the output nothing
+                // else touches: this function's contract), 1 <= m <= mr and
+                // 1 <= width <= NR·step as `Int8Kernel::tile` asks, and the CPU has the
+                // kernel's features (an `Int8Kernel` is only made by run-time detection).
                 unsafe { self.kernel.tile(m, width)(&t) };
                 r += m;
             }
@@ -615,20 +646,36 @@ fn quantize_rows(
     q: &mut [u8],
     kernel: Int8Kernel,
 ) {
+    if cin == kp {
+        // No padding: the rows are one run of values in both.
+        let n = x.len().min(q.len());
+        quantize_run(&x[..n], &mut q[..n], quant, kernel);
+        return;
+    }
     for (x, q) in x.chunks_exact(cin).zip(q.chunks_exact_mut(kp)) {
         let (q, pad) = q.split_at_mut(cin);
-        match kernel.isa() {
-            Isa::Portable => {
-                for (q, &x) in q.iter_mut().zip(x) {
-                    *q = quant.quantize(x);
-                }
-            }
-            // SAFETY: the CPU has AVX2 (an `Int8Kernel` of this ISA is only made by run-time
-            // detection), and `x` and `q` have the same length.
-            #[cfg(target_arch = "x86_64")]
-            Isa::Avx2 => unsafe { avx2::quantize(x, q, quant) },
-        }
+        quantize_run(x, q, quant, kernel);
         pad.fill(0);
+    }
+}
+
+/// Codes `x` into `q` (of the same length) with `kernel`'s quantizer.
+fn quantize_run(x: &[f32], q: &mut [u8], quant: ActivationQuant, kernel: Int8Kernel) {
+    match kernel.isa() {
+        Isa::Portable => {
+            for (q, &x) in q.iter_mut().zip(x) {
+                *q = quant.quantize(x);
+            }
+        }
+        // SAFETY: the CPU has AVX2 (an `Int8Kernel` of these ISAs is only made by run-time
+        // detection, and AVX-VNNI's is made only where AVX2 is detected too); `x` and `q`
+        // have the same length.
+        #[cfg(target_arch = "x86_64")]
+        Isa::Avx2 | Isa::AvxVnni => unsafe { avx2::quantize(x, q, quant) },
+        // SAFETY: the CPU has AVX-512F, BW and VL (as above); `x` and `q` have the same
+        // length.
+        #[cfg(target_arch = "x86_64")]
+        Isa::Avx512Vnni => unsafe { avx512vnni::quantize(x, q, quant) },
     }
 }
 
@@ -636,6 +683,10 @@ pub(crate) use kernel::{Int8Kernel, Isa};
 
 /// The kernel type, in a module of its own so that nothing else can make one.
 mod kernel {
+    #[cfg(target_arch = "x86_64")]
+    use crate::isa::Cpu;
+    use crate::isa::Level;
+
     /// The instruction set of an int8 micro-kernel.
     #[derive(Debug, Clone, Copy, PartialEq, Eq)]
     pub(crate) enum Isa {
@@ -644,11 +695,18 @@ mod kernel {
         /// `std::arch` AVX2 intrinsics (`vpmaddubsw`, `vpmaddwd`).
         #[cfg(target_arch = "x86_64")]
         Avx2,
+        /// AVX2 with AVX-VNNI's VEX-coded 256-bit `vpdpbusd`.
+        #[cfg(target_arch = "x86_64")]
+        AvxVnni,
+        /// AVX-512F + BW + VL with AVX-512 VNNI's 512-bit `vpdpbusd`.
+        #[cfg(target_arch = "x86_64")]
+        Avx512Vnni,
     }
 
     /// An int8 micro-kernel that this CPU runs. Its field is private: one is made only by
-    /// run-time detection ([`Int8Kernel::supported`], [`Int8Kernel::best`]) or is the
-    /// portable one, so holding one shows that the CPU has the features of its [`Isa`].
+    /// run-time detection ([`Int8Kernel::supported`], [`Int8Kernel::best`], from
+    /// [`Cpu`](crate::isa::Cpu)) or is the portable one, so holding one shows that the CPU
+    /// has the features of its [`Isa`].
     #[derive(Debug, Clone, Copy, PartialEq, Eq)]
     pub(crate) struct Int8Kernel(Isa);
 
@@ -661,12 +719,29 @@ mod kernel {
             self.0
         }
 
-        /// Its name.
+        /// Its name (that of its level in `MONOHAND_KERNEL`).
         pub(crate) fn name(self) -> &'static str {
             match self.0 {
                 Isa::Portable => "portable",
                 #[cfg(target_arch = "x86_64")]
                 Isa::Avx2 => "avx2",
+                #[cfg(target_arch = "x86_64")]
+                Isa::AvxVnni => "avxvnni",
+                #[cfg(target_arch = "x86_64")]
+                Isa::Avx512Vnni => "avx512vnni",
+            }
+        }
+
+        /// Its instruction-set level (what `MONOHAND_KERNEL` caps).
+        pub(crate) fn level(self) -> Level {
+            match self.0 {
+                Isa::Portable => Level::Portable,
+                #[cfg(target_arch = "x86_64")]
+                Isa::Avx2 => Level::Avx2,
+                #[cfg(target_arch = "x86_64")]
+                Isa::AvxVnni => Level::AvxVnni,
+                #[cfg(target_arch = "x86_64")]
+                Isa::Avx512Vnni => Level::Avx512Vnni,
             }
         }
 
@@ -675,32 +750,60 @@ mod kernel {
             #[allow(unused_mut)]
             let mut v = vec![Int8Kernel::PORTABLE];
             #[cfg(target_arch = "x86_64")]
-            if std::arch::is_x86_feature_detected!("avx2") {
-                v.push(Int8Kernel(Isa::Avx2));
+            {
+                let cpu = Cpu::get();
+                if cpu.avx2() {
+                    v.push(Int8Kernel(Isa::Avx2));
+                }
+                if cpu.avx_vnni() {
+                    v.push(Int8Kernel(Isa::AvxVnni));
+                }
+                if cpu.avx512_vnni() {
+                    v.push(Int8Kernel(Isa::Avx512Vnni));
+                }
             }
             v
         }
 
-        /// The fastest kernel this CPU runs, or the portable one when `MONOHAND_KERNEL` is
-        /// `portable` (decided once per process).
+        /// The fastest kernel this CPU runs at or below the level `MONOHAND_KERNEL` names
+        /// (decided once per process; see [`crate::isa`]).
         pub(crate) fn best() -> Int8Kernel {
             static BEST: std::sync::OnceLock<Int8Kernel> = std::sync::OnceLock::new();
             *BEST.get_or_init(|| {
-                if std::env::var("MONOHAND_KERNEL").ok().as_deref() == Some("portable") {
-                    return Int8Kernel::PORTABLE;
-                }
-                Int8Kernel::supported()
-                    .last()
-                    .copied()
-                    .unwrap_or(Int8Kernel::PORTABLE)
+                crate::isa::choose(
+                    &Int8Kernel::supported(),
+                    Int8Kernel::level,
+                    crate::isa::cap(),
+                    Int8Kernel::PORTABLE,
+                )
             })
         }
     }
 }
 
 impl Int8Kernel {
-    /// The tile function for `m` rows and `width` channels (`1 <= m <= MR`,
-    /// `1 <= width <= NR`).
+    /// Rows per micro-tile.
+    fn rows(self) -> usize {
+        match self.isa() {
+            #[cfg(target_arch = "x86_64")]
+            Isa::AvxVnni => MR_AVX_VNNI,
+            #[cfg(target_arch = "x86_64")]
+            Isa::Avx512Vnni => MR_512,
+            _ => MR,
+        }
+    }
+
+    /// Weight panels per micro-tile.
+    fn panels(self) -> usize {
+        match self.isa() {
+            #[cfg(target_arch = "x86_64")]
+            Isa::Avx512Vnni => 2,
+            _ => 1,
+        }
+    }
+
+    /// The tile function for `m` rows and `width` channels (`1 <= m <= self.rows()`,
+    /// `1 <= width <= NR · self.panels()`).
     fn tile(self, m: usize, width: usize) -> TileFn {
         #[cfg(not(target_arch = "x86_64"))]
         let _ = (m, width);
@@ -708,15 +811,21 @@ impl Int8Kernel {
             Isa::Portable => tile_portable,
             #[cfg(target_arch = "x86_64")]
             Isa::Avx2 => avx2::tile(m, width.div_ceil(8)),
+            #[cfg(target_arch = "x86_64")]
+            Isa::AvxVnni => avxvnni::tile(m, width),
+            #[cfg(target_arch = "x86_64")]
+            Isa::Avx512Vnni => avx512vnni::tile(m, width),
         }
     }
 }
 
-/// One micro-tile: `m` quantized rows against one weight panel, epilogue included.
+/// One micro-tile: `m` quantized rows against one weight panel (two side by side where
+/// `width > NR`), epilogue included.
 ///
 /// Pointers are valid for: `a`: `m` rows of `lda` bytes, of which the first `4·groups <=
-/// lda` are read; `b`: `groups` groups of `4·NR` bytes (one panel); `zcorr`, `scale`,
-/// `bias`, `alpha`: `NR` values; `out`, `res`: `m` rows of stride `ldo`, `width` floats
+/// lda` are read; `b`: `groups` groups of `4·NR` bytes (one panel), followed, when
+/// `width > NR`, by the next panel's `groups` groups; `zcorr`, `scale`, `bias`, `alpha`:
+/// `NR · width.div_ceil(NR)` values; `out`, `res`: `m` rows of stride `ldo`, `width` floats
 /// each. `alpha`, `res` may be null (absent).
 struct Tile {
     a: *const u8,
@@ -938,6 +1047,279 @@ mod avx2 {
     }
 }
 
+#[cfg(target_arch = "x86_64")]
+mod avxvnni {
+    use super::{Tile, TileFn, KG, MR_AVX_VNNI, NR};
+    use std::arch::x86_64::*;
+
+    /// The tiles of 1 to 6 rows for `V` vectors of 8 channels.
+    macro_rules! heights {
+        ($v:literal) => {
+            [
+                micro::<1, $v>,
+                micro::<2, $v>,
+                micro::<3, $v>,
+                micro::<4, $v>,
+                micro::<5, $v>,
+                micro::<6, $v>,
+            ]
+        };
+    }
+
+    /// By vectors (1-8, 9-16 channels), then height.
+    static TILES: [[TileFn; MR_AVX_VNNI]; 2] = [heights!(1), heights!(2)];
+
+    /// The monomorphised tile for `m` rows and `width` channels (`1 <= width <= 16`).
+    pub(super) fn tile(m: usize, width: usize) -> TileFn {
+        const _: () = assert!(NR == 16 && KG == 4);
+        TILES[(width.clamp(1, NR) - 1) / 8][m.clamp(1, MR_AVX_VNNI) - 1]
+    }
+
+    /// `M` rows x `V` vectors of 8 channels accumulated in `M·V` i32 registers, which start
+    /// at `-zcorr` (so that they end at the portable kernel's `sum - zcorr`: the same i32
+    /// sums, wrapping alike): per group of 4 input channels one broadcast of the row's 4
+    /// bytes and one `vpdpbusd` (the 4 products u8 x i8 added to each i32 lane, exactly, no
+    /// intermediate i16) per vector; the epilogue as the AVX2 kernel's (no FMA).
+    ///
+    /// # Safety
+    /// The CPU has AVX2 and AVX-VNNI; `t` satisfies `Tile`'s contract with `t.m == M` and
+    /// `8·(V-1) < t.width <= 8·V`.
+    #[target_feature(enable = "avx2,avxvnni")]
+    unsafe fn micro<const M: usize, const V: usize>(t: &Tile) {
+        // SAFETY: the CPU has AVX2 and AVX-VNNI (the contract). The reads and writes stay in
+        // the tile (`Tile`'s contract, m == M, 8·(V-1) < width <= 8·V <= NR): `a` at rows
+        // i < M, 4 bytes of group g < groups (4·groups <= lda); `b` at `groups` groups of
+        // 4·NR bytes, 32·V <= 4·NR of each; `zcorr`, `scale`, `bias`, `alpha` at 8·V <= NR
+        // values; `res` and `out` at rows i < M, 8·V channels of which the last vector's
+        // lanes at and past `width` are masked off.
+        unsafe {
+            let mut start = [_mm256_setzero_si256(); V];
+            for (v, s) in start.iter_mut().enumerate() {
+                let z = _mm256_loadu_si256(t.zcorr.add(8 * v) as *const __m256i);
+                *s = _mm256_sub_epi32(_mm256_setzero_si256(), z);
+            }
+            let mut acc = [start; M];
+            let mut a = t.a;
+            let mut b = t.b;
+            for _ in 0..t.groups {
+                let mut bv = [_mm256_setzero_si256(); V];
+                for (v, bv) in bv.iter_mut().enumerate() {
+                    *bv = _mm256_loadu_si256(b.add(32 * v) as *const __m256i);
+                }
+                for (i, acc) in acc.iter_mut().enumerate() {
+                    let x = _mm256_set1_epi32((a.add(i * t.lda) as *const i32).read_unaligned());
+                    for (acc, &bv) in acc.iter_mut().zip(&bv) {
+                        *acc = _mm256_dpbusd_avx_epi32(*acc, x, bv);
+                    }
+                }
+                a = a.add(KG);
+                b = b.add(KG * NR);
+            }
+            let lanes = (t.width - 8 * (V - 1)) as i32;
+            let mask = _mm256_cmpgt_epi32(
+                _mm256_set1_epi32(lanes),
+                _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7),
+            );
+            let (lo, hi) = (_mm256_set1_ps(t.act.0), _mm256_set1_ps(t.act.1));
+            let (rlo, rhi) = (
+                _mm256_set1_ps(t.residual_act.0),
+                _mm256_set1_ps(t.residual_act.1),
+            );
+            let zero = _mm256_setzero_ps();
+            for (i, acc) in acc.iter().enumerate() {
+                for (v, &acc) in acc.iter().enumerate() {
+                    let full = v + 1 < V || lanes == 8;
+                    let at = i * t.ldo + 8 * v;
+                    // `acc` is already the sum less `zcorr`.
+                    let mut y = _mm256_add_ps(
+                        _mm256_mul_ps(_mm256_cvtepi32_ps(acc), _mm256_loadu_ps(t.scale.add(8 * v))),
+                        _mm256_loadu_ps(t.bias.add(8 * v)),
+                    );
+                    y = _mm256_min_ps(_mm256_max_ps(y, lo), hi);
+                    if !t.res.is_null() {
+                        let r = if full {
+                            _mm256_loadu_ps(t.res.add(at))
+                        } else {
+                            _mm256_maskload_ps(t.res.add(at), mask)
+                        };
+                        y = _mm256_min_ps(_mm256_max_ps(_mm256_add_ps(y, r), rlo), rhi);
+                    }
+                    if !t.alpha.is_null() {
+                        let al = _mm256_loadu_ps(t.alpha.add(8 * v));
+                        y = _mm256_add_ps(
+                            _mm256_max_ps(y, zero),
+                            _mm256_mul_ps(al, _mm256_min_ps(y, zero)),
+                        );
+                    }
+                    if full {
+                        _mm256_storeu_ps(t.out.add(at), y);
+                    } else {
+                        _mm256_maskstore_ps(t.out.add(at), mask, y);
+                    }
+                }
+            }
+        }
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+mod avx512vnni {
+    use super::{ActivationQuant, Tile, TileFn, ACTIVATION_QMAX, KG, MR_512, NR};
+    use std::arch::x86_64::*;
+
+    /// The tiles of 1 to 8 rows for `P` panels.
+    macro_rules! heights {
+        ($p:literal) => {
+            [
+                micro::<1, $p>,
+                micro::<2, $p>,
+                micro::<3, $p>,
+                micro::<4, $p>,
+                micro::<5, $p>,
+                micro::<6, $p>,
+                micro::<7, $p>,
+                micro::<8, $p>,
+            ]
+        };
+    }
+
+    /// By panels (1-16, 17-32 channels), then height.
+    static TILES: [[TileFn; MR_512]; 2] = [heights!(1), heights!(2)];
+
+    /// The monomorphised tile for `m` rows and `width` channels (`1 <= width <= 32`).
+    pub(super) fn tile(m: usize, width: usize) -> TileFn {
+        const _: () = assert!(NR == 16 && KG == 4);
+        TILES[(width.clamp(1, 2 * NR) - 1) / NR][m.clamp(1, MR_512) - 1]
+    }
+
+    /// The mask of the first `n` (<= 16) lanes.
+    #[inline(always)]
+    fn lanes(n: usize) -> u16 {
+        if n >= 16 {
+            0xffff
+        } else {
+            (1u16 << n) - 1
+        }
+    }
+
+    /// Codes `x` into `q` as [`ActivationQuant::quantize`] does, 16 values at a time, the
+    /// last ones under a mask (`vrndscaleps` to nearest even, the same clamp as the AVX2
+    /// quantizer, an exact conversion, `vpmovdb`: the codes are within `[0, 127]`).
+    ///
+    /// # Safety
+    /// The CPU has AVX-512F, BW and VL; `x.len() == q.len()`.
+    #[target_feature(enable = "avx512f,avx512bw,avx512vl")]
+    pub(super) unsafe fn quantize(x: &[f32], q: &mut [u8], quant: ActivationQuant) {
+        let n = x.len().min(q.len());
+        let z = quant.zero_point as f32;
+        let inv = _mm512_set1_ps(quant.inv_scale);
+        let lo = _mm512_set1_ps(-z);
+        let hi = _mm512_set1_ps(ACTIVATION_QMAX as f32 - z);
+        let zp = _mm512_set1_epi32(quant.zero_point as i32);
+        let mut k = 0;
+        while k < n {
+            let mask = lanes(n - k);
+            // SAFETY: the CPU has AVX-512F, BW and VL (the contract); the lanes at and past
+            // n - k are masked off, so the load reads and the store writes values
+            // k..min(k + 16, n) of `x` and of `q` alone (masked-off lanes do not fault).
+            unsafe {
+                let v = _mm512_mul_ps(_mm512_maskz_loadu_ps(mask, x.as_ptr().add(k)), inv);
+                let v =
+                    _mm512_roundscale_ps::<{ _MM_FROUND_TO_NEAREST_INT | _MM_FROUND_NO_EXC }>(v);
+                // `vmaxps` returns its second operand for NaN: NaN becomes `lo`, as in
+                // `quantize`.
+                let v = _mm512_min_ps(_mm512_max_ps(v, lo), hi);
+                let v = _mm512_add_epi32(_mm512_cvtps_epi32(v), zp);
+                let b = _mm512_cvtepi32_epi8(v);
+                _mm_mask_storeu_epi8(q.as_mut_ptr().add(k) as *mut i8, mask, b);
+            }
+            k += 16;
+        }
+    }
+
+    /// `M` rows x `P` panels of 16 channels accumulated in `M·P` `zmm` registers of i32,
+    /// which start at `-zcorr` (so that they end at the portable kernel's `sum - zcorr`: the
+    /// same i32 sums, wrapping alike): per group of 4 input channels one load of each
+    /// panel's 64 bytes, one broadcast of each row's 4 bytes and one `vpdpbusd` (the 4
+    /// products u8 x i8 added to each i32 lane, exactly) per row and panel. The epilogue
+    /// runs on the registers without FMA (as the portable one) and the last panel loads the
+    /// residual and stores under a mask where the tile is narrower than it.
+    ///
+    /// # Safety
+    /// The CPU has AVX-512F, BW, VL and VNNI; `t` satisfies `Tile`'s contract with
+    /// `t.m == M`, `P` in 1..=2 and `16·(P-1) < t.width <= 16·P`.
+    #[target_feature(enable = "avx512f,avx512bw,avx512vl,avx512vnni")]
+    unsafe fn micro<const M: usize, const P: usize>(t: &Tile) {
+        // SAFETY: the CPU has AVX-512F, BW, VL and VNNI (the contract). The reads and writes
+        // stay in the tile (`Tile`'s contract, m == M, 16·(P-1) < width <= 16·P): `a` at
+        // rows i < M, 4 bytes of group g < groups (4·groups <= lda); `b` at `groups` groups
+        // of 4·NR bytes of the first panel, and of the second where P == 2 (then
+        // width > NR: two panels); `zcorr`, `scale`, `bias`, `alpha` at 16·P values, within
+        // NR·width.div_ceil(NR); `res` and `out` at rows i < M, 16·P channels of which the
+        // last panel's lanes at and past `width` are masked off.
+        unsafe {
+            let mut start = [_mm512_setzero_si512(); P];
+            for (p, s) in start.iter_mut().enumerate() {
+                let z = _mm512_loadu_si512(t.zcorr.add(16 * p) as *const __m512i);
+                *s = _mm512_sub_epi32(_mm512_setzero_si512(), z);
+            }
+            let mut acc = [start; M];
+            let mut a = t.a;
+            let mut b = t.b;
+            // The second panel's groups start a whole panel further.
+            let panel = t.groups * KG * NR;
+            for _ in 0..t.groups {
+                let mut bv = [_mm512_setzero_si512(); P];
+                for (p, bv) in bv.iter_mut().enumerate() {
+                    *bv = _mm512_loadu_si512(b.add(p * panel) as *const __m512i);
+                }
+                for (i, acc) in acc.iter_mut().enumerate() {
+                    let x = _mm512_set1_epi32((a.add(i * t.lda) as *const i32).read_unaligned());
+                    for (acc, &bv) in acc.iter_mut().zip(&bv) {
+                        *acc = _mm512_dpbusd_epi32(*acc, x, bv);
+                    }
+                }
+                a = a.add(KG);
+                b = b.add(KG * NR);
+            }
+            let last = lanes(t.width - 16 * (P - 1));
+            let (lo, hi) = (_mm512_set1_ps(t.act.0), _mm512_set1_ps(t.act.1));
+            let (rlo, rhi) = (
+                _mm512_set1_ps(t.residual_act.0),
+                _mm512_set1_ps(t.residual_act.1),
+            );
+            let zero = _mm512_setzero_ps();
+            for (i, acc) in acc.iter().enumerate() {
+                for (p, &acc) in acc.iter().enumerate() {
+                    let mask = if p + 1 == P { last } else { 0xffff };
+                    let at = i * t.ldo + 16 * p;
+                    // `acc` is already the sum less `zcorr`.
+                    let mut y = _mm512_add_ps(
+                        _mm512_mul_ps(
+                            _mm512_cvtepi32_ps(acc),
+                            _mm512_loadu_ps(t.scale.add(16 * p)),
+                        ),
+                        _mm512_loadu_ps(t.bias.add(16 * p)),
+                    );
+                    y = _mm512_min_ps(_mm512_max_ps(y, lo), hi);
+                    if !t.res.is_null() {
+                        let r = _mm512_maskz_loadu_ps(mask, t.res.add(at));
+                        y = _mm512_min_ps(_mm512_max_ps(_mm512_add_ps(y, r), rlo), rhi);
+                    }
+                    if !t.alpha.is_null() {
+                        let al = _mm512_loadu_ps(t.alpha.add(16 * p));
+                        y = _mm512_add_ps(
+                            _mm512_max_ps(y, zero),
+                            _mm512_mul_ps(al, _mm512_min_ps(y, zero)),
+                        );
+                    }
+                    _mm512_mask_storeu_ps(t.out.add(at), mask, y);
+                }
+            }
+        }
+    }
+}
+
 /// The range of the input of every [`PointwiseConv`](crate::PointwiseConv) node of `model`
 /// (by node name) over runs on `inputs` (each the model's inputs): what
 /// [`quantize_pointwise`] codes them from. The model runs as it is (not optimised), so the
@@ -1141,9 +1523,9 @@ mod tests {
     }
 
     /// (rows, cin, cout): input channels off the group of 4 and the vector of 8, output
-    /// channels off the 8- and 16-channel vectors and panels, row counts off the tile
-    /// height, and inputs larger than one block of rows.
-    const SHAPES: [(usize, usize, usize); 12] = [
+    /// channels off the 8- and 16-channel vectors, the panels and the pairs of panels, row
+    /// counts off the tile heights (4, 6, 8), and inputs larger than one block of rows.
+    const SHAPES: [(usize, usize, usize); 15] = [
         (1, 1, 1),
         (5, 3, 7),
         (4, 4, 16),
@@ -1154,6 +1536,9 @@ mod tests {
         (25, 19, 36),
         (9, 40, 108),
         (12, 64, 9),
+        (17, 12, 32),
+        (19, 20, 48),
+        (23, 8, 33),
         (3000, 24, 40),
         (700, 150, 17),
     ];
@@ -1162,8 +1547,23 @@ mod tests {
     fn the_simd_kernels_give_the_portable_kernels_bits() {
         let kernels = Int8Kernel::supported();
         #[cfg(target_arch = "x86_64")]
-        if std::arch::is_x86_feature_detected!("avx2") {
-            assert!(kernels.iter().any(|k| k.isa() == Isa::Avx2));
+        {
+            use std::arch::is_x86_feature_detected as has;
+            let wanted = [
+                (has!("avx2"), Isa::Avx2),
+                (has!("avx2") && has!("avxvnni"), Isa::AvxVnni),
+                (
+                    has!("avx512f") && has!("avx512bw") && has!("avx512vl") && has!("avx512vnni"),
+                    Isa::Avx512Vnni,
+                ),
+            ];
+            for (detected, isa) in wanted {
+                assert_eq!(kernels.iter().any(|k| k.isa() == isa), detected, "{isa:?}");
+            }
+            // The default is the last (fastest) one, unless `MONOHAND_KERNEL` caps it.
+            if std::env::var_os("MONOHAND_KERNEL").is_none() {
+                assert_eq!(Some(&Int8Kernel::best()), kernels.last());
+            }
         }
         let mut g = Lcg(3);
         for shape in SHAPES {
@@ -1287,6 +1687,21 @@ mod tests {
             let mut got = vec![0x55u8; kp];
             quantize_rows(&x, cin, kp, quant, &mut got, k);
             assert_eq!(got, want, "{k:?}");
+        }
+        // Three rows of 76 channels (a multiple of 4: coded as one run of 228 values, the
+        // vector quantizers' tails at the end only).
+        let x3: Vec<f32> = [&x[..76], &x[1..77], &x[2..78]].concat();
+        let mut want = vec![0xAAu8; x3.len()];
+        quantize_rows(&x3, 76, 76, quant, &mut want, Int8Kernel::PORTABLE);
+        for (r, row) in want.chunks_exact(76).enumerate() {
+            for (q, &v) in row.iter().zip(&x[r..r + 76]) {
+                assert_eq!(*q, quant.quantize(v));
+            }
+        }
+        for k in Int8Kernel::supported() {
+            let mut got = vec![0x55u8; x3.len()];
+            quantize_rows(&x3, 76, 76, quant, &mut got, k);
+            assert_eq!(got, want, "{k:?}, whole rows");
         }
     }
 
@@ -1545,11 +1960,12 @@ mod speed {
     use super::*;
     use crate::pointwise::{Kernel, PointwiseConv};
 
-    /// Times `f` (best of 7 rounds of enough calls for about 0.2 s), in seconds per call.
+    /// Times `f` (best of 5 rounds of enough calls for about 2·10⁸ multiply-adds, a few
+    /// milliseconds), in seconds per call.
     fn time(work: usize, mut f: impl FnMut()) -> f64 {
         let n = (2e8 / work as f64).max(3.0) as usize;
         let mut best = f64::MAX;
-        for _ in 0..7 {
+        for _ in 0..5 {
             let t = std::time::Instant::now();
             for _ in 0..n {
                 f();
@@ -1560,18 +1976,36 @@ mod speed {
     }
 
     /// The f32 and the int8 1x1 convolution on hand_landmark_full's 1x1 shapes, one
-    /// thread, hot caches, the dispatched kernels (`MONOHAND_KERNEL` as for the f32 ones):
+    /// thread, hot caches: the dispatched f32 kernel (`MONOHAND_KERNEL` caps it) against
+    /// every int8 kernel this CPU runs but the portable one, interleaved (per shape, `ROUNDS`
+    /// rounds over all kernels, the best time of each kept):
     /// `cargo test --release -p monohand-tflite int8::speed -- --ignored --nocapture`.
-    /// The int8 time includes quantizing the f32 input; both write f32 outputs.
+    /// The int8 times include quantizing the f32 input; all write f32 outputs.
     #[test]
     #[ignore = "a measurement, not a test"]
     fn landmark_shapes() {
+        const ROUNDS: usize = 4;
         // (rows, cin, cout, how many such layers in hand_landmark_full), from
         // `PER_NODE=1 cargo run --release -p monohand-tflite --example profile_ops`.
         let shapes = SHAPES_LANDMARK_FULL;
-        let (k32, k8) = (Kernel::best(), Int8Kernel::best());
-        println!("f32 kernel {}, int8 kernel {}", k32.name(), k8.name());
-        let (mut t32, mut t8) = (0.0, 0.0);
+        let k32 = Kernel::best();
+        let k8: Vec<Int8Kernel> = Int8Kernel::supported()
+            .into_iter()
+            .filter(|&k| k != Int8Kernel::PORTABLE)
+            .collect();
+        let mut names = vec![format!("f32 {}", k32.name())];
+        names.extend(k8.iter().map(|k| format!("int8 {}", k.name())));
+        println!("ms per call (GMAC/s), speedup against f32 in []");
+        println!(
+            "{:>24} | {}",
+            "rows x cin -> cout (n)",
+            names
+                .iter()
+                .map(|n| format!("{n:>24}"))
+                .collect::<Vec<_>>()
+                .join(" | ")
+        );
+        let mut totals = vec![0.0; names.len()];
         for &(rows, cin, cout, count) in shapes {
             let mut g = 1u64;
             let mut next = || {
@@ -1589,32 +2023,43 @@ mod speed {
             let i8op = PointwiseConvInt8::new(&w, &b, Activation::Relu6, q).expect("op");
             let mut out = vec![0f32; rows * cout];
             let work = rows * cin * cout;
-            let a = time(work, || {
-                f32op.compute(&x, None, &mut out, k32, false).expect("f32");
-            });
-            let c = time(work, || {
-                i8op.compute_with(&x, None, &mut out, k8, false)
-                    .expect("int8");
-            });
-            t32 += a * count as f64;
-            t8 += c * count as f64;
-            let gmac = |t: f64| work as f64 / t / 1e9;
+            let mut best = vec![f64::MAX; names.len()];
+            for _ in 0..ROUNDS {
+                best[0] = best[0].min(time(work, || {
+                    f32op.compute(&x, None, &mut out, k32, false).expect("f32");
+                }));
+                for (b, &k) in best[1..].iter_mut().zip(&k8) {
+                    *b = b.min(time(work, || {
+                        i8op.compute_with(&x, None, &mut out, k, false)
+                            .expect("int8");
+                    }));
+                }
+            }
+            for (t, b) in totals.iter_mut().zip(&best) {
+                *t += b * count as f64;
+            }
+            let cells: Vec<String> = best
+                .iter()
+                .map(|&t| {
+                    format!(
+                        "{:7.3} ({:5.1}) [{:4.2}]",
+                        t * 1e3,
+                        work as f64 / t / 1e9,
+                        best[0] / t
+                    )
+                })
+                .collect();
             println!(
-                "{rows:>6} x {cin:>5} -> {cout:>5} (x{count}): f32 {:7.3} ms {:5.1} GMAC/s, \
-                 int8 {:7.3} ms {:5.1} GMAC/s, speedup {:4.2}",
-                a * 1e3,
-                gmac(a),
-                c * 1e3,
-                gmac(c),
-                a / c
+                "{:>24} | {}",
+                format!("{rows} x {cin} -> {cout} ({count})"),
+                cells.join(" | ")
             );
         }
-        println!(
-            "all 1x1 layers of the network: f32 {:.3} ms, int8 {:.3} ms, speedup {:.2}",
-            t32 * 1e3,
-            t8 * 1e3,
-            t32 / t8
-        );
+        let cells: Vec<String> = totals
+            .iter()
+            .map(|&t| format!("{:>15.3} [{:4.2}]", t * 1e3, totals[0] / t))
+            .collect();
+        println!("{:>24} | {}", "all 30 layers", cells.join(" | "));
     }
 
     /// hand_landmark_full's 30 1x1 convolutions: (rows, cin, cout, count).

@@ -34,6 +34,7 @@
 mod conv;
 mod depthwise;
 mod int8;
+mod isa;
 mod ops;
 mod pointwise;
 mod prelu;

@@ -21,8 +21,10 @@
 //!   importer uses this operator only where [`PointwiseConv::fast_kernel_available`].
 //!
 //! The environment variable `MONOHAND_KERNEL` (`portable`, `avx2` or `avx512`, read once per
-//! process) forces a slower kernel than the CPU allows, to compare them in one run; a kernel
-//! the CPU lacks is ignored (the best one runs). It also steers [`crate::NhwcDepthwise`].
+//! process, [`crate::isa`]) forces a slower kernel than the CPU allows, to compare them in one
+//! run: the fastest one at or below that level (so a kernel the CPU lacks gives the best one
+//! it has below it; the int8 levels `avxvnni` and `avx512vnni` give the AVX2 + FMA and the
+//! AVX-512 kernels). It also steers [`crate::NhwcDepthwise`].
 //! `portable` makes [`PointwiseConv::fast_kernel_available`] false, so the importer then
 //! keeps tract's own 1x1 convolutions.
 
@@ -393,6 +395,10 @@ pub(crate) use kernel::{Isa, Kernel};
 
 /// The kernel type, in a module of its own so that nothing else can make one.
 mod kernel {
+    #[cfg(target_arch = "x86_64")]
+    use crate::isa::Cpu;
+    use crate::isa::Level;
+
     /// The instruction set of a micro-kernel.
     #[derive(Debug, Clone, Copy, PartialEq, Eq)]
     pub(crate) enum Isa {
@@ -427,7 +433,8 @@ mod kernel {
             self.0
         }
 
-        /// The name `MONOHAND_KERNEL` selects this kernel by.
+        /// The name of its level in `MONOHAND_KERNEL` (which the measurements print).
+        #[cfg(test)]
         pub(crate) fn name(self) -> &'static str {
             match self.0 {
                 Isa::Portable => "portable",
@@ -440,20 +447,30 @@ mod kernel {
             }
         }
 
-        /// Every kernel this CPU runs, slowest first (detected at run time).
+        /// Its instruction-set level (what `MONOHAND_KERNEL` caps).
+        pub(crate) fn level(self) -> Level {
+            match self.0 {
+                Isa::Portable => Level::Portable,
+                #[cfg(target_arch = "x86_64")]
+                Isa::Avx2Fma => Level::Avx2,
+                #[cfg(target_arch = "x86_64")]
+                Isa::Avx512 => Level::Avx512,
+                #[cfg(all(target_arch = "wasm32", target_feature = "simd128"))]
+                Isa::Simd128 => Level::Avx2,
+            }
+        }
+
+        /// Every kernel this CPU runs, slowest first (detected at run time, [`Cpu`]).
         pub(crate) fn supported() -> Vec<Kernel> {
             #[allow(unused_mut)]
             let mut v = vec![Kernel::PORTABLE];
             #[cfg(target_arch = "x86_64")]
             {
-                if std::arch::is_x86_feature_detected!("avx2")
-                    && std::arch::is_x86_feature_detected!("fma")
-                {
+                let cpu = Cpu::get();
+                if cpu.avx2_fma() {
                     v.push(Kernel(Isa::Avx2Fma));
                 }
-                if std::arch::is_x86_feature_detected!("avx512f")
-                    && std::arch::is_x86_feature_detected!("avx512vl")
-                {
+                if cpu.avx512f_vl() {
                     v.push(Kernel(Isa::Avx512));
                 }
             }
@@ -462,20 +479,17 @@ mod kernel {
             v
         }
 
-        /// The fastest kernel this CPU runs, or the one `MONOHAND_KERNEL` names if the CPU
-        /// runs it (decided once per process).
+        /// The fastest kernel this CPU runs at or below the level `MONOHAND_KERNEL` names
+        /// (decided once per process; see [`crate::isa`]).
         pub(crate) fn best() -> Kernel {
             static BEST: std::sync::OnceLock<Kernel> = std::sync::OnceLock::new();
             *BEST.get_or_init(|| {
-                let supported = Kernel::supported();
-                let forced = std::env::var("MONOHAND_KERNEL").ok();
-                let forced = supported
-                    .iter()
-                    .copied()
-                    .find(|k| forced.as_deref() == Some(k.name()));
-                forced
-                    .or_else(|| supported.last().copied())
-                    .unwrap_or(Kernel::PORTABLE)
+                crate::isa::choose(
+                    &Kernel::supported(),
+                    Kernel::level,
+                    crate::isa::cap(),
+                    Kernel::PORTABLE,
+                )
             })
         }
     }

@@ -1,0 +1,184 @@
+//! What both kinds of micro-kernels are chosen from, in one place: the CPU's features,
+//! detected once per process ([`Cpu`]), and the level `MONOHAND_KERNEL` caps the kernels at,
+//! read once per process ([`cap`]). The f32 kernels ([`crate::pointwise`]'s `Kernel`, which
+//! [`crate::NhwcDepthwise`] and [`crate::NhwcConv`] use too) and the int8 ones
+//! ([`crate::int8`]'s `Int8Kernel`) build their lists of supported kernels from [`Cpu`] and
+//! pick one with [`choose`]. Their kernel values are still made only there, so holding one
+//! still shows that the CPU has its features.
+//!
+//! `MONOHAND_KERNEL` names a [`Level`]: `portable`, `avx2`, `avxvnni`, `avx512` or
+//! `avx512vnni` (and `simd128`, the same level as `avx2`). Each kind of kernel then runs its
+//! fastest kernel at or below that level which the CPU has: `avx2` runs the f32 AVX2 + FMA
+//! kernel and the int8 AVX2 one, `avx512` the f32 AVX-512 kernel and the int8 AVX-VNNI one
+//! where the CPU has it (else AVX2), `avx512vnni` (or nothing) the fastest of each. An
+//! unknown name caps nothing.
+
+use std::sync::OnceLock;
+
+/// The instruction-set levels of the kernels, slowest first: the values `MONOHAND_KERNEL`
+/// names.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+pub(crate) enum Level {
+    /// Plain Rust (`portable`).
+    Portable,
+    /// AVX2 (`avx2`; the f32 kernels with FMA), and WebAssembly's 128-bit SIMD (`simd128`).
+    Avx2,
+    /// AVX2 with the VEX-coded `vpdpbusd` (`avxvnni`: Alder Lake and later, Zen 5).
+    AvxVnni,
+    /// AVX-512F + VL (`avx512`; the int8 kernels have none of their own at this level).
+    Avx512,
+    /// AVX-512 with VNNI's `vpdpbusd` on 512-bit registers (`avx512vnni`).
+    Avx512Vnni,
+}
+
+impl Level {
+    /// The level `name` stands for, if any.
+    pub(crate) fn from_name(name: &str) -> Option<Level> {
+        Some(match name {
+            "portable" => Level::Portable,
+            "avx2" | "simd128" => Level::Avx2,
+            "avxvnni" => Level::AvxVnni,
+            "avx512" => Level::Avx512,
+            "avx512vnni" => Level::Avx512Vnni,
+            _ => return None,
+        })
+    }
+}
+
+/// The level `MONOHAND_KERNEL` names (read once per process); `None` where it is unset or
+/// names no level.
+pub(crate) fn cap() -> Option<Level> {
+    static CAP: OnceLock<Option<Level>> = OnceLock::new();
+    *CAP.get_or_init(|| {
+        std::env::var("MONOHAND_KERNEL")
+            .ok()
+            .as_deref()
+            .and_then(Level::from_name)
+    })
+}
+
+/// The last kernel of `supported` (slowest first) whose level is at most `cap`, or the
+/// last one where `cap` is `None`; `fallback` where there is none.
+pub(crate) fn choose<K: Copy>(
+    supported: &[K],
+    level: impl Fn(K) -> Level,
+    cap: Option<Level>,
+    fallback: K,
+) -> K {
+    supported
+        .iter()
+        .rev()
+        .copied()
+        .find(|&k| cap.is_none_or(|c| level(k) <= c))
+        .unwrap_or(fallback)
+}
+
+/// The CPU features the kernels use, detected at run time once per process. Its fields are
+/// private and set only by detection ([`Cpu::get`]): a feature reported here is one the CPU
+/// has. (All false off x86-64, where no kernel asks for them: hence the `allow`s.)
+#[derive(Debug, Clone, Copy, Default)]
+#[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
+pub(crate) struct Cpu {
+    avx2: bool,
+    fma: bool,
+    avx512f: bool,
+    avx512bw: bool,
+    avx512vl: bool,
+    avx512vnni: bool,
+    avxvnni: bool,
+}
+
+#[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
+impl Cpu {
+    /// This CPU's features (detected on the first call).
+    pub(crate) fn get() -> Cpu {
+        static CPU: OnceLock<Cpu> = OnceLock::new();
+        *CPU.get_or_init(Cpu::detect)
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    fn detect() -> Cpu {
+        use std::arch::is_x86_feature_detected as has;
+        Cpu {
+            avx2: has!("avx2"),
+            fma: has!("fma"),
+            avx512f: has!("avx512f"),
+            avx512bw: has!("avx512bw"),
+            avx512vl: has!("avx512vl"),
+            avx512vnni: has!("avx512vnni"),
+            avxvnni: has!("avxvnni"),
+        }
+    }
+
+    #[cfg(not(target_arch = "x86_64"))]
+    fn detect() -> Cpu {
+        Cpu::default()
+    }
+
+    /// AVX2.
+    pub(crate) fn avx2(self) -> bool {
+        self.avx2
+    }
+
+    /// AVX2 and FMA.
+    pub(crate) fn avx2_fma(self) -> bool {
+        self.avx2 && self.fma
+    }
+
+    /// AVX-512F and AVX-512VL.
+    pub(crate) fn avx512f_vl(self) -> bool {
+        self.avx512f && self.avx512vl
+    }
+
+    /// AVX2 and AVX-VNNI (the VEX-coded 256-bit `vpdpbusd`).
+    pub(crate) fn avx_vnni(self) -> bool {
+        self.avx2 && self.avxvnni
+    }
+
+    /// AVX-512F, BW, VL and VNNI.
+    pub(crate) fn avx512_vnni(self) -> bool {
+        self.avx512f && self.avx512bw && self.avx512vl && self.avx512vnni
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn names_levels_and_choice() {
+        assert_eq!(Level::from_name("portable"), Some(Level::Portable));
+        assert_eq!(Level::from_name("simd128"), Some(Level::Avx2));
+        assert_eq!(Level::from_name("avx512vnni"), Some(Level::Avx512Vnni));
+        assert_eq!(Level::from_name("sse2"), None);
+        assert!(Level::Avx2 < Level::AvxVnni && Level::AvxVnni < Level::Avx512);
+        let levels = [
+            Level::Portable,
+            Level::Avx2,
+            Level::AvxVnni,
+            Level::Avx512Vnni,
+        ];
+        let pick = |cap| choose(&[0, 1, 2, 3], |k: usize| levels[k], cap, 9);
+        assert_eq!(pick(None), 3);
+        assert_eq!(pick(Some(Level::Avx512Vnni)), 3);
+        assert_eq!(pick(Some(Level::Avx512)), 2);
+        assert_eq!(pick(Some(Level::Avx2)), 1);
+        assert_eq!(pick(Some(Level::Portable)), 0);
+        assert_eq!(choose(&[2], |k: usize| levels[k], Some(Level::Avx2), 9), 9);
+    }
+
+    #[test]
+    fn detection_matches_std() {
+        let cpu = Cpu::get();
+        #[cfg(target_arch = "x86_64")]
+        {
+            use std::arch::is_x86_feature_detected as has;
+            assert_eq!(cpu.avx2_fma(), has!("avx2") && has!("fma"));
+            assert_eq!(cpu.avx512f_vl(), has!("avx512f") && has!("avx512vl"));
+            assert_eq!(cpu.avx_vnni(), has!("avx2") && has!("avxvnni"));
+            assert_eq!(cpu.avx512_vnni(), has!("avx512vnni") && has!("avx512bw"));
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        assert!(!cpu.avx2() && !cpu.avx512_vnni());
+    }
+}
