@@ -1322,13 +1322,26 @@ mod avx512vnni {
 
 /// The range of the input of every [`PointwiseConv`](crate::PointwiseConv) node of `model`
 /// (by node name) over runs on `inputs` (each the model's inputs): what
-/// [`quantize_pointwise`] codes them from. The model runs as it is (not optimised), so the
-/// names are those of the imported graph.
+/// [`quantize_pointwise`] codes them from. The model runs optimised (tract's unoptimised
+/// operators are many times slower); the optimiser keeps these nodes and their names, which
+/// are those of the imported graph (an error if one of them went missing).
 pub fn pointwise_input_ranges(
     model: &TypedModel,
     inputs: &[TVec<Tensor>],
 ) -> TractResult<std::collections::HashMap<String, MinMax>> {
-    let plan = model.clone().into_runnable()?;
+    let names = |m: &TypedModel| -> std::collections::BTreeSet<String> {
+        m.nodes()
+            .iter()
+            .filter(|n| n.op_as::<crate::PointwiseConv>().is_some())
+            .map(|n| n.name.clone())
+            .collect()
+    };
+    let optimised = model.clone().into_optimized()?;
+    ensure!(
+        names(&optimised) == names(model),
+        "the optimiser renamed or removed 1x1 convolutions"
+    );
+    let plan = optimised.into_runnable()?;
     let mut state = plan.spawn()?;
     let mut ranges: std::collections::HashMap<String, MinMax> = Default::default();
     for input in inputs {

@@ -15,7 +15,7 @@
 //! else, and never the second half (frames 146-291), on which int8 is checked unseen.
 //! Each is read by [`HandPipeline::detect`] with the default options (the detector, the
 //! landmark network's two passes, the mirror pass) in f32, and the inputs the palm and
-//! landmark networks were given are recorded ([`record_inputs`]); each network's table
+//! landmark networks were given are recorded ([`crate::TfliteNet::recording`]); each network's table
 //! comes from running its imported f32 graph on those inputs
 //! ([`monohand_tflite::pointwise_input_ranges`]). The same frames give the same table, bit
 //! for bit, with any thread count (`tests/int8_calibration.rs` makes them again and
@@ -25,8 +25,7 @@
 
 use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Mutex;
+use std::sync::{Arc, Mutex};
 
 use tract_core::internal::*;
 
@@ -203,47 +202,6 @@ pub fn import(
     Ok((model, replaced))
 }
 
-/// Whether the networks' inputs are being recorded ([`record_inputs`]).
-static RECORDING: AtomicBool = AtomicBool::new(false);
-/// The recorded inputs, by network name.
-static RECORDED: Mutex<Option<HashMap<String, Vec<Tensor>>>> = Mutex::new(None);
-
-/// Records `input` as network `name`'s, while [`record_inputs`] runs.
-pub(crate) fn observe_input(name: &str, input: &Tensor) {
-    if !RECORDING.load(Ordering::Relaxed) {
-        return;
-    }
-    if let Ok(mut guard) = RECORDED.lock() {
-        if let Some(map) = guard.as_mut() {
-            map.entry(name.to_owned()).or_default().push(input.clone());
-        }
-    }
-}
-
-/// Runs `f`, recording the input of every network run in this process meanwhile (by the
-/// network's file name); returns `f`'s result and the inputs. One recording at a time:
-/// an error if another is under way.
-pub fn record_inputs<R>(f: impl FnOnce() -> R) -> Result<(R, HashMap<String, Vec<Tensor>>)> {
-    {
-        let mut guard = RECORDED
-            .lock()
-            .map_err(|_| bad("the input recorder was poisoned"))?;
-        if guard.is_some() {
-            return Err(bad("another recording of network inputs is under way"));
-        }
-        *guard = Some(HashMap::new());
-    }
-    RECORDING.store(true, Ordering::SeqCst);
-    let out = f();
-    RECORDING.store(false, Ordering::SeqCst);
-    let map = RECORDED
-        .lock()
-        .map_err(|_| bad("the input recorder was poisoned"))?
-        .take()
-        .unwrap_or_default();
-    Ok((out, map))
-}
-
 /// The calibration frames (see the module documentation), in a fixed order: the shared
 /// photos under `data/images` sorted by path, then the dev video's frames 0, 5, ..., 145
 /// under `data/hand_graph_cnn_dev/images`. `data` is `../shared/data`.
@@ -286,41 +244,53 @@ pub fn calibrate(
     images: &[PathBuf],
     frames: &str,
 ) -> Result<Vec<(ModelFile, Int8Table)>> {
-    let mut options = crate::PipelineOptions::default();
-    options.precision = Precision::F32;
-    let f32_models = crate::ModelOptions {
-        detect_heads: false,
-        ..models.clone()
-    };
-    let pipeline = crate::HandPipeline::new(&f32_models, options)?;
-    let (done, inputs) = record_inputs(|| -> Result<()> {
-        for path in images {
-            pipeline.detect_file(path)?;
-        }
-        Ok(())
-    })?;
-    done?;
     let store = crate::ModelStore::new(models.model_dir.clone())?;
+    let files = [models.palm.palm_file(), models.landmark.landmark_file()];
+    let mut loaded = Vec::new();
+    for file in files {
+        let bytes = store.load(file)?;
+        let recorder = Arc::new(Mutex::new(Vec::new()));
+        let net = crate::TfliteNet::from_bytes(&bytes, &store.path_of(file))?
+            .recording(Arc::clone(&recorder));
+        loaded.push((file, bytes, net, recorder));
+    }
+    let [(_, _, palm, _), (_, _, landmark, _)] = &loaded[..] else {
+        return Err(bad("two networks to calibrate"));
+    };
+    // The f32 pipeline with the default options, without heads.
+    let pipeline = crate::HandPipeline::from_networks(
+        palm.clone(),
+        landmark.clone(),
+        None,
+        crate::PipelineOptions::default(),
+    )?;
+    for path in images {
+        pipeline.detect_file(path)?;
+    }
     let mut tables = Vec::new();
-    for file in [models.palm.palm_file(), models.landmark.landmark_file()] {
-        let recorded = inputs.get(file.file_name()).ok_or_else(|| {
-            bad(format!(
+    for (file, bytes, _, recorder) in &loaded {
+        let recorded = std::mem::take(
+            &mut *recorder
+                .lock()
+                .map_err(|_| bad("the input recorder was poisoned"))?,
+        );
+        if recorded.is_empty() {
+            return Err(bad(format!(
                 "{} never ran on the calibration frames",
                 file.file_name()
-            ))
-        })?;
-        let bytes = store.load(file)?;
-        let model = monohand_tflite::import(&bytes).map_err(|source| VisionError::Import {
-            path: store.path_of(file),
+            )));
+        }
+        let model = monohand_tflite::import(bytes).map_err(|source| VisionError::Import {
+            path: store.path_of(*file),
             source,
         })?;
-        let runs: Vec<TVec<Tensor>> = recorded.iter().map(|t| tvec!(t.clone())).collect();
+        let runs: Vec<TVec<Tensor>> = recorded.into_iter().map(|t| tvec!(t)).collect();
         let ranges = monohand_tflite::pointwise_input_ranges(&model, &runs)?;
         tables.push((
-            file,
+            *file,
             Int8Table {
-                network_sha256: sha256_hex(&bytes),
-                frames: format!("{frames}; {} network runs", recorded.len()),
+                network_sha256: sha256_hex(bytes),
+                frames: format!("{frames}; {} network runs", runs.len()),
                 ranges: ranges.into_iter().collect(),
             },
         ));

@@ -19,8 +19,8 @@ use monohand_tflite as tflite_import;
 #[derive(Debug, Clone)]
 pub struct TfliteNet {
     plan: Arc<TypedSimplePlan>,
-    /// The model's file name (what [`crate::int8::record_inputs`] files its inputs under).
-    name: Arc<str>,
+    /// Where each run's input is copied, when the network is [`recording`](Self::recording).
+    recorder: Option<Arc<Mutex<Vec<Tensor>>>>,
     /// The arithmetic of its quantizable layers.
     precision: tflite_import::Precision,
     /// How many layers run in int8.
@@ -127,17 +127,21 @@ impl TfliteNet {
                 ))
             })?;
         let plan = model.into_optimized()?.into_runnable()?;
-        let name = origin
-            .file_name()
-            .map_or_else(|| origin.to_string_lossy(), |n| n.to_string_lossy());
         Ok(TfliteNet {
             plan,
-            name: name.into(),
+            recorder: None,
             precision,
             int8_layers,
             input_shape: shape,
             pool: Arc::new(Mutex::new(Vec::new())),
         })
+    }
+
+    /// The network, copying the input of each of its runs (its clones' too) into
+    /// `recorder`: what an int8 calibration is measured on ([`crate::int8::calibrate`]).
+    pub fn recording(mut self, recorder: Arc<Mutex<Vec<Tensor>>>) -> Self {
+        self.recorder = Some(recorder);
+        self
     }
 
     /// The arithmetic it was built in.
@@ -216,7 +220,11 @@ impl TfliteNet {
         state: &mut NetState,
         read: impl FnOnce(NetOutputs<'_>) -> Result<R>,
     ) -> Result<R> {
-        crate::int8::observe_input(&self.name, &state.input);
+        if let Some(r) = &self.recorder {
+            r.lock()
+                .map_err(|_| VisionError::Inference("input recorder poisoned".into()))?
+                .push((*state.input).clone());
+        }
         // Counted while it runs: alone, its operators share their rows between the cores.
         let _running = monohand_tflite::Running::start();
         state

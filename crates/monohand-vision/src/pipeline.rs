@@ -491,17 +491,31 @@ impl HandPipeline {
         let net = |(bytes, origin): (&[u8], &Path)| {
             TfliteNet::from_bytes_in(bytes, origin, Default::default(), options.precision)
         };
-        let detector = PalmDetector::new(net(nets.palm)?, options.palm)?;
-        let model = LandmarkModel::new(net(nets.landmark)?, options.landmarks)?;
+        let face = match nets.face {
+            Some((bytes, origin)) => Some(TfliteNet::from_bytes(bytes, origin)?),
+            None => None,
+        };
+        HandPipeline::from_networks(net(nets.palm)?, net(nets.landmark)?, face, options)
+    }
+
+    /// MediaPipe's palm detector, landmark model and (when given) BlazeFace from networks
+    /// already imported: what [`HandPipeline::from_bytes`] builds once it has them.
+    pub(crate) fn from_networks(
+        palm: TfliteNet,
+        landmark: TfliteNet,
+        face: Option<TfliteNet>,
+        options: PipelineOptions,
+    ) -> Result<Self> {
+        options.validate()?;
+        let detector = PalmDetector::new(palm, options.palm)?;
+        let model = LandmarkModel::new(landmark, options.landmarks)?;
         let estimator = MediaPipeKeypoints {
             model,
             mirrored_input: options.mirrored_input,
             refine_passes: options.refine_passes,
         };
-        let face = match nets.face {
-            Some((bytes, origin)) => {
-                Some(FaceDetector::new(TfliteNet::from_bytes(bytes, origin)?)?)
-            }
+        let face = match face {
+            Some(net) => Some(FaceDetector::new(net)?),
             None => None,
         };
         Ok(HandPipeline {

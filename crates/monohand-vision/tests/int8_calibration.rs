@@ -68,10 +68,14 @@ fn the_int8_pipeline_finds_the_hands_the_f32_one_does() {
         .collect();
     paths.push(common::shared("images/pinto/hand.png").expect("photo"));
     let mut dists = Vec::new();
+    let mut with_hands = 0;
     for path in &paths {
         let a = f32_pipeline.detect_file(path).expect("f32 detect");
         let b = int8_pipeline.detect_file(path).expect("int8 detect");
+        assert_eq!(a.precision, Precision::F32);
+        assert_eq!(b.precision, Precision::Int8);
         assert_eq!(a.hands.len(), b.hands.len(), "{}", path.display());
+        with_hands += usize::from(!a.hands.is_empty());
         for (a, b) in a.hands.iter().zip(&b.hands) {
             assert_eq!(a.side, b.side, "{}", path.display());
             let d: f64 = a
@@ -85,7 +89,12 @@ fn the_int8_pipeline_finds_the_hands_the_f32_one_does() {
             dists.push(d);
         }
     }
-    assert!(dists.len() >= paths.len(), "a hand in every image");
+    eprintln!("hands found in {with_hands} of {} images", paths.len());
+    assert!(
+        with_hands * 4 >= paths.len() * 3,
+        "a hand in {with_hands} of {} images",
+        paths.len()
+    );
     dists.sort_by(f64::total_cmp);
     let median = dists[dists.len() / 2];
     eprintln!(
