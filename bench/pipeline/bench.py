@@ -57,6 +57,11 @@ MONOHAND_RUNS = [
     ("monohand run --hands 1 --no-heads --no-mirror-pass", ["--hands", "1", "--no-heads", "--no-mirror-pass"]),
     ("monohand run --hands 1 --no-heads", ["--hands", "1", "--no-heads"]),
     ("monohand run --no-track", ["--no-track"]),
+    # The same two like-for-like runs with the networks in int8 (issue 46).
+    ("monohand run --hands 2 --no-heads --detect-every 1 --no-mirror-pass --precision int8",
+     ["--hands", "2", "--no-heads", "--detect-every", "1", "--no-mirror-pass", "--precision", "int8"]),
+    ("monohand run --hands 1 --no-heads --no-mirror-pass --precision int8",
+     ["--hands", "1", "--no-heads", "--no-mirror-pass", "--precision", "int8"]),
 ]
 # Which monohand run is compared with which MediaPipe run (same detector schedule).
 PAIRS = [
@@ -66,6 +71,10 @@ PAIRS = [
      "landmarks from tracking crops, detector only when the hand is lost"),
     ("monohand run (defaults: tracking, detector every 10 frames)", "mediapipe max_num_hands=2",
      "defaults of each (monohand tracking vs the brief's MediaPipe setting)"),
+    ("monohand run --hands 2 --no-heads --detect-every 1 --no-mirror-pass --precision int8",
+     "mediapipe max_num_hands=2", "palm detector + landmarks every frame, tracking crops, int8"),
+    ("monohand run --hands 1 --no-heads --no-mirror-pass --precision int8", "mediapipe max_num_hands=1",
+     "landmarks from tracking crops, detector only when the hand is lost, int8"),
 ]
 
 
