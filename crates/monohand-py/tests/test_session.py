@@ -288,3 +288,33 @@ def test_a_calibrated_stereo_rig_equals_the_cli(tmp_path):
     )
     rec = read_jsonl(out)[0]["hands"]
     assert [h.to_dict().get("joints_3d_mm") for h in hands] == [r.get("joints_3d_mm") for r in rec]
+
+
+def test_int8_sessions_equal_the_cli_in_int8_and_say_so(tmp_path, moving_video):
+    """`precision="int8"`: the same records as `run --precision int8`, each saying
+    `"precision": "int8"`, keypoints near (not equal to) f32's; a bad name is refused."""
+    out = tmp_path / "cli.jsonl"
+    run_cli("run", str(moving_video), "-o", str(out), "--hands", "2", "--precision", "int8")
+    cli = read_jsonl(out)
+    assert all(rec.get("precision") == "int8" for rec in cli)
+    with pytest.raises(ValueError, match="precision"):
+        monohand.Models(hands=2, precision="int4")
+    models = monohand.Models(hands=2, precision="int8")
+    assert models.precision == "int8" and 'precision="int8"' in repr(models)
+    with pytest.raises(ValueError, match="precision"):
+        monohand.Session(None, hands=2, models=models)
+    with monohand.Session(None, hands=2, models=models, precision="int8") as s:
+        frames = [f.to_dict() for f in s.track(str(moving_video))]
+    with monohand.Session(None, hands=2) as s:
+        f32 = [f.to_dict() for f in s.track(str(moving_video))]
+    assert len(frames) == len(cli) == len(f32) == 40
+    near = 0
+    for ours, theirs, full in zip(frames, cli, f32):
+        for rec in (ours, theirs, full):
+            rec.pop("timings_ms", None)
+        assert ours == theirs, ours["frame"]
+        assert "precision" not in full, "f32 records say nothing"
+        for a, b in zip(ours["hands"], full["hands"]):
+            d = np.linalg.norm(np.array(a["keypoints_2d"])[:, :2] - np.array(b["keypoints_2d"])[:, :2], axis=1)
+            near += d.mean() < 2.0
+    assert near >= 35, f"int8 keypoints within 2 px of f32's in {near} of 40 frames"
