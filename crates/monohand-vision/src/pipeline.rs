@@ -487,7 +487,6 @@ impl HandPipeline {
     /// MediaPipe's palm detector + landmark model (+ BlazeFace when `nets.face` is given)
     /// from the networks' bytes: what [`HandPipeline::new`] builds once it has read them.
     pub fn from_bytes(nets: NetworkBytes<'_>, options: PipelineOptions) -> Result<Self> {
-        options.validate()?;
         let net = |(bytes, origin): (&[u8], &Path)| {
             TfliteNet::from_bytes_in(bytes, origin, Default::default(), options.precision)
         };
@@ -499,7 +498,8 @@ impl HandPipeline {
     }
 
     /// MediaPipe's palm detector, landmark model and (when given) BlazeFace from networks
-    /// already imported: what [`HandPipeline::from_bytes`] builds once it has them.
+    /// already imported: what [`HandPipeline::from_bytes`] builds once it has them (the
+    /// options are checked here).
     pub(crate) fn from_networks(
         palm: TfliteNet,
         landmark: TfliteNet,

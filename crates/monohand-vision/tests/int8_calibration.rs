@@ -41,6 +41,17 @@ fn the_shipped_tables_are_what_the_calibration_frames_give() {
                 .expect("shipped")
                 .expect("valid");
             assert_eq!(parsed, table);
+            // Every 1x1 layer of the table runs in int8.
+            let bytes = store.load(file).expect("load");
+            let net = monohand_vision::TfliteNet::from_bytes_in(
+                &bytes,
+                &store.path_of(file),
+                Default::default(),
+                Precision::Int8,
+            )
+            .expect("int8 network");
+            assert_eq!(net.precision(), Precision::Int8);
+            assert_eq!(net.int8_layers(), table.ranges.len(), "{file:?}");
         }
     }
 }
