@@ -13,7 +13,7 @@
 //! (`../shared/data/images`, every `.jpg` and `.png`, 36 in all) and every 5th frame of
 //! the first half of the dev video (`hand_graph_cnn_dev`, frames 0, 5, ..., 145); nothing
 //! else, and never the second half (frames 146-291), on which int8 is checked unseen.
-//! Each is read by [`HandPipeline::detect`] with the default options (the detector, the
+//! Each is read by [`crate::HandPipeline::detect`] with the default options (the detector, the
 //! landmark network's two passes, the mirror pass) in f32, and the inputs the palm and
 //! landmark networks were given are recorded ([`crate::TfliteNet::recording`]); each network's table
 //! comes from running its imported f32 graph on those inputs
