@@ -11,6 +11,7 @@
 
 use tract_core::internal::*;
 
+use crate::int8::ActivationQuant;
 use crate::pointwise::Activation;
 
 /// Depthwise `KH x KW` convolution, depth multiplier 1, on `[1, H, W, C]` f32 tensors, with
@@ -75,21 +76,13 @@ impl EvalOp for NhwcDepthwise {
 
     fn eval(&self, _ctx: &EvalContext, inputs: TVec<TValue>) -> TractResult<TVec<TValue>> {
         let input = args_1!(inputs);
-        let shape = input.shape();
-        ensure!(
-            shape.len() == 4 && shape[0] == 1,
-            "depthwise expects [1, H, W, C], got {shape:?}"
-        );
-        let (h, w, c) = (shape[1], shape[2], shape[3]);
-        let (kh, kw, kc) = self.dims();
-        ensure!(kc == c, "depthwise kernel has {kc} channels, input {c}");
-        let (oh, ow, pt, pl) = self.output_shape(h, w);
+        let g = self.geometry(input.shape())?;
         // SAFETY: the tensor's values are left unwritten, and nothing reads one before it is
         // written: `run` writes every output value (the portable loop sets each to its bias
         // before accumulating into it; the SIMD kernels only store), over all the rows
         // (`rows` gives every row to exactly one piece), and when `ow` or `c` is 0 the tensor
         // has no values. An error drops the tensor without reading it (f32 has no drop).
-        let mut output = unsafe { Tensor::uninitialized::<f32>(&[1, oh, ow, c])? };
+        let mut output = unsafe { Tensor::uninitialized::<f32>(&[1, g.oh, g.ow, g.c])? };
         {
             let src = input.try_as_plain_ram()?;
             let src = src.as_slice::<f32>()?;
@@ -99,25 +92,12 @@ impl EvalOp for NhwcDepthwise {
             let b = b.as_slice::<f32>()?;
             let mut dst = output.try_as_plain_ram_mut()?;
             let dst = dst.as_slice_mut::<f32>()?;
-            let g = Geometry {
-                h,
-                w,
-                c,
-                kh,
-                kw,
-                sy: self.strides.0,
-                sx: self.strides.1,
-                pt,
-                pl,
-                oh,
-                ow,
-                rows: (0, oh),
-            };
-            if ow > 0 && c > 0 {
-                let work = oh * ow * c * kh * kw;
-                crate::split::team().rows(dst, ow * c, 1, work, self.split, &|first, dst| {
+            if g.ow > 0 && g.c > 0 {
+                let work = g.oh * g.ow * g.c * g.kh * g.kw;
+                let row = g.ow * g.c;
+                crate::split::team().rows(dst, row, 1, work, self.split, &|first, dst| {
                     let g = Geometry {
-                        rows: (first, first + dst.len() / (ow * c)),
+                        rows: (first, first + dst.len() / row),
                         ..g
                     };
                     run(
@@ -134,6 +114,176 @@ impl EvalOp for NhwcDepthwise {
             }
         }
         Ok(tvec!(output.into_tvalue()))
+    }
+}
+
+impl NhwcDepthwise {
+    /// The geometry of an evaluation on an input of `shape` (all the output rows).
+    fn geometry(&self, shape: &[usize]) -> TractResult<Geometry> {
+        ensure!(
+            shape.len() == 4 && shape[0] == 1,
+            "depthwise expects [1, H, W, C], got {shape:?}"
+        );
+        let (h, w, c) = (shape[1], shape[2], shape[3]);
+        let (kh, kw, kc) = self.dims();
+        ensure!(kc == c, "depthwise kernel has {kc} channels, input {c}");
+        let (oh, ow, pt, pl) = self.output_shape(h, w);
+        Ok(Geometry {
+            h,
+            w,
+            c,
+            kh,
+            kw,
+            sy: self.strides.0,
+            sx: self.strides.1,
+            pt,
+            pl,
+            oh,
+            ow,
+            rows: (0, oh),
+        })
+    }
+}
+
+/// Output values (f32) a [`NhwcDepthwiseCodes`] computes at a time into its thread's buffer
+/// before coding them: 32 KiB, in L1 while they are coded (at least one output row).
+const CODED_CHUNK: usize = 8 * 1024;
+
+thread_local! {
+    /// Each thread's buffer for the f32 rows of [`NhwcDepthwiseCodes`] before they are coded
+    /// (allocated on the thread's first call, reused).
+    static CHUNK: std::cell::RefCell<Vec<f32>> = const { std::cell::RefCell::new(Vec::new()) };
+}
+
+/// A [`NhwcDepthwise`] whose result is written as the 7-bit codes of an
+/// [`ActivationQuant`] (a `u8` tensor of the same shape) instead of f32: what a
+/// [`PointwiseConvInt8`](crate::PointwiseConvInt8) that reads it
+/// ([`with_coded_input`](crate::PointwiseConvInt8::with_coded_input)) would otherwise make
+/// from the f32 tensor as its first step. [`quantize_pointwise`](crate::quantize_pointwise)
+/// puts one in where a depthwise convolution's only reader is an int8 1x1 convolution.
+///
+/// A few output rows at a time (about 32 KiB of f32) are computed by the depthwise kernel
+/// into a buffer of the thread's own, then coded by the int8 kernels' quantizer while they
+/// are in cache: the codes are those the 1x1 convolution would make, bit for bit, but the
+/// f32 tensor is never written to memory nor read back.
+#[derive(Debug, Clone, PartialEq)]
+pub struct NhwcDepthwiseCodes {
+    conv: NhwcDepthwise,
+    quant: ActivationQuant,
+}
+
+// `ActivationQuant` compares its scale by bits: equality is reflexive.
+impl Eq for NhwcDepthwiseCodes {}
+
+impl NhwcDepthwiseCodes {
+    /// `conv`, its result coded with `quant`.
+    pub fn new(conv: NhwcDepthwise, quant: ActivationQuant) -> Self {
+        NhwcDepthwiseCodes { conv, quant }
+    }
+
+    /// The convolution.
+    pub fn conv(&self) -> &NhwcDepthwise {
+        &self.conv
+    }
+
+    /// The code of the result.
+    pub fn quant(&self) -> ActivationQuant {
+        self.quant
+    }
+}
+
+impl Op for NhwcDepthwiseCodes {
+    fn name(&self) -> StaticName {
+        "MonohandNhwcDepthwiseCodes".into()
+    }
+
+    fn info(&self) -> TractResult<Vec<String>> {
+        Ok(vec![format!(
+            "codes: scale {} zero {}",
+            self.quant.scale(),
+            self.quant.zero_point()
+        )])
+    }
+
+    op_as_typed_op!();
+}
+
+impl EvalOp for NhwcDepthwiseCodes {
+    op_out_of_plan!();
+
+    fn eval(&self, _ctx: &EvalContext, inputs: TVec<TValue>) -> TractResult<TVec<TValue>> {
+        let input = args_1!(inputs);
+        let g = self.conv.geometry(input.shape())?;
+        // SAFETY: the tensor's values are left unwritten, and nothing reads one before it is
+        // written: every output row is given to exactly one piece (`rows`), whose chunks
+        // cover its rows, and each chunk's codes are all stored by `quantize_values` (the
+        // depthwise kernel writes every value of the chunk's f32 buffer first, as in
+        // `NhwcDepthwise::eval`); when `ow` or `c` is 0 the tensor has no values. An error
+        // drops the tensor without reading it (u8 has no drop).
+        let mut output = unsafe { Tensor::uninitialized::<u8>(&[1, g.oh, g.ow, g.c])? };
+        {
+            let src = input.try_as_plain_ram()?;
+            let src = src.as_slice::<f32>()?;
+            let k = self.conv.kernel.try_as_plain_ram()?;
+            let k = k.as_slice::<f32>()?;
+            let b = self.conv.bias.try_as_plain_ram()?;
+            let b = b.as_slice::<f32>()?;
+            let mut dst = output.try_as_plain_ram_mut()?;
+            let dst = dst.as_slice_mut::<u8>()?;
+            if g.ow > 0 && g.c > 0 {
+                let work = g.oh * g.ow * g.c * g.kh * g.kw;
+                let row = g.ow * g.c;
+                let chunk = (CODED_CHUNK / row).max(1);
+                let act = self.conv.activation.bounds();
+                crate::split::team().rows(dst, row, 1, work, self.conv.split, &|first, dst| {
+                    with_chunk(chunk * row, |buf| {
+                        let rows = dst.len() / row;
+                        let mut r = 0;
+                        while r < rows {
+                            let m = chunk.min(rows - r);
+                            let g = Geometry {
+                                rows: (first + r, first + r + m),
+                                ..g
+                            };
+                            let values = &mut buf[..m * row];
+                            run(&g, src, k, b, values, act, self.conv.register_blocked);
+                            crate::int8::quantize_values(
+                                values,
+                                &mut dst[r * row..(r + m) * row],
+                                self.quant,
+                            );
+                            r += m;
+                        }
+                    });
+                    Ok(())
+                })?;
+            }
+        }
+        Ok(tvec!(output.into_tvalue()))
+    }
+}
+
+/// Calls `f` with this thread's f32 buffer for [`NhwcDepthwiseCodes`], at least `n` long
+/// (a new one if it is in use).
+fn with_chunk<R>(n: usize, f: impl FnOnce(&mut [f32]) -> R) -> R {
+    CHUNK.with(|s| match s.try_borrow_mut() {
+        Ok(mut s) => {
+            if s.len() < n {
+                s.resize(n, 0.0);
+            }
+            f(&mut s[..n])
+        }
+        // Re-entered on this thread (not expected): a buffer of its own.
+        Err(_) => f(&mut vec![0.0; n]),
+    })
+}
+
+impl TypedOp for NhwcDepthwiseCodes {
+    as_op!();
+
+    fn output_facts(&self, inputs: &[&TypedFact]) -> TractResult<TVec<TypedFact>> {
+        let f = self.conv.output_facts(inputs)?;
+        Ok(tvec!(u8::fact(f[0].shape.clone())))
     }
 }
 
@@ -949,6 +1099,46 @@ mod tests {
             };
             let input = Tensor::from_shape(&[1, h, h, c], &x).expect("x");
             crate::split::testing::same_bits_split(&op(true), &op(false), &[input]);
+        }
+    }
+
+    #[test]
+    fn coded_results_are_the_codes_of_the_f32_results() {
+        // (h, c, k, stride, register-blocked): the landmark networks' 112x112x24 layer (one
+        // output row per chunk), several rows per chunk, channels off the vectors and the
+        // group of 4, the portable loop; a code range narrower than the results (clamped).
+        for (h, c, k, s, blocked) in [
+            (112, 24, 3, 1, true),
+            (14, 480, 5, 1, true),
+            (9, 37, 3, 2, true),
+            (7, 5, 5, 1, true),
+            (13, 40, 3, 1, false),
+        ] {
+            let (x, kv, b) = data(h * h * c, k * k * c, c);
+            let conv = |split| NhwcDepthwise {
+                kernel: Tensor::from_shape(&[k, k, c], &kv)
+                    .expect("k")
+                    .into_arc_tensor(),
+                bias: tensor1(&b).into_arc_tensor(),
+                strides: (s, s),
+                same: true,
+                activation: Activation::Relu6,
+                register_blocked: blocked,
+                split,
+            };
+            let quant = ActivationQuant::from_min_max(0.0, 5.0);
+            let input = Tensor::from_shape(&[1, h, h, c], &x).expect("x");
+            let values = crate::split::testing::bits(&conv(false), std::slice::from_ref(&input));
+            let want: Vec<u32> = values
+                .iter()
+                .map(|&v| quant.quantize(f32::from_bits(v)) as u32)
+                .collect();
+            let coded = |split| NhwcDepthwiseCodes::new(conv(split), quant);
+            let got = crate::split::testing::bits(&coded(false), std::slice::from_ref(&input));
+            assert_eq!(got, want, "h {h} c {c} k {k} s {s}");
+            if h >= 56 {
+                crate::split::testing::same_bits_split(&coded(true), &coded(false), &[input]);
+            }
         }
     }
 
