@@ -729,7 +729,7 @@ mod simd128 {
 /// the results are bit-identical to the portable loop's.
 #[cfg(target_arch = "x86_64")]
 mod avx512 {
-    use super::{each_window, Bounds, Geometry};
+    use super::{each_window, valid, Bounds, Geometry, Window};
     use std::arch::x86_64::*;
 
     /// # Safety
@@ -779,7 +779,7 @@ mod avx512 {
         while ch + 64 <= g.c {
             // SAFETY: this function's contract, and the block's 4 whole vectors are channels
             // ch .. ch + 64 <= c.
-            unsafe { block::<4, false, K>(g, src, k, b, dst, ch, 0xffff, act) };
+            unsafe { block::<4, false, K, 2>(g, src, k, b, dst, ch, 0xffff, act) };
             ch += 64;
         }
         // The rest in one sweep of the image (24 channels: one block of a whole and a
@@ -796,14 +796,14 @@ mod avx512 {
         unsafe {
             match (rest.div_ceil(16), masked) {
                 (0, _) => {}
-                (1, false) => block::<1, false, K>(g, src, k, b, dst, ch, mask, act),
-                (1, true) => block::<1, true, K>(g, src, k, b, dst, ch, mask, act),
-                (2, false) => block::<2, false, K>(g, src, k, b, dst, ch, mask, act),
-                (2, true) => block::<2, true, K>(g, src, k, b, dst, ch, mask, act),
-                (3, false) => block::<3, false, K>(g, src, k, b, dst, ch, mask, act),
-                (3, true) => block::<3, true, K>(g, src, k, b, dst, ch, mask, act),
+                (1, false) => block::<1, false, K, 4>(g, src, k, b, dst, ch, mask, act),
+                (1, true) => block::<1, true, K, 4>(g, src, k, b, dst, ch, mask, act),
+                (2, false) => block::<2, false, K, 4>(g, src, k, b, dst, ch, mask, act),
+                (2, true) => block::<2, true, K, 4>(g, src, k, b, dst, ch, mask, act),
+                (3, false) => block::<3, false, K, 2>(g, src, k, b, dst, ch, mask, act),
+                (3, true) => block::<3, true, K, 2>(g, src, k, b, dst, ch, mask, act),
                 // rest < 64: four vectors only with a partial last one.
-                (_, _) => block::<4, true, K>(g, src, k, b, dst, ch, mask, act),
+                (_, _) => block::<4, true, K, 2>(g, src, k, b, dst, ch, mask, act),
             }
         }
     }
@@ -811,7 +811,10 @@ mod avx512 {
     /// Channels `ch .. ch + 16·N` of the whole output; with `MASKED`, the last vector's
     /// lanes outside `mask` are neither read nor written. With `K > 0` (a `K x K` kernel)
     /// the windows inside the image take a fully unrolled path (the same taps in the same
-    /// order).
+    /// order), `P` neighbouring output pixels of a row at a time where all their windows
+    /// are inside: `P·N` independent chains of multiply-adds (one pixel's `N` alone wait on
+    /// the multiply-add's latency), each tap's weights loaded once for the `P` pixels. Every
+    /// value is summed as alone: the same bits.
     ///
     /// # Safety
     /// As [`sweep`] (the CPU, the slices behind the pointers, `K`), and the lanes read and
@@ -820,7 +823,7 @@ mod avx512 {
     #[target_feature(enable = "avx512f")]
     #[inline]
     #[allow(clippy::too_many_arguments)]
-    unsafe fn block<const N: usize, const MASKED: bool, const K: usize>(
+    unsafe fn block<const N: usize, const MASKED: bool, const K: usize, const P: usize>(
         g: &Geometry,
         src: *const f32,
         k: *const f32,
@@ -848,8 +851,31 @@ mod avx512 {
             // SAFETY: ch <= c, the number of biases `b` holds; `load` reads channels below c.
             *v = load(unsafe { b.add(ch) }, r);
         }
+        // The activation and the store of one pixel's accumulators.
+        let store = |pixel: usize, acc: &[__m512; N]| {
+            // SAFETY: `pixel` is a pixel of the output rows `dst` holds; its channels from
+            // ch on, below c, are written below.
+            let out = unsafe { dst.add(pixel * c + ch) };
+            for (r, a) in acc.iter().enumerate() {
+                // max(x, low) then min(., high), as the portable loop.
+                let v = if clamp {
+                    _mm512_min_ps(_mm512_max_ps(*a, lo), hi)
+                } else {
+                    *a
+                };
+                // SAFETY: as above: vector r of the pixel's channels from ch, under `mask` for
+                // the last one with `MASKED`, holds channels below c (the contract).
+                unsafe {
+                    if MASKED && r + 1 == N {
+                        _mm512_mask_storeu_ps(out.add(16 * r), mask, v);
+                    } else {
+                        _mm512_storeu_ps(out.add(16 * r), v);
+                    }
+                }
+            }
+        };
         let row = g.w * c;
-        each_window(g, |win| {
+        let one = |win: Window| {
             let mut acc = bias;
             if K > 0 && win.ky == (0, K) && win.kx == (0, K) {
                 // SAFETY: the window's K x K taps are all inside the image (its valid rows and
@@ -883,27 +909,64 @@ mod avx512 {
                     }
                 }
             }
-            // SAFETY: `win.pixel` is a pixel of the output rows `dst` holds (`each_window`);
-            // its channels from ch on, below c, are written below.
-            let out = unsafe { dst.add(win.pixel * c + ch) };
-            for (r, a) in acc.iter().enumerate() {
-                // max(x, low) then min(., high), as the portable loop.
-                let v = if clamp {
-                    _mm512_min_ps(_mm512_max_ps(*a, lo), hi)
-                } else {
-                    *a
-                };
-                // SAFETY: as above: vector r of the pixel's channels from ch, under `mask` for
-                // the last one with `MASKED`, holds channels below c (the contract).
-                unsafe {
-                    if MASKED && r + 1 == N {
-                        _mm512_mask_storeu_ps(out.add(16 * r), mask, v);
-                    } else {
-                        _mm512_storeu_ps(out.add(16 * r), v);
+            store(win.pixel, &acc);
+        };
+        if K == 0 || P < 2 {
+            each_window(g, one);
+            return;
+        }
+        for oy in g.rows.0..g.rows.1 {
+            let y0 = (oy * g.sy) as isize - g.pt as isize;
+            let ky = valid(y0, g.h, g.kh);
+            let mut ox = 0;
+            while ox < g.ow {
+                let x0 = (ox * g.sx) as isize - g.pl as isize;
+                let kx = valid(x0, g.w, g.kw);
+                let pixel = (oy - g.rows.0) * g.ow + ox;
+                // The windows of pixels ox .. ox + P all inside the image: the first's and
+                // the last's are (the ones between lie between them).
+                let last = x0 + ((P - 1) * g.sx) as isize;
+                if ky == (0, K) && kx == (0, K) && ox + P <= g.ow && valid(last, g.w, K) == (0, K) {
+                    let mut acc = [bias; P];
+                    // SAFETY: the P windows' K x K taps are all inside the image (checked
+                    // above: rows (0, K) of each, columns (0, K) of the first and the last),
+                    // the first one's top-left tap included.
+                    let i0 = unsafe { src.add((y0 as usize * g.w + x0 as usize) * c + ch) };
+                    for ky in 0..K {
+                        for kx in 0..K {
+                            // SAFETY: of the K x K weights (kh == kw == K).
+                            let w = unsafe { k.add((ky * K + kx) * c + ch) };
+                            let mut wv = [_mm512_setzero_ps(); N];
+                            for (r, v) in wv.iter_mut().enumerate() {
+                                *v = load(w, r);
+                            }
+                            for (p, acc) in acc.iter_mut().enumerate() {
+                                // SAFETY: tap (ky, kx) of pixel ox + p's window, inside the
+                                // image as above.
+                                let i = unsafe { i0.add(ky * row + (kx + p * g.sx) * c) };
+                                for (r, a) in acc.iter_mut().enumerate() {
+                                    *a = _mm512_fmadd_ps(load(i, r), wv[r], *a);
+                                }
+                            }
+                        }
                     }
+                    for (p, acc) in acc.iter().enumerate() {
+                        // Pixels ox .. ox + P <= ow of output row oy, one of `dst`'s rows.
+                        store(pixel + p, acc);
+                    }
+                    ox += P;
+                } else {
+                    one(Window {
+                        pixel,
+                        y0,
+                        x0,
+                        ky,
+                        kx,
+                    });
+                    ox += 1;
                 }
             }
-        });
+        }
     }
 }
 
@@ -1208,7 +1271,9 @@ mod tests {
         target_arch = "x86_64",
         all(target_arch = "wasm32", target_feature = "simd128")
     ))]
-    const BLOCK_SHAPES: [(usize, usize, usize, usize, usize, bool); 11] = [
+    /// (h, w, c, k, stride, same), the last five wide enough for the AVX-512 kernel's runs
+    /// of 4 (16 and 32 channels) and 2 (40 and 64) pixels, with single pixels after them.
+    const BLOCK_SHAPES: [(usize, usize, usize, usize, usize, bool); 16] = [
         (9, 8, 72, 3, 1, true),
         (10, 11, 45, 5, 2, true),
         (8, 8, 40, 3, 2, false),
@@ -1220,6 +1285,11 @@ mod tests {
         (6, 6, 48, 5, 1, true),
         (7, 6, 56, 3, 1, true),
         (6, 7, 120, 5, 2, true),
+        (7, 14, 32, 5, 1, true),
+        (6, 21, 24, 3, 2, true),
+        (5, 13, 16, 3, 1, false),
+        (5, 12, 64, 5, 1, true),
+        (4, 15, 40, 5, 2, false),
     ];
 
     /// The `simd128` kernel sums in the portable loop's order, a product then a sum per tap
@@ -1293,7 +1363,7 @@ mod speed {
     use crate::pointwise::{Isa, Kernel};
 
     /// Microseconds per call of each SIMD kernel the CPU runs, side by side, on the
-    /// hand-landmark lite shapes (best of 7):
+    /// hand-landmark lite shapes and three of palm_detection_full's (best of 7):
     /// `cargo test --release -p monohand-tflite depthwise::speed -- --ignored --nocapture`.
     #[test]
     #[ignore = "a measurement, not a test"]
@@ -1308,6 +1378,10 @@ mod speed {
             (14, 14, 288, 5, 1),
             (14, 14, 384, 3, 1),
             (7, 7, 672, 5, 1),
+            // palm_detection_full's.
+            (96, 96, 32, 5, 1),
+            (48, 48, 64, 5, 1),
+            (24, 24, 128, 5, 1),
         ];
         for (h, w, c, kh, s) in shapes {
             let g = square_geometry(h, w, c, kh, s, true);
