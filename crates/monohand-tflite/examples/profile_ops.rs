@@ -5,6 +5,12 @@
 //! `MONOHAND_OP_THREADS=1 cargo run --release -p monohand-tflite --example profile_ops -- \
 //!  ~/.cache/monohand/models/hand_landmark_full.tflite [runs]`
 //!
+//! `INT8=crates/monohand-vision/int8/hand_landmark_full.txt` first swaps every 1x1 layer the
+//! calibration table names for its int8 version ([`monohand_tflite::quantize_pointwise`];
+//! the table's lines are `name min_bits max_bits # ...`, its checksum is not checked here);
+//! with `UNCODED=1` too, each int8 layer codes its own f32 input (no
+//! [`monohand_tflite::NhwcDepthwiseCodes`]), to compare.
+//!
 //! `PER_NODE=1` times each node (with its first input's and its output's shapes) instead of each operator type.
 //! (monohand-vision's `profile_net` does the same through the model store; this one needs
 //! only this crate.) The input is a constant 0.5 image; timing one node at a time adds a
@@ -26,7 +32,29 @@ fn main() -> TractResult<()> {
         .transpose()?
         .unwrap_or(50);
     let bytes = std::fs::read(&path)?;
-    let model = monohand_tflite::import(&bytes).map_err(|e| format_err!("{e}"))?;
+    let mut model = monohand_tflite::import(&bytes).map_err(|e| format_err!("{e}"))?;
+    if let Some(table) = std::env::var_os("INT8") {
+        let ranges = read_table(&std::fs::read_to_string(table)?)?;
+        let n = if std::env::var_os("UNCODED").is_some() {
+            // Each 1x1 layer codes its own f32 input (the int8 layers alone, without
+            // `code_depthwise_results`), to compare.
+            let mut n = 0;
+            for id in 0..model.nodes().len() {
+                let node = model.node(id);
+                if let (Some(op), Some(r)) = (
+                    node.op_as::<monohand_tflite::PointwiseConv>(),
+                    ranges.get(&node.name),
+                ) {
+                    model.node_mut(id).op = Box::new(op.to_int8(r.quant())?);
+                    n += 1;
+                }
+            }
+            n
+        } else {
+            monohand_tflite::quantize_pointwise(&mut model, &ranges, |_, _| false)?
+        };
+        println!("int8: {n} of {} 1x1 layers in the table", ranges.len());
+    }
     let model = model.into_optimized()?;
     let shape: Vec<usize> = model
         .input_fact(0)?
@@ -101,4 +129,23 @@ fn main() -> TractResult<()> {
         );
     }
     Ok(())
+}
+
+/// The ranges of a calibration table (monohand-vision's `Int8Table` format, read simply).
+fn read_table(text: &str) -> TractResult<HashMap<String, monohand_tflite::MinMax>> {
+    let bits = |s: &str| u32::from_str_radix(s, 16).map(f32::from_bits);
+    let mut ranges = HashMap::new();
+    for line in text.lines().skip(3) {
+        let parts: Vec<&str> = line
+            .split('#')
+            .next()
+            .unwrap_or("")
+            .split_whitespace()
+            .collect();
+        if let [name, lo, hi] = parts[..] {
+            let (min, max) = (bits(lo)?, bits(hi)?);
+            ranges.insert(name.to_owned(), monohand_tflite::MinMax { min, max });
+        }
+    }
+    Ok(ranges)
 }

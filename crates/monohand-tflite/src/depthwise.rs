@@ -11,6 +11,7 @@
 
 use tract_core::internal::*;
 
+use crate::int8::ActivationQuant;
 use crate::pointwise::Activation;
 
 /// Depthwise `KH x KW` convolution, depth multiplier 1, on `[1, H, W, C]` f32 tensors, with
@@ -75,21 +76,13 @@ impl EvalOp for NhwcDepthwise {
 
     fn eval(&self, _ctx: &EvalContext, inputs: TVec<TValue>) -> TractResult<TVec<TValue>> {
         let input = args_1!(inputs);
-        let shape = input.shape();
-        ensure!(
-            shape.len() == 4 && shape[0] == 1,
-            "depthwise expects [1, H, W, C], got {shape:?}"
-        );
-        let (h, w, c) = (shape[1], shape[2], shape[3]);
-        let (kh, kw, kc) = self.dims();
-        ensure!(kc == c, "depthwise kernel has {kc} channels, input {c}");
-        let (oh, ow, pt, pl) = self.output_shape(h, w);
+        let g = self.geometry(input.shape())?;
         // SAFETY: the tensor's values are left unwritten, and nothing reads one before it is
         // written: `run` writes every output value (the portable loop sets each to its bias
         // before accumulating into it; the SIMD kernels only store), over all the rows
         // (`rows` gives every row to exactly one piece), and when `ow` or `c` is 0 the tensor
         // has no values. An error drops the tensor without reading it (f32 has no drop).
-        let mut output = unsafe { Tensor::uninitialized::<f32>(&[1, oh, ow, c])? };
+        let mut output = unsafe { Tensor::uninitialized::<f32>(&[1, g.oh, g.ow, g.c])? };
         {
             let src = input.try_as_plain_ram()?;
             let src = src.as_slice::<f32>()?;
@@ -99,25 +92,12 @@ impl EvalOp for NhwcDepthwise {
             let b = b.as_slice::<f32>()?;
             let mut dst = output.try_as_plain_ram_mut()?;
             let dst = dst.as_slice_mut::<f32>()?;
-            let g = Geometry {
-                h,
-                w,
-                c,
-                kh,
-                kw,
-                sy: self.strides.0,
-                sx: self.strides.1,
-                pt,
-                pl,
-                oh,
-                ow,
-                rows: (0, oh),
-            };
-            if ow > 0 && c > 0 {
-                let work = oh * ow * c * kh * kw;
-                crate::split::team().rows(dst, ow * c, 1, work, self.split, &|first, dst| {
+            if g.ow > 0 && g.c > 0 {
+                let work = g.oh * g.ow * g.c * g.kh * g.kw;
+                let row = g.ow * g.c;
+                crate::split::team().rows(dst, row, 1, work, self.split, &|first, dst| {
                     let g = Geometry {
-                        rows: (first, first + dst.len() / (ow * c)),
+                        rows: (first, first + dst.len() / row),
                         ..g
                     };
                     run(
@@ -134,6 +114,176 @@ impl EvalOp for NhwcDepthwise {
             }
         }
         Ok(tvec!(output.into_tvalue()))
+    }
+}
+
+impl NhwcDepthwise {
+    /// The geometry of an evaluation on an input of `shape` (all the output rows).
+    fn geometry(&self, shape: &[usize]) -> TractResult<Geometry> {
+        ensure!(
+            shape.len() == 4 && shape[0] == 1,
+            "depthwise expects [1, H, W, C], got {shape:?}"
+        );
+        let (h, w, c) = (shape[1], shape[2], shape[3]);
+        let (kh, kw, kc) = self.dims();
+        ensure!(kc == c, "depthwise kernel has {kc} channels, input {c}");
+        let (oh, ow, pt, pl) = self.output_shape(h, w);
+        Ok(Geometry {
+            h,
+            w,
+            c,
+            kh,
+            kw,
+            sy: self.strides.0,
+            sx: self.strides.1,
+            pt,
+            pl,
+            oh,
+            ow,
+            rows: (0, oh),
+        })
+    }
+}
+
+/// Output values (f32) a [`NhwcDepthwiseCodes`] computes at a time into its thread's buffer
+/// before coding them: 32 KiB, in L1 while they are coded (at least one output row).
+const CODED_CHUNK: usize = 8 * 1024;
+
+thread_local! {
+    /// Each thread's buffer for the f32 rows of [`NhwcDepthwiseCodes`] before they are coded
+    /// (allocated on the thread's first call, reused).
+    static CHUNK: std::cell::RefCell<Vec<f32>> = const { std::cell::RefCell::new(Vec::new()) };
+}
+
+/// A [`NhwcDepthwise`] whose result is written as the 7-bit codes of an
+/// [`ActivationQuant`] (a `u8` tensor of the same shape) instead of f32: what a
+/// [`PointwiseConvInt8`](crate::PointwiseConvInt8) that reads it
+/// ([`with_coded_input`](crate::PointwiseConvInt8::with_coded_input)) would otherwise make
+/// from the f32 tensor as its first step. [`quantize_pointwise`](crate::quantize_pointwise)
+/// puts one in where a depthwise convolution's only reader is an int8 1x1 convolution.
+///
+/// A few output rows at a time (about 32 KiB of f32) are computed by the depthwise kernel
+/// into a buffer of the thread's own, then coded by the int8 kernels' quantizer while they
+/// are in cache: the codes are those the 1x1 convolution would make, bit for bit, but the
+/// f32 tensor is never written to memory nor read back.
+#[derive(Debug, Clone, PartialEq)]
+pub struct NhwcDepthwiseCodes {
+    conv: NhwcDepthwise,
+    quant: ActivationQuant,
+}
+
+// `ActivationQuant` compares its scale by bits: equality is reflexive.
+impl Eq for NhwcDepthwiseCodes {}
+
+impl NhwcDepthwiseCodes {
+    /// `conv`, its result coded with `quant`.
+    pub fn new(conv: NhwcDepthwise, quant: ActivationQuant) -> Self {
+        NhwcDepthwiseCodes { conv, quant }
+    }
+
+    /// The convolution.
+    pub fn conv(&self) -> &NhwcDepthwise {
+        &self.conv
+    }
+
+    /// The code of the result.
+    pub fn quant(&self) -> ActivationQuant {
+        self.quant
+    }
+}
+
+impl Op for NhwcDepthwiseCodes {
+    fn name(&self) -> StaticName {
+        "MonohandNhwcDepthwiseCodes".into()
+    }
+
+    fn info(&self) -> TractResult<Vec<String>> {
+        Ok(vec![format!(
+            "codes: scale {} zero {}",
+            self.quant.scale(),
+            self.quant.zero_point()
+        )])
+    }
+
+    op_as_typed_op!();
+}
+
+impl EvalOp for NhwcDepthwiseCodes {
+    op_out_of_plan!();
+
+    fn eval(&self, _ctx: &EvalContext, inputs: TVec<TValue>) -> TractResult<TVec<TValue>> {
+        let input = args_1!(inputs);
+        let g = self.conv.geometry(input.shape())?;
+        // SAFETY: the tensor's values are left unwritten, and nothing reads one before it is
+        // written: every output row is given to exactly one piece (`rows`), whose chunks
+        // cover its rows, and each chunk's codes are all stored by `quantize_values` (the
+        // depthwise kernel writes every value of the chunk's f32 buffer first, as in
+        // `NhwcDepthwise::eval`); when `ow` or `c` is 0 the tensor has no values. An error
+        // drops the tensor without reading it (u8 has no drop).
+        let mut output = unsafe { Tensor::uninitialized::<u8>(&[1, g.oh, g.ow, g.c])? };
+        {
+            let src = input.try_as_plain_ram()?;
+            let src = src.as_slice::<f32>()?;
+            let k = self.conv.kernel.try_as_plain_ram()?;
+            let k = k.as_slice::<f32>()?;
+            let b = self.conv.bias.try_as_plain_ram()?;
+            let b = b.as_slice::<f32>()?;
+            let mut dst = output.try_as_plain_ram_mut()?;
+            let dst = dst.as_slice_mut::<u8>()?;
+            if g.ow > 0 && g.c > 0 {
+                let work = g.oh * g.ow * g.c * g.kh * g.kw;
+                let row = g.ow * g.c;
+                let chunk = (CODED_CHUNK / row).max(1);
+                let act = self.conv.activation.bounds();
+                crate::split::team().rows(dst, row, 1, work, self.conv.split, &|first, dst| {
+                    with_chunk(chunk * row, |buf| {
+                        let rows = dst.len() / row;
+                        let mut r = 0;
+                        while r < rows {
+                            let m = chunk.min(rows - r);
+                            let g = Geometry {
+                                rows: (first + r, first + r + m),
+                                ..g
+                            };
+                            let values = &mut buf[..m * row];
+                            run(&g, src, k, b, values, act, self.conv.register_blocked);
+                            crate::int8::quantize_values(
+                                values,
+                                &mut dst[r * row..(r + m) * row],
+                                self.quant,
+                            );
+                            r += m;
+                        }
+                    });
+                    Ok(())
+                })?;
+            }
+        }
+        Ok(tvec!(output.into_tvalue()))
+    }
+}
+
+/// Calls `f` with this thread's f32 buffer for [`NhwcDepthwiseCodes`], at least `n` long
+/// (a new one if it is in use).
+fn with_chunk<R>(n: usize, f: impl FnOnce(&mut [f32]) -> R) -> R {
+    CHUNK.with(|s| match s.try_borrow_mut() {
+        Ok(mut s) => {
+            if s.len() < n {
+                s.resize(n, 0.0);
+            }
+            f(&mut s[..n])
+        }
+        // Re-entered on this thread (not expected): a buffer of its own.
+        Err(_) => f(&mut vec![0.0; n]),
+    })
+}
+
+impl TypedOp for NhwcDepthwiseCodes {
+    as_op!();
+
+    fn output_facts(&self, inputs: &[&TypedFact]) -> TractResult<TVec<TypedFact>> {
+        let f = self.conv.output_facts(inputs)?;
+        Ok(tvec!(u8::fact(f[0].shape.clone())))
     }
 }
 
@@ -579,7 +729,7 @@ mod simd128 {
 /// the results are bit-identical to the portable loop's.
 #[cfg(target_arch = "x86_64")]
 mod avx512 {
-    use super::{each_window, Bounds, Geometry};
+    use super::{each_window, valid, Bounds, Geometry, Window};
     use std::arch::x86_64::*;
 
     /// # Safety
@@ -629,7 +779,7 @@ mod avx512 {
         while ch + 64 <= g.c {
             // SAFETY: this function's contract, and the block's 4 whole vectors are channels
             // ch .. ch + 64 <= c.
-            unsafe { block::<4, false, K>(g, src, k, b, dst, ch, 0xffff, act) };
+            unsafe { block::<4, false, K, 2>(g, src, k, b, dst, ch, 0xffff, act) };
             ch += 64;
         }
         // The rest in one sweep of the image (24 channels: one block of a whole and a
@@ -646,14 +796,14 @@ mod avx512 {
         unsafe {
             match (rest.div_ceil(16), masked) {
                 (0, _) => {}
-                (1, false) => block::<1, false, K>(g, src, k, b, dst, ch, mask, act),
-                (1, true) => block::<1, true, K>(g, src, k, b, dst, ch, mask, act),
-                (2, false) => block::<2, false, K>(g, src, k, b, dst, ch, mask, act),
-                (2, true) => block::<2, true, K>(g, src, k, b, dst, ch, mask, act),
-                (3, false) => block::<3, false, K>(g, src, k, b, dst, ch, mask, act),
-                (3, true) => block::<3, true, K>(g, src, k, b, dst, ch, mask, act),
+                (1, false) => block::<1, false, K, 4>(g, src, k, b, dst, ch, mask, act),
+                (1, true) => block::<1, true, K, 4>(g, src, k, b, dst, ch, mask, act),
+                (2, false) => block::<2, false, K, 4>(g, src, k, b, dst, ch, mask, act),
+                (2, true) => block::<2, true, K, 4>(g, src, k, b, dst, ch, mask, act),
+                (3, false) => block::<3, false, K, 2>(g, src, k, b, dst, ch, mask, act),
+                (3, true) => block::<3, true, K, 2>(g, src, k, b, dst, ch, mask, act),
                 // rest < 64: four vectors only with a partial last one.
-                (_, _) => block::<4, true, K>(g, src, k, b, dst, ch, mask, act),
+                (_, _) => block::<4, true, K, 2>(g, src, k, b, dst, ch, mask, act),
             }
         }
     }
@@ -661,7 +811,10 @@ mod avx512 {
     /// Channels `ch .. ch + 16·N` of the whole output; with `MASKED`, the last vector's
     /// lanes outside `mask` are neither read nor written. With `K > 0` (a `K x K` kernel)
     /// the windows inside the image take a fully unrolled path (the same taps in the same
-    /// order).
+    /// order), `P` neighbouring output pixels of a row at a time where all their windows
+    /// are inside: `P·N` independent chains of multiply-adds (one pixel's `N` alone wait on
+    /// the multiply-add's latency), each tap's weights loaded once for the `P` pixels. Every
+    /// value is summed as alone: the same bits.
     ///
     /// # Safety
     /// As [`sweep`] (the CPU, the slices behind the pointers, `K`), and the lanes read and
@@ -670,7 +823,7 @@ mod avx512 {
     #[target_feature(enable = "avx512f")]
     #[inline]
     #[allow(clippy::too_many_arguments)]
-    unsafe fn block<const N: usize, const MASKED: bool, const K: usize>(
+    unsafe fn block<const N: usize, const MASKED: bool, const K: usize, const P: usize>(
         g: &Geometry,
         src: *const f32,
         k: *const f32,
@@ -698,8 +851,31 @@ mod avx512 {
             // SAFETY: ch <= c, the number of biases `b` holds; `load` reads channels below c.
             *v = load(unsafe { b.add(ch) }, r);
         }
+        // The activation and the store of one pixel's accumulators.
+        let store = |pixel: usize, acc: &[__m512; N]| {
+            // SAFETY: `pixel` is a pixel of the output rows `dst` holds; its channels from
+            // ch on, below c, are written below.
+            let out = unsafe { dst.add(pixel * c + ch) };
+            for (r, a) in acc.iter().enumerate() {
+                // max(x, low) then min(., high), as the portable loop.
+                let v = if clamp {
+                    _mm512_min_ps(_mm512_max_ps(*a, lo), hi)
+                } else {
+                    *a
+                };
+                // SAFETY: as above: vector r of the pixel's channels from ch, under `mask` for
+                // the last one with `MASKED`, holds channels below c (the contract).
+                unsafe {
+                    if MASKED && r + 1 == N {
+                        _mm512_mask_storeu_ps(out.add(16 * r), mask, v);
+                    } else {
+                        _mm512_storeu_ps(out.add(16 * r), v);
+                    }
+                }
+            }
+        };
         let row = g.w * c;
-        each_window(g, |win| {
+        let one = |win: Window| {
             let mut acc = bias;
             if K > 0 && win.ky == (0, K) && win.kx == (0, K) {
                 // SAFETY: the window's K x K taps are all inside the image (its valid rows and
@@ -733,27 +909,64 @@ mod avx512 {
                     }
                 }
             }
-            // SAFETY: `win.pixel` is a pixel of the output rows `dst` holds (`each_window`);
-            // its channels from ch on, below c, are written below.
-            let out = unsafe { dst.add(win.pixel * c + ch) };
-            for (r, a) in acc.iter().enumerate() {
-                // max(x, low) then min(., high), as the portable loop.
-                let v = if clamp {
-                    _mm512_min_ps(_mm512_max_ps(*a, lo), hi)
-                } else {
-                    *a
-                };
-                // SAFETY: as above: vector r of the pixel's channels from ch, under `mask` for
-                // the last one with `MASKED`, holds channels below c (the contract).
-                unsafe {
-                    if MASKED && r + 1 == N {
-                        _mm512_mask_storeu_ps(out.add(16 * r), mask, v);
-                    } else {
-                        _mm512_storeu_ps(out.add(16 * r), v);
+            store(win.pixel, &acc);
+        };
+        if K == 0 || P < 2 {
+            each_window(g, one);
+            return;
+        }
+        for oy in g.rows.0..g.rows.1 {
+            let y0 = (oy * g.sy) as isize - g.pt as isize;
+            let ky = valid(y0, g.h, g.kh);
+            let mut ox = 0;
+            while ox < g.ow {
+                let x0 = (ox * g.sx) as isize - g.pl as isize;
+                let kx = valid(x0, g.w, g.kw);
+                let pixel = (oy - g.rows.0) * g.ow + ox;
+                // The windows of pixels ox .. ox + P all inside the image: the first's and
+                // the last's are (the ones between lie between them).
+                let last = x0 + ((P - 1) * g.sx) as isize;
+                if ky == (0, K) && kx == (0, K) && ox + P <= g.ow && valid(last, g.w, K) == (0, K) {
+                    let mut acc = [bias; P];
+                    // SAFETY: the P windows' K x K taps are all inside the image (checked
+                    // above: rows (0, K) of each, columns (0, K) of the first and the last),
+                    // the first one's top-left tap included.
+                    let i0 = unsafe { src.add((y0 as usize * g.w + x0 as usize) * c + ch) };
+                    for ky in 0..K {
+                        for kx in 0..K {
+                            // SAFETY: of the K x K weights (kh == kw == K).
+                            let w = unsafe { k.add((ky * K + kx) * c + ch) };
+                            let mut wv = [_mm512_setzero_ps(); N];
+                            for (r, v) in wv.iter_mut().enumerate() {
+                                *v = load(w, r);
+                            }
+                            for (p, acc) in acc.iter_mut().enumerate() {
+                                // SAFETY: tap (ky, kx) of pixel ox + p's window, inside the
+                                // image as above.
+                                let i = unsafe { i0.add(ky * row + (kx + p * g.sx) * c) };
+                                for (r, a) in acc.iter_mut().enumerate() {
+                                    *a = _mm512_fmadd_ps(load(i, r), wv[r], *a);
+                                }
+                            }
+                        }
                     }
+                    for (p, acc) in acc.iter().enumerate() {
+                        // Pixels ox .. ox + P <= ow of output row oy, one of `dst`'s rows.
+                        store(pixel + p, acc);
+                    }
+                    ox += P;
+                } else {
+                    one(Window {
+                        pixel,
+                        y0,
+                        x0,
+                        ky,
+                        kx,
+                    });
+                    ox += 1;
                 }
             }
-        });
+        }
     }
 }
 
@@ -952,6 +1165,46 @@ mod tests {
         }
     }
 
+    #[test]
+    fn coded_results_are_the_codes_of_the_f32_results() {
+        // (h, c, k, stride, register-blocked): the landmark networks' 112x112x24 layer (one
+        // output row per chunk), several rows per chunk, channels off the vectors and the
+        // group of 4, the portable loop; a code range narrower than the results (clamped).
+        for (h, c, k, s, blocked) in [
+            (112, 24, 3, 1, true),
+            (14, 480, 5, 1, true),
+            (9, 37, 3, 2, true),
+            (7, 5, 5, 1, true),
+            (13, 40, 3, 1, false),
+        ] {
+            let (x, kv, b) = data(h * h * c, k * k * c, c);
+            let conv = |split| NhwcDepthwise {
+                kernel: Tensor::from_shape(&[k, k, c], &kv)
+                    .expect("k")
+                    .into_arc_tensor(),
+                bias: tensor1(&b).into_arc_tensor(),
+                strides: (s, s),
+                same: true,
+                activation: Activation::Relu6,
+                register_blocked: blocked,
+                split,
+            };
+            let quant = ActivationQuant::from_min_max(0.0, 5.0);
+            let input = Tensor::from_shape(&[1, h, h, c], &x).expect("x");
+            let values = crate::split::testing::bits(&conv(false), std::slice::from_ref(&input));
+            let want: Vec<u32> = values
+                .iter()
+                .map(|&v| quant.quantize(f32::from_bits(v)) as u32)
+                .collect();
+            let coded = |split| NhwcDepthwiseCodes::new(conv(split), quant);
+            let got = crate::split::testing::bits(&coded(false), std::slice::from_ref(&input));
+            assert_eq!(got, want, "h {h} c {c} k {k} s {s}");
+            if h >= 56 {
+                crate::split::testing::same_bits_split(&coded(true), &coded(false), &[input]);
+            }
+        }
+    }
+
     fn matches_naive_reference_with_channels(c: usize) {
         let (h, w) = (7, 6);
         let x: Vec<f32> = (0..h * w * c)
@@ -1018,7 +1271,9 @@ mod tests {
         target_arch = "x86_64",
         all(target_arch = "wasm32", target_feature = "simd128")
     ))]
-    const BLOCK_SHAPES: [(usize, usize, usize, usize, usize, bool); 11] = [
+    /// (h, w, c, k, stride, same), the last five wide enough for the AVX-512 kernel's runs
+    /// of 4 (16 and 32 channels) and 2 (40 and 64) pixels, with single pixels after them.
+    const BLOCK_SHAPES: [(usize, usize, usize, usize, usize, bool); 16] = [
         (9, 8, 72, 3, 1, true),
         (10, 11, 45, 5, 2, true),
         (8, 8, 40, 3, 2, false),
@@ -1030,6 +1285,11 @@ mod tests {
         (6, 6, 48, 5, 1, true),
         (7, 6, 56, 3, 1, true),
         (6, 7, 120, 5, 2, true),
+        (7, 14, 32, 5, 1, true),
+        (6, 21, 24, 3, 2, true),
+        (5, 13, 16, 3, 1, false),
+        (5, 12, 64, 5, 1, true),
+        (4, 15, 40, 5, 2, false),
     ];
 
     /// The `simd128` kernel sums in the portable loop's order, a product then a sum per tap
@@ -1103,7 +1363,7 @@ mod speed {
     use crate::pointwise::{Isa, Kernel};
 
     /// Microseconds per call of each SIMD kernel the CPU runs, side by side, on the
-    /// hand-landmark lite shapes (best of 7):
+    /// hand-landmark lite shapes and three of palm_detection_full's (best of 7):
     /// `cargo test --release -p monohand-tflite depthwise::speed -- --ignored --nocapture`.
     #[test]
     #[ignore = "a measurement, not a test"]
@@ -1118,6 +1378,10 @@ mod speed {
             (14, 14, 288, 5, 1),
             (14, 14, 384, 3, 1),
             (7, 7, 672, 5, 1),
+            // palm_detection_full's.
+            (96, 96, 32, 5, 1),
+            (48, 48, 64, 5, 1),
+            (24, 24, 128, 5, 1),
         ];
         for (h, w, c, kh, s) in shapes {
             let g = square_geometry(h, w, c, kh, s, true);

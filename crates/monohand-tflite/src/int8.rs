@@ -45,6 +45,13 @@
 //!   16 channels in 8 `ymm` accumulators;
 //! * **portable**, the reference.
 //!
+//! **Coded inputs**: where the input is the result of a depthwise convolution that nothing
+//! else reads, [`quantize_pointwise`] has that convolution write the codes itself
+//! ([`NhwcDepthwiseCodes`](crate::NhwcDepthwiseCodes): a few f32 rows at a time into a
+//! buffer in L1, coded there with the same quantizer) and the 1x1 convolution read them
+//! ([`PointwiseConvInt8::with_coded_input`]): the same codes, so the same bits, without the
+//! f32 tensor's write and read (a quarter of the bytes cross the caches).
+//!
 //! Every kernel gives the portable one's bits: the sums are exact in all of them, and the
 //! epilogues round alike. (The VNNI kernels start their accumulators at `-z·Σw_q`, which
 //! leaves the same i32 as subtracting it at the end.) `MONOHAND_KERNEL` caps the level
@@ -267,6 +274,9 @@ pub struct PointwiseConvInt8 {
     epilogue: Arc<Epilogue>,
     activation: Activation,
     residual: Option<Activation>,
+    /// Input 0 is already coded: a `u8` tensor of `input`'s codes, rows of `cin == kp`
+    /// bytes ([`with_coded_input`](Self::with_coded_input)).
+    coded_input: bool,
     /// Share large outputs between the cores ([`crate::split`]).
     split: bool,
 }
@@ -364,6 +374,7 @@ impl PointwiseConvInt8 {
             }),
             activation,
             residual: None,
+            coded_input: false,
             split: true,
         })
     }
@@ -396,6 +407,26 @@ impl PointwiseConvInt8 {
         e.alpha = Some(padded(&a, self.cout));
         self.epilogue = Arc::new(e);
         Ok(self)
+    }
+
+    /// Takes input 0 already coded: a `u8` tensor of [`input_quant`](Self::input_quant)'s
+    /// codes (as [`NhwcDepthwiseCodes`](crate::NhwcDepthwiseCodes) writes them), instead of
+    /// f32 values to code. The result is the same bits as coding the f32 values here. Only
+    /// where the input channels are a multiple of 4 (the rows of codes are then the
+    /// kernels' rows, without padding): an error otherwise.
+    pub fn with_coded_input(mut self) -> TractResult<Self> {
+        ensure!(
+            self.cin == self.kp,
+            "a coded input needs a multiple of {KG} channels, not {}",
+            self.cin
+        );
+        self.coded_input = true;
+        Ok(self)
+    }
+
+    /// Whether input 0 is already coded (see [`with_coded_input`](Self::with_coded_input)).
+    pub fn has_coded_input(&self) -> bool {
+        self.coded_input
     }
 
     /// Input channels.
@@ -440,7 +471,28 @@ impl PointwiseConvInt8 {
     /// (at most about 64 KiB, or the whole coded input of a layer of fewer than 256 rows),
     /// allocated on its first call and reused after that.
     pub fn compute(&self, x: &[f32], residual: Option<&[f32]>, out: &mut [f32]) -> TractResult<()> {
-        self.compute_with(x, residual, out, Int8Kernel::best(), false)
+        self.compute_with(Input::Values(x), residual, out, Int8Kernel::best(), false)
+    }
+
+    /// [`compute`](Self::compute) from rows of codes already made with
+    /// [`input_quant`](Self::input_quant) (`Cin` bytes each; `Cin` a multiple of 4).
+    pub fn compute_coded(
+        &self,
+        codes: &[u8],
+        residual: Option<&[f32]>,
+        out: &mut [f32],
+    ) -> TractResult<()> {
+        ensure!(
+            self.cin == self.kp,
+            "coded rows need a multiple of {KG} channels"
+        );
+        self.compute_with(
+            Input::Codes(codes),
+            residual,
+            out,
+            Int8Kernel::best(),
+            false,
+        )
     }
 
     /// [`compute`](Self::compute) with a given kernel; with `split`, a large product is
@@ -448,19 +500,21 @@ impl PointwiseConvInt8 {
     /// shares it: by rows where there are many (each piece coding its own rows), else by
     /// channels (the input coded once, then shared). Every value is computed as in one
     /// piece: the same bits.
-    pub(crate) fn compute_with(
+    pub(crate) fn compute_with<'x>(
         &self,
-        x: &[f32],
+        x: impl Into<Input<'x>>,
         residual: Option<&[f32]>,
         out: &mut [f32],
         kernel: Int8Kernel,
         split: bool,
     ) -> TractResult<()> {
+        let x = x.into();
         let rows = x.len() / self.cin;
         let panels = self.cout.div_ceil(NR);
         let e = &*self.epilogue;
         ensure!(
             x.len() == rows * self.cin
+                && (matches!(x, Input::Values(_)) || self.cin == self.kp)
                 && out.len() == rows * self.cout
                 && self.packed.len() == panels * self.kp * NR
                 && e.zcorr.len() == panels * NR
@@ -471,15 +525,48 @@ impl PointwiseConvInt8 {
                 && residual.is_some() == self.residual.is_some(),
             "int8 pointwise convolution: inconsistent buffer sizes"
         );
+        // The f32 rows that `run_rows` codes (none when they come coded).
+        let values = match x {
+            Input::Values(v) => v,
+            Input::Codes(_) => &[],
+        };
         let job = Job {
             op: self,
-            x,
+            x: values,
             residual,
             out: crate::split::Out(out.as_mut_ptr()),
             kernel,
         };
         let team = crate::split::team();
         let work = rows * self.cin * self.cout;
+        if let Input::Codes(q) = x {
+            // Rows of `kp` codes (`cin == kp`, checked), ready for the tiles: by rows or by
+            // channels as below, without coding.
+            return if rows >= ROWS_TO_SPLIT {
+                // Blocks of rows as `run_rows` codes them, so that every panel passes over
+                // a block while it is in cache.
+                let mr = kernel.rows();
+                let block = (ROW_BLOCK_BYTES / self.kp).max(mr) / mr * mr;
+                team.pieces(rows, mr, work, split, &|r| {
+                    for r0 in r.clone().step_by(block) {
+                        let r1 = (r0 + block).min(r.end);
+                        let q = &q[r0 * self.kp..r1 * self.kp];
+                        // SAFETY: the lengths were checked and `out` is borrowed mutably
+                        // here; the pieces' rows do not overlap and are within `0..rows`,
+                        // r0..r1 is within the piece's, and `q` holds those rows' codes.
+                        unsafe { job.tiles(q, r0..r1, 0..panels) };
+                    }
+                    Ok(())
+                })
+            } else {
+                team.pieces(panels, kernel.panels(), work, split, &|p| {
+                    // SAFETY: as above; `q` codes all the rows, and the pieces' panels do not
+                    // overlap and are within `0..panels`.
+                    unsafe { job.tiles(q, 0..rows, p) };
+                    Ok(())
+                })
+            };
+        }
         if rows >= ROWS_TO_SPLIT {
             team.pieces(rows, kernel.rows(), work, split, &|r| {
                 with_scratch(|s| {
@@ -496,7 +583,7 @@ impl PointwiseConvInt8 {
                     s.resize(n, 0);
                 }
                 let q = &mut s[..n];
-                quantize_rows(x, self.cin, self.kp, self.input, q, kernel);
+                quantize_rows(values, self.cin, self.kp, self.input, q, kernel);
                 let q = &*q;
                 team.pieces(panels, kernel.panels(), work, split, &|p| {
                     // SAFETY: as above; `q` codes all the rows, and the pieces' panels do not
@@ -507,6 +594,50 @@ impl PointwiseConvInt8 {
             })
         }
     }
+}
+
+/// The input of one evaluation: f32 values to code, or rows of codes made already.
+#[derive(Clone, Copy)]
+pub(crate) enum Input<'a> {
+    /// Rows of `cin` f32 values.
+    Values(&'a [f32]),
+    /// Rows of `cin == kp` codes.
+    Codes(&'a [u8]),
+}
+
+impl<'a> From<&'a [f32]> for Input<'a> {
+    fn from(v: &'a [f32]) -> Self {
+        Input::Values(v)
+    }
+}
+
+impl<'a> From<&'a Vec<f32>> for Input<'a> {
+    fn from(v: &'a Vec<f32>) -> Self {
+        Input::Values(v)
+    }
+}
+
+impl<'a> From<&'a [u8]> for Input<'a> {
+    fn from(q: &'a [u8]) -> Self {
+        Input::Codes(q)
+    }
+}
+
+impl Input<'_> {
+    /// The number of values (or codes).
+    fn len(&self) -> usize {
+        match self {
+            Input::Values(v) => v.len(),
+            Input::Codes(q) => q.len(),
+        }
+    }
+}
+
+/// Codes `x` into `q` (of the same length) with `quant` and the quantizer of the best int8
+/// kernel: the codes a [`PointwiseConvInt8`] with this input code makes of these values.
+pub(crate) fn quantize_values(x: &[f32], q: &mut [u8], quant: ActivationQuant) {
+    let n = x.len().min(q.len());
+    quantize_run(&x[..n], &mut q[..n], quant, Int8Kernel::best());
 }
 
 /// Calls `f` with this thread's buffer for quantized rows (a new one if it is in use).
@@ -1365,7 +1496,9 @@ pub fn pointwise_input_ranges(
 /// Replaces every [`PointwiseConv`](crate::PointwiseConv) node of `model` that `ranges` has
 /// a range for, and that `keep_f32` does not name, by the same convolution in int8
 /// ([`PointwiseConvInt8`], its input coded from the range); returns how many were replaced.
-/// An opt-in experiment (issue 46): nothing in the importer calls it.
+/// Then, where such a node's input is the result of a [`NhwcDepthwise`](crate::NhwcDepthwise)
+/// that nothing else reads, has the depthwise convolution write the codes
+/// ([`code_depthwise_results`]): the same results, bit for bit.
 pub fn quantize_pointwise(
     model: &mut TypedModel,
     ranges: &std::collections::HashMap<String, MinMax>,
@@ -1387,7 +1520,49 @@ pub fn quantize_pointwise(
         model.node_mut(id).op = Box::new(int8);
         replaced += 1;
     }
+    code_depthwise_results(model)?;
     Ok(replaced)
+}
+
+/// Where a [`PointwiseConvInt8`] of `model` reads the result of a
+/// [`NhwcDepthwise`](crate::NhwcDepthwise) that nothing else reads (nor is a model output),
+/// over a multiple of 4 channels, replaces the depthwise convolution by a
+/// [`NhwcDepthwiseCodes`](crate::NhwcDepthwiseCodes) that writes the 1x1 convolution's
+/// input codes, and has the 1x1 convolution read them
+/// ([`with_coded_input`](PointwiseConvInt8::with_coded_input)); returns how many pairs.
+/// The results are the same bits: the codes are those the 1x1 convolution made of the f32
+/// values, which are no longer written to memory and read back.
+pub fn code_depthwise_results(model: &mut TypedModel) -> TractResult<usize> {
+    let outputs = model.output_outlets()?.to_vec();
+    let mut fused = 0;
+    for id in 0..model.nodes().len() {
+        let node = model.node(id);
+        let Some(op) = node.op_as::<PointwiseConvInt8>() else {
+            continue;
+        };
+        if op.coded_input || op.cin != op.kp {
+            continue;
+        }
+        let Some(&from) = node.inputs.first() else {
+            continue;
+        };
+        let producer = model.node(from.node);
+        let Some(dw) = producer.op_as::<crate::NhwcDepthwise>() else {
+            continue;
+        };
+        if from.slot != 0 || producer.outputs[0].successors.len() != 1 || outputs.contains(&from) {
+            continue;
+        }
+        let codes = crate::NhwcDepthwiseCodes::new(dw.clone(), op.input);
+        let int8 = op.clone().with_coded_input()?;
+        let fact = u8::fact(producer.outputs[0].fact.shape.clone());
+        let producer = model.node_mut(from.node);
+        producer.op = Box::new(codes);
+        producer.outputs[0].fact = fact;
+        model.node_mut(id).op = Box::new(int8);
+        fused += 1;
+    }
+    Ok(fused)
 }
 
 thread_local! {
@@ -1403,14 +1578,15 @@ impl Op for PointwiseConvInt8 {
 
     fn info(&self) -> TractResult<Vec<String>> {
         Ok(vec![format!(
-            "{}->{} act {:?} residual {:?} prelu {} input scale {} zero {}",
+            "{}->{} act {:?} residual {:?} prelu {} input scale {} zero {}{}",
             self.cin,
             self.cout,
             self.activation,
             self.residual,
             self.has_prelu(),
             self.input.scale,
-            self.input.zero_point
+            self.input.zero_point,
+            if self.coded_input { " (coded)" } else { "" }
         )])
     }
 
@@ -1421,14 +1597,27 @@ impl EvalOp for PointwiseConvInt8 {
     op_out_of_plan!();
 
     fn eval(&self, _ctx: &EvalContext, inputs: TVec<TValue>) -> TractResult<TVec<TValue>> {
-        crate::pointwise::eval_1x1(
-            &inputs,
-            self.cin,
-            self.cout,
-            self.residual.is_some(),
-            "int8 pointwise convolution",
-            |x, r, o| self.compute_with(x, r, o, Int8Kernel::best(), self.split),
-        )
+        let what = "int8 pointwise convolution";
+        let has_residual = self.residual.is_some();
+        if self.coded_input {
+            crate::pointwise::eval_1x1::<u8>(
+                &inputs,
+                self.cin,
+                self.cout,
+                has_residual,
+                what,
+                |x, r, o| self.compute_with(x, r, o, Int8Kernel::best(), self.split),
+            )
+        } else {
+            crate::pointwise::eval_1x1::<f32>(
+                &inputs,
+                self.cin,
+                self.cout,
+                has_residual,
+                what,
+                |x, r, o| self.compute_with(x, r, o, Int8Kernel::best(), self.split),
+            )
+        }
     }
 }
 
@@ -1436,6 +1625,16 @@ impl TypedOp for PointwiseConvInt8 {
     as_op!();
 
     fn output_facts(&self, inputs: &[&TypedFact]) -> TractResult<TVec<TypedFact>> {
+        let want = if self.coded_input {
+            u8::datum_type()
+        } else {
+            f32::datum_type()
+        };
+        ensure!(
+            inputs[0].datum_type == want,
+            "int8 pointwise convolution over {want:?}, input is {:?}",
+            inputs[0].datum_type
+        );
         let mut shape = inputs[0].shape.to_tvec();
         let last = shape
             .last_mut()
@@ -1940,6 +2139,149 @@ mod tests {
             }
             crate::split::testing::same_bits_split(&make(true), &make(false), &inputs);
         }
+    }
+
+    #[test]
+    fn coded_rows_give_the_bits_of_coding_the_values() {
+        let mut g = Lcg(41);
+        // Input channels a multiple of 4 (the coded rows' condition), with rows below and
+        // above the split threshold and over one block of rows.
+        let shapes = SHAPES
+            .iter()
+            .copied()
+            .filter(|s| s.1 % KG == 0)
+            .chain([(3136, 24, 144), (49, 192, 40)]);
+        for shape in shapes {
+            let c = Case::random(&mut g, shape);
+            let quant = ActivationQuant::from_min_max(-0.5, 4.0);
+            let codes: Vec<u8> = c.x.iter().map(|&v| quant.quantize(v)).collect();
+            for (res, prelu) in [(None, false), (Some(Activation::Relu6), true)] {
+                let op = c.op(quant, Activation::Relu6, res, prelu);
+                let coded = op.clone().with_coded_input().expect("coded");
+                assert!(coded.has_coded_input() && !op.has_coded_input());
+                let r = res.map(|_| &c.r[..]);
+                for k in Int8Kernel::supported() {
+                    let want = c.run(&op, k);
+                    let mut got = vec![f32::NAN; want.len()];
+                    coded
+                        .compute_with(&codes[..], r, &mut got, k, false)
+                        .expect("coded");
+                    assert_eq!(differing_bits(&got, &want), 0, "{k:?} {shape:?}");
+                }
+            }
+        }
+        // As a tract operator, in one piece and shared between threads (by rows, by
+        // channels).
+        for (rows, cin, cout) in [(3136, 24, 144), (49, 192, 1152)] {
+            let c = Case::random(&mut g, (rows, cin, cout));
+            let quant = ActivationQuant::from_min_max(-1.0, 5.0);
+            let codes: Vec<u8> = c.x.iter().map(|&v| quant.quantize(v)).collect();
+            let op = |split| {
+                c.op(quant, Activation::Relu6, None, false)
+                    .with_split(split)
+            };
+            let coded = |split| op(split).with_coded_input().expect("coded");
+            let x = Tensor::from_shape(&[1, rows, 1, cin], &c.x).expect("x");
+            let q = Tensor::from_shape(&[1, rows, 1, cin], &codes).expect("codes");
+            let want = crate::split::testing::bits(&op(false), &[x]);
+            let got = crate::split::testing::bits(&coded(false), std::slice::from_ref(&q));
+            assert_eq!(got, want);
+            crate::split::testing::same_bits_split(&coded(true), &coded(false), &[q]);
+        }
+        // Not without whole groups of 4 channels.
+        let c = Case::random(&mut g, (4, 6, 8));
+        let op = c.op(
+            ActivationQuant::from_min_max(0.0, 1.0),
+            Activation::None,
+            None,
+            false,
+        );
+        assert!(op.with_coded_input().is_err());
+    }
+
+    /// `source -> depthwise (RELU6) -> 1x1`, and a second depthwise whose result is read by
+    /// two 1x1 convolutions (so not coded), in f32.
+    fn depthwise_model(g: &mut Lcg, c: usize) -> TypedModel {
+        let (h, k) = (9, 3);
+        let dw = |g: &mut Lcg| crate::NhwcDepthwise {
+            kernel: Tensor::from_shape(&[k, k, c], &g.vec(k * k * c, 1.0))
+                .expect("k")
+                .into_arc_tensor(),
+            bias: tensor1(&g.vec(c, 1.0)).into_arc_tensor(),
+            strides: (1, 1),
+            same: true,
+            activation: Activation::Relu6,
+            register_blocked: true,
+            split: false,
+        };
+        let pw = |g: &mut Lcg, cout: usize| {
+            let w = Tensor::from_shape(&[cout, c], &g.vec(cout * c, 1.0)).expect("w");
+            crate::PointwiseConv::new(&w, &tensor1(&g.vec(cout, 1.0)), Activation::None)
+                .expect("op")
+                .with_split(false)
+        };
+        let mut model = TypedModel::default();
+        let x = model.add_source("x", f32::fact([1, h, h, c])).expect("x");
+        let d1 = model.wire_node("dw1", dw(g), &[x]).expect("dw1")[0];
+        let p1 = model.wire_node("pw1", pw(g, c), &[d1]).expect("pw1")[0];
+        let d2 = model.wire_node("dw2", dw(g), &[p1]).expect("dw2")[0];
+        let a = model.wire_node("pw2", pw(g, 8), &[d2]).expect("pw2")[0];
+        let b = model.wire_node("pw3", pw(g, 8), &[d2]).expect("pw3")[0];
+        model.select_output_outlets(&[a, b]).expect("outputs");
+        model
+    }
+
+    #[test]
+    fn depthwise_results_read_only_by_an_int8_1x1_are_coded_with_the_same_bits() {
+        let mut g = Lcg(43);
+        let c = 24;
+        let model = depthwise_model(&mut g, c);
+        let input = Tensor::from_shape(&[1, 9, 9, c], &g.vec(81 * c, 3.0)).expect("x");
+        let ranges = pointwise_input_ranges(&model, &[tvec!(input.clone())]).expect("ranges");
+        assert_eq!(ranges.len(), 3);
+        // Each 1x1 layer in int8 coding its own input (no coded results).
+        let mut plain = model.clone();
+        for id in 0..plain.nodes().len() {
+            let node = plain.node(id);
+            if let Some(op) = node.op_as::<crate::PointwiseConv>() {
+                let int8 = op.to_int8(ranges[&node.name].quant()).expect("int8");
+                plain.node_mut(id).op = Box::new(int8);
+            }
+        }
+        let mut coded = model.clone();
+        assert_eq!(
+            quantize_pointwise(&mut coded, &ranges, |_, _| false).expect("q"),
+            3
+        );
+        let op_name = |m: &TypedModel, name: &str| {
+            let id = m.node_by_name(name).expect("node").id;
+            m.node(id).op().name().to_string()
+        };
+        assert_eq!(op_name(&coded, "dw1"), "MonohandNhwcDepthwiseCodes");
+        assert_eq!(op_name(&coded, "dw2"), "MonohandNhwcDepthwise");
+        for (name, is_coded) in [("pw1", true), ("pw2", false), ("pw3", false)] {
+            let id = coded.node_by_name(name).expect("node").id;
+            let op = coded.node(id).op_as::<PointwiseConvInt8>().expect("int8");
+            assert_eq!(op.has_coded_input(), is_coded, "{name}");
+        }
+        assert_eq!(code_depthwise_results(&mut coded).expect("again"), 0);
+        let run = |m: TypedModel| -> Vec<Vec<u32>> {
+            let out = m
+                .into_optimized()
+                .expect("optimised")
+                .into_runnable()
+                .expect("plan")
+                .run(tvec!(input.clone().into_tvalue()))
+                .expect("run");
+            out.iter()
+                .map(|o| {
+                    let o = o.try_as_plain_ram().expect("ram");
+                    let v = o.as_slice::<f32>().expect("f32");
+                    v.iter().map(|v| v.to_bits()).collect()
+                })
+                .collect()
+        };
+        assert_eq!(run(coded), run(plain));
     }
 
     #[test]

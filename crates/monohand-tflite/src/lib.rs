@@ -25,6 +25,10 @@
 //! included, and multiplied with [`PointwiseConv`]'s kernels). [`ImportOptions`] switches
 //! back to tract's built-in operators.
 //!
+//! In int8 ([`Precision::Int8`], [`quantize_pointwise`]), [`PointwiseConvInt8`] replaces
+//! [`PointwiseConv`], and a depthwise convolution read only by one becomes
+//! [`NhwcDepthwiseCodes`], which writes the int8 layer's input codes instead of f32.
+//!
 //! When one network runs alone, [`NhwcDepthwise`], [`PointwiseConv`] and [`NhwcConv`] share
 //! a large output between the cores, with the same results bit for bit (see [`Running`] and
 //! [`allow_split_here`]; `MONOHAND_OP_THREADS` sets how many threads, `1` none).
@@ -42,10 +46,10 @@ mod split;
 mod tensors;
 
 pub use conv::NhwcConv;
-pub use depthwise::NhwcDepthwise;
+pub use depthwise::{NhwcDepthwise, NhwcDepthwiseCodes};
 pub use int8::{
-    pointwise_input_ranges, quantize_pointwise, quantize_weights, ActivationQuant, MinMax,
-    PointwiseConvInt8, ACTIVATION_QMAX, WEIGHT_QMAX,
+    code_depthwise_results, pointwise_input_ranges, quantize_pointwise, quantize_weights,
+    ActivationQuant, MinMax, PointwiseConvInt8, ACTIVATION_QMAX, WEIGHT_QMAX,
 };
 pub use pointwise::{Activation, PointwiseConv};
 pub use prelu::ChannelPrelu;

@@ -315,17 +315,18 @@ impl EvalOp for PointwiseConv {
     }
 }
 
-/// The `eval` of a 1x1 convolution over channels-last f32 tensors (this operator's and
-/// [`crate::PointwiseConvInt8`]'s): checks the inputs (`cin` channels, a residual of the
+/// The `eval` of a 1x1 convolution over channels-last tensors (this operator's and
+/// [`crate::PointwiseConvInt8`]'s; input `X` f32, or u8 codes for a coded
+/// [`crate::PointwiseConvInt8`]; output f32): checks the inputs (`cin` channels, a residual of the
 /// output's shape when `has_residual`), makes the output (`cout` channels) and has
 /// `compute(input, residual, output)` write every one of its values.
-pub(crate) fn eval_1x1(
+pub(crate) fn eval_1x1<X: Datum>(
     inputs: &TVec<TValue>,
     cin: usize,
     cout: usize,
     has_residual: bool,
     what: &str,
-    compute: impl FnOnce(&[f32], Option<&[f32]>, &mut [f32]) -> TractResult<()>,
+    compute: impl FnOnce(&[X], Option<&[f32]>, &mut [f32]) -> TractResult<()>,
 ) -> TractResult<TVec<TValue>> {
     ensure!(
         inputs.len() == 1 + has_residual as usize,
@@ -358,7 +359,7 @@ pub(crate) fn eval_1x1(
         let rr = inputs.get(1).map(|r| r.try_as_plain_ram()).transpose()?;
         let mut o = output.try_as_plain_ram_mut()?;
         compute(
-            xr.as_slice::<f32>()?,
+            xr.as_slice::<X>()?,
             rr.as_ref().map(|r| r.as_slice::<f32>()).transpose()?,
             o.as_slice_mut::<f32>()?,
         )?;

@@ -323,13 +323,14 @@ fn cut(rows: usize, unit: usize, i: usize, n: usize) -> usize {
 }
 
 /// A pointer to an output that may cross to the helpers, which write disjoint parts.
-pub(crate) struct Out(pub(crate) *mut f32);
-// SAFETY: each piece writes its own part only (see `rows` and the operators' pieces).
-unsafe impl Sync for Out {}
+pub(crate) struct Out<T = f32>(pub(crate) *mut T);
+// SAFETY: each piece writes its own part only (see `rows` and the operators' pieces); the
+// values are plain numbers (f32 or u8 codes), sent between threads by value.
+unsafe impl<T: Send> Sync for Out<T> {}
 
-impl Out {
+impl<T> Out<T> {
     /// The output's first value.
-    pub(crate) fn ptr(&self) -> *mut f32 {
+    pub(crate) fn ptr(&self) -> *mut T {
         self.0
     }
 
@@ -341,7 +342,7 @@ impl Out {
     /// returned slice is in use (no other live reference overlaps them), which must end
     /// before the output's own borrow does (the slice's lifetime is not tied to it).
     #[allow(clippy::mut_from_ref)]
-    unsafe fn slice(&self, offset: usize, len: usize) -> &mut [f32] {
+    unsafe fn slice(&self, offset: usize, len: usize) -> &mut [T] {
         // SAFETY: the caller's contract.
         unsafe { std::slice::from_raw_parts_mut(self.0.add(offset), len) }
     }
@@ -396,9 +397,9 @@ impl Team {
 
     /// [`Team::pieces`] over the rows of `out` (rows of `row_len` values):
     /// `f(first_row, out_rows)` on disjoint parts of `out` that together cover it.
-    pub(crate) fn rows<F>(
+    pub(crate) fn rows<T: Send, F>(
         &self,
-        out: &mut [f32],
+        out: &mut [T],
         row_len: usize,
         unit: usize,
         work: usize,
@@ -406,7 +407,7 @@ impl Team {
         f: &F,
     ) -> TractResult<()>
     where
-        F: Fn(usize, &mut [f32]) -> TractResult<()> + Sync,
+        F: Fn(usize, &mut [T]) -> TractResult<()> + Sync,
     {
         ensure!(
             row_len > 0 && unit > 0 && out.len().is_multiple_of(row_len),
@@ -458,13 +459,17 @@ pub(crate) mod testing {
             .count()
     }
 
-    /// The bits of the first output of `op` on `inputs`, evaluated as a tract operator.
+    /// The bits of the first output of `op` on `inputs`, evaluated as a tract operator (an
+    /// f32 output's bits, or a u8 output's codes).
     pub(crate) fn bits(op: &dyn EvalOp, inputs: &[Tensor]) -> Vec<u32> {
         let out = op
             .eval_out_of_plan(inputs.iter().map(|t| t.clone().into_tvalue()).collect())
             .expect("eval")
             .expect("evaluates out of plan");
         let out = out[0].try_as_plain_ram().expect("ram");
+        if let Ok(codes) = out.as_slice::<u8>() {
+            return codes.iter().map(|&q| q as u32).collect();
+        }
         out.as_slice::<f32>()
             .expect("f32")
             .iter()
