@@ -1110,7 +1110,7 @@ mod avx2 {
         // lanes at and past `width` are masked off.
         unsafe {
             let ones = _mm256_set1_epi16(1);
-            let mut acc = [[_mm256_setzero_si256(); V]; M];
+            let mut acc = [start::<V>(t); M];
             let mut a = t.a;
             let mut b = t.b;
             for _ in 0..t.groups {
@@ -1128,6 +1128,42 @@ mod avx2 {
                 a = a.add(KG);
                 b = b.add(KG * NR);
             }
+            store::<M, V>(t, &acc);
+        }
+    }
+
+    /// Each accumulator's start: `-zcorr` of its 8 channels, so that the sums end at the
+    /// portable kernel's `sum - zcorr` (the same i32 values, wrapping alike).
+    ///
+    /// # Safety
+    /// The CPU has AVX2; `t.zcorr` holds `8·V` values.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    pub(super) unsafe fn start<const V: usize>(t: &Tile) -> [__m256i; V] {
+        let mut start = [_mm256_setzero_si256(); V];
+        for (v, s) in start.iter_mut().enumerate() {
+            // SAFETY: 8·v + 8 <= 8·V values of `zcorr` (the contract).
+            let z = unsafe { _mm256_loadu_si256(t.zcorr.add(8 * v) as *const __m256i) };
+            *s = _mm256_sub_epi32(_mm256_setzero_si256(), z);
+        }
+        start
+    }
+
+    /// The epilogue of an `M` x `8·V` tile whose sums less `zcorr` are `acc`, shared by the
+    /// AVX2 and AVX-VNNI kernels: scale, bias, activation, residual, PRELU on the registers
+    /// (no FMA, as the portable one), stored with a mask where the panel is narrower than
+    /// `8·V`.
+    ///
+    /// # Safety
+    /// The CPU has AVX2; `t` satisfies `Tile`'s contract with `t.m == M` and
+    /// `8·(V-1) < t.width <= 8·V`.
+    #[target_feature(enable = "avx2")]
+    #[inline]
+    pub(super) unsafe fn store<const M: usize, const V: usize>(t: &Tile, acc: &[[__m256i; V]; M]) {
+        // SAFETY: the CPU has AVX2 (the contract); `scale`, `bias`, `alpha` are read at
+        // 8·V <= NR values, `res` and `out` at rows i < M, 8·V channels of which the last
+        // vector's lanes at and past `width` are masked off (`Tile`'s contract).
+        unsafe {
             let lanes = (t.width - 8 * (V - 1)) as i32;
             let mask = _mm256_cmpgt_epi32(
                 _mm256_set1_epi32(lanes),
@@ -1143,12 +1179,8 @@ mod avx2 {
                 for (v, &acc) in acc.iter().enumerate() {
                     let full = v + 1 < V || lanes == 8;
                     let at = i * t.ldo + 8 * v;
-                    let c = _mm256_sub_epi32(
-                        acc,
-                        _mm256_loadu_si256(t.zcorr.add(8 * v) as *const __m256i),
-                    );
                     let mut y = _mm256_add_ps(
-                        _mm256_mul_ps(_mm256_cvtepi32_ps(c), _mm256_loadu_ps(t.scale.add(8 * v))),
+                        _mm256_mul_ps(_mm256_cvtepi32_ps(acc), _mm256_loadu_ps(t.scale.add(8 * v))),
                         _mm256_loadu_ps(t.bias.add(8 * v)),
                     );
                     y = _mm256_min_ps(_mm256_max_ps(y, lo), hi);
@@ -1224,12 +1256,7 @@ mod avxvnni {
         // values; `res` and `out` at rows i < M, 8·V channels of which the last vector's
         // lanes at and past `width` are masked off.
         unsafe {
-            let mut start = [_mm256_setzero_si256(); V];
-            for (v, s) in start.iter_mut().enumerate() {
-                let z = _mm256_loadu_si256(t.zcorr.add(8 * v) as *const __m256i);
-                *s = _mm256_sub_epi32(_mm256_setzero_si256(), z);
-            }
-            let mut acc = [start; M];
+            let mut acc = [super::avx2::start::<V>(t); M];
             let mut a = t.a;
             let mut b = t.b;
             for _ in 0..t.groups {
@@ -1246,49 +1273,7 @@ mod avxvnni {
                 a = a.add(KG);
                 b = b.add(KG * NR);
             }
-            let lanes = (t.width - 8 * (V - 1)) as i32;
-            let mask = _mm256_cmpgt_epi32(
-                _mm256_set1_epi32(lanes),
-                _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7),
-            );
-            let (lo, hi) = (_mm256_set1_ps(t.act.0), _mm256_set1_ps(t.act.1));
-            let (rlo, rhi) = (
-                _mm256_set1_ps(t.residual_act.0),
-                _mm256_set1_ps(t.residual_act.1),
-            );
-            let zero = _mm256_setzero_ps();
-            for (i, acc) in acc.iter().enumerate() {
-                for (v, &acc) in acc.iter().enumerate() {
-                    let full = v + 1 < V || lanes == 8;
-                    let at = i * t.ldo + 8 * v;
-                    // `acc` is already the sum less `zcorr`.
-                    let mut y = _mm256_add_ps(
-                        _mm256_mul_ps(_mm256_cvtepi32_ps(acc), _mm256_loadu_ps(t.scale.add(8 * v))),
-                        _mm256_loadu_ps(t.bias.add(8 * v)),
-                    );
-                    y = _mm256_min_ps(_mm256_max_ps(y, lo), hi);
-                    if !t.res.is_null() {
-                        let r = if full {
-                            _mm256_loadu_ps(t.res.add(at))
-                        } else {
-                            _mm256_maskload_ps(t.res.add(at), mask)
-                        };
-                        y = _mm256_min_ps(_mm256_max_ps(_mm256_add_ps(y, r), rlo), rhi);
-                    }
-                    if !t.alpha.is_null() {
-                        let al = _mm256_loadu_ps(t.alpha.add(8 * v));
-                        y = _mm256_add_ps(
-                            _mm256_max_ps(y, zero),
-                            _mm256_mul_ps(al, _mm256_min_ps(y, zero)),
-                        );
-                    }
-                    if full {
-                        _mm256_storeu_ps(t.out.add(at), y);
-                    } else {
-                        _mm256_maskstore_ps(t.out.add(at), mask, y);
-                    }
-                }
-            }
+            super::avx2::store::<M, V>(t, &acc);
         }
     }
 }
