@@ -623,10 +623,13 @@ mod avx2 {
 }
 
 /// The WebAssembly `simd128` kernel: [`avx2`]'s register blocking with 4-lane vectors, 16
-/// channels per block, then blocks of 4, then the last 1-3 channels one at a time. Without
-/// fused multiply-adds in `simd128`, each tap is a product then a sum, in the portable
-/// loop's order (bias, then row by row, column by column), as the portable loop does on
-/// this target (`kernel::<false>`): the results are the same bits.
+/// channels per block, then blocks of 4, then the last 1-3 channels one at a time. Each
+/// tap is one [`wasm_madd`](crate::isa::wasm_madd) in the portable loop's order (bias, then
+/// row by row, column by column). In a module built with `simd128` alone that is a product
+/// then a sum, as the portable loop does on this target (`kernel::<false>`): the results
+/// are the same bits. With `relaxed-simd` the engine fuses it where its CPU has FMA (the
+/// bits of `kernel::<true>`, but for the last 1-3 channels, which are the portable loop's)
+/// or not (those of `kernel::<false>`).
 #[cfg(all(target_arch = "wasm32", target_feature = "simd128"))]
 mod simd128 {
     use super::{each_window, Bounds, Geometry};
@@ -701,7 +704,7 @@ mod simd128 {
                         for (r, a) in acc.iter_mut().enumerate() {
                             let x = v128_load(i.add(4 * r) as *const v128);
                             let y = v128_load(w.add(4 * r) as *const v128);
-                            *a = f32x4_add(*a, f32x4_mul(x, y));
+                            *a = crate::isa::wasm_madd(x, y, *a);
                         }
                     }
                 }
@@ -1293,8 +1296,10 @@ mod tests {
     ];
 
     /// The `simd128` kernel sums in the portable loop's order, a product then a sum per tap
-    /// as the portable loop does on WebAssembly: its results are the same bits. (Run by
-    /// `scripts/web-test.sh` under Node's WASI.)
+    /// as the portable loop does on WebAssembly: its results are the same bits. Built with
+    /// `relaxed-simd`, each tap's product and sum is fused or not as the engine decides, the
+    /// same way for every tap: the bits of the fused portable loop or of the plain one. (Run
+    /// by `scripts/web-test.sh` under Node's WASI.)
     #[cfg(all(target_arch = "wasm32", target_feature = "simd128"))]
     #[test]
     fn the_simd128_kernel_is_bit_identical_to_the_portable_loop() {
@@ -1309,7 +1314,20 @@ mod tests {
                 // SAFETY: the buffers have the geometry's sizes, all of its rows
                 // (`square_geometry`).
                 unsafe { simd128::run(&g, &x, &k, &b, &mut fast, act) };
-                let differ = crate::split::testing::differing_bits(&fast, &portable);
+                let mut differ = crate::split::testing::differing_bits(&fast, &portable);
+                if cfg!(target_feature = "relaxed-simd") && differ != 0 {
+                    // The engine fused the blocks' taps; the last 1-3 channels (after the
+                    // blocks of 4) are the portable loop's, a product then a sum.
+                    let mut fused = vec![0.0; oh * ow * c];
+                    kernel::<true>(&g, &x, &k, &b, &mut fused, act);
+                    let blocks = c / 4 * 4;
+                    for (i, (p, f)) in portable.iter_mut().zip(&fused).enumerate() {
+                        if i % c < blocks {
+                            *p = *f;
+                        }
+                    }
+                    differ = crate::split::testing::differing_bits(&fast, &portable);
+                }
                 assert_eq!(differ, 0, "{h}x{w}x{c} k{kh} s{s} same {same} {act:?}");
             }
         }

@@ -15,6 +15,28 @@
 
 use std::sync::OnceLock;
 
+/// `a·b + c`, lane by lane, for the WebAssembly kernels: in a module built with
+/// `relaxed-simd`, `f32x4.relaxed_madd`, which the engine compiles to a fused multiply-add
+/// where its CPU has one (V8 on x86-64 with FMA3, on ARM64) and to a product then a sum
+/// elsewhere; with `simd128` alone, always a product then a sum (the portable loops' bits).
+#[cfg(all(target_arch = "wasm32", target_feature = "simd128"))]
+#[inline(always)]
+pub(crate) fn wasm_madd(
+    a: core::arch::wasm32::v128,
+    b: core::arch::wasm32::v128,
+    c: core::arch::wasm32::v128,
+) -> core::arch::wasm32::v128 {
+    use core::arch::wasm32::*;
+    #[cfg(target_feature = "relaxed-simd")]
+    {
+        f32x4_relaxed_madd(a, b, c)
+    }
+    #[cfg(not(target_feature = "relaxed-simd"))]
+    {
+        f32x4_add(c, f32x4_mul(a, b))
+    }
+}
+
 /// The instruction-set levels of the kernels, slowest first: the values `MONOHAND_KERNEL`
 /// names.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
