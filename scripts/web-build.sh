@@ -2,7 +2,9 @@
 # Builds monohand in the browser (crates/monohand-web) into web/:
 #   web/pkg/      the WebAssembly module and its JavaScript glue (wasm-bindgen, --target web)
 #   web/pkg-threads/  the same with WebAssembly threads (atomics; rayon's pool on Web
-#                 Workers sharing the module's memory), for cross-origin isolated pages
+#                 Workers sharing the module's memory) and relaxed SIMD (fused multiply-adds,
+#                 the int8 dot product), for cross-origin isolated pages in browsers that
+#                 have relaxed SIMD (web/worker.js probes it)
 #   web/weights/  MediaPipe's palm detector and hand landmark networks, copied from
 #                 `monohand models fetch`'s cache (served beside the page; no CDN)
 # and installs what that needs, pinned, when it is missing: the wasm32-unknown-unknown
@@ -60,7 +62,7 @@ if [ "${WEB_THREADS:-1}" != 0 ]; then
   done
   mkdir -p "$target_dir"
   RUSTC_BOOTSTRAP=1 CARGO_TARGET_DIR="$target_dir/wasm-threads" \
-    CARGO_TARGET_WASM32_UNKNOWN_UNKNOWN_RUSTFLAGS="-C target-feature=+atomics,+bulk-memory,+simd128" \
+    CARGO_TARGET_WASM32_UNKNOWN_UNKNOWN_RUSTFLAGS="-C target-feature=+atomics,+bulk-memory,+simd128,+relaxed-simd" \
     cargo rustc -p monohand-web --features threads --lib --crate-type cdylib \
     --target wasm32-unknown-unknown --profile "$profile" -Z build-std=panic_abort,std -- \
     "${thread_link[@]}" > "$threads_log" 2>&1 &

@@ -3,9 +3,10 @@
 // back, one answer a request, in the order they came.
 //
 // The module: the threaded one (pkg-threads/: rayon's pool on Web Workers sharing its
-// memory, so the mirror pass runs its two landmark passes side by side) when the page is
-// cross-origin isolated and asked for more than one thread; else the one-thread module
-// (pkg/), and a note says why once.
+// memory, so the mirror pass runs its two landmark passes side by side; built with relaxed
+// SIMD too, for its fused multiply-adds and int8 dot products) when the page is cross-origin
+// isolated, asked for more than one thread and the browser has relaxed SIMD; else the
+// one-thread module (pkg/, plain simd128), and a note says why once.
 
 let tracker = null;
 let scratch = null; // an OffscreenCanvas to read an ImageBitmap's or VideoFrame's pixels
@@ -27,11 +28,18 @@ function pixels(frame) {
   return { rgba: new Uint8Array(data.buffer, data.byteOffset, data.byteLength), width, height };
 }
 
+// The smallest module with a relaxed SIMD instruction (two i8x16.splat of 0, then
+// i8x16.relaxed_swizzle): a browser that validates it can run the threaded module (Chrome
+// and Edge from 114; other engines as they ship the proposal).
+const RELAXED_SIMD_PROBE = new Uint8Array([0, 97, 115, 109, 1, 0, 0, 0, 1, 5, 1, 96, 0, 1, 123,
+  3, 2, 1, 0, 10, 15, 1, 13, 0, 65, 0, 253, 15, 65, 0, 253, 15, 253, 128, 2, 11]);
+
 async function start({ palm, landmark, settings, threads }) {
   const notes = [];
   let used = 1;
   let pkg;
-  if (threads > 1 && self.crossOriginIsolated) {
+  const relaxed = WebAssembly.validate(RELAXED_SIMD_PROBE);
+  if (threads > 1 && self.crossOriginIsolated && relaxed) {
     pkg = await import('./pkg-threads/monohand_web.js');
     await pkg.default();
     await pkg.initThreadPool(threads);
@@ -39,11 +47,15 @@ async function start({ palm, landmark, settings, threads }) {
   } else {
     pkg = await import('./pkg/monohand_web.js');
     await pkg.default();
-    if (threads > 1) {
+    if (threads > 1 && !self.crossOriginIsolated) {
       notes.push('monohand runs on one thread: this page is not cross-origin isolated (serve it '
         + 'with the headers Cross-Origin-Opener-Policy: same-origin and '
         + 'Cross-Origin-Embedder-Policy: require-corp), so the mirror pass reads its two crops '
         + 'one after the other.');
+    } else if (threads > 1) {
+      notes.push('monohand runs on one thread: this browser has no WebAssembly relaxed SIMD, '
+        + 'which the threaded module is built with, so the mirror pass reads its two crops one '
+        + 'after the other.');
     }
   }
   tracker = new pkg.WebTracker(palm, landmark, settings);

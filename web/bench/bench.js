@@ -3,7 +3,8 @@
 // packages, one hand tracked, in the same page, one after the other, alternating for
 // `rounds` rounds:
 // - monohand twice a round: like for like (one landmark pass a crop, as MediaPipe; native
-//   `run`'s `--no-mirror-pass`) and with its defaults (the mirror pass: two);
+//   `run`'s `--no-mirror-pass`) and with its defaults (the mirror pass: two), each in f32
+//   (the default) and in int8 (`precision: 'int8'`);
 // - `@mediapipe/tasks-vision`'s HandLandmarker with `delegate: 'CPU'` (MediaPipe's XNNPACK
 //   in WebAssembly, its SIMD build chosen by FilesetResolver; runningMode VIDEO, numHands 1,
 //   the same two networks as monohand, given as a model bundle, the `task` URL): the honest
@@ -40,8 +41,8 @@ const nextTask = () => new Promise((resolve) => setTimeout(resolve, 0));
 /** The 2D keypoints of a run: frame index -> 21 [x, y] in pixels. */
 const keypoints = () => new Map();
 
-async function monohandRound(clip, mirrorPass) {
-  const tracker = await createTracker({ weights: '../weights/', hands: 1, mirrorPass });
+async function monohandRound(clip, mirrorPass, precision = 'f32') {
+  const tracker = await createTracker({ weights: '../weights/', hands: 1, mirrorPass, precision });
   const ms = [];
   let found = 0;
   const points = keypoints();
@@ -200,6 +201,8 @@ async function main() {
   canvas.height = h;
   const ours = [];
   const oursDefaults = [];
+  const oursInt8 = [];
+  const oursInt8Defaults = [];
   const tasksRuns = [];
   const theirs = [];
   for (let r = 0; r < rounds; r++) {
@@ -207,6 +210,10 @@ async function main() {
     ours.push(await monohandRound(clip, false));
     say(`round ${r + 1} of ${rounds}: monohand, defaults (mirror pass)`);
     oursDefaults.push(await monohandRound(clip, true));
+    say(`round ${r + 1} of ${rounds}: monohand int8, like for like`);
+    oursInt8.push(await monohandRound(clip, false, 'int8'));
+    say(`round ${r + 1} of ${rounds}: monohand int8, defaults (mirror pass)`);
+    oursInt8Defaults.push(await monohandRound(clip, true, 'int8'));
     say(`round ${r + 1} of ${rounds}: MediaPipe Tasks HandLandmarker, CPU`);
     tasksRuns.push(await tasksRound(clip));
     say(`round ${r + 1} of ${rounds}: @mediapipe/hands`);
@@ -221,10 +228,14 @@ async function main() {
     rounds,
     monohand: summary(ours),
     monohand_defaults: summary(oursDefaults),
+    monohand_int8: summary(oursInt8),
+    monohand_int8_defaults: summary(oursInt8Defaults),
     tasks: summary(tasksRuns),
     mediapipe: { ...summary(theirs), frames: theirs[0]?.ms.length ?? 0 },
     // The last round's: by then each system is warm.
     agreement: agreement(ours.at(-1).points, tasksRuns.at(-1).points),
+    // monohand's int8 keypoints against its f32 ones (like for like, the last round).
+    agreement_int8: agreement(ours.at(-1).points, oursInt8.at(-1).points),
     webgl_renderer: webglRenderer(),
     user_agent: navigator.userAgent,
   };

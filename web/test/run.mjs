@@ -4,11 +4,13 @@
 // timings as JSON on its last line.
 //
 //   node --experimental-websocket run.mjs --web DIR --clip FILE.rgba --size WxH --fps N \
-//        --out records.jsonl --screenshot shot.png [--isolated 0] [--bitmap] [--chromium PATH] [--timeout SECS]
+//        --out records.jsonl --screenshot shot.png [--isolated 0] [--bitmap] [--precision int8]
+//        [--chromium PATH] [--timeout SECS]
 //
 // `--isolated 0` serves the page without the cross-origin isolation headers: the tracker
 // then runs on one thread (and its notes say so). `--bitmap` hands the page's frames to the
-// tracker as ImageBitmaps instead of ImageData.
+// tracker as ImageBitmaps instead of ImageData. `--precision int8` runs the networks' 1x1
+// convolutions in int8 (the tracker's `precision` option).
 
 import { writeFileSync } from 'node:fs';
 import { launch, parseArgs, serve } from './chromium.mjs';
@@ -26,7 +28,7 @@ const server = await serve({
 let browser = null;
 try {
   browser = await launch({ chromium: args.chromium });
-  const url = `http://127.0.0.1:${server.port}/test/index.html?clip=/clip.rgba&w=${w}&h=${h}&fps=${args.fps ?? 30}${'bitmap' in args ? '&bitmap=1' : ''}`;
+  const url = `http://127.0.0.1:${server.port}/test/index.html?clip=/clip.rgba&w=${w}&h=${h}&fps=${args.fps ?? 30}${'bitmap' in args ? '&bitmap=1' : ''}${args.precision ? `&precision=${args.precision}` : ''}`;
   await browser.send('Page.navigate', { url });
   const result = await browser.waitFor(
     'window.monohandResult ? JSON.stringify(window.monohandResult) : null', timeoutS);

@@ -3,7 +3,7 @@
 // writes them), draws the last frame with the demo page's overlay (../overlay.js), and leaves the records and the
 // timings in `window.monohandResult` for the driver (run.mjs) to read.
 // URL parameters: clip (the .rgba file), w, h, fps, weights (their folder; default ../weights/),
-// bitmap (1: the frames as ImageBitmaps).
+// bitmap (1: the frames as ImageBitmaps), precision (f32, the default, or int8).
 
 import { createTracker } from '../monohand.js';
 import { drawOverlay } from '../overlay.js';
@@ -28,7 +28,10 @@ async function main() {
   const fps = Number(params.get('fps') ?? 30);
   const bitmap = params.get('bitmap') === '1';
   const t0 = performance.now();
-  const tracker = await createTracker({ weights: params.get('weights') ?? '../weights/' });
+  const tracker = await createTracker({
+    weights: params.get('weights') ?? '../weights/',
+    precision: params.get('precision') ?? 'f32',
+  });
   const loadMs = performance.now() - t0;
   say('networks loaded; reading the clip...');
   const clip = await readClip(params.get('clip'), w, h);
