@@ -8,7 +8,7 @@
 //
 // The tracker runs in a Web Worker (worker.js), so the page's own thread stays free while
 // it works. The WebAssembly modules (pkg/, and pkg-threads/ for cross-origin isolated
-// pages, from scripts/web-build.sh) and the weights (weights/, copied by the same script
+// pages in browsers with relaxed SIMD, from scripts/web-build.sh) and the weights (weights/, copied by the same script
 // from `monohand models fetch`'s cache) are served beside this file; no other network is
 // used.
 
@@ -56,7 +56,7 @@ async function fetchBytes(url, what) {
 export class Tracker {
   constructor(worker, threads, notes) {
     this.worker = worker;
-    /** The threads the tracker runs on (1 unless the page is cross-origin isolated). */
+    /** The threads the tracker runs on (1 unless the page is cross-origin isolated and the browser has relaxed SIMD). */
     this.threads = threads;
     this.startNotes = notes;
     this.nextId = 0;
@@ -137,8 +137,9 @@ export class Tracker {
  * (default true; false reads each crop once, as MediaPipe does: about twice as fast, at a
  * higher 3D error), `camera` (`{fx, fy, cx, cy, width, height}`; default: a generic 60
  * degree camera for the frames' size), `threads` (default: 2, or 1 on a one-core machine;
- * more than one needs a cross-origin isolated page, else it runs on one and a note says
- * so). Rejects with a message that says what is wrong for an unsupported browser
+ * more than one needs a cross-origin isolated page and WebAssembly relaxed SIMD, else it
+ * runs on one and a note says why), `precision` ('f32', the default, or 'int8': fast where
+ * it runs threaded). Rejects with a message that says what is wrong for an unsupported browser
  * ({@link unsupportedReason}), weights missing, cut short or of another network, and bad
  * options.
  */
