@@ -1472,6 +1472,7 @@ mod avx512vnni {
 #[cfg(all(target_arch = "wasm32", target_feature = "relaxed-simd"))]
 mod relaxed {
     use super::{ActivationQuant, Tile, TileFn, ACTIVATION_QMAX, KG, MR_RELAXED, NR};
+    use crate::isa::{wasm_load_lanes, wasm_store_lanes};
     use core::arch::wasm32::*;
 
     /// The tiles of 1 to [`MR_RELAXED`] rows for `V` vectors of 4 channels.
@@ -1594,30 +1595,14 @@ mod relaxed {
                     );
                     y = min(max(y, lo), hi);
                     if !t.res.is_null() {
-                        let r = if full {
-                            load(t.res.add(at))
-                        } else {
-                            let mut part = [0f32; 4];
-                            for (l, part) in part.iter_mut().enumerate().take(lanes) {
-                                *part = *t.res.add(at + l);
-                            }
-                            load(part.as_ptr())
-                        };
+                        let r = wasm_load_lanes(t.res.add(at), if full { 4 } else { lanes });
                         y = min(max(f32x4_add(y, r), rlo), rhi);
                     }
                     if !t.alpha.is_null() {
                         let al = load(t.alpha.add(4 * v));
                         y = f32x4_add(max(y, zero), f32x4_mul(al, min(y, zero)));
                     }
-                    if full {
-                        v128_store(t.out.add(at) as *mut v128, y);
-                    } else {
-                        let mut part = [0f32; 4];
-                        v128_store(part.as_mut_ptr() as *mut v128, y);
-                        for (l, &part) in part.iter().enumerate().take(lanes) {
-                            *t.out.add(at + l) = part;
-                        }
-                    }
+                    wasm_store_lanes(t.out.add(at), y, if full { 4 } else { lanes });
                 }
             }
         }

@@ -37,6 +37,51 @@ pub(crate) fn wasm_madd(
     }
 }
 
+/// The first `lanes` floats at `p` (4 or more: a whole vector), the other lanes 0: the
+/// WebAssembly kernels' read of a tile's last, partial vector (a residual).
+///
+/// # Safety
+/// `p` is valid for reading `lanes.min(4)` floats.
+#[cfg(all(target_arch = "wasm32", target_feature = "simd128"))]
+#[inline(always)]
+pub(crate) unsafe fn wasm_load_lanes(p: *const f32, lanes: usize) -> core::arch::wasm32::v128 {
+    use core::arch::wasm32::*;
+    if lanes >= 4 {
+        // SAFETY: 4 floats (the contract); WebAssembly loads need no alignment.
+        return unsafe { v128_load(p as *const v128) };
+    }
+    let mut part = [0f32; 4];
+    for (l, part) in part.iter_mut().enumerate().take(lanes) {
+        // SAFETY: l < lanes floats (the contract).
+        *part = unsafe { *p.add(l) };
+    }
+    // SAFETY: `part` holds 4 floats.
+    unsafe { v128_load(part.as_ptr() as *const v128) }
+}
+
+/// Writes the first `lanes` lanes of `v` to `p` (4 or more: the whole vector): the
+/// WebAssembly kernels' store of a tile's last, partial vector.
+///
+/// # Safety
+/// `p` is valid for writing `lanes.min(4)` floats.
+#[cfg(all(target_arch = "wasm32", target_feature = "simd128"))]
+#[inline(always)]
+pub(crate) unsafe fn wasm_store_lanes(p: *mut f32, v: core::arch::wasm32::v128, lanes: usize) {
+    use core::arch::wasm32::*;
+    if lanes >= 4 {
+        // SAFETY: 4 floats (the contract); WebAssembly stores need no alignment.
+        unsafe { v128_store(p as *mut v128, v) };
+        return;
+    }
+    let mut part = [0f32; 4];
+    // SAFETY: `part` holds 4 floats.
+    unsafe { v128_store(part.as_mut_ptr() as *mut v128, v) };
+    for (l, &part) in part.iter().enumerate().take(lanes) {
+        // SAFETY: l < lanes floats (the contract).
+        unsafe { *p.add(l) = part };
+    }
+}
+
 /// The instruction-set levels of the kernels, slowest first: the values `MONOHAND_KERNEL`
 /// names.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]

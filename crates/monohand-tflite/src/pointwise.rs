@@ -1004,6 +1004,7 @@ mod avx512 {
 #[cfg(all(target_arch = "wasm32", target_feature = "simd128"))]
 mod simd128 {
     use super::{Tile, TileFn, MR128, NR};
+    use crate::isa::{wasm_load_lanes, wasm_store_lanes};
     use core::arch::wasm32::*;
 
     /// The tiles of 1 to [`MR128`] rows for `V` vectors of 4 channels.
@@ -1078,30 +1079,14 @@ mod simd128 {
                     let mut y = f32x4_add(acc, load(t.bias.add(4 * v)));
                     y = f32x4_min(f32x4_max(y, lo), hi);
                     if !t.res.is_null() {
-                        let r = if full {
-                            load(t.res.add(at))
-                        } else {
-                            let mut part = [0f32; 4];
-                            for (l, part) in part.iter_mut().enumerate().take(lanes) {
-                                *part = *t.res.add(at + l);
-                            }
-                            load(part.as_ptr())
-                        };
+                        let r = wasm_load_lanes(t.res.add(at), if full { 4 } else { lanes });
                         y = f32x4_min(f32x4_max(f32x4_add(y, r), rlo), rhi);
                     }
                     if !t.alpha.is_null() {
                         let al = load(t.alpha.add(4 * v));
                         y = f32x4_add(f32x4_max(y, zero), f32x4_mul(al, f32x4_min(y, zero)));
                     }
-                    if full {
-                        v128_store(t.out.add(at) as *mut v128, y);
-                    } else {
-                        let mut part = [0f32; 4];
-                        v128_store(part.as_mut_ptr() as *mut v128, y);
-                        for (l, &part) in part.iter().enumerate().take(lanes) {
-                            *t.out.add(at + l) = part;
-                        }
-                    }
+                    wasm_store_lanes(t.out.add(at), y, if full { 4 } else { lanes });
                 }
             }
         }
