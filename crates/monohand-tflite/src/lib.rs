@@ -53,7 +53,7 @@ pub use int8::{
 };
 pub use pointwise::{Activation, PointwiseConv};
 pub use prelu::ChannelPrelu;
-pub use split::{allow_split_here, shared_operators, team_size, Running};
+pub use split::{allow_split_here, shared_operators, start_team, team_size, Running};
 
 use std::collections::HashMap;
 

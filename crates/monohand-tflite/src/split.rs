@@ -16,11 +16,14 @@
 //! The team has `MONOHAND_OP_THREADS` threads, else `OMP_NUM_THREADS` (which Ray, for one,
 //! sets to a worker's share of the cores), else `min(cores, 4)` (the cores this process may
 //! use). The variables are read once; `1` turns the splitting off for the whole process.
+//! Where threads are not std's (WebAssembly, whose threads are Web Workers), the embedder
+//! starts the team itself with [`start_team`], its helpers on threads of its own.
 
 use std::cell::UnsafeCell;
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{Condvar, Mutex, OnceLock, PoisonError};
+#[cfg(not(target_arch = "wasm32"))]
 use std::time::{Duration, Instant};
 
 use tract_core::internal::*;
@@ -30,7 +33,13 @@ use tract_core::internal::*;
 pub(crate) const MIN_WORK: usize = 1 << 20;
 
 /// How long an idle helper spins before it sleeps.
+#[cfg(not(target_arch = "wasm32"))]
 const SPIN: Duration = Duration::from_micros(100);
+
+/// Rounds an idle helper spins before it sleeps where std has no clock (WebAssembly): one
+/// round is an atomic load, about a nanosecond, so about `SPIN`'s 100 µs.
+#[cfg(target_arch = "wasm32")]
+const SPIN_ROUNDS: u32 = 1 << 17;
 
 /// Pieces per thread of the team: claimed one at a time, so a thread held up elsewhere
 /// delays the operator by one piece at most.
@@ -129,6 +138,29 @@ pub(crate) struct Team {
 // registered before it writes `job` again or returns.
 unsafe impl Sync for Team {}
 
+/// The process's team, once started.
+static TEAM: OnceLock<&'static Team> = OnceLock::new();
+
+/// Starts the process's team with `size` threads, the caller included, unless it has
+/// started already, and returns its size. Each of the `size - 1` helpers is a function that
+/// runs for the life of the process; `spawn(index, helper)` starts one on a thread of its
+/// own and returns whether it could (the team is then smaller). For embedders whose threads
+/// are not std's: in WebAssembly, where `std::thread::spawn` fails, the browser module
+/// starts its helpers on threads of its Web Worker pool. Elsewhere the team starts by
+/// itself on std threads when an operator first needs it.
+pub fn start_team(size: usize, spawn: &dyn Fn(usize, Box<dyn FnOnce() + Send>) -> bool) -> usize {
+    TEAM.get_or_init(|| Team::start_with(size.max(1), spawn))
+        .size()
+}
+
+/// Starts a helper on a std thread named `monohand-op-INDEX`.
+fn std_thread(index: usize, helper: Box<dyn FnOnce() + Send>) -> bool {
+    std::thread::Builder::new()
+        .name(format!("monohand-op-{index}"))
+        .spawn(helper)
+        .is_ok()
+}
+
 /// The process's team. (In this crate's unit tests: the team the test thread gave itself
 /// with [`testing::with_own_team`], else one of three threads, so that the operators'
 /// tests split whatever the machine.)
@@ -137,7 +169,6 @@ pub(crate) fn team() -> &'static Team {
     if let Some(own) = testing::OWN_TEAM.get() {
         return own;
     }
-    static TEAM: OnceLock<&'static Team> = OnceLock::new();
     TEAM.get_or_init(|| {
         if cfg!(test) {
             return Team::start(3);
@@ -156,9 +187,17 @@ pub(crate) fn team() -> &'static Team {
 }
 
 impl Team {
-    /// A team of up to `size` threads (fewer if a helper cannot be started), for the life
-    /// of the process.
+    /// A team of up to `size` threads (fewer if a helper cannot be started), its helpers on
+    /// std threads, for the life of the process.
     fn start(size: usize) -> &'static Team {
+        Team::start_with(size, &std_thread)
+    }
+
+    /// [`Team::start`] with the helpers started by `spawn` (see [`start_team`]).
+    fn start_with(
+        size: usize,
+        spawn: &dyn Fn(usize, Box<dyn FnOnce() + Send>) -> bool,
+    ) -> &'static Team {
         let team: &'static Team = Box::leak(Box::new(Team {
             size: AtomicUsize::new(1),
             in_flight: AtomicUsize::new(0),
@@ -175,10 +214,7 @@ impl Team {
         }));
         let mut started = 1;
         for index in 1..size {
-            let spawned = std::thread::Builder::new()
-                .name(format!("monohand-op-{index}"))
-                .spawn(move || team.help());
-            if spawned.is_err() {
+            if !spawn(index, Box::new(move || team.help())) {
                 break;
             }
             started += 1;
@@ -220,9 +256,10 @@ impl Team {
         }
     }
 
-    /// Waits until `epoch` differs from `seen` and returns it: spinning for [`SPIN`], then
-    /// asleep.
+    /// Waits until `epoch` differs from `seen` and returns it: spinning for `SPIN`, then
+    /// asleep. (In WebAssembly, which has no clock for std, for `SPIN_ROUNDS` rounds.)
     fn next_epoch(&self, seen: usize) -> usize {
+        #[cfg(not(target_arch = "wasm32"))]
         let start = Instant::now();
         let mut spins = 0u32;
         loop {
@@ -233,7 +270,12 @@ impl Team {
             std::hint::spin_loop();
             spins = spins.wrapping_add(1);
             if spins.is_multiple_of(128) {
+                #[cfg(not(target_arch = "wasm32"))]
                 if start.elapsed() > SPIN {
+                    break;
+                }
+                #[cfg(target_arch = "wasm32")]
+                if spins >= SPIN_ROUNDS {
                     break;
                 }
                 // Another thread that wants this core (the video decoder) gets it.
@@ -494,6 +536,7 @@ pub(crate) mod testing {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::time::{Duration, Instant};
 
     /// The pieces (first row, row count) `team` makes, checked to cover every row once at
     /// multiples of `unit`, with the threads that ran them. With `meet`, each piece waits
@@ -573,7 +616,8 @@ mod tests {
         for k in 0..200 {
             assert_eq!(pieces(two, 64, 1, MIN_WORK).len(), 8);
             if k % 50 == 0 {
-                std::thread::sleep(SPIN * 3);
+                // Past the helpers' spin (`SPIN`, 100 µs): they fall asleep.
+                std::thread::sleep(Duration::from_micros(300));
             }
         }
     }

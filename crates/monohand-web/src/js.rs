@@ -12,6 +12,14 @@ fn js_error(e: WebError) -> JsError {
     JsError::new(&e.to_string())
 }
 
+/// `sharedOperators()` for JavaScript: how many operator evaluations this module has shared
+/// between threads so far (the operator team, `startOperatorTeam`; always 0 in the
+/// one-thread module).
+#[wasm_bindgen(js_name = sharedOperators)]
+pub fn shared_operators() -> usize {
+    monohand_vision::tflite_import::shared_operators()
+}
+
 /// A tracking session in the page (see [`Tracker`]).
 #[wasm_bindgen]
 pub struct WebTracker {

@@ -27,6 +27,21 @@ pub use error::WebError;
 #[cfg(all(target_arch = "wasm32", feature = "threads"))]
 pub use wasm_bindgen_rayon::init_thread_pool;
 
+/// `startOperatorTeam(threads)` for JavaScript (the threaded module only): starts the team
+/// that shares one network's large operators between `threads` threads (the tracker's and
+/// `threads - 1` helpers, each keeping one of rayon's Web Workers for itself, so the pool
+/// must have that many more than the mirror pass needs), as natively, where the team's
+/// helpers are std threads, which WebAssembly lacks. The results are the same bits. Returns
+/// the team's size. `web/worker.js` calls it once, after `initThreadPool`.
+#[cfg(all(target_arch = "wasm32", feature = "threads"))]
+#[wasm_bindgen::prelude::wasm_bindgen(js_name = startOperatorTeam)]
+pub fn start_operator_team(threads: usize) -> usize {
+    monohand_vision::tflite_import::start_team(threads, &|_, helper| {
+        rayon::spawn(helper);
+        true
+    })
+}
+
 use monohand::{FittedFrame, Session, SessionOptions};
 use monohand_core::camera::{Camera, Intrinsics};
 use monohand_io::jsonl::FrameRecord;
