@@ -154,6 +154,12 @@ if (iso.threads !== want) {
   console.error(`web-test: cross-origin isolated, the tracker ran on ${iso.threads} threads (expected ${want})`);
   process.exit(1);
 }
+// The operator team: on two threads the detector of the first frame runs alone (no hand is
+// tracked yet) and shares its large operators between both; on one thread nothing is shared.
+if ((want > 1 && !(iso.shared_operators > 0)) || one.shared_operators !== 0) {
+  console.error(`web-test: operators shared between threads: ${iso.shared_operators} on ${iso.threads} threads (expected some), ${one.shared_operators} on one (expected none)`);
+  process.exit(1);
+}
 if (one.threads !== 1 || !(want < 2 || one.notes.some((n) => n.includes("not cross-origin isolated")))) {
   console.error(`web-test: without isolation the tracker ran on ${one.threads} threads, notes ${JSON.stringify(one.notes)}`);
   process.exit(1);
@@ -243,7 +249,7 @@ const gl = /SwiftShader/i.test(b.webgl_renderer) ? "software-rendered here" : `h
 console.log(`web: ${c.frames} frames, ${c.hands_3d} hands in 3D, ${b.monohand.median_round_fps.toFixed(1)} fps in Chromium (@mediapipe/hands, MediaPipe\x27s legacy solution on WebGL, ${gl}: ${b.mediapipe.median_round_fps.toFixed(1)} fps)`);
 const c1 = JSON.parse(require("fs").readFileSync(process.argv[8], "utf8"));
 const t1 = JSON.parse(require("fs").readFileSync(process.argv[9], "utf8"));
-console.log(`  vs native: max ${c.max_px.toFixed(4)} px, ${c.max_mm.toFixed(4)} mm on ${t.threads} threads (cross-origin isolated), ${c1.max_px.toFixed(4)} px, ${c1.max_mm.toFixed(4)} mm on ${t1.threads} (not isolated, frames as ImageBitmaps: the page says so); ${c.failures + c1.failures} differences beyond 0.02 px / 0.05 mm`);
+console.log(`  vs native: max ${c.max_px.toFixed(4)} px, ${c.max_mm.toFixed(4)} mm on ${t.threads} threads (cross-origin isolated; ${t.shared_operators} operator runs shared between them), ${c1.max_px.toFixed(4)} px, ${c1.max_mm.toFixed(4)} mm on ${t1.threads} (not isolated, frames as ImageBitmaps: the page says so); ${c.failures + c1.failures} differences beyond 0.02 px / 0.05 mm`);
 const c8 = JSON.parse(require("fs").readFileSync(process.argv[10], "utf8"));
 const t8 = JSON.parse(require("fs").readFileSync(process.argv[11], "utf8"));
 console.log(`  int8 (precision: "int8") vs native --precision int8: max ${c8.max_px.toFixed(4)} px, ${c8.max_mm.toFixed(4)} mm on ${t8.threads} threads, ${c8.failures} differences beyond 0.02 px / 0.05 mm; test page ${(1000 / t8.mean_ms_after_first).toFixed(1)} fps`);

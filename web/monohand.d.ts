@@ -142,6 +142,8 @@ export declare class Tracker {
   finish(): Promise<FrameRecord[]>;
   /** Messages for the user since the last call (the camera assumed, for one). */
   notes(): Promise<string[]>;
+  /** How many operator evaluations have been shared between threads so far (the operator team: on two threads a network that runs alone shares its large operators between both; 0 on one thread). A diagnostic. */
+  sharedOperators(): Promise<number>;
   /** Stops the worker (and its threads); the tracker cannot be used after. */
   close(): void;
 }

@@ -121,6 +121,15 @@ export class Tracker {
     return notes;
   }
 
+  /**
+   * How many operator evaluations have been shared between threads so far: on two threads
+   * a network that runs alone (one hand tracked without the mirror pass, or the detector
+   * alone) shares its large operators between both; 0 on one thread. A diagnostic.
+   */
+  async sharedOperators() {
+    return this.call({ op: 'sharedOperators' });
+  }
+
   /** Stops the worker (and its threads); the tracker cannot be used after. */
   close() {
     this.worker?.terminate();

@@ -9,6 +9,7 @@
 // one-thread module (pkg/, plain simd128), and a note says why once.
 
 let tracker = null;
+let module = null; // the module's exports (pkg/ or pkg-threads/)
 let scratch = null; // an OffscreenCanvas to read an ImageBitmap's or VideoFrame's pixels
 let pending = Promise.resolve();
 
@@ -42,7 +43,12 @@ async function start({ palm, landmark, settings, threads }) {
   if (threads > 1 && self.crossOriginIsolated && relaxed) {
     pkg = await import('./pkg-threads/monohand_web.js');
     await pkg.default();
-    await pkg.initThreadPool(threads);
+    // rayon's pool: `threads` Web Workers for the mirror pass's two landmark runs, and
+    // `threads - 1` more, each kept by a helper of the operator team, which shares one
+    // network's large operators between this thread and the helpers (like for like: one
+    // network at a time). Idle helpers sleep.
+    await pkg.initThreadPool(2 * threads - 1);
+    pkg.startOperatorTeam(threads);
     used = threads;
   } else {
     pkg = await import('./pkg/monohand_web.js');
@@ -59,6 +65,7 @@ async function start({ palm, landmark, settings, threads }) {
     }
   }
   tracker = new pkg.WebTracker(palm, landmark, settings);
+  module = pkg;
   return { threads: used, notes };
 }
 
@@ -74,6 +81,8 @@ function handle(request) {
       return tracker.finish();
     case 'notes':
       return tracker.notes();
+    case 'sharedOperators':
+      return module.sharedOperators();
     default:
       throw new Error(`unknown request ${request.op}`);
   }

@@ -47,6 +47,7 @@ try {
     median_ms_after_first: sorted[Math.floor(sorted.length / 2)] ?? null,
     notes: result.notes,
     threads: result.threads,
+    shared_operators: result.sharedOperators,
     hardware_concurrency: result.hardwareConcurrency,
     user_agent: result.userAgent,
   }));

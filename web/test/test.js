@@ -54,10 +54,11 @@ async function main() {
   records.push(...await tracker.finish());
   draw(image, records[records.length - 1]);
   const notes = await tracker.notes();
+  const sharedOperators = await tracker.sharedOperators();
   const { threads } = tracker;
   tracker.close();
   say(`${n} frames; ${notes.join('; ')}`);
-  return { records, frameMs, loadMs, firstFrameMs: loadMs + frameMs[0], notes, threads,
+  return { records, frameMs, loadMs, firstFrameMs: loadMs + frameMs[0], notes, threads, sharedOperators,
     hardwareConcurrency: navigator.hardwareConcurrency, userAgent: navigator.userAgent };
 }
 
