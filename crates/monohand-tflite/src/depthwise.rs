@@ -1142,6 +1142,29 @@ mod tests {
         (x, k, b)
     }
 
+    /// A `k x k` "same" depthwise convolution of `c` channels with stride `s`, weights and
+    /// biases `(kernel, bias)` and a fused ReLU6 (the splitting and coding tests' layer).
+    fn relu6_square(
+        k: usize,
+        c: usize,
+        s: usize,
+        (kernel, bias): (&[f32], &[f32]),
+        register_blocked: bool,
+        split: bool,
+    ) -> NhwcDepthwise {
+        NhwcDepthwise {
+            kernel: Tensor::from_shape(&[k, k, c], kernel)
+                .expect("k")
+                .into_arc_tensor(),
+            bias: tensor1(bias).into_arc_tensor(),
+            strides: (s, s),
+            same: true,
+            activation: Activation::Relu6,
+            register_blocked,
+            split,
+        }
+    }
+
     #[test]
     fn shared_between_threads_gives_the_same_bits() {
         // The landmark networks' 112x112x24 3x3 layer, a 5x5 stride-2 one, and the portable
@@ -1152,17 +1175,7 @@ mod tests {
             (56, 40, 3, 1, false),
         ] {
             let (x, kv, b) = data(h * h * c, k * k * c, c);
-            let op = |split| NhwcDepthwise {
-                kernel: Tensor::from_shape(&[k, k, c], &kv)
-                    .expect("k")
-                    .into_arc_tensor(),
-                bias: tensor1(&b).into_arc_tensor(),
-                strides: (s, s),
-                same: true,
-                activation: Activation::Relu6,
-                register_blocked: blocked,
-                split,
-            };
+            let op = |split| relu6_square(k, c, s, (&kv, &b), blocked, split);
             let input = Tensor::from_shape(&[1, h, h, c], &x).expect("x");
             crate::split::testing::same_bits_split(&op(true), &op(false), &[input]);
         }
@@ -1181,17 +1194,7 @@ mod tests {
             (13, 40, 3, 1, false),
         ] {
             let (x, kv, b) = data(h * h * c, k * k * c, c);
-            let conv = |split| NhwcDepthwise {
-                kernel: Tensor::from_shape(&[k, k, c], &kv)
-                    .expect("k")
-                    .into_arc_tensor(),
-                bias: tensor1(&b).into_arc_tensor(),
-                strides: (s, s),
-                same: true,
-                activation: Activation::Relu6,
-                register_blocked: blocked,
-                split,
-            };
+            let conv = |split| relu6_square(k, c, s, (&kv, &b), blocked, split);
             let quant = ActivationQuant::from_min_max(0.0, 5.0);
             let input = Tensor::from_shape(&[1, h, h, c], &x).expect("x");
             let values = crate::split::testing::bits(&conv(false), std::slice::from_ref(&input));
