@@ -31,7 +31,7 @@
 
 use std::time::Instant;
 
-use monohand_tflite::{pointwise_input_ranges, quantize_pointwise, PointwiseConv};
+use monohand_tflite::{int8_input_ranges, quantize_pointwise, PointwiseConv};
 use tract_core::internal::*;
 
 const SIDE: usize = 224;
@@ -189,7 +189,7 @@ fn main() -> TractResult<()> {
     let model = monohand_tflite::import(&bytes).map_err(|e| format_err!("{e}"))?;
     let mut calib: Vec<TVec<Tensor>> = vec![tvec!(input(&hand))];
     calib.extend((0..half).step_by(18).map(|i| tvec!(frames[i].clone())));
-    let ranges = pointwise_input_ranges(&model, &calib)?;
+    let ranges = int8_input_ranges(&model, &calib)?;
     let mut names: Vec<_> = ranges.iter().collect();
     names.sort_by(|a, b| a.0.cmp(b.0));
     for (name, r) in &names {

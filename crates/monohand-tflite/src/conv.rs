@@ -15,6 +15,7 @@
 use tract_core::internal::*;
 
 use crate::depthwise::axis_geometry;
+use crate::int8::{ActivationQuant, Int8Kernel, PointwiseConvInt8};
 use crate::pointwise::{Activation, Kernel, PointwiseConv};
 
 /// Floats of im2col rows gathered per product (64 KiB: the buffer stays in L2 while the
@@ -24,7 +25,14 @@ const BAND_FLOATS: usize = 16 * 1024;
 thread_local! {
     /// Each thread's im2col band, grown to the largest needed and reused.
     static BAND: std::cell::RefCell<Vec<f32>> = const { std::cell::RefCell::new(Vec::new()) };
+    /// Each thread's coded input rows and im2col band of codes ([`NhwcConvInt8`]), as `BAND`.
+    static CODES: std::cell::RefCell<(Vec<u8>, Vec<u8>)> =
+        const { std::cell::RefCell::new((Vec::new(), Vec::new())) };
 }
+
+/// im2col codes gathered per product of [`NhwcConvInt8`] (16 KiB: in L1 while the product
+/// runs over it).
+const BAND_CODES: usize = 16 * 1024;
 
 /// `KH x KW` convolution with strides `(sy, sx)` on `[1, H, W, Cin]` f32 tensors, TFLite's
 /// SAME (or VALID) padding, a bias per output channel and a fused activation.
@@ -37,6 +45,10 @@ pub struct NhwcConv {
     same: bool,
     /// The product `[pixels, KH·KW·Cin] x [KH·KW·Cin, Cout]` with the epilogue.
     product: PointwiseConv,
+    /// TFLite's OHWI weights, the bias and the activation, for [`to_int8`](Self::to_int8).
+    weights: Arc<Tensor>,
+    bias: Arc<Tensor>,
+    activation: Activation,
     /// Share large outputs between the cores ([`crate::split`]).
     split: bool,
 }
@@ -74,7 +86,38 @@ impl NhwcConv {
             strides,
             same,
             product: PointwiseConv::new(&flat, bias, activation)?,
+            weights: Arc::new(weights.clone()),
+            bias: Arc::new(bias.clone()),
+            activation,
             split: true,
+        })
+    }
+
+    /// The same convolution in int8 ([`NhwcConvInt8`]), its input coded with `input`.
+    pub fn to_int8(&self, input: ActivationQuant) -> TractResult<NhwcConvInt8> {
+        let s = self.weights.shape();
+        let (cout, kdim) = (s[0], s[1] * s[2] * s[3]);
+        let kp = kdim.div_ceil(4) * 4;
+        // OHWI rows, (ky, kx, c) order: the order of the image's bytes in a window row.
+        let w = self.weights.try_as_plain_ram()?;
+        let w = w.as_slice::<f32>()?;
+        let mut padded = vec![0f32; cout * kp];
+        for (o, row) in padded.chunks_exact_mut(kp).enumerate() {
+            row[..kdim].copy_from_slice(&w[o * kdim..(o + 1) * kdim]);
+        }
+        let padded = Tensor::from_shape(&[cout, kp], &padded)?;
+        let product = PointwiseConvInt8::new(&padded, &self.bias, self.activation, input)?
+            .with_split(false)
+            .with_coded_input()?;
+        Ok(NhwcConvInt8 {
+            kh: self.kh,
+            kw: self.kw,
+            cin: self.cin,
+            strides: self.strides,
+            same: self.same,
+            input,
+            product,
+            split: self.split,
         })
     }
 
@@ -278,6 +321,274 @@ impl TypedOp for NhwcConv {
     }
 }
 
+/// [`NhwcConv`] in int8 (issue 46): the image coded in 7 bits with a fixed
+/// [`ActivationQuant`] (the networks' input, calibrated as the 1x1 convolutions' inputs
+/// are), the weights int8 per output channel, and the product and epilogue of
+/// [`PointwiseConvInt8`] (its kernels, run-time dispatch and bits). A few output rows at a
+/// time: the input rows their windows cover are coded into a buffer of the thread's own,
+/// then each output pixel's window is gathered as `KH` runs of `KW·Cin` contiguous codes
+/// (columns in (kernel row, column, channel) order, TFLite's OHWI order, padded with the
+/// code of 0.0 to a multiple of 4 and at the image's borders) into an im2col band of
+/// codes in L1, which the int8 product reads as coded rows. The sums are exact, so the
+/// column order changes nothing; every kernel gives the same bits, and so does any split
+/// of the rows between the cores.
+#[derive(Debug, Clone, PartialEq)]
+pub struct NhwcConvInt8 {
+    kh: usize,
+    kw: usize,
+    cin: usize,
+    strides: (usize, usize),
+    same: bool,
+    input: ActivationQuant,
+    /// The product over rows of `KH·KW·Cin` codes rounded up to a multiple of 4.
+    product: PointwiseConvInt8,
+    /// Share large outputs between the cores ([`crate::split`]).
+    split: bool,
+}
+
+// `ActivationQuant` and the product compare their floats by bits: equality is reflexive.
+impl Eq for NhwcConvInt8 {}
+
+impl NhwcConvInt8 {
+    /// Ends the epilogue with a PRELU of per-channel slopes `alpha` (`[Cout]`): the palm
+    /// detectors' stem, whose PRELU follows it.
+    pub fn with_prelu(mut self, alpha: &Tensor) -> TractResult<Self> {
+        self.product = self.product.with_prelu(alpha)?;
+        Ok(self)
+    }
+
+    /// The code of the input.
+    pub fn input_quant(&self) -> ActivationQuant {
+        self.input
+    }
+
+    /// Output height, width and leading padding (top, left) for an `h x w` input.
+    fn geometry(&self, h: usize, w: usize) -> (usize, usize, usize, usize) {
+        let (oh, pt) = axis_geometry(h, self.kh, self.strides.0, self.same);
+        let (ow, pl) = axis_geometry(w, self.kw, self.strides.1, self.same);
+        (oh, ow, pt, pl)
+    }
+
+    /// The convolution of `src` (`h x w x Cin`) into `out` (`oh x ow x Cout`) with `kernel`.
+    pub(crate) fn compute(
+        &self,
+        src: &[f32],
+        (h, w): (usize, usize),
+        out: &mut [f32],
+        kernel: Int8Kernel,
+    ) -> TractResult<()> {
+        let (oh, ow, _, _) = self.geometry(h, w);
+        let cout = self.product.output_channels();
+        ensure!(
+            src.len() == h * w * self.cin && out.len() == oh * ow * cout,
+            "int8 convolution: inconsistent buffer sizes"
+        );
+        if oh == 0 || ow == 0 || cout == 0 {
+            return Ok(());
+        }
+        let work = out.len() * self.kh * self.kw * self.cin;
+        crate::split::team().rows(out, ow * cout, 1, work, self.split, &|first, o| {
+            self.compute_rows(src, (h, w), first, o, kernel)
+        })
+    }
+
+    /// Output rows `first ..` (as many as `out` holds), sizes checked by
+    /// [`compute`](Self::compute).
+    fn compute_rows(
+        &self,
+        src: &[f32],
+        (h, w): (usize, usize),
+        first: usize,
+        out: &mut [f32],
+        kernel: Int8Kernel,
+    ) -> TractResult<()> {
+        let (_, ow, pt, pl) = self.geometry(h, w);
+        let (cin, cout) = (self.cin, self.product.output_channels());
+        let (kh, kw, (sy, sx)) = (self.kh, self.kw, self.strides);
+        let kp = self.product.input_channels();
+        let run = kw * cin;
+        let zero = self.input.zero_point();
+        let oh = out.len() / (ow * cout);
+        let band = (BAND_CODES / (ow * kp)).max(1).min(oh);
+        CODES.with(|cell| {
+            let mut fresh = (Vec::new(), Vec::new());
+            let mut guard = cell.try_borrow_mut();
+            let (rows_buf, cols_buf) = match guard.as_deref_mut() {
+                Ok(b) => b,
+                // Re-entered on this thread (not expected): buffers of its own.
+                Err(_) => &mut fresh,
+            };
+            let in_rows = ((band - 1) * sy + kh).min(h);
+            rows_buf.resize(rows_buf.len().max(in_rows * w * cin), 0);
+            cols_buf.resize(cols_buf.len().max(band * ow * kp), 0);
+            let mut oy0 = 0;
+            while oy0 < oh {
+                let rows = band.min(oh - oy0);
+                // The input rows y0 .. y1 of these output rows' windows, coded.
+                let top = ((first + oy0) * sy) as isize - pt as isize;
+                let y0 = (top.max(0) as usize).min(h);
+                let y1 = ((top + ((rows - 1) * sy + kh) as isize).max(0) as usize).clamp(y0, h);
+                let coded = &mut rows_buf[..(y1 - y0) * w * cin];
+                crate::int8::quantize_run(
+                    &src[y0 * w * cin..y1 * w * cin],
+                    coded,
+                    self.input,
+                    kernel,
+                );
+                let coded = &*coded;
+                let cols = &mut cols_buf[..rows * ow * kp];
+                for (p, col) in cols.chunks_exact_mut(kp).enumerate() {
+                    let (oy, ox) = (first + oy0 + p / ow, p % ow);
+                    let iy0 = (oy * sy) as isize - pt as isize;
+                    let ix0 = (ox * sx) as isize - pl as isize;
+                    let inside = ix0 >= 0 && ix0 as usize + kw <= w;
+                    if inside && iy0 >= 0 && iy0 as usize + kh <= y1 {
+                        // The whole window inside the image: `kh` runs, the stems' sizes
+                        // known to the compiler (moves, no call to `memcpy` for a few bytes).
+                        let at = (iy0 as usize - y0) * w * cin + ix0 as usize * cin;
+                        let window = &coded[at..];
+                        match (run, kh, kp) {
+                            (9, 3, 28) => gather_codes::<9, 3, 28>(window, w * cin, col, zero),
+                            (15, 5, 76) => gather_codes::<15, 5, 76>(window, w * cin, col, zero),
+                            _ => {
+                                for ky in 0..kh {
+                                    let r = &window[ky * w * cin..][..run];
+                                    col[ky * run..(ky + 1) * run].copy_from_slice(r);
+                                }
+                                col[kh * run..].fill(zero);
+                            }
+                        }
+                        continue;
+                    }
+                    for ky in 0..kh {
+                        let iy = iy0 + ky as isize;
+                        let dst = &mut col[ky * run..(ky + 1) * run];
+                        if iy < 0 || iy >= h as isize {
+                            dst.fill(zero);
+                            continue;
+                        }
+                        let row = &coded[(iy as usize - y0) * w * cin..][..w * cin];
+                        for (kx, tap) in dst.chunks_exact_mut(cin).enumerate() {
+                            let ix = ix0 + kx as isize;
+                            if ix < 0 || ix >= w as isize {
+                                tap.fill(zero);
+                            } else {
+                                let at = ix as usize * cin;
+                                tap.copy_from_slice(&row[at..at + cin]);
+                            }
+                        }
+                    }
+                    col[kh * run..].fill(zero);
+                }
+                let o = &mut out[oy0 * ow * cout..(oy0 + rows) * ow * cout];
+                self.product.compute_with(&*cols, None, o, kernel, false)?;
+                oy0 += rows;
+            }
+            Ok(())
+        })
+    }
+}
+
+impl Op for NhwcConvInt8 {
+    fn name(&self) -> StaticName {
+        "MonohandNhwcConvInt8".into()
+    }
+
+    fn info(&self) -> TractResult<Vec<String>> {
+        Ok(vec![format!(
+            "{}x{} stride {:?} same {} {}->{} input scale {} zero {} prelu {}",
+            self.kh,
+            self.kw,
+            self.strides,
+            self.same,
+            self.cin,
+            self.product.output_channels(),
+            self.input.scale(),
+            self.input.zero_point(),
+            self.product.has_prelu()
+        )])
+    }
+
+    op_as_typed_op!();
+}
+
+impl EvalOp for NhwcConvInt8 {
+    op_out_of_plan!();
+
+    fn eval(&self, _ctx: &EvalContext, inputs: TVec<TValue>) -> TractResult<TVec<TValue>> {
+        let input = args_1!(inputs);
+        let shape = input.shape();
+        ensure!(
+            shape.len() == 4 && shape[0] == 1 && shape[3] == self.cin,
+            "convolution over {} channels expects [1, H, W, {}], got {shape:?}",
+            self.cin,
+            self.cin
+        );
+        let (h, w) = (shape[1], shape[2]);
+        let (oh, ow, _, _) = self.geometry(h, w);
+        let cout = self.product.output_channels();
+        // SAFETY: the tensor's values are left unwritten, and nothing reads one before it is
+        // written: `compute` has the product's epilogue store every output value (every row
+        // goes to exactly one piece, each piece's bands cover its rows, and the product
+        // writes all of a band's rows and channels), and an error drops the tensor without
+        // reading it (f32 has no drop).
+        let mut output = unsafe { Tensor::uninitialized::<f32>(&[1, oh, ow, cout])? };
+        {
+            let src = input.try_as_plain_ram()?;
+            let mut dst = output.try_as_plain_ram_mut()?;
+            self.compute(
+                src.as_slice::<f32>()?,
+                (h, w),
+                dst.as_slice_mut::<f32>()?,
+                Int8Kernel::best(),
+            )?;
+        }
+        Ok(tvec!(output.into_tvalue()))
+    }
+}
+
+impl TypedOp for NhwcConvInt8 {
+    as_op!();
+
+    fn output_facts(&self, inputs: &[&TypedFact]) -> TractResult<TVec<TypedFact>> {
+        let shape = inputs[0]
+            .shape
+            .as_concrete()
+            .context("convolution needs a concrete input shape")?;
+        ensure!(
+            shape.len() == 4 && shape[3] == self.cin,
+            "convolution over {} channels, input {shape:?}",
+            self.cin
+        );
+        let (oh, ow, _, _) = self.geometry(shape[1], shape[2]);
+        Ok(tvec!(f32::fact([
+            shape[0],
+            oh,
+            ow,
+            self.product.output_channels()
+        ])))
+    }
+}
+
+/// The im2col codes of a window inside the image for sizes known at compile time: `KH`
+/// runs of `RUN` codes (`window` starts at the top left tap, rows `stride` codes apart),
+/// then `zero` up to `KP`.
+#[inline(always)]
+fn gather_codes<const RUN: usize, const KH: usize, const KP: usize>(
+    window: &[u8],
+    stride: usize,
+    col: &mut [u8],
+    zero: u8,
+) {
+    let (window, col) = (&window[..(KH - 1) * stride + RUN], &mut col[..KP]);
+    for ky in 0..KH {
+        col[ky * RUN..(ky + 1) * RUN].copy_from_slice(&window[ky * stride..ky * stride + RUN]);
+    }
+    for c in &mut col[KH * RUN..] {
+        *c = zero;
+    }
+}
+
 /// The im2col columns of a window inside the image (`window` starts at its top left tap,
 /// rows `stride` floats apart), in (channel, kernel row, column) order, for sizes known at
 /// compile time: the same values as the general loop.
@@ -304,7 +615,7 @@ mod tests {
 
     /// TFLite's convolution written out naively, in f64.
     #[allow(clippy::too_many_arguments)]
-    fn reference(
+    pub(super) fn reference(
         x: &[f32],
         (h, w, cin): (usize, usize, usize),
         k: &[f32],
@@ -554,6 +865,201 @@ mod versus_tract {
                 let differ = crate::split::testing::differing_bits(&got, &want);
                 assert_eq!(differ, 0, "{kernel:?} {h}x{w}x{cin} k{kh} s{s} same {same}");
             }
+        }
+    }
+
+    /// The int8 stem written out naively: the image coded with `quant` (zero-point codes in
+    /// the padding), each window's codes in OHWI order, the int8 weights and epilogue of
+    /// the same `PointwiseConvInt8` on those rows with the portable kernel.
+    fn int8_reference(op: &NhwcConvInt8, x: &[f32], (h, w): (usize, usize)) -> Vec<f32> {
+        let (oh, ow, pt, pl) = op.geometry(h, w);
+        let (kh, kw, cin) = (op.kh, op.kw, op.cin);
+        let kp = op.product.input_channels();
+        let mut cols = vec![op.input.zero_point(); oh * ow * kp];
+        for oy in 0..oh {
+            for ox in 0..ow {
+                for ky in 0..kh {
+                    for kx in 0..kw {
+                        let iy = (oy * op.strides.0 + ky) as isize - pt as isize;
+                        let ix = (ox * op.strides.1 + kx) as isize - pl as isize;
+                        if iy < 0 || ix < 0 || iy >= h as isize || ix >= w as isize {
+                            continue;
+                        }
+                        for c in 0..cin {
+                            let v = x[(iy as usize * w + ix as usize) * cin + c];
+                            cols[(oy * ow + ox) * kp + (ky * kw + kx) * cin + c] =
+                                op.input.quantize(v);
+                        }
+                    }
+                }
+            }
+        }
+        let mut out = vec![0f32; oh * ow * op.product.output_channels()];
+        op.product
+            .compute_with(&cols[..], None, &mut out, Int8Kernel::PORTABLE, false)
+            .expect("product");
+        out
+    }
+
+    #[test]
+    fn the_int8_stem_gives_the_reference_bits_with_every_kernel_and_is_near_f32() {
+        let mut seed = 11u64;
+        let mut next = move || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (seed >> 40) as f32 / (1u64 << 24) as f32
+        };
+        // (h, w, cin, cout, k, stride, same): the landmark and palm stems on smaller
+        // images (windows inside and across every border), odd sizes, VALID, a stride of
+        // 1, channels whose windows are no multiple of 4 codes, and a band of one row.
+        let cases = [
+            (16, 16, 3, 24, 3, 2, true),
+            (15, 13, 3, 24, 3, 2, true),
+            (12, 12, 3, 32, 5, 2, true),
+            (11, 9, 3, 32, 5, 2, false),
+            (9, 10, 2, 7, 3, 1, true),
+            (6, 700, 3, 24, 3, 2, true),
+        ];
+        for (h, w, cin, cout, k, s, same) in cases {
+            let x: Vec<f32> = (0..h * w * cin).map(|_| next()).collect();
+            let wv: Vec<f32> = (0..cout * k * k * cin).map(|_| next() - 0.5).collect();
+            let bv: Vec<f32> = (0..cout).map(|_| next() - 0.5).collect();
+            let weights = Tensor::from_shape(&[cout, k, k, cin], &wv).expect("w");
+            let bias = Tensor::from_shape(&[cout], &bv).expect("b");
+            let conv = NhwcConv::new(&weights, &bias, (s, s), same, Activation::Relu6)
+                .expect("conv")
+                .with_split(false);
+            let op = conv
+                .to_int8(ActivationQuant::from_min_max(0.0, 1.0))
+                .expect("int8");
+            let want = int8_reference(&op, &x, (h, w));
+            let (oh, ow, _, _) = op.geometry(h, w);
+            for kernel in Int8Kernel::supported() {
+                let mut got = vec![f32::NAN; oh * ow * cout];
+                op.compute(&x, (h, w), &mut got, kernel).expect("compute");
+                let differ = crate::split::testing::differing_bits(&got, &want);
+                assert_eq!(differ, 0, "{kernel:?} {h}x{w}x{cin} k{k} s{s} same {same}");
+            }
+            // And it is the f32 convolution, up to the codes' rounding: each of the
+            // `k·k·cin` inputs off by at most half a step (1/254) and each weight by half of
+            // its channel's step.
+            let exact = super::tests::reference(
+                &x,
+                (h, w, cin),
+                &wv,
+                (cout, k, k),
+                &bv,
+                (s, s),
+                same,
+                Activation::Relu6,
+            );
+            let taps = (k * k * cin) as f32;
+            let worst = exact
+                .iter()
+                .zip(&want)
+                .map(|(a, b)| (a - b).abs())
+                .fold(0f32, f32::max);
+            assert!(
+                worst < taps * (0.5 / 127.0 * 0.5 + 0.5 / 127.0 * 0.5),
+                "{worst}"
+            );
+        }
+    }
+
+    #[test]
+    fn the_int8_stem_shared_between_threads_gives_the_same_bits() {
+        let (h, w, cin, cout) = (96, 96, 3, 24);
+        let x: Vec<f32> = (0..h * w * cin)
+            .map(|i| (i * 7919 % 256) as f32 / 255.0)
+            .collect();
+        let wv: Vec<f32> = (0..cout * 27)
+            .map(|i| ((i * 37 % 101) as f32 - 50.0) / 200.0)
+            .collect();
+        let weights = Tensor::from_shape(&[cout, 3, 3, cin], &wv).expect("w");
+        let bias = Tensor::from_shape(&[cout], &vec![0.1f32; cout]).expect("b");
+        let quant = ActivationQuant::from_min_max(0.0, 1.0);
+        let op = |split| {
+            NhwcConv::new(&weights, &bias, (2, 2), true, Activation::Relu6)
+                .expect("conv")
+                .with_split(split)
+                .to_int8(quant)
+                .expect("int8")
+        };
+        let input = Tensor::from_shape(&[1, h, w, cin], &x).expect("x");
+        crate::split::testing::same_bits_split(&op(true), &op(false), &[input]);
+    }
+
+    #[test]
+    fn the_int8_stem_refuses_a_malformed_input() {
+        let weights = Tensor::from_shape(&[4, 3, 3, 3], &[0.5f32; 108]).expect("w");
+        let bias = Tensor::from_shape(&[4], &[0f32; 4]).expect("b");
+        let op = NhwcConv::new(&weights, &bias, (2, 2), true, Activation::None)
+            .expect("conv")
+            .to_int8(ActivationQuant::from_min_max(0.0, 1.0))
+            .expect("int8");
+        let wrong = Tensor::zero::<f32>(&[1, 8, 8, 4]).expect("x");
+        assert!(op.eval_out_of_plan(tvec!(wrong.into_tvalue())).is_err());
+        let mut out = vec![0f32; 3];
+        assert!(op
+            .compute(&[0.0; 10], (8, 8), &mut out, Int8Kernel::best())
+            .is_err());
+    }
+}
+
+#[cfg(test)]
+mod speed {
+    use super::*;
+
+    /// Microseconds per call of the stems in f32 ([`NhwcConv`]) and int8 ([`NhwcConvInt8`]),
+    /// one thread, side by side (best of 9 rounds, the two alternating):
+    /// `cargo test --release -p monohand-tflite conv::speed -- --ignored --nocapture`.
+    #[test]
+    #[ignore = "a measurement, not a test"]
+    fn stems() {
+        // (input size, kernel, Cout, activation): the landmark networks' and the palm
+        // detectors' first layers.
+        for (size, k, cout, act) in [
+            (224, 3, 24, Activation::Relu6),
+            (192, 5, 32, Activation::None),
+        ] {
+            let w: Vec<f32> = (0..cout * k * k * 3)
+                .map(|i| ((i * 37 % 101) as f32 - 50.0) / 200.0)
+                .collect();
+            let w = Tensor::from_shape(&[cout, k, k, 3], &w).expect("w");
+            let b = Tensor::from_shape(&[cout], &vec![0.1f32; cout]).expect("b");
+            let f32_conv = NhwcConv::new(&w, &b, (2, 2), true, act)
+                .expect("conv")
+                .with_split(false);
+            let quant = ActivationQuant::from_min_max(0.0, 1.0);
+            let int8 = f32_conv.to_int8(quant).expect("int8");
+            let x: Vec<f32> = (0..size * size * 3)
+                .map(|i| (i * 7919 % 256) as f32 / 255.0)
+                .collect();
+            let (oh, ow, _, _) = f32_conv.geometry(size, size);
+            let mut out = vec![0f32; oh * ow * cout];
+            let (mut a, mut q) = (f64::MAX, f64::MAX);
+            for _ in 0..9 {
+                let t = std::time::Instant::now();
+                for _ in 0..20 {
+                    f32_conv
+                        .compute(&x, (size, size), &mut out, Kernel::best())
+                        .expect("f32");
+                }
+                a = a.min(t.elapsed().as_secs_f64() / 20.0);
+                let t = std::time::Instant::now();
+                for _ in 0..20 {
+                    int8.compute(&x, (size, size), &mut out, Int8Kernel::best())
+                        .expect("int8");
+                }
+                q = q.min(t.elapsed().as_secs_f64() / 20.0);
+            }
+            println!(
+                "{size}x{size}x3 k{k} -> {cout}: f32 {:7.1} us, int8 {:7.1} us ({})",
+                a * 1e6,
+                q * 1e6,
+                Int8Kernel::best().name()
+            );
         }
     }
 }

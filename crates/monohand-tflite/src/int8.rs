@@ -797,7 +797,7 @@ fn quantize_rows(
 }
 
 /// Codes `x` into `q` (of the same length) with `kernel`'s quantizer.
-fn quantize_run(x: &[f32], q: &mut [u8], quant: ActivationQuant, kernel: Int8Kernel) {
+pub(crate) fn quantize_run(x: &[f32], q: &mut [u8], quant: ActivationQuant, kernel: Int8Kernel) {
     match kernel.isa() {
         Isa::Portable => {
             for (q, &x) in q.iter_mut().zip(x) {
@@ -1609,26 +1609,30 @@ mod relaxed {
     }
 }
 
-/// The range of the input of every [`PointwiseConv`](crate::PointwiseConv) node of `model`
-/// (by node name) over runs on `inputs` (each the model's inputs): what
-/// [`quantize_pointwise`] codes them from. The model runs optimised (tract's unoptimised
-/// operators are many times slower); the optimiser keeps these nodes and their names, which
-/// are those of the imported graph (an error if one of them went missing).
-pub fn pointwise_input_ranges(
+/// The range of the input of every [`PointwiseConv`](crate::PointwiseConv) and
+/// [`NhwcConv`](crate::NhwcConv) node of `model` (by node name) over runs on `inputs` (each
+/// the model's inputs): what [`quantize_pointwise`] codes them from. The model runs
+/// optimised (tract's unoptimised operators are many times slower); the optimiser keeps
+/// these nodes and their names, which are those of the imported graph (an error if one of
+/// them went missing).
+pub fn int8_input_ranges(
     model: &TypedModel,
     inputs: &[TVec<Tensor>],
 ) -> TractResult<std::collections::HashMap<String, MinMax>> {
+    let coded = |n: &TypedNode| {
+        n.op_as::<crate::PointwiseConv>().is_some() || n.op_as::<crate::NhwcConv>().is_some()
+    };
     let names = |m: &TypedModel| -> std::collections::BTreeSet<String> {
         m.nodes()
             .iter()
-            .filter(|n| n.op_as::<crate::PointwiseConv>().is_some())
+            .filter(|n| coded(n))
             .map(|n| n.name.clone())
             .collect()
     };
     let optimised = model.clone().into_optimized()?;
     ensure!(
         names(&optimised) == names(model),
-        "the optimiser renamed or removed 1x1 convolutions"
+        "the optimiser renamed or removed 1x1 convolutions or stems"
     );
     let plan = optimised.into_runnable()?;
     let mut state = plan.spawn()?;
@@ -1636,7 +1640,7 @@ pub fn pointwise_input_ranges(
     for input in inputs {
         let input: TVec<TValue> = input.iter().map(|t| t.clone().into_tvalue()).collect();
         state.run_plan_with_eval(input, |ctx, st, node, inputs| {
-            if node.op_as::<crate::PointwiseConv>().is_some() {
+            if coded(node) {
                 if let Some(x) = inputs.first() {
                     let x = x.try_as_plain_ram()?;
                     ranges
@@ -1653,22 +1657,42 @@ pub fn pointwise_input_ranges(
 
 /// Replaces every [`PointwiseConv`](crate::PointwiseConv) node of `model` that `ranges` has
 /// a range for, and that `keep_f32` does not name, by the same convolution in int8
-/// ([`PointwiseConvInt8`], its input coded from the range); returns how many were replaced.
-/// Then, where such a node's input is the result of a [`NhwcDepthwise`](crate::NhwcDepthwise)
-/// that nothing else reads, has the depthwise convolution write the codes
+/// ([`PointwiseConvInt8`], its input coded from the range), and every
+/// [`NhwcConv`](crate::NhwcConv) (the stem) that `ranges` has a range for by
+/// [`NhwcConvInt8`](crate::NhwcConvInt8), folding in a [`ChannelPrelu`](crate::ChannelPrelu)
+/// that alone reads its result; returns how many layers were replaced. Then, where a 1x1
+/// convolution's input is the result of a [`NhwcDepthwise`](crate::NhwcDepthwise) that
+/// nothing else reads, has the depthwise convolution write the codes
 /// ([`code_depthwise_results`]): the same results, bit for bit.
 pub fn quantize_pointwise(
     model: &mut TypedModel,
     ranges: &std::collections::HashMap<String, MinMax>,
     keep_f32: impl Fn(&str, &crate::PointwiseConv) -> bool,
 ) -> TractResult<usize> {
+    let outputs = model.output_outlets()?.to_vec();
     let mut replaced = 0;
     for id in 0..model.nodes().len() {
         let node = model.node(id);
-        let Some(op) = node.op_as::<crate::PointwiseConv>() else {
+        let Some(range) = ranges.get(&node.name) else {
             continue;
         };
-        let Some(range) = ranges.get(&node.name) else {
+        if let Some(stem) = node.op_as::<crate::NhwcConv>() {
+            let mut int8 = stem.to_int8(range.quant())?;
+            let out = OutletId::new(id, 0);
+            let single = &node.outputs[0].successors;
+            if let ([next], false) = (&single[..], outputs.contains(&out)) {
+                let next_id = next.node;
+                if let Some(prelu) = model.node(next_id).op_as::<crate::ChannelPrelu>() {
+                    int8 = int8.with_prelu(&prelu.alpha)?;
+                    // The PRELU node passes its input on; the optimiser removes it.
+                    model.node_mut(next_id).op = Box::new(tract_core::ops::identity::Identity);
+                }
+            }
+            model.node_mut(id).op = Box::new(int8);
+            replaced += 1;
+            continue;
+        }
+        let Some(op) = node.op_as::<crate::PointwiseConv>() else {
             continue;
         };
         if keep_f32(&node.name, op) {
@@ -2235,7 +2259,7 @@ mod tests {
         let z = model.wire_node("second", second, &[y]).expect("second")[0];
         model.select_output_outlets(&[z]).expect("outputs");
         let input = Tensor::from_shape(&[1, 6, 7, c.cin], &c.x).expect("x");
-        let ranges = pointwise_input_ranges(&model, &[tvec!(input.clone())]).expect("ranges");
+        let ranges = int8_input_ranges(&model, &[tvec!(input.clone())]).expect("ranges");
         assert_eq!(ranges.len(), 2);
         let (lo, hi) =
             c.x.iter()
@@ -2395,7 +2419,7 @@ mod tests {
         let c = 24;
         let model = depthwise_model(&mut g, c);
         let input = Tensor::from_shape(&[1, 9, 9, c], &g.vec(81 * c, 3.0)).expect("x");
-        let ranges = pointwise_input_ranges(&model, &[tvec!(input.clone())]).expect("ranges");
+        let ranges = int8_input_ranges(&model, &[tvec!(input.clone())]).expect("ranges");
         assert_eq!(ranges.len(), 3);
         // Each 1x1 layer in int8 coding its own input (no coded results).
         let mut plain = model.clone();

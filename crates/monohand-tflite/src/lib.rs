@@ -26,7 +26,8 @@
 //! back to tract's built-in operators.
 //!
 //! In int8 ([`Precision::Int8`], [`quantize_pointwise`]), [`PointwiseConvInt8`] replaces
-//! [`PointwiseConv`], and a depthwise convolution read only by one becomes
+//! [`PointwiseConv`], [`NhwcConvInt8`] replaces the stem's [`NhwcConv`] (with a PRELU after
+//! it folded in), and a depthwise convolution read only by an int8 1x1 convolution becomes
 //! [`NhwcDepthwiseCodes`], which writes the int8 layer's input codes instead of f32.
 //!
 //! When one network runs alone, [`NhwcDepthwise`], [`PointwiseConv`] and [`NhwcConv`] share
@@ -45,10 +46,10 @@ mod prelu;
 mod split;
 mod tensors;
 
-pub use conv::NhwcConv;
+pub use conv::{NhwcConv, NhwcConvInt8};
 pub use depthwise::{NhwcDepthwise, NhwcDepthwiseCodes};
 pub use int8::{
-    code_depthwise_results, pointwise_input_ranges, quantize_pointwise, quantize_weights,
+    code_depthwise_results, int8_input_ranges, quantize_pointwise, quantize_weights,
     ActivationQuant, MinMax, PointwiseConvInt8, ACTIVATION_QMAX, WEIGHT_QMAX,
 };
 pub use pointwise::{Activation, PointwiseConv};
@@ -64,9 +65,10 @@ pub use ops::SUPPORTED_OPERATORS;
 
 /// The arithmetic a network's convolutions run in.
 ///
-/// [`Precision::Int8`] runs the quantizable layers (today the 1x1 convolutions,
-/// [`PointwiseConvInt8`]) in int8 with activation codes from a calibration
-/// ([`pointwise_input_ranges`], [`quantize_pointwise`]); everything else stays f32.
+/// [`Precision::Int8`] runs the quantizable layers (the 1x1 convolutions,
+/// [`PointwiseConvInt8`], and the stems, [`NhwcConvInt8`]) in int8 with activation codes
+/// from a calibration
+/// ([`int8_input_ranges`], [`quantize_pointwise`]); everything else stays f32.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Hash)]
 pub enum Precision {
     /// f32 throughout (MediaPipe's own arithmetic; the default).

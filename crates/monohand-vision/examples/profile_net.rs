@@ -1,7 +1,8 @@
 //! Time per operator type of an imported, optimised network (where does tract spend time?).
 //!
 //! `cargo run --release -p monohand-vision --example profile_net -- palm_detection_full`
-//! (`PER_NODE=1`: per node instead of per operator type).
+//! (`PER_NODE=1`: per node instead of per operator type; `PRECISION=int8`: the network as
+//! `--precision int8` runs it).
 #![allow(clippy::unwrap_used, clippy::expect_used)] // a failed test or bench is a panic
 
 use std::collections::HashMap;
@@ -20,7 +21,17 @@ fn main() -> TractResult<()> {
         .context("unknown model")?;
     let store = ModelStore::new(None).map_err(|e| format_err!("{e}"))?;
     let bytes = store.load(file).map_err(|e| format_err!("{e}"))?;
-    let model = tflite_import::import(&bytes).map_err(|e| format_err!("{e}"))?;
+    let precision: monohand_vision::Precision = std::env::var("PRECISION")
+        .unwrap_or_else(|_| "f32".into())
+        .parse()
+        .map_err(|e| format_err!("{e}"))?;
+    let (model, _) = monohand_vision::int8::import(
+        &bytes,
+        std::path::Path::new(file.file_name()),
+        tflite_import::ImportOptions::default(),
+        precision,
+    )
+    .map_err(|e| format_err!("{e}"))?;
     let model = model.into_optimized()?;
     let shape: Vec<usize> = model
         .input_fact(0)?

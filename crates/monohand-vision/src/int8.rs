@@ -1,9 +1,9 @@
 //! The networks in int8 ([`Precision::Int8`]): the calibration tables that code each
 //! quantized layer's input, shipped with monohand, and how they are made.
 //!
-//! A table holds, for every 1x1 convolution of one network (by its node name in the
-//! imported graph), the smallest and largest value its input took while the f32 pipeline
-//! ran on the calibration frames: what [`monohand_tflite::ActivationQuant::from_min_max`]
+//! A table holds, for every 1x1 convolution and the first convolution (the stem, on the
+//! image) of one network (by its node name in the imported graph), the smallest and
+//! largest value its input took while the f32 pipeline ran on the calibration frames: what [`monohand_tflite::ActivationQuant::from_min_max`]
 //! codes that input from. Tables are plain text (`int8/<network>.txt` in this crate,
 //! compiled in), stamped with the SHA-256 of the network they were measured on and ending
 //! with the SHA-256 of their own lines, both checked when one is read. A table is only
@@ -17,7 +17,7 @@
 //! landmark network's two passes, the mirror pass) in f32, and the inputs the palm and
 //! landmark networks were given are recorded ([`crate::TfliteNet::recording`]); each network's table
 //! comes from running its imported f32 graph on those inputs
-//! ([`monohand_tflite::pointwise_input_ranges`]). The same frames give the same table, bit
+//! ([`monohand_tflite::int8_input_ranges`]). The same frames give the same table, bit
 //! for bit, with any thread count (`tests/int8_calibration.rs` makes them again and
 //! compares). `examples/int8_calibrate.rs` writes them.
 //!
@@ -65,14 +65,16 @@ pub fn quantized_networks() -> impl Iterator<Item = ModelFile> {
     SHIPPED.iter().map(|(f, _)| *f)
 }
 
-/// One network's calibration: the range of the input of each of its 1x1 convolutions.
+/// One network's calibration: the range of the input of each of its 1x1 convolutions and
+/// of its stem.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Int8Table {
     /// SHA-256 (lower-case hex) of the `.tflite` file the ranges were measured on.
     pub network_sha256: String,
     /// What the ranges were measured on, in a few words.
     pub frames: String,
-    /// Input range of each 1x1 convolution, by node name in the imported graph.
+    /// Input range of each 1x1 convolution and of the stem, by node name in the imported
+    /// graph.
     pub ranges: BTreeMap<String, MinMax>,
 }
 
@@ -165,8 +167,8 @@ impl Int8Table {
 }
 
 /// The network `bytes` (named `origin` in errors) imported, in `precision`: unchanged in
-/// f32; in int8, every 1x1 convolution the shipped table has a range for replaced by its
-/// int8 twin. Returns the graph (not yet optimised) and how many layers run in int8. An
+/// f32; in int8, every 1x1 convolution (and the stem) the shipped table has a range for
+/// replaced by its int8 twin. Returns the graph (not yet optimised) and how many layers run in int8. An
 /// error if int8 is asked of a network with no shipped table, or if none of its layers
 /// could be replaced (a CPU without the fast 1x1 operator).
 pub fn import(
@@ -285,7 +287,7 @@ pub fn calibrate(
             source,
         })?;
         let runs: Vec<TVec<Tensor>> = recorded.into_iter().map(|t| tvec!(t)).collect();
-        let ranges = monohand_tflite::pointwise_input_ranges(&model, &runs)?;
+        let ranges = monohand_tflite::int8_input_ranges(&model, &runs)?;
         tables.push((
             *file,
             Int8Table {
