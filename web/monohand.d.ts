@@ -109,7 +109,7 @@ export interface TrackerOptions {
   detectEvery?: number;
   /** Whether the landmark network also reads each crop's mirror image (default true; false: one network pass a hand instead of two, as MediaPipe does, about twice as fast, at a higher 3D error). */
   mirrorPass?: boolean;
-  /** The networks' arithmetic: "f32" (the default, MediaPipe's own) or "int8" (the 1x1 convolutions of both networks in int8, with monohand's shipped calibration; the records then say `"precision": "int8"`). int8 is fast only where the tracker runs threaded (`threads > 1`: the module with relaxed SIMD, about 0.6x f32's time a frame); on one thread its kernel is the portable one, slower than f32. */
+  /** The networks' arithmetic: "f32" (the default, MediaPipe's own) or "int8" (the 1x1 and first convolutions of both networks in int8, with monohand's shipped calibration; the records then say `"precision": "int8"`). int8 is fast only where the tracker runs threaded (`threads > 1`: the module with relaxed SIMD, about 0.6x f32's time a frame); on one thread its kernel is the portable one, slower than f32. */
   precision?: 'f32' | 'int8';
   /** The camera's intrinsics, for frames of its size (default: a generic 60 degree camera for the frames' size, said in the notes). */
   camera?: Intrinsics;

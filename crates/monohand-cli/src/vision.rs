@@ -31,7 +31,7 @@ impl From<Variant> for ModelVariant {
 pub(crate) enum PrecisionArg {
     /// f32 throughout, MediaPipe's own arithmetic.
     F32,
-    /// The 1x1 convolutions of the palm and landmark networks in int8, with the
+    /// The 1x1 and first convolutions of the palm and landmark networks in int8, with the
     /// calibration monohand ships (docs/performance.md, docs/accuracy.md).
     Int8,
 }

@@ -9,7 +9,7 @@
 //!   list among `no-pointwise`, `no-epilogue`, `no-depthwise`, `no-prelu`, `no-dw-act`, `no-dw-blocking`,
 //!   `no-conv`, `no-split`
 //!   (switching monohand's own operators back to tract's), and `int8` (the network's
-//!   shipped int8 calibration: its 1x1 convolutions in int8). Answers `ok`.
+//!   shipped int8 calibration: its 1x1 and first convolutions in int8). Answers `ok`.
 //! * `time NAME RUNS`: runs the network `RUNS` times on a reused run state, as the pipeline
 //!   does (the input is copied into the state's buffer before each timed run, like LiteRT's
 //!   `set_tensor` before `invoke`; only the run is timed); answers the milliseconds of each
