@@ -268,33 +268,14 @@ impl EvalOp for NhwcConv {
     op_out_of_plan!();
 
     fn eval(&self, _ctx: &EvalContext, inputs: TVec<TValue>) -> TractResult<TVec<TValue>> {
-        let input = args_1!(inputs);
-        let shape = input.shape();
-        ensure!(
-            shape.len() == 4 && shape[0] == 1 && shape[3] == self.cin,
-            "convolution over {} channels expects [1, H, W, {}], got {shape:?}",
-            self.cin,
-            self.cin
-        );
-        let (h, w) = (shape[1], shape[2]);
-        let (oh, ow, _, _) = self.geometry(h, w);
         let cout = self.product.output_channels();
-        // SAFETY: the tensor's values are left unwritten, and nothing reads one before it is
-        // written: `compute` has the product's epilogue store every output value (every row
-        // goes to exactly one piece, and the product writes all of its rows and channels),
-        // and an error drops the tensor without reading it (f32 has no drop).
-        let mut output = unsafe { Tensor::uninitialized::<f32>(&[1, oh, ow, cout])? };
-        {
-            let src = input.try_as_plain_ram()?;
-            let mut dst = output.try_as_plain_ram_mut()?;
-            self.compute(
-                src.as_slice::<f32>()?,
-                (h, w),
-                dst.as_slice_mut::<f32>()?,
-                Kernel::best(),
-            )?;
-        }
-        Ok(tvec!(output.into_tvalue()))
+        eval_stem(
+            inputs,
+            self.cin,
+            cout,
+            |h, w| self.geometry(h, w),
+            |src, hw, dst| self.compute(src, hw, dst, Kernel::best()),
+        )
     }
 }
 
@@ -302,23 +283,61 @@ impl TypedOp for NhwcConv {
     as_op!();
 
     fn output_facts(&self, inputs: &[&TypedFact]) -> TractResult<TVec<TypedFact>> {
-        let shape = inputs[0]
-            .shape
-            .as_concrete()
-            .context("convolution needs a concrete input shape")?;
-        ensure!(
-            shape.len() == 4 && shape[3] == self.cin,
-            "convolution over {} channels, input {shape:?}",
-            self.cin
-        );
-        let (oh, ow, _, _) = self.geometry(shape[1], shape[2]);
-        Ok(tvec!(f32::fact([
-            shape[0],
-            oh,
-            ow,
-            self.product.output_channels()
-        ])))
+        stem_facts(inputs, self.cin, self.product.output_channels(), |h, w| {
+            self.geometry(h, w)
+        })
     }
+}
+
+/// The `eval` of a stem ([`NhwcConv`], [`NhwcConvInt8`]): checks the input (`[1, H, W,
+/// cin]`), makes the output (`[1, oh, ow, cout]` from `geometry(H, W)`) and has
+/// `compute(input, (H, W), output)` write every one of its values.
+fn eval_stem(
+    inputs: TVec<TValue>,
+    cin: usize,
+    cout: usize,
+    geometry: impl Fn(usize, usize) -> (usize, usize, usize, usize),
+    compute: impl FnOnce(&[f32], (usize, usize), &mut [f32]) -> TractResult<()>,
+) -> TractResult<TVec<TValue>> {
+    let input = args_1!(inputs);
+    let shape = input.shape();
+    ensure!(
+        shape.len() == 4 && shape[0] == 1 && shape[3] == cin,
+        "convolution over {cin} channels expects [1, H, W, {cin}], got {shape:?}"
+    );
+    let (h, w) = (shape[1], shape[2]);
+    let (oh, ow, _, _) = geometry(h, w);
+    // SAFETY: the tensor's values are left unwritten, and nothing reads one before it is
+    // written: `compute` (each stem's) has the product's epilogue store every output value
+    // (every row goes to exactly one piece, each piece's bands cover its rows, and the
+    // product writes all of a band's rows and channels), and an error drops the tensor
+    // without reading it (f32 has no drop).
+    let mut output = unsafe { Tensor::uninitialized::<f32>(&[1, oh, ow, cout])? };
+    {
+        let src = input.try_as_plain_ram()?;
+        let mut dst = output.try_as_plain_ram_mut()?;
+        compute(src.as_slice::<f32>()?, (h, w), dst.as_slice_mut::<f32>()?)?;
+    }
+    Ok(tvec!(output.into_tvalue()))
+}
+
+/// The output fact of a stem over `cin` channels with `cout` outputs.
+fn stem_facts(
+    inputs: &[&TypedFact],
+    cin: usize,
+    cout: usize,
+    geometry: impl Fn(usize, usize) -> (usize, usize, usize, usize),
+) -> TractResult<TVec<TypedFact>> {
+    let shape = inputs[0]
+        .shape
+        .as_concrete()
+        .context("convolution needs a concrete input shape")?;
+    ensure!(
+        shape.len() == 4 && shape[3] == cin,
+        "convolution over {cin} channels, input {shape:?}"
+    );
+    let (oh, ow, _, _) = geometry(shape[1], shape[2]);
+    Ok(tvec!(f32::fact([shape[0], oh, ow, cout])))
 }
 
 /// [`NhwcConv`] in int8 (issue 46): the image coded in 7 bits with a fixed
@@ -516,34 +535,14 @@ impl EvalOp for NhwcConvInt8 {
     op_out_of_plan!();
 
     fn eval(&self, _ctx: &EvalContext, inputs: TVec<TValue>) -> TractResult<TVec<TValue>> {
-        let input = args_1!(inputs);
-        let shape = input.shape();
-        ensure!(
-            shape.len() == 4 && shape[0] == 1 && shape[3] == self.cin,
-            "convolution over {} channels expects [1, H, W, {}], got {shape:?}",
-            self.cin,
-            self.cin
-        );
-        let (h, w) = (shape[1], shape[2]);
-        let (oh, ow, _, _) = self.geometry(h, w);
         let cout = self.product.output_channels();
-        // SAFETY: the tensor's values are left unwritten, and nothing reads one before it is
-        // written: `compute` has the product's epilogue store every output value (every row
-        // goes to exactly one piece, each piece's bands cover its rows, and the product
-        // writes all of a band's rows and channels), and an error drops the tensor without
-        // reading it (f32 has no drop).
-        let mut output = unsafe { Tensor::uninitialized::<f32>(&[1, oh, ow, cout])? };
-        {
-            let src = input.try_as_plain_ram()?;
-            let mut dst = output.try_as_plain_ram_mut()?;
-            self.compute(
-                src.as_slice::<f32>()?,
-                (h, w),
-                dst.as_slice_mut::<f32>()?,
-                Int8Kernel::best(),
-            )?;
-        }
-        Ok(tvec!(output.into_tvalue()))
+        eval_stem(
+            inputs,
+            self.cin,
+            cout,
+            |h, w| self.geometry(h, w),
+            |src, hw, dst| self.compute(src, hw, dst, Int8Kernel::best()),
+        )
     }
 }
 
@@ -551,22 +550,9 @@ impl TypedOp for NhwcConvInt8 {
     as_op!();
 
     fn output_facts(&self, inputs: &[&TypedFact]) -> TractResult<TVec<TypedFact>> {
-        let shape = inputs[0]
-            .shape
-            .as_concrete()
-            .context("convolution needs a concrete input shape")?;
-        ensure!(
-            shape.len() == 4 && shape[3] == self.cin,
-            "convolution over {} channels, input {shape:?}",
-            self.cin
-        );
-        let (oh, ow, _, _) = self.geometry(shape[1], shape[2]);
-        Ok(tvec!(f32::fact([
-            shape[0],
-            oh,
-            ow,
-            self.product.output_channels()
-        ])))
+        stem_facts(inputs, self.cin, self.product.output_channels(), |h, w| {
+            self.geometry(h, w)
+        })
     }
 }
 
