@@ -12,6 +12,7 @@ own 1x1 convolutions), then LiteRT. Medians over all runs of all rounds are repo
 """
 import argparse
 import os
+import shutil
 import statistics
 import subprocess
 import tempfile
@@ -104,6 +105,8 @@ def main():
         theirs = it.get_tensor(it.get_output_details()[0]["index"]).reshape(-1)[:8]
         mine = np.array([float(v) for v in ours.ask(f"output {name}:default").split()[0].split(",")])
         print(f"{name}: first outputs differ by at most {np.abs(mine - theirs).max():.2e}")
+    # net_timer read each input when it loaded the network: the files are no longer needed.
+    shutil.rmtree(tmp, ignore_errors=True)
 
     times = {(n, v): [] for n, _, _ in NETWORKS for v in variants + ["litert"]}
     for r in range(a.rounds):
