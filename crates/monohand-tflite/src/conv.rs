@@ -34,15 +34,100 @@ thread_local! {
 /// runs over it).
 const BAND_CODES: usize = 16 * 1024;
 
-/// `KH x KW` convolution with strides `(sy, sx)` on `[1, H, W, Cin]` f32 tensors, TFLite's
-/// SAME (or VALID) padding, a bias per output channel and a fused activation.
-#[derive(Debug, Clone, PartialEq, Eq, Hash)]
-pub struct NhwcConv {
+/// The window of a stem ([`NhwcConv`], [`NhwcConvInt8`]): `KH x KW` over `Cin` channels,
+/// strides `(sy, sx)`, TFLite's SAME (or VALID) padding.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+struct StemShape {
     kh: usize,
     kw: usize,
     cin: usize,
     strides: (usize, usize),
     same: bool,
+}
+
+impl StemShape {
+    /// Output height, width and leading padding (top, left) for an `h x w` input.
+    fn geometry(&self, h: usize, w: usize) -> (usize, usize, usize, usize) {
+        let (oh, pt) = axis_geometry(h, self.kh, self.strides.0, self.same);
+        let (ow, pl) = axis_geometry(w, self.kw, self.strides.1, self.same);
+        (oh, ow, pt, pl)
+    }
+
+    /// The convolution of `src` (`h x w x Cin`) into `out` (`oh x ow x cout`): checks the
+    /// sizes and has `rows(first, out_rows)` compute disjoint pieces of the output rows that
+    /// together cover them, shared between the cores with `split` ([`crate::split`]).
+    fn compute(
+        &self,
+        src: &[f32],
+        (h, w): (usize, usize),
+        out: &mut [f32],
+        (cout, split): (usize, bool),
+        rows: impl Fn(usize, &mut [f32]) -> TractResult<()> + Sync,
+    ) -> TractResult<()> {
+        let (oh, ow, _, _) = self.geometry(h, w);
+        ensure!(
+            src.len() == h * w * self.cin && out.len() == oh * ow * cout,
+            "convolution: inconsistent buffer sizes"
+        );
+        if oh == 0 || ow == 0 || cout == 0 {
+            return Ok(());
+        }
+        let work = out.len() * self.kh * self.kw * self.cin;
+        crate::split::team().rows(out, ow * cout, 1, work, split, &rows)
+    }
+
+    /// The `eval` of a stem: checks the input (`[1, H, W, Cin]`), makes the output (`[1, oh,
+    /// ow, cout]`) and has `compute(input, (H, W), output)` write every one of its values.
+    fn eval(
+        &self,
+        inputs: TVec<TValue>,
+        cout: usize,
+        compute: impl FnOnce(&[f32], (usize, usize), &mut [f32]) -> TractResult<()>,
+    ) -> TractResult<TVec<TValue>> {
+        let input = args_1!(inputs);
+        let shape = input.shape();
+        let cin = self.cin;
+        ensure!(
+            shape.len() == 4 && shape[0] == 1 && shape[3] == cin,
+            "convolution over {cin} channels expects [1, H, W, {cin}], got {shape:?}"
+        );
+        let (h, w) = (shape[1], shape[2]);
+        let (oh, ow, _, _) = self.geometry(h, w);
+        // SAFETY: the tensor's values are left unwritten, and nothing reads one before it is
+        // written: `compute` (each stem's) has the product's epilogue store every output value
+        // (every row goes to exactly one piece, each piece's bands cover its rows, and the
+        // product writes all of a band's rows and channels), and an error drops the tensor
+        // without reading it (f32 has no drop).
+        let mut output = unsafe { Tensor::uninitialized::<f32>(&[1, oh, ow, cout])? };
+        {
+            let src = input.try_as_plain_ram()?;
+            let mut dst = output.try_as_plain_ram_mut()?;
+            compute(src.as_slice::<f32>()?, (h, w), dst.as_slice_mut::<f32>()?)?;
+        }
+        Ok(tvec!(output.into_tvalue()))
+    }
+
+    /// The output fact of a stem with `cout` outputs.
+    fn facts(&self, inputs: &[&TypedFact], cout: usize) -> TractResult<TVec<TypedFact>> {
+        let shape = inputs[0]
+            .shape
+            .as_concrete()
+            .context("convolution needs a concrete input shape")?;
+        ensure!(
+            shape.len() == 4 && shape[3] == self.cin,
+            "convolution over {} channels, input {shape:?}",
+            self.cin
+        );
+        let (oh, ow, _, _) = self.geometry(shape[1], shape[2]);
+        Ok(tvec!(f32::fact([shape[0], oh, ow, cout])))
+    }
+}
+
+/// `KH x KW` convolution with strides `(sy, sx)` on `[1, H, W, Cin]` f32 tensors, TFLite's
+/// SAME (or VALID) padding, a bias per output channel and a fused activation.
+#[derive(Debug, Clone, PartialEq, Eq, Hash)]
+pub struct NhwcConv {
+    shape: StemShape,
     /// The product `[pixels, KH·KW·Cin] x [KH·KW·Cin, Cout]` with the epilogue.
     product: PointwiseConv,
     /// TFLite's OHWI weights, the bias and the activation, for [`to_int8`](Self::to_int8).
@@ -80,11 +165,13 @@ impl NhwcConv {
             .permute_axes(&[0, 3, 1, 2])?
             .into_shape(&[cout, kh * kw * cin])?;
         Ok(NhwcConv {
-            kh,
-            kw,
-            cin,
-            strides,
-            same,
+            shape: StemShape {
+                kh,
+                kw,
+                cin,
+                strides,
+                same,
+            },
             product: PointwiseConv::new(&flat, bias, activation)?,
             weights: Arc::new(weights.clone()),
             bias: Arc::new(bias.clone()),
@@ -110,12 +197,7 @@ impl NhwcConv {
             .with_split(false)
             .with_coded_input()?;
         Ok(NhwcConvInt8 {
-            kh: self.kh,
-            kw: self.kw,
-            cin: self.cin,
-            strides: self.strides,
-            same: self.same,
-            input,
+            shape: self.shape,
             product,
             split: self.split,
         })
@@ -128,35 +210,19 @@ impl NhwcConv {
         self
     }
 
-    /// Output height, width and leading padding (top, left) for an `h x w` input.
-    fn geometry(&self, h: usize, w: usize) -> (usize, usize, usize, usize) {
-        let (oh, pt) = axis_geometry(h, self.kh, self.strides.0, self.same);
-        let (ow, pl) = axis_geometry(w, self.kw, self.strides.1, self.same);
-        (oh, ow, pt, pl)
-    }
-
     /// The convolution of `src` (`h x w x Cin`) into `out` (`oh x ow x Cout`).
     fn compute(
         &self,
         src: &[f32],
-        (h, w): (usize, usize),
+        hw: (usize, usize),
         out: &mut [f32],
         kernel: Kernel,
     ) -> TractResult<()> {
-        let (oh, ow, _, _) = self.geometry(h, w);
-        let (cin, cout) = (self.cin, self.product.output_channels());
-        let kdim = self.kh * self.kw * cin;
-        ensure!(
-            src.len() == h * w * cin && out.len() == oh * ow * cout,
-            "convolution: inconsistent buffer sizes"
-        );
-        if oh == 0 || ow == 0 {
-            return Ok(());
-        }
-        let work = out.len() * kdim;
-        crate::split::team().rows(out, ow * cout, 1, work, self.split, &|first, o| {
-            self.compute_rows(src, (h, w), first, o, kernel)
-        })
+        let cout = self.product.output_channels();
+        self.shape
+            .compute(src, hw, out, (cout, self.split), |first, o| {
+                self.compute_rows(src, hw, first, o, kernel)
+            })
     }
 
     /// Output rows `first ..` of the convolution (as many as `out` holds), sizes checked by
@@ -169,9 +235,15 @@ impl NhwcConv {
         out: &mut [f32],
         kernel: Kernel,
     ) -> TractResult<()> {
-        let (_, ow, pt, pl) = self.geometry(h, w);
-        let (cin, cout) = (self.cin, self.product.output_channels());
-        let (kh, kw, (sy, sx)) = (self.kh, self.kw, self.strides);
+        let (_, ow, pt, pl) = self.shape.geometry(h, w);
+        let StemShape {
+            kh,
+            kw,
+            cin,
+            strides: (sy, sx),
+            ..
+        } = self.shape;
+        let cout = self.product.output_channels();
         let kdim = kh * kw * cin;
         let oh = out.len() / (ow * cout);
         let band = (BAND_FLOATS / (ow * kdim)).max(1);
@@ -252,11 +324,11 @@ impl Op for NhwcConv {
     fn info(&self) -> TractResult<Vec<String>> {
         Ok(vec![format!(
             "{}x{} stride {:?} same {} {}->{}",
-            self.kh,
-            self.kw,
-            self.strides,
-            self.same,
-            self.cin,
+            self.shape.kh,
+            self.shape.kw,
+            self.shape.strides,
+            self.shape.same,
+            self.shape.cin,
             self.product.output_channels()
         )])
     }
@@ -268,14 +340,10 @@ impl EvalOp for NhwcConv {
     op_out_of_plan!();
 
     fn eval(&self, _ctx: &EvalContext, inputs: TVec<TValue>) -> TractResult<TVec<TValue>> {
-        let cout = self.product.output_channels();
-        eval_stem(
-            inputs,
-            self.cin,
-            cout,
-            |h, w| self.geometry(h, w),
-            |src, hw, dst| self.compute(src, hw, dst, Kernel::best()),
-        )
+        self.shape
+            .eval(inputs, self.product.output_channels(), |src, hw, dst| {
+                self.compute(src, hw, dst, Kernel::best())
+            })
     }
 }
 
@@ -283,61 +351,8 @@ impl TypedOp for NhwcConv {
     as_op!();
 
     fn output_facts(&self, inputs: &[&TypedFact]) -> TractResult<TVec<TypedFact>> {
-        stem_facts(inputs, self.cin, self.product.output_channels(), |h, w| {
-            self.geometry(h, w)
-        })
+        self.shape.facts(inputs, self.product.output_channels())
     }
-}
-
-/// The `eval` of a stem ([`NhwcConv`], [`NhwcConvInt8`]): checks the input (`[1, H, W,
-/// cin]`), makes the output (`[1, oh, ow, cout]` from `geometry(H, W)`) and has
-/// `compute(input, (H, W), output)` write every one of its values.
-fn eval_stem(
-    inputs: TVec<TValue>,
-    cin: usize,
-    cout: usize,
-    geometry: impl Fn(usize, usize) -> (usize, usize, usize, usize),
-    compute: impl FnOnce(&[f32], (usize, usize), &mut [f32]) -> TractResult<()>,
-) -> TractResult<TVec<TValue>> {
-    let input = args_1!(inputs);
-    let shape = input.shape();
-    ensure!(
-        shape.len() == 4 && shape[0] == 1 && shape[3] == cin,
-        "convolution over {cin} channels expects [1, H, W, {cin}], got {shape:?}"
-    );
-    let (h, w) = (shape[1], shape[2]);
-    let (oh, ow, _, _) = geometry(h, w);
-    // SAFETY: the tensor's values are left unwritten, and nothing reads one before it is
-    // written: `compute` (each stem's) has the product's epilogue store every output value
-    // (every row goes to exactly one piece, each piece's bands cover its rows, and the
-    // product writes all of a band's rows and channels), and an error drops the tensor
-    // without reading it (f32 has no drop).
-    let mut output = unsafe { Tensor::uninitialized::<f32>(&[1, oh, ow, cout])? };
-    {
-        let src = input.try_as_plain_ram()?;
-        let mut dst = output.try_as_plain_ram_mut()?;
-        compute(src.as_slice::<f32>()?, (h, w), dst.as_slice_mut::<f32>()?)?;
-    }
-    Ok(tvec!(output.into_tvalue()))
-}
-
-/// The output fact of a stem over `cin` channels with `cout` outputs.
-fn stem_facts(
-    inputs: &[&TypedFact],
-    cin: usize,
-    cout: usize,
-    geometry: impl Fn(usize, usize) -> (usize, usize, usize, usize),
-) -> TractResult<TVec<TypedFact>> {
-    let shape = inputs[0]
-        .shape
-        .as_concrete()
-        .context("convolution needs a concrete input shape")?;
-    ensure!(
-        shape.len() == 4 && shape[3] == cin,
-        "convolution over {cin} channels, input {shape:?}"
-    );
-    let (oh, ow, _, _) = geometry(shape[1], shape[2]);
-    Ok(tvec!(f32::fact([shape[0], oh, ow, cout])))
 }
 
 /// [`NhwcConv`] in int8 (issue 46): the image coded in 7 bits with a fixed
@@ -353,13 +368,8 @@ fn stem_facts(
 /// of the rows between the cores.
 #[derive(Debug, Clone, PartialEq)]
 pub struct NhwcConvInt8 {
-    kh: usize,
-    kw: usize,
-    cin: usize,
-    strides: (usize, usize),
-    same: bool,
-    input: ActivationQuant,
-    /// The product over rows of `KH·KW·Cin` codes rounded up to a multiple of 4.
+    shape: StemShape,
+    /// The product (its input code, the image's) over rows of `KH·KW·Cin` codes rounded up to a multiple of 4.
     product: PointwiseConvInt8,
     /// Share large outputs between the cores ([`crate::split`]).
     split: bool,
@@ -378,37 +388,22 @@ impl NhwcConvInt8 {
 
     /// The code of the input.
     pub fn input_quant(&self) -> ActivationQuant {
-        self.input
-    }
-
-    /// Output height, width and leading padding (top, left) for an `h x w` input.
-    fn geometry(&self, h: usize, w: usize) -> (usize, usize, usize, usize) {
-        let (oh, pt) = axis_geometry(h, self.kh, self.strides.0, self.same);
-        let (ow, pl) = axis_geometry(w, self.kw, self.strides.1, self.same);
-        (oh, ow, pt, pl)
+        self.product.input_quant()
     }
 
     /// The convolution of `src` (`h x w x Cin`) into `out` (`oh x ow x Cout`) with `kernel`.
     pub(crate) fn compute(
         &self,
         src: &[f32],
-        (h, w): (usize, usize),
+        hw: (usize, usize),
         out: &mut [f32],
         kernel: Int8Kernel,
     ) -> TractResult<()> {
-        let (oh, ow, _, _) = self.geometry(h, w);
         let cout = self.product.output_channels();
-        ensure!(
-            src.len() == h * w * self.cin && out.len() == oh * ow * cout,
-            "int8 convolution: inconsistent buffer sizes"
-        );
-        if oh == 0 || ow == 0 || cout == 0 {
-            return Ok(());
-        }
-        let work = out.len() * self.kh * self.kw * self.cin;
-        crate::split::team().rows(out, ow * cout, 1, work, self.split, &|first, o| {
-            self.compute_rows(src, (h, w), first, o, kernel)
-        })
+        self.shape
+            .compute(src, hw, out, (cout, self.split), |first, o| {
+                self.compute_rows(src, hw, first, o, kernel)
+            })
     }
 
     /// Output rows `first ..` (as many as `out` holds), sizes checked by
@@ -421,22 +416,25 @@ impl NhwcConvInt8 {
         out: &mut [f32],
         kernel: Int8Kernel,
     ) -> TractResult<()> {
-        let (_, ow, pt, pl) = self.geometry(h, w);
-        let (cin, cout) = (self.cin, self.product.output_channels());
-        let (kh, kw, (sy, sx)) = (self.kh, self.kw, self.strides);
+        let (_, ow, pt, pl) = self.shape.geometry(h, w);
+        let StemShape {
+            kh,
+            kw,
+            cin,
+            strides: (sy, sx),
+            ..
+        } = self.shape;
+        let cout = self.product.output_channels();
         let kp = self.product.input_channels();
         let run = kw * cin;
-        let zero = self.input.zero_point();
+        let input = self.product.input_quant();
+        let zero = input.zero_point();
         let oh = out.len() / (ow * cout);
         let band = (BAND_CODES / (ow * kp)).max(1).min(oh);
-        CODES.with(|cell| {
-            let mut fresh = (Vec::new(), Vec::new());
-            let mut guard = cell.try_borrow_mut();
-            let (rows_buf, cols_buf) = match guard.as_deref_mut() {
-                Ok(b) => b,
-                // Re-entered on this thread (not expected): buffers of its own.
-                Err(_) => &mut fresh,
-            };
+        // The buffers are this thread's, kept between calls as `BAND` is (an error below drops
+        // them; the next call makes new ones). Every code is written before it is read.
+        let (mut rows_buf, mut cols_buf) = CODES.take();
+        {
             let in_rows = ((band - 1) * sy + kh).min(h);
             rows_buf.resize(rows_buf.len().max(in_rows * w * cin), 0);
             cols_buf.resize(cols_buf.len().max(band * ow * kp), 0);
@@ -448,12 +446,7 @@ impl NhwcConvInt8 {
                 let y0 = (top.max(0) as usize).min(h);
                 let y1 = ((top + ((rows - 1) * sy + kh) as isize).max(0) as usize).clamp(y0, h);
                 let coded = &mut rows_buf[..(y1 - y0) * w * cin];
-                crate::int8::quantize_run(
-                    &src[y0 * w * cin..y1 * w * cin],
-                    coded,
-                    self.input,
-                    kernel,
-                );
+                crate::int8::quantize_run(&src[y0 * w * cin..y1 * w * cin], coded, input, kernel);
                 let coded = &*coded;
                 let cols = &mut cols_buf[..rows * ow * kp];
                 for (p, col) in cols.chunks_exact_mut(kp).enumerate() {
@@ -465,17 +458,11 @@ impl NhwcConvInt8 {
                         // The whole window inside the image: `kh` runs, the stems' sizes
                         // known to the compiler (moves, no call to `memcpy` for a few bytes).
                         let at = (iy0 as usize - y0) * w * cin + ix0 as usize * cin;
-                        let window = &coded[at..];
+                        let (window, stride) = (&coded[at..], w * cin);
                         match (run, kh, kp) {
-                            (9, 3, 28) => gather_codes::<9, 3, 28>(window, w * cin, col, zero),
-                            (15, 5, 76) => gather_codes::<15, 5, 76>(window, w * cin, col, zero),
-                            _ => {
-                                for ky in 0..kh {
-                                    let r = &window[ky * w * cin..][..run];
-                                    col[ky * run..(ky + 1) * run].copy_from_slice(r);
-                                }
-                                col[kh * run..].fill(zero);
-                            }
+                            (9, 3, 28) => gather_window(window, stride, col, (9, 3, 28), zero),
+                            (15, 5, 76) => gather_window(window, stride, col, (15, 5, 76), zero),
+                            _ => gather_window(window, stride, col, (run, kh, kp), zero),
                         }
                         continue;
                     }
@@ -503,8 +490,9 @@ impl NhwcConvInt8 {
                 self.product.compute_with(&*cols, None, o, kernel, false)?;
                 oy0 += rows;
             }
-            Ok(())
-        })
+        }
+        CODES.set((rows_buf, cols_buf));
+        Ok(())
     }
 }
 
@@ -516,14 +504,14 @@ impl Op for NhwcConvInt8 {
     fn info(&self) -> TractResult<Vec<String>> {
         Ok(vec![format!(
             "{}x{} stride {:?} same {} {}->{} input scale {} zero {} prelu {}",
-            self.kh,
-            self.kw,
-            self.strides,
-            self.same,
-            self.cin,
+            self.shape.kh,
+            self.shape.kw,
+            self.shape.strides,
+            self.shape.same,
+            self.shape.cin,
             self.product.output_channels(),
-            self.input.scale(),
-            self.input.zero_point(),
+            self.input_quant().scale(),
+            self.input_quant().zero_point(),
             self.product.has_prelu()
         )])
     }
@@ -535,14 +523,10 @@ impl EvalOp for NhwcConvInt8 {
     op_out_of_plan!();
 
     fn eval(&self, _ctx: &EvalContext, inputs: TVec<TValue>) -> TractResult<TVec<TValue>> {
-        let cout = self.product.output_channels();
-        eval_stem(
-            inputs,
-            self.cin,
-            cout,
-            |h, w| self.geometry(h, w),
-            |src, hw, dst| self.compute(src, hw, dst, Int8Kernel::best()),
-        )
+        self.shape
+            .eval(inputs, self.product.output_channels(), |src, hw, dst| {
+                self.compute(src, hw, dst, Int8Kernel::best())
+            })
     }
 }
 
@@ -550,29 +534,27 @@ impl TypedOp for NhwcConvInt8 {
     as_op!();
 
     fn output_facts(&self, inputs: &[&TypedFact]) -> TractResult<TVec<TypedFact>> {
-        stem_facts(inputs, self.cin, self.product.output_channels(), |h, w| {
-            self.geometry(h, w)
-        })
+        self.shape.facts(inputs, self.product.output_channels())
     }
 }
 
-/// The im2col codes of a window inside the image for sizes known at compile time: `KH`
-/// runs of `RUN` codes (`window` starts at the top left tap, rows `stride` codes apart),
-/// then `zero` up to `KP`.
+/// The im2col codes of a window inside the image: `kh` runs of `run` codes (`window`
+/// starts at the top left tap, rows `stride` codes apart), then `zero` up to `kp`. Always
+/// inlined: called with the stems' sizes as constants, the copies become moves, not calls
+/// to `memcpy` for a few bytes.
 #[inline(always)]
-fn gather_codes<const RUN: usize, const KH: usize, const KP: usize>(
+fn gather_window(
     window: &[u8],
     stride: usize,
     col: &mut [u8],
+    (run, kh, kp): (usize, usize, usize),
     zero: u8,
 ) {
-    let (window, col) = (&window[..(KH - 1) * stride + RUN], &mut col[..KP]);
-    for ky in 0..KH {
-        col[ky * RUN..(ky + 1) * RUN].copy_from_slice(&window[ky * stride..ky * stride + RUN]);
+    let col = &mut col[..kp];
+    for ky in 0..kh {
+        col[ky * run..(ky + 1) * run].copy_from_slice(&window[ky * stride..ky * stride + run]);
     }
-    for c in &mut col[KH * RUN..] {
-        *c = zero;
-    }
+    col[kh * run..].fill(zero);
 }
 
 /// The im2col columns of a window inside the image (`window` starts at its top left tap,
@@ -674,7 +656,7 @@ mod tests {
                         act,
                     )
                     .expect("op");
-                    let (oh, ow, _, _) = op.geometry(h, w);
+                    let (oh, ow, _, _) = op.shape.geometry(h, w);
                     let mut got = vec![f32::NAN; oh * ow * cout];
                     op.compute(&x, (h, w), &mut got, kernel).expect("compute");
                     let want =
@@ -858,23 +840,23 @@ mod versus_tract {
     /// the padding), each window's codes in OHWI order, the int8 weights and epilogue of
     /// the same `PointwiseConvInt8` on those rows with the portable kernel.
     fn int8_reference(op: &NhwcConvInt8, x: &[f32], (h, w): (usize, usize)) -> Vec<f32> {
-        let (oh, ow, pt, pl) = op.geometry(h, w);
-        let (kh, kw, cin) = (op.kh, op.kw, op.cin);
+        let (oh, ow, pt, pl) = op.shape.geometry(h, w);
+        let (kh, kw, cin) = (op.shape.kh, op.shape.kw, op.shape.cin);
         let kp = op.product.input_channels();
-        let mut cols = vec![op.input.zero_point(); oh * ow * kp];
+        let mut cols = vec![op.input_quant().zero_point(); oh * ow * kp];
         for oy in 0..oh {
             for ox in 0..ow {
                 for ky in 0..kh {
                     for kx in 0..kw {
-                        let iy = (oy * op.strides.0 + ky) as isize - pt as isize;
-                        let ix = (ox * op.strides.1 + kx) as isize - pl as isize;
+                        let iy = (oy * op.shape.strides.0 + ky) as isize - pt as isize;
+                        let ix = (ox * op.shape.strides.1 + kx) as isize - pl as isize;
                         if iy < 0 || ix < 0 || iy >= h as isize || ix >= w as isize {
                             continue;
                         }
                         for c in 0..cin {
                             let v = x[(iy as usize * w + ix as usize) * cin + c];
                             cols[(oy * ow + ox) * kp + (ky * kw + kx) * cin + c] =
-                                op.input.quantize(v);
+                                op.input_quant().quantize(v);
                         }
                     }
                 }
@@ -920,7 +902,7 @@ mod versus_tract {
                 .to_int8(ActivationQuant::from_min_max(0.0, 1.0))
                 .expect("int8");
             let want = int8_reference(&op, &x, (h, w));
-            let (oh, ow, _, _) = op.geometry(h, w);
+            let (oh, ow, _, _) = op.shape.geometry(h, w);
             for kernel in Int8Kernel::supported() {
                 let mut got = vec![f32::NAN; oh * ow * cout];
                 op.compute(&x, (h, w), &mut got, kernel).expect("compute");
@@ -1022,7 +1004,7 @@ mod speed {
             let x: Vec<f32> = (0..size * size * 3)
                 .map(|i| (i * 7919 % 256) as f32 / 255.0)
                 .collect();
-            let (oh, ow, _, _) = f32_conv.geometry(size, size);
+            let (oh, ow, _, _) = f32_conv.shape.geometry(size, size);
             let mut out = vec![0f32; oh * ow * cout];
             let (mut a, mut q) = (f64::MAX, f64::MAX);
             for _ in 0..9 {
