@@ -22,8 +22,9 @@
 //! activation, and the residual `ADD` and/or `PRELU` that follow it when nothing else reads
 //! the convolution's result), and [`NhwcConv`] (the other convolutions over few input
 //! channels, i.e. the stems: im2col rows gathered a few output rows at a time, padding
-//! included, and multiplied with [`PointwiseConv`]'s kernels). [`ImportOptions`] switches
-//! back to tract's built-in operators.
+//! included, and multiplied with [`PointwiseConv`]'s kernels). A fifth,
+//! [`NhwcResizeBilinear`], does the palm detectors' `RESIZE_BILINEAR` in one pass with
+//! tract's arithmetic. [`ImportOptions`] switches back to tract's built-in operators.
 //!
 //! In int8 ([`Precision::Int8`], [`quantize_pointwise`]), [`PointwiseConvInt8`] replaces
 //! [`PointwiseConv`], [`NhwcConvInt8`] replaces the stem's [`NhwcConv`] (with a PRELU after
@@ -43,6 +44,7 @@ mod isa;
 mod ops;
 mod pointwise;
 mod prelu;
+mod resize;
 mod split;
 mod tensors;
 
@@ -54,6 +56,7 @@ pub use int8::{
 };
 pub use pointwise::{Activation, PointwiseConv};
 pub use prelu::ChannelPrelu;
+pub use resize::NhwcResizeBilinear;
 pub use split::{allow_split_here, shared_operators, start_team, team_size, Running};
 
 use std::collections::HashMap;
@@ -187,6 +190,10 @@ pub struct ImportOptions {
     /// bit for bit; see [`Running`], [`allow_split_here`] and `MONOHAND_OP_THREADS` in
     /// docs/pipeline.md). Default: true.
     pub split_rows: bool,
+    /// Translate `RESIZE_BILINEAR` to [`NhwcResizeBilinear`] (one pass, a row buffer)
+    /// instead of tract's `Resize` (an axis at a time, a new buffer each). The same bits.
+    /// Default: true.
+    pub fast_resize: bool,
 }
 
 impl Default for ImportOptions {
@@ -200,6 +207,7 @@ impl Default for ImportOptions {
             register_blocked_depthwise: true,
             fast_conv: true,
             split_rows: true,
+            fast_resize: true,
         }
     }
 }

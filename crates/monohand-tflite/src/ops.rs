@@ -818,6 +818,13 @@ fn resize_bilinear(cx: &mut Ctx, out_shape: &[usize]) -> Result<OutletId, Import
     } else {
         CoordTransformer::Asymmetric
     };
+    if cx.options.fast_resize && out_shape.len() == 4 {
+        let op = super::resize::NhwcResizeBilinear {
+            coord_transformer,
+            size: (out_shape[1], out_shape[2]),
+        };
+        return cx.node("resize", op, &[x]);
+    }
     let sizes: Vec<i64> = out_shape.iter().map(|&d| d as i64).collect();
     let sizes = cx.add_const("sizes", tensor1(&sizes))?;
     let op = Resize {
