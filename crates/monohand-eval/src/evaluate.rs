@@ -767,6 +767,29 @@ impl RunResult {
         out
     }
 
+    /// Per hand, the jitter term of the three consecutive frames centred on it (one
+    /// sequence and side, all three predicted): the acceleration of the prediction and of
+    /// the ground truth (mm per frame squared, [`metrics::acceleration`]); `None` at a
+    /// sequence's ends, next to a gap or a missed hand. The jitter is their mean.
+    pub fn accelerations(&self, mask: &JointMask) -> Vec<Option<(f64, f64)>> {
+        let mut out = vec![None; self.hands.len()];
+        for (i, w) in self.hands.windows(3).enumerate() {
+            let same = w
+                .iter()
+                .all(|h| h.sequence == w[0].sequence && h.side == w[0].side);
+            let consecutive = w[1].frame == w[0].frame + 1 && w[2].frame == w[1].frame + 1;
+            if let (true, true, Some(a), Some(b), Some(c)) =
+                (same, consecutive, &w[0].pred, &w[1].pred, &w[2].pred)
+            {
+                out[i + 1] = Some((
+                    metrics::acceleration(a, b, c, mask),
+                    metrics::acceleration(&w[0].gt, &w[1].gt, &w[2].gt, mask),
+                ));
+            }
+        }
+        out
+    }
+
     /// The summary numbers.
     pub fn summary(&self, mask: &JointMask) -> RunSummary {
         let (lo, hi) = metrics::AUC_RANGE_MM;
@@ -775,19 +798,8 @@ impl RunResult {
         let al = self.errors(mask, |e| &e.aligned);
         let pa = self.errors(mask, |e| &e.procrustes);
         let ce = self.errors(mask, |e| &e.centroid);
-        let (mut acc, mut gt_acc) = (Vec::new(), Vec::new());
-        for w in self.hands.windows(3) {
-            let same = w
-                .iter()
-                .all(|h| h.sequence == w[0].sequence && h.side == w[0].side);
-            let consecutive = w[1].frame == w[0].frame + 1 && w[2].frame == w[1].frame + 1;
-            if let (true, true, Some(a), Some(b), Some(c)) =
-                (same, consecutive, &w[0].pred, &w[1].pred, &w[2].pred)
-            {
-                acc.push(metrics::acceleration(a, b, c, mask));
-                gt_acc.push(metrics::acceleration(&w[0].gt, &w[1].gt, &w[2].gt, mask));
-            }
-        }
+        let (acc, gt_acc): (Vec<f64>, Vec<f64>) =
+            self.accelerations(mask).into_iter().flatten().unzip();
         let nan_if_relative = |x: f64| if self.relative_only { f64::NAN } else { x };
         let det: Vec<&HandErrors> = self
             .hands
@@ -899,5 +911,48 @@ mod tests {
         let mean = |r: &RunResult| r.summary(&ALL_JOINTS).mpjpe;
         assert!((mean(&first) - (1.0 + 2.0 + 10.0 + 10.0) / 4.0).abs() < 1e-9);
         assert!((mean(&second) - (3.0 + 4.0 + 30.0) / 5.0).abs() < 1e-9);
+    }
+
+    /// Each hand's acceleration is that of the three frames centred on it, none at a
+    /// sequence's ends, next to a gap or a missed hand; their mean is the run's jitter.
+    #[test]
+    fn accelerations_are_per_centre_frame_and_average_to_the_jitter() {
+        // x offsets 0, 1, 4, 10 (second differences 2 and 3 mm), then a gap (frame 5), a
+        // frame missed (7), and another sequence.
+        let mut hands: Vec<HandResult> = [0.0, 1.0, 4.0, 10.0]
+            .iter()
+            .enumerate()
+            .map(|(i, &e)| hand("a", i, e))
+            .collect();
+        hands.push(hand("a", 5, 0.0));
+        hands.push(hand("a", 6, 0.0));
+        let mut missed = hand("a", 7, 0.0);
+        missed.pred = None;
+        missed.errors = None;
+        hands.push(missed);
+        hands.push(hand("b", 8, 0.0));
+        let run = RunResult {
+            label: "mono".into(),
+            mode: ViewMode::Mono,
+            source: "test".into(),
+            noise_px: None,
+            relative_only: false,
+            hands,
+        };
+        let acc: Vec<Option<f64>> = run
+            .accelerations(&ALL_JOINTS)
+            .into_iter()
+            .map(|a| {
+                a.map(|(pred, gt)| {
+                    assert_eq!(gt, 0.0);
+                    pred
+                })
+            })
+            .collect();
+        assert_eq!(
+            acc,
+            [None, Some(2.0), Some(3.0), None, None, None, None, None]
+        );
+        assert_eq!(run.summary(&ALL_JOINTS).jitter, 2.5);
     }
 }

@@ -172,10 +172,11 @@ impl Report {
             };
             let _ = write!(s, ",abs_{n}_mm");
         }
-        s.push('\n');
+        s.push_str(",acceleration_mm_f2\n");
         let opt = |x: Option<f64>| x.map(|v| format!("{v:.4}")).unwrap_or_default();
         for r in &self.runs {
-            for h in &r.hands {
+            let acc = r.accelerations(&self.mask);
+            for (h, acc) in r.hands.iter().zip(acc) {
                 let _ = write!(
                     s,
                     "{},{},{},{},{},{},{}",
@@ -216,7 +217,7 @@ impl Report {
                         let _ = write!(s, "{:.4}", e.absolute[j]);
                     }
                 }
-                s.push('\n');
+                let _ = writeln!(s, ",{}", opt(acc.map(|(pred, _)| pred)));
             }
         }
         s
