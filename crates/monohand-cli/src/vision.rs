@@ -67,7 +67,8 @@ pub(crate) struct ModelArgs {
     #[arg(long, value_enum, default_value = "full", value_name = "SIZE")]
     pub landmark_model: Variant,
     /// The arithmetic of the palm and landmark networks: f32, or int8 (faster, with the
-    /// shipped calibration; the records say which ran).
+    /// shipped calibration; as accurate on tracked video, about 0.6 mm less on photos and
+    /// untracked frames: docs/accuracy.md; the records say which ran).
     #[arg(long, value_enum, default_value = "f32", value_name = "PRECISION")]
     pub precision: PrecisionArg,
     /// Do not detect heads (the paper's context for left/right; they cost ~3 ms per image).
