@@ -32,6 +32,12 @@
 //! Kernels, chosen at run time (the CPU's features and `MONOHAND_KERNEL` come from
 //! [`crate::isa`], as for the f32 kernels), fastest first:
 //!
+//! * **AMX** (`amx`: AVX-512 VNNI and AMX-INT8, where Linux grants this process the tile
+//!   state): `tdpbusd` multiplies 16 coded rows x 64 codes by 16 groups of a panel's
+//!   weights (the VNNI panels are AMX's weight layout) into 16 x 16 i32 sums; tiles of 16
+//!   rows x 2 panels, the depth 64 codes at a time and the last 4-60 in tiles shaped for
+//!   them, then the AVX-512 VNNI kernel's epilogue on the stored sums; shorter tiles go to
+//!   the AVX-512 VNNI kernel. Written with `asm!`: Rust 1.95 has no stable AMX intrinsics;
 //! * **AVX-512 VNNI** (`avx512vnni`: AVX-512F + BW + VL + VNNI): `vpdpbusd` on `zmm`, one
 //!   panel of 16 channels per register, the four u8 x i8 products of a group added straight
 //!   into the i32 lanes (no i16 step); tiles of 8 rows x 2 panels (16 accumulators, two
@@ -56,7 +62,7 @@
 //! epilogues round alike. (The VNNI kernels start their accumulators at `-z·Σw_q`, which
 //! leaves the same i32 as subtracting it at the end.) `MONOHAND_KERNEL` caps the level
 //! (`portable`, `avx2`, `avxvnni`, `avx512` — the AVX-VNNI kernel where the CPU has it —
-//! `avx512vnni`). A WebAssembly kernel is left for later. A large product is shared between
+//! `avx512vnni`, `amx`). A WebAssembly kernel is left for later. A large product is shared between
 //! the cores as [`PointwiseConv`](crate::PointwiseConv)'s is, with the same bits.
 
 use std::cell::RefCell;
@@ -713,6 +719,12 @@ impl Job<'_> {
         let act = op.activation.bounds();
         let residual_act = op.residual.unwrap_or_default().bounds();
         let (mr, step) = (self.kernel.rows(), self.kernel.panels());
+        // AMX's tile shapes for this layer's depth, released when the tiles are done.
+        #[cfg(target_arch = "x86_64")]
+        let _tiles = (self.kernel.isa() == Isa::Amx).then(|| {
+            // SAFETY: an `Int8Kernel` of `Isa::Amx` is only made where AMX is usable.
+            unsafe { amx::Tiles::load(op.kp / KG) }
+        });
         for p in panels.clone().step_by(step) {
             let c0 = p * NR;
             let width = (step.min(panels.end - p) * NR).min(op.cout - c0);
@@ -812,7 +824,7 @@ pub(crate) fn quantize_run(x: &[f32], q: &mut [u8], quant: ActivationQuant, kern
         // SAFETY: the CPU has AVX-512F, BW and VL (as above); `x` and `q` have the same
         // length.
         #[cfg(target_arch = "x86_64")]
-        Isa::Avx512Vnni => unsafe { avx512vnni::quantize(x, q, quant) },
+        Isa::Avx512Vnni | Isa::Amx => unsafe { avx512vnni::quantize(x, q, quant) },
         #[cfg(all(target_arch = "wasm32", target_feature = "relaxed-simd"))]
         Isa::RelaxedSimd => relaxed::quantize(x, q, quant),
     }
@@ -840,6 +852,10 @@ mod kernel {
         /// AVX-512F + BW + VL with AVX-512 VNNI's 512-bit `vpdpbusd`.
         #[cfg(target_arch = "x86_64")]
         Avx512Vnni,
+        /// AMX's `tdpbusd` on tiles of 16 rows, with the AVX-512 VNNI kernel's epilogue
+        /// and for the rows left over.
+        #[cfg(target_arch = "x86_64")]
+        Amx,
         /// WebAssembly's relaxed SIMD, `i32x4.relaxed_dot_i8x16_i7x16_add_s`, in a module
         /// built with `relaxed-simd` (an engine either runs such a module or refuses to
         /// load it: nothing to detect at run time).
@@ -873,6 +889,8 @@ mod kernel {
                 Isa::AvxVnni => "avxvnni",
                 #[cfg(target_arch = "x86_64")]
                 Isa::Avx512Vnni => "avx512vnni",
+                #[cfg(target_arch = "x86_64")]
+                Isa::Amx => "amx",
                 #[cfg(all(target_arch = "wasm32", target_feature = "relaxed-simd"))]
                 Isa::RelaxedSimd => "relaxed-simd",
             }
@@ -888,6 +906,8 @@ mod kernel {
                 Isa::AvxVnni => Level::AvxVnni,
                 #[cfg(target_arch = "x86_64")]
                 Isa::Avx512Vnni => Level::Avx512Vnni,
+                #[cfg(target_arch = "x86_64")]
+                Isa::Amx => Level::Amx,
                 #[cfg(all(target_arch = "wasm32", target_feature = "relaxed-simd"))]
                 Isa::RelaxedSimd => Level::Avx2,
             }
@@ -908,6 +928,9 @@ mod kernel {
                 }
                 if cpu.avx512_vnni() {
                     v.push(Int8Kernel(Isa::Avx512Vnni));
+                }
+                if cpu.amx_int8() {
+                    v.push(Int8Kernel(Isa::Amx));
                 }
             }
             #[cfg(all(target_arch = "wasm32", target_feature = "relaxed-simd"))]
@@ -939,6 +962,8 @@ impl Int8Kernel {
             Isa::AvxVnni => MR_AVX_VNNI,
             #[cfg(target_arch = "x86_64")]
             Isa::Avx512Vnni => MR_512,
+            #[cfg(target_arch = "x86_64")]
+            Isa::Amx => amx::ROWS,
             #[cfg(all(target_arch = "wasm32", target_feature = "relaxed-simd"))]
             Isa::RelaxedSimd => MR_RELAXED,
             _ => MR,
@@ -949,7 +974,7 @@ impl Int8Kernel {
     fn panels(self) -> usize {
         match self.isa() {
             #[cfg(target_arch = "x86_64")]
-            Isa::Avx512Vnni => 2,
+            Isa::Avx512Vnni | Isa::Amx => 2,
             _ => 1,
         }
     }
@@ -970,6 +995,8 @@ impl Int8Kernel {
             Isa::AvxVnni => avxvnni::tile(m, width),
             #[cfg(target_arch = "x86_64")]
             Isa::Avx512Vnni => avx512vnni::tile(m, width),
+            #[cfg(target_arch = "x86_64")]
+            Isa::Amx => amx::tile(m, width),
             #[cfg(all(target_arch = "wasm32", target_feature = "relaxed-simd"))]
             Isa::RelaxedSimd => relaxed::tile(m, width.div_ceil(4)),
         }
@@ -1424,6 +1451,26 @@ mod avx512vnni {
                 a = a.add(KG);
                 b = b.add(KG * NR);
             }
+            for (i, acc) in acc.iter().enumerate() {
+                // `acc` is already the sum less `zcorr`; row i < M of the tile.
+                store_row(t, i, acc);
+            }
+        }
+    }
+
+    /// The epilogue of row `i` of a tile of `P` panels from its i32 sums less `zcorr`
+    /// (`acc`), stored to the output: without FMA, as the portable one; the last panel loads
+    /// the residual and stores under a mask where the tile is narrower than it.
+    ///
+    /// # Safety
+    /// The caller has AVX-512F, BW and VL (it is inlined into such a function); `t` satisfies
+    /// `Tile`'s contract with `i < t.m`, `P` in 1..=2 and `16·(P-1) < t.width <= 16·P`.
+    #[inline(always)]
+    pub(super) unsafe fn store_row<const P: usize>(t: &Tile, i: usize, acc: &[__m512i; P]) {
+        // SAFETY: the caller's features and `Tile`'s contract: `scale`, `bias`, `alpha` at
+        // 16·P values, within NR·width.div_ceil(NR); `res` and `out` at row i < m, 16·P
+        // channels of which the last panel's lanes at and past `width` are masked off.
+        unsafe {
             let last = lanes(t.width - 16 * (P - 1));
             let (lo, hi) = (_mm512_set1_ps(t.act.0), _mm512_set1_ps(t.act.1));
             let (rlo, rhi) = (
@@ -1431,35 +1478,240 @@ mod avx512vnni {
                 _mm512_set1_ps(t.residual_act.1),
             );
             let zero = _mm512_setzero_ps();
-            for (i, acc) in acc.iter().enumerate() {
-                for (p, &acc) in acc.iter().enumerate() {
-                    let mask = if p + 1 == P { last } else { 0xffff };
-                    let at = i * t.ldo + 16 * p;
-                    // `acc` is already the sum less `zcorr`.
-                    let mut y = _mm512_add_ps(
-                        _mm512_mul_ps(
-                            _mm512_cvtepi32_ps(acc),
-                            _mm512_loadu_ps(t.scale.add(16 * p)),
-                        ),
-                        _mm512_loadu_ps(t.bias.add(16 * p)),
-                    );
-                    y = _mm512_min_ps(_mm512_max_ps(y, lo), hi);
-                    if !t.res.is_null() {
-                        let r = _mm512_maskz_loadu_ps(mask, t.res.add(at));
-                        y = _mm512_min_ps(_mm512_max_ps(_mm512_add_ps(y, r), rlo), rhi);
-                    }
-                    if !t.alpha.is_null() {
-                        let al = _mm512_loadu_ps(t.alpha.add(16 * p));
-                        y = _mm512_add_ps(
-                            _mm512_max_ps(y, zero),
-                            _mm512_mul_ps(al, _mm512_min_ps(y, zero)),
-                        );
-                    }
-                    _mm512_mask_storeu_ps(t.out.add(at), mask, y);
+            for (p, &acc) in acc.iter().enumerate() {
+                let mask = if p + 1 == P { last } else { 0xffff };
+                let at = i * t.ldo + 16 * p;
+                let mut y = _mm512_add_ps(
+                    _mm512_mul_ps(
+                        _mm512_cvtepi32_ps(acc),
+                        _mm512_loadu_ps(t.scale.add(16 * p)),
+                    ),
+                    _mm512_loadu_ps(t.bias.add(16 * p)),
+                );
+                y = _mm512_min_ps(_mm512_max_ps(y, lo), hi);
+                if !t.res.is_null() {
+                    let r = _mm512_maskz_loadu_ps(mask, t.res.add(at));
+                    y = _mm512_min_ps(_mm512_max_ps(_mm512_add_ps(y, r), rlo), rhi);
                 }
+                if !t.alpha.is_null() {
+                    let al = _mm512_loadu_ps(t.alpha.add(16 * p));
+                    y = _mm512_add_ps(
+                        _mm512_max_ps(y, zero),
+                        _mm512_mul_ps(al, _mm512_min_ps(y, zero)),
+                    );
+                }
+                _mm512_mask_storeu_ps(t.out.add(at), mask, y);
             }
         }
     }
+}
+
+/// The AMX kernel: `tdpbusd` multiplies a tile of 16 rows x 64 codes by one of 16 groups
+/// of 4 weight bytes x 16 channels into 16 x 16 i32 sums, exactly: the VNNI panels' layout
+/// (`[groups][16][4]`, rows of 64 bytes) is AMX's for the weights, and the coded rows (a
+/// stride of `kp` bytes) are its for the activations. A micro-tile of 16 rows and one or
+/// two panels sums the layer's depth 64 codes at a time (the last 4-60 in tiles
+/// configured for them), stores the sums, and runs the AVX-512 VNNI kernel's epilogue on
+/// them less `zcorr`: the same i32 values, the same bits. Shorter tiles (fewer than 16
+/// rows) go to the AVX-512 VNNI kernel. The instructions are written with `asm!` (Rust
+/// 1.95 has no stable AMX intrinsics); the tile shapes are loaded once per call of
+/// `Job::tiles` ([`Tiles`]) and released after it.
+#[cfg(target_arch = "x86_64")]
+mod amx {
+    use super::{avx512vnni, Tile, TileFn, KG, MR_512, NR};
+    use std::arch::asm;
+    use std::arch::x86_64::*;
+
+    /// Rows of a tile.
+    pub(super) const ROWS: usize = 16;
+    /// Groups of 4 codes in a full tile's depth (64 bytes).
+    const GROUPS: usize = 16;
+
+    /// The tile shapes of a layer of `groups` groups of 4 input codes, loaded into this
+    /// thread's tile configuration (`ldtilecfg`); dropping it releases the tiles
+    /// (`tilerelease`). tmm0, tmm1: the sums of two panels (16 x 16 i32); tmm2: 16 rows x 64
+    /// codes; tmm3, tmm4: 16 groups of two panels' weights; tmm5-7: the same for the last
+    /// `groups % 16` groups, where there are any.
+    pub(super) struct Tiles(());
+
+    #[repr(C, align(64))]
+    struct Config([u8; 64]);
+
+    impl Tiles {
+        /// # Safety
+        /// The CPU has AMX-TILE and AMX-INT8 and this process may use them
+        /// (`Cpu::amx_int8`).
+        pub(super) unsafe fn load(groups: usize) -> Tiles {
+            let rest = groups % GROUPS;
+            let mut c = Config([0; 64]);
+            // Palette 1; per tile t, its bytes per row at 16 + 2t (u16) and rows at 48 + t.
+            c.0[0] = 1;
+            let mut shape = |t: usize, rows: usize, bytes: usize| {
+                c.0[16 + 2 * t..18 + 2 * t].copy_from_slice(&(bytes as u16).to_le_bytes());
+                c.0[48 + t] = rows as u8;
+            };
+            for t in 0..5 {
+                shape(t, ROWS, 64);
+            }
+            if rest > 0 {
+                shape(5, ROWS, KG * rest);
+                shape(6, rest, 64);
+                shape(7, rest, 64);
+            }
+            // SAFETY: the CPU has AMX-TILE and the process may use it (the contract); `c`
+            // is a valid palette-1 configuration (rows <= 16, bytes per row <= 64, the
+            // unused tiles all zero), 64 bytes readable.
+            unsafe { asm!("ldtilecfg [{0}]", in(reg) c.0.as_ptr(), options(nostack, readonly)) };
+            Tiles(())
+        }
+    }
+
+    impl Drop for Tiles {
+        fn drop(&mut self) {
+            // SAFETY: tiles were configured (`load`), so AMX-TILE is usable.
+            unsafe { asm!("tilerelease", options(nostack, nomem)) };
+        }
+    }
+
+    /// The tile function for `m` rows and `width` channels.
+    pub(super) fn tile(m: usize, width: usize) -> TileFn {
+        let _ = m;
+        if width > NR {
+            tile16::<2>
+        } else {
+            tile16::<1>
+        }
+    }
+
+    /// A micro-tile of `t.m` rows and `P` panels: 16 rows with AMX, fewer with the AVX-512
+    /// VNNI kernel (in tiles of at most 8 rows).
+    ///
+    /// # Safety
+    /// The CPU has AVX-512F, BW, VL and VNNI and AMX; this thread's tiles hold the shapes
+    /// `Tiles::load(t.groups)` sets; `t` satisfies `Tile`'s contract with `t.m <= 16` and
+    /// `16·(P-1) < t.width <= 16·P`.
+    #[target_feature(enable = "avx512f,avx512bw,avx512vl,avx512vnni")]
+    unsafe fn tile16<const P: usize>(t: &Tile) {
+        if t.m < ROWS {
+            let mut i = 0;
+            while i < t.m {
+                let m = MR_512.min(t.m - i);
+                let part = Tile {
+                    // SAFETY: row i < m of the tile's codes.
+                    a: unsafe { t.a.add(i * t.lda) },
+                    // SAFETY: row i < m of its output.
+                    out: unsafe { t.out.add(i * t.ldo) },
+                    res: if t.res.is_null() {
+                        t.res
+                    } else {
+                        // SAFETY: row i < m of its residual, which it has.
+                        unsafe { t.res.add(i * t.ldo) }
+                    },
+                    m,
+                    ..*t
+                };
+                // SAFETY: `part` is rows i..i + m of `t`, within its contract, m <= 8 as
+                // the AVX-512 VNNI kernel's tiles need, the CPU has its features.
+                unsafe { avx512vnni::tile(m, t.width)(&part) };
+                i += m;
+            }
+            return;
+        }
+        let (full, rest) = (t.groups / GROUPS, t.groups % GROUPS);
+        // The weights of the second panel start a whole panel further (`groups` groups
+        // of 4·NR bytes).
+        let panel = t.groups * KG * NR;
+        let mut sums = Sums([0; ROWS * 2 * NR]);
+        // SAFETY: the tiles have the shapes of `Tiles::load(t.groups)` (the contract).
+        // Reads: 16 rows of `a` at a stride of `lda`, 64 bytes at 64·j for j < full (within
+        // 4·groups <= lda), 4·rest bytes after them; the panels' weights, 16 (or `rest`)
+        // rows of 64 bytes from group 16·j, of panel 2 only where P == 2 (then width > NR:
+        // it exists). Writes: `sums`, 16 rows of 128 bytes.
+        unsafe {
+            asm!("tilezero tmm0", "tilezero tmm1", options(nostack, nomem));
+            for j in 0..full {
+                let a = t.a.add(64 * j);
+                let b = t.b.add(j * GROUPS * KG * NR);
+                asm!(
+                    "tileloadd tmm2, [{a} + {lda}*1]",
+                    "tileloadd tmm3, [{b} + {ldb}*1]",
+                    "tdpbusd tmm0, tmm2, tmm3",
+                    a = in(reg) a,
+                    b = in(reg) b,
+                    lda = in(reg) t.lda,
+                    ldb = in(reg) KG * NR,
+                    options(nostack, readonly)
+                );
+                if P == 2 {
+                    asm!(
+                        "tileloadd tmm4, [{b} + {ldb}*1]",
+                        "tdpbusd tmm1, tmm2, tmm4",
+                        b = in(reg) b.add(panel),
+                        ldb = in(reg) KG * NR,
+                        options(nostack, readonly)
+                    );
+                }
+            }
+            if rest > 0 {
+                let a = t.a.add(64 * full);
+                let b = t.b.add(full * GROUPS * KG * NR);
+                asm!(
+                    "tileloadd tmm5, [{a} + {lda}*1]",
+                    "tileloadd tmm6, [{b} + {ldb}*1]",
+                    "tdpbusd tmm0, tmm5, tmm6",
+                    a = in(reg) a,
+                    b = in(reg) b,
+                    lda = in(reg) t.lda,
+                    ldb = in(reg) KG * NR,
+                    options(nostack, readonly)
+                );
+                if P == 2 {
+                    asm!(
+                        "tileloadd tmm7, [{b} + {ldb}*1]",
+                        "tdpbusd tmm1, tmm5, tmm7",
+                        b = in(reg) b.add(panel),
+                        ldb = in(reg) KG * NR,
+                        options(nostack, readonly)
+                    );
+                }
+            }
+            let out = sums.0.as_mut_ptr();
+            asm!(
+                "tilestored [{o} + {ld}*1], tmm0",
+                o = in(reg) out,
+                ld = in(reg) 2 * NR * 4,
+                options(nostack)
+            );
+            if P == 2 {
+                asm!(
+                    "tilestored [{o} + {ld}*1], tmm1",
+                    o = in(reg) out.add(NR),
+                    ld = in(reg) 2 * NR * 4,
+                    options(nostack)
+                );
+            }
+            let mut zcorr = [_mm512_setzero_si512(); P];
+            for (p, z) in zcorr.iter_mut().enumerate() {
+                *z = _mm512_loadu_si512(t.zcorr.add(16 * p) as *const __m512i);
+            }
+            for i in 0..ROWS {
+                let mut acc = [_mm512_setzero_si512(); P];
+                for (p, acc) in acc.iter_mut().enumerate() {
+                    let v = _mm512_load_si512(
+                        sums.0.as_ptr().add(i * 2 * NR + 16 * p) as *const __m512i
+                    );
+                    // The same i32 as the VNNI kernel's: it starts at -zcorr and adds the
+                    // same products (wrapping alike).
+                    *acc = _mm512_sub_epi32(v, zcorr[p]);
+                }
+                avx512vnni::store_row(t, i, &acc);
+            }
+        }
+    }
+
+    /// The sums of a tile, 16 rows of two panels.
+    #[repr(C, align(64))]
+    struct Sums([i32; ROWS * 2 * NR]);
 }
 
 /// The WebAssembly relaxed-SIMD kernel, the VNNI kernels' scheme on 128-bit vectors:
@@ -1919,7 +2171,12 @@ mod tests {
     /// (rows, cin, cout): input channels off the group of 4 and the vector of 8, output
     /// channels off the 8- and 16-channel vectors, the panels and the pairs of panels, row
     /// counts off the tile heights (4, 6, 8), and inputs larger than one block of rows.
-    const SHAPES: [(usize, usize, usize); 15] = [
+    // Rows of 16 and more take AMX's tiles where the CPU has them: depths of a whole
+    // number of 64 codes, and not, and two panels with a narrow last one.
+    const SHAPES: [(usize, usize, usize); 18] = [
+        (32, 64, 16),
+        (48, 1152, 40),
+        (20, 200, 33),
         (1, 1, 1),
         (5, 3, 7),
         (4, 4, 16),
@@ -1989,7 +2246,13 @@ mod tests {
     /// (checked against i64 arithmetic) and the same in every kernel.
     #[test]
     fn extreme_codes_do_not_saturate() {
-        for (rows, cin, cout) in [(5, 1152, 19), (6, 4, 16), (9, 2001, 8)] {
+        for (rows, cin, cout) in [
+            (5, 1152, 19),
+            (6, 4, 16),
+            (9, 2001, 8),
+            (16, 1152, 19),
+            (33, 2001, 8),
+        ] {
             // Weights all ±1 (codes ±127), signs by a pattern; each channel's largest is 1.
             let w: Vec<f32> = (0..cout * cin)
                 .map(|i| if (i * 7 + i / 3) % 5 < 3 { 1.0 } else { -1.0 })

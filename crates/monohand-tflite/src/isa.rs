@@ -6,11 +6,12 @@
 //! pick one with [`choose`]. Their kernel values are still made only there, so holding one
 //! still shows that the CPU has its features.
 //!
-//! `MONOHAND_KERNEL` names a [`Level`]: `portable`, `avx2`, `avxvnni`, `avx512` or
-//! `avx512vnni` (and `simd128`, the same level as `avx2`). Each kind of kernel then runs its
+//! `MONOHAND_KERNEL` names a [`Level`]: `portable`, `avx2`, `avxvnni`, `avx512`,
+//! `avx512vnni` or `amx` (and `simd128`, the same level as `avx2`). Each kind of kernel then runs its
 //! fastest kernel at or below that level which the CPU has: `avx2` runs the f32 AVX2 + FMA
 //! kernel and the int8 AVX2 one, `avx512` the f32 AVX-512 kernel and the int8 AVX-VNNI one
-//! where the CPU has it (else AVX2), `avx512vnni` (or nothing) the fastest of each. An
+//! where the CPU has it (else AVX2), `avx512vnni` the int8 AVX-512 VNNI one without AMX, `amx`
+//! (or nothing) the fastest of each. An
 //! unknown name caps nothing.
 
 use std::sync::OnceLock;
@@ -96,6 +97,9 @@ pub(crate) enum Level {
     Avx512,
     /// AVX-512 with VNNI's `vpdpbusd` on 512-bit registers (`avx512vnni`).
     Avx512Vnni,
+    /// AVX-512 VNNI with AMX's int8 tile multiply (`amx`: Sapphire Rapids and later Xeons,
+    /// where Linux grants the tile state; the f32 kernels have none of their own here).
+    Amx,
 }
 
 impl Level {
@@ -107,6 +111,7 @@ impl Level {
             "avxvnni" => Level::AvxVnni,
             "avx512" => Level::Avx512,
             "avx512vnni" => Level::Avx512Vnni,
+            "amx" => Level::Amx,
             _ => return None,
         })
     }
@@ -153,6 +158,7 @@ pub(crate) struct Cpu {
     avx512vl: bool,
     avx512vnni: bool,
     avxvnni: bool,
+    amx_int8: bool,
 }
 
 #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
@@ -174,6 +180,7 @@ impl Cpu {
             avx512vl: has!("avx512vl"),
             avx512vnni: has!("avx512vnni"),
             avxvnni: has!("avxvnni"),
+            amx_int8: amx_int8_usable(),
         }
     }
 
@@ -206,6 +213,65 @@ impl Cpu {
     pub(crate) fn avx512_vnni(self) -> bool {
         self.avx512f && self.avx512bw && self.avx512vl && self.avx512vnni
     }
+
+    /// AMX's int8 tile multiply (`tdpbusd`) usable by this process, besides AVX-512 VNNI
+    /// (whose kernel does a tile's epilogue and the rows AMX's 16-row tiles leave).
+    pub(crate) fn amx_int8(self) -> bool {
+        self.avx512_vnni() && self.amx_int8
+    }
+}
+
+/// Whether the CPU has AMX-TILE and AMX-INT8 and Linux lets this process use the tile
+/// registers. Linux enables their state only for a process that asks
+/// (`arch_prctl(ARCH_REQ_XCOMP_PERM, XFEATURE_XTILEDATA)`, Linux 5.16 and later; an AMX
+/// instruction before that is a SIGILL): this asks, once, at detection. Elsewhere (another
+/// OS, an older kernel, a hypervisor that hides AMX): false.
+#[cfg(all(target_arch = "x86_64", target_os = "linux"))]
+fn amx_int8_usable() -> bool {
+    use std::arch::x86_64::{__cpuid, __cpuid_count};
+    // CPUID leaves 0 and 1 exist on every x86-64 CPU, leaf 7 where leaf 0 says so.
+    let max_leaf = __cpuid(0).eax;
+    let osxsave = __cpuid(1).ecx & (1 << 27) != 0;
+    // Leaf 7 EDX bits 24 (AMX-TILE) and 25 (AMX-INT8).
+    if max_leaf < 7 || !osxsave || (__cpuid_count(7, 0).edx >> 24) & 0b11 != 0b11 {
+        return false;
+    }
+    const ARCH_PRCTL: i64 = 158;
+    const ARCH_REQ_XCOMP_PERM: i64 = 0x1023;
+    const XFEATURE_XTILEDATA: i64 = 18;
+    let ret: i64;
+    // SAFETY: the arch_prctl system call with a request that only changes which extended
+    // states this process may use; it reads and writes none of our memory. The kernel
+    // clobbers rcx and r11.
+    unsafe {
+        std::arch::asm!(
+            "syscall",
+            inlateout("rax") ARCH_PRCTL => ret,
+            in("rdi") ARCH_REQ_XCOMP_PERM,
+            in("rsi") XFEATURE_XTILEDATA,
+            lateout("rcx") _,
+            lateout("r11") _,
+            options(nostack)
+        );
+    }
+    // XCR0 bits 17 (tile configuration) and 18 (tile data): the OS manages the state.
+    // SAFETY: OSXSAVE is set (checked above), so XGETBV is enabled.
+    ret == 0 && unsafe { xcr0() } & (0b11 << 17) == 0b11 << 17
+}
+
+/// XCR0.
+///
+/// # Safety
+/// CPUID.1:ECX.OSXSAVE is set.
+#[cfg(all(target_arch = "x86_64", target_os = "linux"))]
+#[target_feature(enable = "xsave")]
+unsafe fn xcr0() -> u64 {
+    std::arch::x86_64::_xgetbv(0)
+}
+
+#[cfg(all(target_arch = "x86_64", not(target_os = "linux")))]
+fn amx_int8_usable() -> bool {
+    false
 }
 
 #[cfg(test)]
@@ -217,6 +283,8 @@ mod tests {
         assert_eq!(Level::from_name("portable"), Some(Level::Portable));
         assert_eq!(Level::from_name("simd128"), Some(Level::Avx2));
         assert_eq!(Level::from_name("avx512vnni"), Some(Level::Avx512Vnni));
+        assert_eq!(Level::from_name("amx"), Some(Level::Amx));
+        assert!(Level::Avx512Vnni < Level::Amx);
         assert_eq!(Level::from_name("sse2"), None);
         assert!(Level::Avx2 < Level::AvxVnni && Level::AvxVnni < Level::Avx512);
         let levels = [

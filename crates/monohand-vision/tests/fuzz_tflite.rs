@@ -98,6 +98,7 @@ fn fuzz_tflite_import() {
                 register_blocked_depthwise: input.len() % 13 != 0,
                 fast_conv: input.len() % 17 != 0,
                 split_rows: input.len() % 19 != 0,
+                fast_resize: input.len() % 23 != 0,
             };
             import(input)?;
             import_with(input, options).map(|m| m.nodes().len())
