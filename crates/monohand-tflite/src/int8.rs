@@ -1451,56 +1451,91 @@ mod avx512vnni {
                 a = a.add(KG);
                 b = b.add(KG * NR);
             }
+            let e = Epilogue::<P>::new(t);
             for (i, acc) in acc.iter().enumerate() {
                 // `acc` is already the sum less `zcorr`; row i < M of the tile.
-                store_row(t, i, acc);
+                e.store_row(t, i, acc);
             }
         }
     }
 
-    /// The epilogue of row `i` of a tile of `P` panels from its i32 sums less `zcorr`
-    /// (`acc`), stored to the output: without FMA, as the portable one; the last panel loads
-    /// the residual and stores under a mask where the tile is narrower than it.
-    ///
-    /// # Safety
-    /// The caller has AVX-512F, BW and VL (it is inlined into such a function); `t` satisfies
-    /// `Tile`'s contract with `i < t.m`, `P` in 1..=2 and `16·(P-1) < t.width <= 16·P`.
-    #[inline(always)]
-    pub(super) unsafe fn store_row<const P: usize>(t: &Tile, i: usize, acc: &[__m512i; P]) {
-        // SAFETY: the caller's features and `Tile`'s contract: `scale`, `bias`, `alpha` at
-        // 16·P values, within NR·width.div_ceil(NR); `res` and `out` at row i < m, 16·P
-        // channels of which the last panel's lanes at and past `width` are masked off.
-        unsafe {
-            let last = lanes(t.width - 16 * (P - 1));
-            let (lo, hi) = (_mm512_set1_ps(t.act.0), _mm512_set1_ps(t.act.1));
-            let (rlo, rhi) = (
-                _mm512_set1_ps(t.residual_act.0),
-                _mm512_set1_ps(t.residual_act.1),
-            );
-            let zero = _mm512_setzero_ps();
-            for (p, &acc) in acc.iter().enumerate() {
-                let mask = if p + 1 == P { last } else { 0xffff };
-                let at = i * t.ldo + 16 * p;
-                let mut y = _mm512_add_ps(
-                    _mm512_mul_ps(
-                        _mm512_cvtepi32_ps(acc),
-                        _mm512_loadu_ps(t.scale.add(16 * p)),
-                    ),
-                    _mm512_loadu_ps(t.bias.add(16 * p)),
-                );
-                y = _mm512_min_ps(_mm512_max_ps(y, lo), hi);
-                if !t.res.is_null() {
-                    let r = _mm512_maskz_loadu_ps(mask, t.res.add(at));
-                    y = _mm512_min_ps(_mm512_max_ps(_mm512_add_ps(y, r), rlo), rhi);
+    /// The epilogue's per-tile constants for `P` panels: the channels' scales, biases and
+    /// PRELU slopes, the clamps, the last panel's mask; loaded once per tile (the output's
+    /// stores would otherwise have them loaded again for every row).
+    pub(super) struct Epilogue<const P: usize> {
+        scale: [__m512; P],
+        bias: [__m512; P],
+        alpha: [__m512; P],
+        lo: __m512,
+        hi: __m512,
+        rlo: __m512,
+        rhi: __m512,
+        last: u16,
+    }
+
+    impl<const P: usize> Epilogue<P> {
+        /// # Safety
+        /// The caller has AVX-512F, BW and VL (it is inlined into such a function); `t`
+        /// satisfies `Tile`'s contract with `P` in 1..=2 and `16·(P-1) < t.width <= 16·P`.
+        #[inline(always)]
+        pub(super) unsafe fn new(t: &Tile) -> Self {
+            // SAFETY: the caller's features and `Tile`'s contract: `scale`, `bias` and
+            // `alpha` (where not null) hold 16·P values, within NR·width.div_ceil(NR).
+            unsafe {
+                let mut e = Epilogue {
+                    scale: [_mm512_setzero_ps(); P],
+                    bias: [_mm512_setzero_ps(); P],
+                    alpha: [_mm512_setzero_ps(); P],
+                    lo: _mm512_set1_ps(t.act.0),
+                    hi: _mm512_set1_ps(t.act.1),
+                    rlo: _mm512_set1_ps(t.residual_act.0),
+                    rhi: _mm512_set1_ps(t.residual_act.1),
+                    last: lanes(t.width - 16 * (P - 1)),
+                };
+                for p in 0..P {
+                    e.scale[p] = _mm512_loadu_ps(t.scale.add(16 * p));
+                    e.bias[p] = _mm512_loadu_ps(t.bias.add(16 * p));
+                    if !t.alpha.is_null() {
+                        e.alpha[p] = _mm512_loadu_ps(t.alpha.add(16 * p));
+                    }
                 }
-                if !t.alpha.is_null() {
-                    let al = _mm512_loadu_ps(t.alpha.add(16 * p));
-                    y = _mm512_add_ps(
-                        _mm512_max_ps(y, zero),
-                        _mm512_mul_ps(al, _mm512_min_ps(y, zero)),
+                e
+            }
+        }
+
+        /// The epilogue of row `i` of the tile from its i32 sums less `zcorr` (`acc`),
+        /// stored to the output: without FMA, as the portable one; the last panel loads the
+        /// residual and stores under a mask where the tile is narrower than it.
+        ///
+        /// # Safety
+        /// As [`new`](Self::new), with the same `t`, and `i < t.m`.
+        #[inline(always)]
+        pub(super) unsafe fn store_row(&self, t: &Tile, i: usize, acc: &[__m512i; P]) {
+            // SAFETY: the caller's features and `Tile`'s contract: `res` and `out` at row
+            // i < m, 16·P channels of which the last panel's lanes at and past `width` are
+            // masked off.
+            unsafe {
+                let zero = _mm512_setzero_ps();
+                for (p, &acc) in acc.iter().enumerate() {
+                    let mask = if p + 1 == P { self.last } else { 0xffff };
+                    let at = i * t.ldo + 16 * p;
+                    let mut y = _mm512_add_ps(
+                        _mm512_mul_ps(_mm512_cvtepi32_ps(acc), self.scale[p]),
+                        self.bias[p],
                     );
+                    y = _mm512_min_ps(_mm512_max_ps(y, self.lo), self.hi);
+                    if !t.res.is_null() {
+                        let r = _mm512_maskz_loadu_ps(mask, t.res.add(at));
+                        y = _mm512_min_ps(_mm512_max_ps(_mm512_add_ps(y, r), self.rlo), self.rhi);
+                    }
+                    if !t.alpha.is_null() {
+                        y = _mm512_add_ps(
+                            _mm512_max_ps(y, zero),
+                            _mm512_mul_ps(self.alpha[p], _mm512_min_ps(y, zero)),
+                        );
+                    }
+                    _mm512_mask_storeu_ps(t.out.add(at), mask, y);
                 }
-                _mm512_mask_storeu_ps(t.out.add(at), mask, y);
             }
         }
     }
@@ -1694,6 +1729,7 @@ mod amx {
             for (p, z) in zcorr.iter_mut().enumerate() {
                 *z = _mm512_loadu_si512(t.zcorr.add(16 * p) as *const __m512i);
             }
+            let e = avx512vnni::Epilogue::<P>::new(t);
             for i in 0..ROWS {
                 let mut acc = [_mm512_setzero_si512(); P];
                 for (p, acc) in acc.iter_mut().enumerate() {
@@ -1704,7 +1740,7 @@ mod amx {
                     // same products (wrapping alike).
                     *acc = _mm512_sub_epi32(v, zcorr[p]);
                 }
-                avx512vnni::store_row(t, i, &acc);
+                e.store_row(t, i, &acc);
             }
         }
     }
