@@ -74,7 +74,10 @@ impl EvalOp for NhwcResizeBilinear {
         // gives the same values, `0 + 1·a`.
         let rows = self.plan(h, oh);
         let cols = self.plan(w, ow);
-        let mut output = Tensor::zero::<f32>(&[n, oh, ow, c])?;
+        // SAFETY: every value is written before anything reads it: each output row of each
+        // image is one `chunks_exact_mut` piece, each of its pixels one piece whose values
+        // `interpolate` all writes (a copy, a fill, or the first tap's pass).
+        let mut output = unsafe { Tensor::uninitialized::<f32>(&[n, oh, ow, c])? };
         {
             let mut out = output.try_as_plain_ram_mut()?;
             let dst = out.as_slice_mut::<f32>()?;
@@ -99,8 +102,9 @@ impl EvalOp for NhwcResizeBilinear {
 }
 
 /// Output index `i` of an axis with `plan`, over `inner` values a step: `dst` =
-/// `(0 + w0·src[i0]) + w1·src[i1]` (zero weights skipped), tract's `resample_axis`; or a
-/// copy of `src[i]` where the axis keeps its length (tract skips it).
+/// `(0 + w0·src[i0]) + w1·src[i1]` with zero weights skipped (0 where all are), as tract's
+/// `resample_axis` sums into a zeroed row, in one pass; or a copy of `src[i]` where the axis
+/// keeps its length (tract skips it).
 #[inline(always)]
 fn interpolate(
     plan: &AxisPlan,
@@ -118,16 +122,28 @@ fn interpolate(
         dst.fill(0.0);
         return;
     }
-    dst.fill(0.0);
     let taps = &plan.indices[i * plan.window..][..plan.window];
     let weights = &plan.weights[i * plan.window..][..plan.window];
+    let mut written = false;
     for (&t, &wt) in taps.iter().zip(weights) {
         if wt == 0.0 {
             continue;
         }
-        for (d, s) in dst.iter_mut().zip(&src[t * inner..][..inner]) {
-            *d += wt * s;
+        let s = &src[t * inner..][..inner];
+        if written {
+            for (d, s) in dst.iter_mut().zip(s) {
+                *d += wt * s;
+            }
+        } else {
+            // `0 + w·s`, not `w·s`: the sum tract starts from 0 turns -0 into +0.
+            for (d, s) in dst.iter_mut().zip(s) {
+                *d = 0.0 + wt * s;
+            }
+            written = true;
         }
+    }
+    if !written {
+        dst.fill(0.0);
     }
 }
 
