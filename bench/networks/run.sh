@@ -12,7 +12,7 @@
 #                    monohand's operators sharing their rows (MONOHAND_OP_THREADS)
 #   --variants LIST  extra monohand variants, comma-separated, each a '+'-joined list of
 #                    int8, no-pointwise, no-epilogue, no-depthwise, no-prelu, no-dw-act,
-#                    no-dw-blocking, no-conv, no-split, no-resize
+#                    no-dw-blocking, no-conv, no-split, no-resize, no-pool
 #                    (default int8)
 # Environment: MODELS (default ~/.cache/monohand/models), CARGO_TARGET_DIR (default target),
 #   VENV (default /tmp/monohand-litert-venv), PYTHON (default python3).

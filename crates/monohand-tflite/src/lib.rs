@@ -24,7 +24,7 @@
 //! channels, i.e. the stems: im2col rows gathered a few output rows at a time, padding
 //! included, and multiplied with [`PointwiseConv`]'s kernels). A fifth,
 //! [`NhwcResizeBilinear`], does the palm detectors' `RESIZE_BILINEAR` in one pass with
-//! tract's arithmetic. [`ImportOptions`] switches back to tract's built-in operators.
+//! tract's arithmetic, and [`NhwcMaxPool`] their `MAX_POOL_2D` and channel `PAD`. [`ImportOptions`] switches back to tract's built-in operators.
 //!
 //! In int8 ([`Precision::Int8`], [`quantize_pointwise`]), [`PointwiseConvInt8`] replaces
 //! [`PointwiseConv`], [`NhwcConvInt8`] replaces the stem's [`NhwcConv`] (with a PRELU after
@@ -43,6 +43,7 @@ mod int8;
 mod isa;
 mod ops;
 mod pointwise;
+mod pool;
 mod prelu;
 mod resize;
 mod split;
@@ -55,6 +56,7 @@ pub use int8::{
     ActivationQuant, MinMax, PointwiseConvInt8, ACTIVATION_QMAX, WEIGHT_QMAX,
 };
 pub use pointwise::{Activation, PointwiseConv};
+pub use pool::NhwcMaxPool;
 pub use prelu::ChannelPrelu;
 pub use resize::NhwcResizeBilinear;
 pub use split::{allow_split_here, shared_operators, start_team, team_size, Running};
@@ -194,6 +196,10 @@ pub struct ImportOptions {
     /// instead of tract's `Resize` (an axis at a time, a new buffer each). The same bits.
     /// Default: true.
     pub fast_resize: bool,
+    /// Translate `MAX_POOL_2D` to [`NhwcMaxPool`] (each window folded in registers, stored
+    /// once), with a `PAD` of zero channels that alone reads it folded in, instead of tract's
+    /// `MaxPool` and `Pad`. The same bits. Default: true.
+    pub fast_pool: bool,
 }
 
 impl Default for ImportOptions {
@@ -208,6 +214,7 @@ impl Default for ImportOptions {
             fast_conv: true,
             split_rows: true,
             fast_resize: true,
+            fast_pool: true,
         }
     }
 }

@@ -781,14 +781,27 @@ fn max_pool(cx: &mut Ctx) -> Result<OutletId, ImportError> {
         input_channels: channels,
         output_channels: channels,
     };
-    let y = cx.node(
-        "maxpool",
-        MaxPool {
-            pool_spec,
-            with_index_outputs: None,
-        },
-        &[x],
-    )?;
+    let y = if cx.options.fast_pool {
+        let op = super::pool::NhwcMaxPool {
+            kernel: (pool_spec.kernel_shape[0], pool_spec.kernel_shape[1]),
+            strides: (
+                at_least_one(o.stride_h(), "stride", &cx.prefix)?,
+                at_least_one(o.stride_w(), "stride", &cx.prefix)?,
+            ),
+            same: pool_spec.padding == PaddingSpec::SameUpper,
+            pad_channels: 0,
+        };
+        cx.node("maxpool", op, &[x])?
+    } else {
+        cx.node(
+            "maxpool",
+            MaxPool {
+                pool_spec,
+                with_index_outputs: None,
+            },
+            &[x],
+        )?
+    };
     cx.activation(y, o.fused_activation_function())
 }
 
@@ -801,6 +814,26 @@ fn pad(cx: &mut Ctx) -> Result<OutletId, ImportError> {
         .chunks_exact(2)
         .map(|c| (c[0].max(0) as usize, c[1].max(0) as usize))
         .collect();
+    // Zero channels after a max pool that nothing else reads: written by the pool itself.
+    if let [(0, 0), (0, 0), (0, 0), (0, extra)] = pads[..] {
+        if let Some(&id) = cx.inputs.first() {
+            if cx.uses.get(&id) == Some(&1) && x.slot == 0 {
+                if let Some(pool) = cx.target.node(x.node).op_as::<super::pool::NhwcMaxPool>() {
+                    let mut pool = pool.clone();
+                    pool.pad_channels += extra;
+                    let fact = {
+                        let input = cx.target.node(x.node).inputs[0];
+                        let input = cx.target.outlet_fact(input)?.clone();
+                        pool.output_facts(&[&input])?.remove(0)
+                    };
+                    let node = cx.target.node_mut(x.node);
+                    node.op = Box::new(pool);
+                    node.outputs[0].fact = fact;
+                    return Ok(x);
+                }
+            }
+        }
+    }
     let mode = PadMode::Constant(Arc::new(tensor0(0f32)));
     cx.node("pad", Pad { pads, mode }, &[x])
 }

@@ -7,7 +7,7 @@
 //! * `load NAME MODEL.tflite INPUT.f32 OPTIONS`: imports the model; `INPUT.f32` holds the
 //!   input as raw little-endian f32 (NHWC); `OPTIONS` is `default` or a comma-separated
 //!   list among `no-pointwise`, `no-epilogue`, `no-depthwise`, `no-prelu`, `no-dw-act`, `no-dw-blocking`,
-//!   `no-conv`, `no-split`, `no-resize`
+//!   `no-conv`, `no-split`, `no-resize`, `no-pool`
 //!   (switching monohand's own operators back to tract's), and `int8` (the network's
 //!   shipped int8 calibration: its 1x1 and first convolutions in int8). Answers `ok`.
 //! * `time NAME RUNS`: runs the network `RUNS` times on a reused run state, as the pipeline
@@ -50,6 +50,7 @@ fn main() {
                         "no-conv" => o.fast_conv = false,
                         "no-split" => o.split_rows = false,
                         "no-resize" => o.fast_resize = false,
+                        "no-pool" => o.fast_pool = false,
                         other => panic!("unknown option {other}"),
                     }
                 }
