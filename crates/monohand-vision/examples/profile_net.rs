@@ -2,7 +2,10 @@
 //!
 //! `cargo run --release -p monohand-vision --example profile_net -- palm_detection_full`
 //! (`PER_NODE=1`: per node instead of per operator type; `PRECISION=int8`: the network as
-//! `--precision int8` runs it).
+//! `--precision int8` runs it). The runs share one tract state, as `TfliteNet::run_in` and
+//! the pipeline's do; `FRESH_STATE=1` spawns one per run, as this example did until
+//! 2026-11-28 (that made hand_landmark_lite 2.36 ms a run instead of 2.03-2.08 in int8,
+//! one thread, and its 112x112 16->64 layer 0.36-0.41 ms instead of 0.28).
 #![allow(clippy::unwrap_used, clippy::expect_used)] // a failed test or bench is a panic
 
 use std::collections::HashMap;
@@ -58,8 +61,12 @@ fn main() -> TractResult<()> {
     let mut per_op: HashMap<String, (Duration, usize)> = HashMap::new();
     let runs = 30;
     let t_all = Instant::now();
+    let fresh = std::env::var_os("FRESH_STATE").is_some();
+    let mut state = plan.spawn()?;
     for _ in 0..runs {
-        let mut state = plan.spawn()?;
+        if fresh {
+            state = plan.spawn()?;
+        }
         state.run_plan_with_eval(
             tvec!(input.clone().into_tvalue()),
             |ctx, st, node, inputs| {
