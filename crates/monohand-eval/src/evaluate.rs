@@ -877,6 +877,18 @@ mod tests {
         }
     }
 
+    /// A mono run of `hands`.
+    fn mono_run(hands: Vec<HandResult>) -> RunResult {
+        RunResult {
+            label: "mono".into(),
+            mode: ViewMode::Mono,
+            source: "test".into(),
+            noise_px: None,
+            relative_only: false,
+            hands,
+        }
+    }
+
     #[test]
     fn halves_split_each_sequence_by_frame_index() {
         // Sequence a: frames 0-3 (2 + 2); sequence b: frames 10-14 (2 + 3), out of order.
@@ -884,14 +896,7 @@ mod tests {
         for i in [14, 10, 13, 11, 12] {
             hands.push(hand("b", i, 10.0));
         }
-        let run = RunResult {
-            label: "mono".into(),
-            mode: ViewMode::Mono,
-            source: "test".into(),
-            noise_px: None,
-            relative_only: false,
-            hands,
-        };
+        let run = mono_run(hands);
         let [first, second] = run.halves();
         let frames = |r: &RunResult| -> Vec<(String, usize)> {
             r.hands
@@ -931,14 +936,7 @@ mod tests {
         missed.errors = None;
         hands.push(missed);
         hands.push(hand("b", 8, 0.0));
-        let run = RunResult {
-            label: "mono".into(),
-            mode: ViewMode::Mono,
-            source: "test".into(),
-            noise_px: None,
-            relative_only: false,
-            hands,
-        };
+        let run = mono_run(hands);
         let acc: Vec<Option<f64>> = run
             .accelerations(&ALL_JOINTS)
             .into_iter()

@@ -1664,51 +1664,48 @@ mod amx {
         // it exists). Writes: `sums`, 16 rows of 128 bytes.
         unsafe {
             asm!("tilezero tmm0", "tilezero tmm1", options(nostack, nomem));
-            for j in 0..full {
-                let a = t.a.add(64 * j);
-                let b = t.b.add(j * GROUPS * KG * NR);
-                asm!(
-                    "tileloadd tmm2, [{a} + {lda}*1]",
-                    "tileloadd tmm3, [{b} + {ldb}*1]",
-                    "tdpbusd tmm0, tmm2, tmm3",
-                    a = in(reg) a,
-                    b = in(reg) b,
-                    lda = in(reg) t.lda,
-                    ldb = in(reg) KG * NR,
-                    options(nostack, readonly)
-                );
-                if P == 2 {
+            // One step of the depth: codes tile `$ta` and weight tiles `$tb0` (and `$tb1`
+            // for the second panel) loaded from `$a` and `$b`, multiplied into tmm0 (tmm1).
+            macro_rules! step {
+                ($ta:literal, $tb0:literal, $tb1:literal, $a:expr, $b:expr) => {
                     asm!(
-                        "tileloadd tmm4, [{b} + {ldb}*1]",
-                        "tdpbusd tmm1, tmm2, tmm4",
-                        b = in(reg) b.add(panel),
+                        concat!("tileloadd tmm", $ta, ", [{a} + {lda}*1]"),
+                        concat!("tileloadd tmm", $tb0, ", [{b} + {ldb}*1]"),
+                        concat!("tdpbusd tmm0, tmm", $ta, ", tmm", $tb0),
+                        a = in(reg) $a,
+                        b = in(reg) $b,
+                        lda = in(reg) t.lda,
                         ldb = in(reg) KG * NR,
                         options(nostack, readonly)
                     );
-                }
+                    if P == 2 {
+                        asm!(
+                            concat!("tileloadd tmm", $tb1, ", [{b} + {ldb}*1]"),
+                            concat!("tdpbusd tmm1, tmm", $ta, ", tmm", $tb1),
+                            b = in(reg) $b.add(panel),
+                            ldb = in(reg) KG * NR,
+                            options(nostack, readonly)
+                        );
+                    }
+                };
+            }
+            for j in 0..full {
+                step!(
+                    "2",
+                    "3",
+                    "4",
+                    t.a.add(64 * j),
+                    t.b.add(j * GROUPS * KG * NR)
+                );
             }
             if rest > 0 {
-                let a = t.a.add(64 * full);
-                let b = t.b.add(full * GROUPS * KG * NR);
-                asm!(
-                    "tileloadd tmm5, [{a} + {lda}*1]",
-                    "tileloadd tmm6, [{b} + {ldb}*1]",
-                    "tdpbusd tmm0, tmm5, tmm6",
-                    a = in(reg) a,
-                    b = in(reg) b,
-                    lda = in(reg) t.lda,
-                    ldb = in(reg) KG * NR,
-                    options(nostack, readonly)
+                step!(
+                    "5",
+                    "6",
+                    "7",
+                    t.a.add(64 * full),
+                    t.b.add(full * GROUPS * KG * NR)
                 );
-                if P == 2 {
-                    asm!(
-                        "tileloadd tmm7, [{b} + {ldb}*1]",
-                        "tdpbusd tmm1, tmm5, tmm7",
-                        b = in(reg) b.add(panel),
-                        ldb = in(reg) KG * NR,
-                        options(nostack, readonly)
-                    );
-                }
             }
             let out = sums.0.as_mut_ptr();
             asm!(

@@ -146,6 +146,7 @@ impl TypedOp for NhwcMaxPool {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::split::testing::tensor_bits as bits;
     use tract_core::ops::array::{Pad, PadMode};
     use tract_core::ops::cnn::{MaxPool, PaddingSpec, PoolSpec};
     use tract_core::ops::nn::DataFormat;
@@ -195,16 +196,6 @@ mod tests {
             .expect("run")
             .remove(0)
             .into_tensor()
-    }
-
-    fn bits(t: &Tensor) -> Vec<u32> {
-        t.try_as_plain_ram()
-            .expect("plain")
-            .as_slice::<f32>()
-            .expect("f32")
-            .iter()
-            .map(|v| v.to_bits())
-            .collect()
     }
 
     /// The palm detectors' pools (2x2, stride 2, VALID, channels doubled by the pad) and

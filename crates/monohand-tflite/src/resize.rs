@@ -169,6 +169,7 @@ impl TypedOp for NhwcResizeBilinear {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::split::testing::tensor_bits as bits;
 
     fn tract_resize(x: &Tensor, size: (usize, usize), ct: CoordTransformer) -> Tensor {
         let s = x.shape();
@@ -187,16 +188,6 @@ mod tests {
         .expect("tract resize")
         .remove(0)
         .into_tensor()
-    }
-
-    fn bits(t: &Tensor) -> Vec<u32> {
-        t.try_as_plain_ram()
-            .expect("plain")
-            .as_slice::<f32>()
-            .expect("f32")
-            .iter()
-            .map(|v| v.to_bits())
-            .collect()
     }
 
     /// The palm detectors' shapes (6x6 and 12x12 doubled, 256 channels, half-pixel

@@ -508,11 +508,16 @@ pub(crate) mod testing {
             .eval_out_of_plan(inputs.iter().map(|t| t.clone().into_tvalue()).collect())
             .expect("eval")
             .expect("evaluates out of plan");
-        let out = out[0].try_as_plain_ram().expect("ram");
-        if let Ok(codes) = out.as_slice::<u8>() {
+        tensor_bits(&out[0])
+    }
+
+    /// The bits of a tensor's values (an f32 tensor's bits, or a u8 tensor's codes).
+    pub(crate) fn tensor_bits(t: &Tensor) -> Vec<u32> {
+        let t = t.try_as_plain_ram().expect("ram");
+        if let Ok(codes) = t.as_slice::<u8>() {
             return codes.iter().map(|&q| q as u32).collect();
         }
-        out.as_slice::<f32>()
+        t.as_slice::<f32>()
             .expect("f32")
             .iter()
             .map(|v| v.to_bits())
