@@ -766,28 +766,27 @@ fn max_pool(cx: &mut Ctx) -> Result<OutletId, ImportError> {
         .as_concrete()
         .and_then(|s| s.get(3).copied())
         .ok_or_else(|| ImportError::Malformed("pool input".into()))?;
+    let kernel = (
+        at_least_one(o.filter_height(), "window height", &cx.prefix)?,
+        at_least_one(o.filter_width(), "window width", &cx.prefix)?,
+    );
+    let strides = (
+        at_least_one(o.stride_h(), "stride", &cx.prefix)?,
+        at_least_one(o.stride_w(), "stride", &cx.prefix)?,
+    );
     let pool_spec = PoolSpec {
         data_format: DataFormat::NHWC,
-        kernel_shape: tvec!(
-            at_least_one(o.filter_height(), "window height", &cx.prefix)?,
-            at_least_one(o.filter_width(), "window width", &cx.prefix)?
-        ),
+        kernel_shape: tvec!(kernel.0, kernel.1),
         padding: padding(o.padding())?,
-        strides: Some(tvec!(
-            at_least_one(o.stride_h(), "stride", &cx.prefix)?,
-            at_least_one(o.stride_w(), "stride", &cx.prefix)?
-        )),
+        strides: Some(tvec!(strides.0, strides.1)),
         dilations: None,
         input_channels: channels,
         output_channels: channels,
     };
     let y = if cx.options.fast_pool {
         let op = super::pool::NhwcMaxPool {
-            kernel: (pool_spec.kernel_shape[0], pool_spec.kernel_shape[1]),
-            strides: (
-                at_least_one(o.stride_h(), "stride", &cx.prefix)?,
-                at_least_one(o.stride_w(), "stride", &cx.prefix)?,
-            ),
+            kernel,
+            strides,
             same: pool_spec.padding == PaddingSpec::SameUpper,
             pad_channels: 0,
         };
