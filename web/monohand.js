@@ -163,10 +163,14 @@ export async function createTracker(options = {}) {
     const given = options[which] ?? DEFAULT_WEIGHTS[which];
     return given instanceof Uint8Array ? given : fetchBytes(new URL(given, base), what);
   };
-  const [palm, landmark] = await Promise.all([
-    load('palm', 'palm detector weights'),
-    load('landmark', 'hand landmark weights'),
-  ]);
+  // Both fetched at once, awaited in order: where both fail (a folder without them), the
+  // error names the palm detector's whichever answered first (Promise.all reported the
+  // first to fail in time, which made the message, and the web test, depend on timing).
+  const palmBytes = load('palm', 'palm detector weights');
+  const landmarkBytes = load('landmark', 'hand landmark weights');
+  landmarkBytes.catch(() => {}); // handled below, after the palm detector's
+  const palm = await palmBytes;
+  const landmark = await landmarkBytes;
   const settings = {};
   if (options.hands !== undefined) settings.hands = options.hands;
   if (options.detectEvery !== undefined) settings.detect_every = options.detectEvery;
