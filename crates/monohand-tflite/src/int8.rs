@@ -62,7 +62,7 @@
 //! epilogues round alike. (The VNNI kernels start their accumulators at `-z·Σw_q`, which
 //! leaves the same i32 as subtracting it at the end.) `MONOHAND_KERNEL` caps the level
 //! (`portable`, `avx2`, `avxvnni`, `avx512` — the AVX-VNNI kernel where the CPU has it —
-//! `avx512vnni`, `amx`). A WebAssembly kernel is left for later. A large product is shared between
+//! `avx512vnni`, `amx`); a module built for WebAssembly with `relaxed-simd` runs that kernel. A large product is shared between
 //! the cores as [`PointwiseConv`](crate::PointwiseConv)'s is, with the same bits.
 
 use std::cell::RefCell;

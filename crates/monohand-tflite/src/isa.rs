@@ -158,7 +158,6 @@ pub(crate) struct Cpu {
     avx512vl: bool,
     avx512vnni: bool,
     avxvnni: bool,
-    amx_int8: bool,
 }
 
 #[cfg_attr(not(target_arch = "x86_64"), allow(dead_code))]
@@ -180,7 +179,6 @@ impl Cpu {
             avx512vl: has!("avx512vl"),
             avx512vnni: has!("avx512vnni"),
             avxvnni: has!("avxvnni"),
-            amx_int8: amx_int8_usable(),
         }
     }
 
@@ -215,63 +213,18 @@ impl Cpu {
     }
 
     /// AMX's int8 tile multiply (`tdpbusd`) usable by this process, besides AVX-512 VNNI
-    /// (whose kernel does a tile's epilogue and the rows AMX's 16-row tiles leave).
+    /// (whose kernel does a tile's epilogue and the rows AMX's 16-row tiles leave). The
+    /// check is tract's own, which its AMX matrix products use: CPUID, then (on Linux, once
+    /// per process) `arch_prctl(ARCH_REQ_XCOMP_PERM, XFEATURE_XTILEDATA)`, without which an
+    /// AMX instruction is a SIGILL; elsewhere false.
     pub(crate) fn amx_int8(self) -> bool {
-        self.avx512_vnni() && self.amx_int8
+        #[cfg(target_arch = "x86_64")]
+        {
+            self.avx512_vnni() && tract_core::tract_linalg::x86_64::amx::has_amx_int8()
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        false
     }
-}
-
-/// Whether the CPU has AMX-TILE and AMX-INT8 and Linux lets this process use the tile
-/// registers. Linux enables their state only for a process that asks
-/// (`arch_prctl(ARCH_REQ_XCOMP_PERM, XFEATURE_XTILEDATA)`, Linux 5.16 and later; an AMX
-/// instruction before that is a SIGILL): this asks, once, at detection. Elsewhere (another
-/// OS, an older kernel, a hypervisor that hides AMX): false.
-#[cfg(all(target_arch = "x86_64", target_os = "linux"))]
-fn amx_int8_usable() -> bool {
-    use std::arch::x86_64::{__cpuid, __cpuid_count};
-    // CPUID leaves 0 and 1 exist on every x86-64 CPU, leaf 7 where leaf 0 says so.
-    let max_leaf = __cpuid(0).eax;
-    let osxsave = __cpuid(1).ecx & (1 << 27) != 0;
-    // Leaf 7 EDX bits 24 (AMX-TILE) and 25 (AMX-INT8).
-    if max_leaf < 7 || !osxsave || (__cpuid_count(7, 0).edx >> 24) & 0b11 != 0b11 {
-        return false;
-    }
-    const ARCH_PRCTL: i64 = 158;
-    const ARCH_REQ_XCOMP_PERM: i64 = 0x1023;
-    const XFEATURE_XTILEDATA: i64 = 18;
-    let ret: i64;
-    // SAFETY: the arch_prctl system call with a request that only changes which extended
-    // states this process may use; it reads and writes none of our memory. The kernel
-    // clobbers rcx and r11.
-    unsafe {
-        std::arch::asm!(
-            "syscall",
-            inlateout("rax") ARCH_PRCTL => ret,
-            in("rdi") ARCH_REQ_XCOMP_PERM,
-            in("rsi") XFEATURE_XTILEDATA,
-            lateout("rcx") _,
-            lateout("r11") _,
-            options(nostack)
-        );
-    }
-    // XCR0 bits 17 (tile configuration) and 18 (tile data): the OS manages the state.
-    // SAFETY: OSXSAVE is set (checked above), so XGETBV is enabled.
-    ret == 0 && unsafe { xcr0() } & (0b11 << 17) == 0b11 << 17
-}
-
-/// XCR0.
-///
-/// # Safety
-/// CPUID.1:ECX.OSXSAVE is set.
-#[cfg(all(target_arch = "x86_64", target_os = "linux"))]
-#[target_feature(enable = "xsave")]
-unsafe fn xcr0() -> u64 {
-    std::arch::x86_64::_xgetbv(0)
-}
-
-#[cfg(all(target_arch = "x86_64", not(target_os = "linux")))]
-fn amx_int8_usable() -> bool {
-    false
 }
 
 #[cfg(test)]
