@@ -68,6 +68,15 @@ use tract_tflite::tflite;
 
 pub use ops::SUPPORTED_OPERATORS;
 
+/// The sizes `(N, H, W, C)` of a channels-last tensor, or an error naming `what` for any
+/// other rank (the palm detectors' resize and pool take batches of images).
+pub(crate) fn nhwc(shape: &[usize], what: &str) -> TractResult<(usize, usize, usize, usize)> {
+    match *shape {
+        [n, h, w, c] => Ok((n, h, w, c)),
+        _ => bail!("{what}: a rank-4 input is needed, got {shape:?}"),
+    }
+}
+
 /// The arithmetic a network's convolutions run in.
 ///
 /// [`Precision::Int8`] runs the quantizable layers (the 1x1 convolutions,

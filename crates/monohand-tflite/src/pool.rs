@@ -48,11 +48,7 @@ impl EvalOp for NhwcMaxPool {
     fn eval(&self, _ctx: &EvalContext, inputs: TVec<TValue>) -> TractResult<TVec<TValue>> {
         let input = args_1!(inputs);
         let shape = input.shape();
-        ensure!(
-            shape.len() == 4,
-            "max pool: a rank-4 input is needed, got {shape:?}"
-        );
-        let (n, h, w, c) = (shape[0], shape[1], shape[2], shape[3]);
+        let (n, h, w, c) = crate::nhwc(shape, "max pool")?;
         let (kh, kw) = self.kernel;
         let (sy, sx) = self.strides;
         ensure!(

@@ -58,11 +58,7 @@ impl EvalOp for NhwcResizeBilinear {
     fn eval(&self, _ctx: &EvalContext, inputs: TVec<TValue>) -> TractResult<TVec<TValue>> {
         let input = args_1!(inputs);
         let shape = input.shape();
-        ensure!(
-            shape.len() == 4,
-            "resize: a rank-4 input is needed, got {shape:?}"
-        );
-        let (n, h, w, c) = (shape[0], shape[1], shape[2], shape[3]);
+        let (n, h, w, c) = crate::nhwc(shape, "resize")?;
         let (oh, ow) = self.size;
         ensure!(
             h > 0 && w > 0 && oh > 0 && ow > 0,
