@@ -77,6 +77,24 @@ impl Extrinsics {
     pub fn transform(&self, x: &Vector3<f64>) -> Vector3<f64> {
         self.rotation * x + self.translation
     }
+
+    /// The inverse transform: from this camera's frame back into the reference frame.
+    pub fn inverse(&self) -> Extrinsics {
+        let rotation = self.rotation.inverse();
+        Extrinsics {
+            rotation,
+            translation: -(rotation * self.translation),
+        }
+    }
+
+    /// `self` after `first`: maps a point of `first`'s source frame by `first`, then by
+    /// `self` (`X ↦ self(first(X))`).
+    pub fn after(&self, first: &Extrinsics) -> Extrinsics {
+        Extrinsics {
+            rotation: self.rotation * first.rotation,
+            translation: self.rotation * first.translation + self.translation,
+        }
+    }
 }
 
 /// A calibrated camera: intrinsics, distortion and pose in the reference frame.
@@ -509,6 +527,7 @@ impl Camera {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use nalgebra::Matrix3;
 
     #[test]
     fn distortion_round_trip() {
@@ -571,6 +590,24 @@ mod tests {
         let e = cal.scaled_to(640, 480).unwrap_err().to_string();
         assert!(e.contains("1920x1080") && e.contains("640x480"), "{e}");
         assert!(cal.scaled_to(0, 480).is_err());
+    }
+
+    #[test]
+    fn extrinsics_invert_and_compose() {
+        let a = Extrinsics {
+            rotation: Rotation3::from_euler_angles(0.3, -1.2, 2.0),
+            translation: Vector3::new(-400.0, 20.0, 310.0),
+        };
+        let b = Extrinsics {
+            rotation: Rotation3::from_euler_angles(-0.7, 0.1, 0.4),
+            translation: Vector3::new(5.0, -60.0, 80.0),
+        };
+        let x = Vector3::new(12.0, -30.0, 650.0);
+        assert!((a.inverse().transform(&a.transform(&x)) - x).norm() < 1e-9);
+        assert!((b.after(&a).transform(&x) - b.transform(&a.transform(&x))).norm() < 1e-9);
+        let id = a.after(&a.inverse());
+        assert!((id.rotation.matrix() - Matrix3::identity()).norm() < 1e-12);
+        assert!(id.translation.norm() < 1e-9);
     }
 
     /// The fisheye: 150 degrees across 1280x720, k = (0.02, -0.005, 0, 0).

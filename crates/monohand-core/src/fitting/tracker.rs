@@ -86,6 +86,11 @@ impl HandTracker {
         self.last.as_ref()
     }
 
+    /// The fitter.
+    pub fn fitter(&self) -> &HandFitter {
+        &self.fitter
+    }
+
     /// The underlying fitter.
     pub fn fitter_mut(&mut self) -> &mut HandFitter {
         &mut self.fitter
