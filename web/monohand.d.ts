@@ -95,6 +95,23 @@ export interface FrameRecord {
   timings_ms?: Record<string, number>;
 }
 
+/** A hand file (`monohand run --save-hand`, docs/absolute-depth.md). */
+export interface HandFile {
+  format: 'monohand-hand/1';
+  source: 'views' | 'ruler';
+  /** The size, a factor on the default adult hand. */
+  scale: number;
+  scale_sigma?: number;
+  /** The model's wrist-to-middle-fingertip length at that size, mm. */
+  hand_length_mm: number;
+  side?: 'left' | 'right';
+  views?: number;
+  frames?: number[];
+  ruler_mm?: number;
+  bone_lengths_mm?: (number | null)[];
+  bone_sigma_mm?: (number | null)[];
+}
+
 /** Options of {@link createTracker}; every one may be left out. */
 export interface TrackerOptions {
   /** The folder the weights are fetched from, a URL relative to the page (default: the `weights/` folder beside monohand.js). */
@@ -113,6 +130,10 @@ export interface TrackerOptions {
   precision?: 'f32' | 'int8';
   /** The camera's intrinsics, for frames of its size (default: a generic 60 degree camera for the frames' size, said in the notes). */
   camera?: Intrinsics;
+  /** The person's hand: the object of a hand file written by `monohand run --save-hand` (both hands are fitted at its size; the absolute depth scales with it). */
+  hand?: HandFile;
+  /** A ruler's hand length in mm, the hand flat, from the wrist crease to the end of the middle finger (not with `hand`). */
+  handLengthMm?: number;
   /** The threads to track on (default 2, or 1 on a one-core machine). More than one needs a cross-origin isolated page (COOP/COEP headers) and a browser with WebAssembly relaxed SIMD (Chrome and Edge 114 or newer); else the tracker runs on one and its notes say why. */
   threads?: number;
 }

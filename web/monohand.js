@@ -148,7 +148,8 @@ export class Tracker {
  * degree camera for the frames' size), `threads` (default: 2, or 1 on a one-core machine;
  * more than one needs a cross-origin isolated page and WebAssembly relaxed SIMD, else it
  * runs on one and a note says why), `precision` ('f32', the default, or 'int8': fast where
- * it runs threaded). Rejects with a message that says what is wrong for an unsupported browser
+ * it runs threaded), `hand` (a hand file's object, from `monohand run --save-hand`: both
+ * hands at the person's size) or `handLengthMm` (a ruler's hand length). Rejects with a message that says what is wrong for an unsupported browser
  * ({@link unsupportedReason}), weights missing, cut short or of another network, and bad
  * options.
  */
@@ -177,6 +178,8 @@ export async function createTracker(options = {}) {
   if (options.mirrorPass !== undefined) settings.mirror_pass = options.mirrorPass;
   if (options.precision !== undefined) settings.precision = options.precision;
   if (options.camera !== undefined) settings.camera = options.camera;
+  if (options.hand !== undefined) settings.hand = options.hand;
+  if (options.handLengthMm !== undefined) settings.hand_length_mm = options.handLengthMm;
   const threads = options.threads ?? Math.min(navigator.hardwareConcurrency || 1, 2);
   const worker = new Worker(new URL('./worker.js', import.meta.url), { type: 'module' });
   const tracker = new Tracker(worker, 1, []);

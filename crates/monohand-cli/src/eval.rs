@@ -31,6 +31,8 @@ pub(crate) enum Views {
     Stereo,
     /// Both, on the same frames and keypoints (stereo only if the dataset has two cameras).
     Both,
+    /// Each camera alone (its own labelled frames, mono), then all together: a rig.
+    Each,
 }
 
 /// Which hand model to fit.
@@ -40,6 +42,48 @@ pub(crate) enum Skeleton {
     Subject,
     /// The default adult hand times --hand-scale.
     Default,
+}
+
+/// The evaluation `args` ask for, in view `modes`.
+fn plan_of(args: &EvalArgs, modes: Vec<ViewMode>) -> Result<Plan> {
+    let (scale, _) = crate::hand_args::hand_size(
+        args.hand.as_deref(),
+        args.hand_length_mm,
+        monohand::HandScale::Fixed(args.hand_scale),
+    )?;
+    let sized = args.hand.is_some() || args.hand_length_mm.is_some();
+    Ok(Plan {
+        stage: match args.stage {
+            Stage::Lift => plan::Stage::Lift {
+                noise_px: args.noise_px.clone(),
+                drop_joints: args.drop_joints,
+                seed: args.seed,
+            },
+            Stage::Full => plan::Stage::Full,
+        },
+        selection: Selection {
+            step: args.step,
+            max_frames: args.max_frames,
+        },
+        settings: EvalSettings {
+            modes,
+            skeleton: match args.skeleton {
+                Skeleton::Subject if !sized => SkeletonChoice::Subject,
+                _ => SkeletonChoice::Default,
+            },
+            hand_scale: scale.initial(),
+            fit: FitSettings {
+                options: args.cues.apply(FitOptions::default()),
+                tracking: args.track,
+                proportion_frames: args.proportion_frames,
+                offline: args.offline.then(OfflineSettings::default),
+                // `run`'s depth filter is the engine's: the full stage's.
+                depth_filter: (args.stage == Stage::Full && !args.no_depth_filter)
+                    .then_some(DEPTH_FILTER),
+                ..FitSettings::default()
+            },
+        },
+    })
 }
 
 /// Arguments of `monohand eval`.
@@ -52,7 +96,8 @@ pub(crate) struct EvalArgs {
     /// lift: 3D lifting on ground-truth 2D; full: the whole pipeline on the images.
     #[arg(long, value_enum, default_value_t = Stage::Lift)]
     pub stage: Stage,
-    /// Cameras to fit with: left (mono), stereo, or both on the same frames.
+    /// Cameras to fit with: left (mono), stereo, both on the same frames, or each camera
+    /// alone then all together (a rig).
     #[arg(long, value_enum, default_value_t = Views::Both)]
     pub views: Views,
     /// Lift stage: Gaussian noise (pixels per coordinate) on the 2D keypoints; one run per
@@ -92,6 +137,14 @@ pub(crate) struct EvalArgs {
     /// Scale of the default hand model (with --skeleton default).
     #[arg(long, value_name = "S", default_value_t = 1.0)]
     pub hand_scale: f64,
+    /// A hand file (`run --save-hand`): the default hand model at its size (implies
+    /// --skeleton default).
+    #[arg(long, value_name = "FILE.json", conflicts_with_all = ["hand_scale", "hand_length_mm"])]
+    pub hand: Option<PathBuf>,
+    /// A ruler's hand length, mm: the default hand model at that size (implies --skeleton
+    /// default; docs/absolute-depth.md).
+    #[arg(long, value_name = "MM", conflicts_with = "hand_scale")]
+    pub hand_length_mm: Option<f64>,
     /// Use every N-th frame of each sequence.
     #[arg(long, value_name = "N", default_value_t = 1)]
     pub step: usize,
@@ -123,44 +176,15 @@ pub(crate) fn run(args: &EvalArgs) -> Result<()> {
     let modes = match args.views {
         Views::Left => vec![ViewMode::Mono],
         Views::Stereo => vec![ViewMode::Stereo],
-        Views::Both if stereo_ok => vec![ViewMode::Mono, ViewMode::Stereo],
-        Views::Both => {
+        _ if !stereo_ok => {
             tracing::warn!("the dataset has one camera: evaluating mono only");
             vec![ViewMode::Mono]
         }
+        // With --views each, Plan::run_views sets the modes per view.
+        Views::Both | Views::Each => vec![ViewMode::Mono, ViewMode::Stereo],
     };
-    let plan = Plan {
-        stage: match args.stage {
-            Stage::Lift => plan::Stage::Lift {
-                noise_px: args.noise_px.clone(),
-                drop_joints: args.drop_joints,
-                seed: args.seed,
-            },
-            Stage::Full => plan::Stage::Full,
-        },
-        selection: Selection {
-            step: args.step,
-            max_frames: args.max_frames,
-        },
-        settings: EvalSettings {
-            modes,
-            skeleton: match args.skeleton {
-                Skeleton::Subject => SkeletonChoice::Subject,
-                Skeleton::Default => SkeletonChoice::Default,
-            },
-            hand_scale: args.hand_scale,
-            fit: FitSettings {
-                options: args.cues.apply(FitOptions::default()),
-                tracking: args.track,
-                proportion_frames: args.proportion_frames,
-                offline: args.offline.then(OfflineSettings::default),
-                // `run`'s depth filter is the engine's: the full stage's.
-                depth_filter: (args.stage == Stage::Full && !args.no_depth_filter)
-                    .then_some(DEPTH_FILTER),
-                ..FitSettings::default()
-            },
-        },
-    };
+    let each = args.views == Views::Each && stereo_ok;
+    let plan = plan_of(args, modes)?;
     let left_out = plan.select(&mut ds)?;
     if left_out > 0 {
         eprintln!(
@@ -186,12 +210,15 @@ pub(crate) fn run(args: &EvalArgs) -> Result<()> {
         }
         plan::Stage::Lift { .. } => None,
     };
-    let report = plan
-        .run(&ds, networks.as_ref().map(|(p, d)| (p, d.as_str())))
-        .map_err(|e| match e.refused_setting() {
-            Some(refused) => crate::refused(refused),
-            None => e.into(),
-        })?;
+    let networks = networks.as_ref().map(|(p, d)| (p, d.as_str()));
+    let report = match each {
+        true => plan.run_views(&ds, networks),
+        false => plan.run(&ds, networks),
+    }
+    .map_err(|e| match e.refused_setting() {
+        Some(refused) => crate::refused(refused),
+        None => e.into(),
+    })?;
     println!(
         "monohand {} eval: {} ({}), stage {}, root {}, {} evaluated joints",
         env!("CARGO_PKG_VERSION"),

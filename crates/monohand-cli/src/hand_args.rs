@@ -2,7 +2,7 @@
 
 use anyhow::{bail, Context, Result};
 use clap::Args;
-use monohand::HandScale;
+use monohand::{HandScale, HandSizeSource};
 use monohand_core::prelude::*;
 use std::path::PathBuf;
 
@@ -13,9 +13,17 @@ pub(crate) struct HandModelArgs {
     /// it), or "auto" to measure it with two or more calibrated views (docs/accuracy.md).
     #[arg(long, value_name = "S|auto", default_value = "1.0")]
     pub hand_scale: HandScale,
-    /// Frames used by --hand-scale auto.
+    /// Frames used by --hand-scale auto and --save-hand.
     #[arg(long, value_name = "N", default_value_t = 30)]
     pub scale_frames: usize,
+    /// The person's hand, measured once by a calibrated rig (`run --save-hand`): its size,
+    /// for both hands (docs/absolute-depth.md).
+    #[arg(long, value_name = "FILE.json", conflicts_with_all = ["hand_scale", "hand_length_mm"])]
+    pub hand: Option<PathBuf>,
+    /// The hand's length by ruler, mm: the hand flat, from the wrist crease to the end of
+    /// the middle finger (docs/absolute-depth.md).
+    #[arg(long, value_name = "MM", conflicts_with = "hand_scale")]
+    pub hand_length_mm: Option<f64>,
     /// JSON file with the subject's 20 bone lengths in mm (docs/accuracy.md), applied after
     /// --hand-scale.
     #[arg(long, value_name = "FILE.json")]
@@ -44,6 +52,10 @@ pub(crate) struct CueArgs {
     /// Weight of the network's relative depth (landmark z) as bone directions; 0: off.
     #[arg(long, value_name = "W", default_value_t = FitOptions::default().cost.depth_weight)]
     pub depth_weight: f64,
+    /// Weight of the network's finger directions in the hand's own frame (its tilt of the
+    /// hand undone: the articulation only); 0: off.
+    #[arg(long, value_name = "W", default_value_t = FitOptions::default().cost.hand_frame_weight)]
+    pub hand_frame_weight: f64,
     /// Weight of the pull of a tracked fit towards constant velocity; 0: off.
     #[arg(long, value_name = "W", default_value_t = FitOptions::default().tracking.temporal_weight)]
     pub temporal_weight: f64,
@@ -64,6 +76,7 @@ impl CueArgs {
     pub fn apply(&self, mut options: FitOptions) -> FitOptions {
         options.cost.world_weight = self.world_weight;
         options.cost.depth_weight = self.depth_weight;
+        options.cost.hand_frame_weight = self.hand_frame_weight;
         options.tracking.temporal_weight = self.temporal_weight;
         options.fusion.fuse_world = self.fuse_world;
         options.fusion.fuse_depth = self.fuse_depth;
@@ -73,6 +86,11 @@ impl CueArgs {
 }
 
 impl HandModelArgs {
+    /// The hand's size and where it comes from: --hand, --hand-length-mm or --hand-scale.
+    pub fn size(&self) -> Result<(HandScale, HandSizeSource)> {
+        hand_size(self.hand.as_deref(), self.hand_length_mm, self.hand_scale)
+    }
+
     /// The left and right hand models at scale `scale`, with --bone-lengths applied.
     pub fn skeletons(&self, scale: f64) -> Result<[HandSkeleton; 2]> {
         let lengths = match &self.bone_lengths {
@@ -94,11 +112,33 @@ impl HandModelArgs {
         options.cost.confidence_power = self.confidence_power;
         let options = self.cues.apply(options);
         options.validate().context(
-            "--min-confidence / --confidence-power / --world-weight / --depth-weight / --temporal-weight / --fuse-world / --fuse-depth / --fuse-pixels",
+            "--min-confidence / --confidence-power / --world-weight / --depth-weight / --hand-frame-weight / --temporal-weight / --fuse-world / --fuse-depth / --fuse-pixels",
         )?;
         if self.hand_scale == HandScale::Auto && self.scale_frames == 0 {
             bail!("--scale-frames must be at least 1");
         }
         Ok(options)
     }
+}
+
+/// The hand size of `--hand FILE`, `--hand-length-mm L` or `--hand-scale S|auto` (the
+/// first given), and where it comes from.
+pub(crate) fn hand_size(
+    hand: Option<&std::path::Path>,
+    ruler_mm: Option<f64>,
+    scale: HandScale,
+) -> Result<(HandScale, HandSizeSource)> {
+    if let Some(path) = hand {
+        let file = monohand_io::hand::read_hand(path)?;
+        return Ok((HandScale::Fixed(file.scale), HandSizeSource::File));
+    }
+    if let Some(mm) = ruler_mm {
+        let s = monohand::scale_from_ruler(mm).context("--hand-length-mm")?;
+        return Ok((HandScale::Fixed(s), HandSizeSource::Ruler));
+    }
+    Ok(match scale {
+        HandScale::Fixed(1.0) => (scale, HandSizeSource::Default),
+        HandScale::Fixed(_) => (scale, HandSizeSource::Scale),
+        HandScale::Auto => (scale, HandSizeSource::Default),
+    })
 }

@@ -44,7 +44,8 @@ pub(crate) fn run(args: &LiftArgs) -> Result<()> {
     }
     let cameras = crate::read_cameras(&args.cameras)?;
     let options = args.hand.fit_options()?;
-    let scale = match args.hand.hand_scale {
+    let (scale, hand_size) = args.hand.size()?;
+    let scale = match scale {
         HandScale::Fixed(s) => s,
         HandScale::Auto => {
             warn!(
@@ -66,6 +67,7 @@ pub(crate) fn run(args: &LiftArgs) -> Result<()> {
     }
     let mut settings = monohand::Settings::default();
     settings.fit.skeletons = skeletons;
+    settings.fit.hand_size = hand_size;
     settings.fit.options = options;
     settings.fit.tracking = args.track;
     settings.fit.proportion_frames = args.hand.proportion_frames.map(|n| n as usize);

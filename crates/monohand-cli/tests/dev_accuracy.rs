@@ -58,6 +58,8 @@ fn network_cues_beat_the_2d_only_fit_on_real_frames() {
         "0",
         "--depth-weight",
         "0",
+        "--hand-frame-weight",
+        "0",
         "--temporal-weight",
         "0",
     ]);

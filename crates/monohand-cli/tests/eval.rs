@@ -145,6 +145,8 @@ fn full_stage_runs_the_networks_on_the_stb_images() {
         "0",
         "--depth-weight",
         "0",
+        "--hand-frame-weight",
+        "0",
         "--no-mirror-pass",
     ]);
     ok(&out);

@@ -76,6 +76,8 @@ fn stb_stereo_pair_mono_and_stereo_against_the_labels() {
         "0",
         "--depth-weight",
         "0",
+        "--hand-frame-weight",
+        "0",
         "--no-mirror-pass",
     ];
     let mono_out = dir.path().join("mono.jsonl");

@@ -4,6 +4,7 @@
 //! The readers ([`crate::manifest`], [`crate::datasets`]) build these types; reading a
 //! dataset whatever its kind, [`Dataset::load`], is in [`crate::datasets`].
 
+use crate::error::{EvalError, EvalResult};
 use crate::metrics::Joints;
 use monohand_core::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -95,6 +96,20 @@ impl Frame {
     }
 }
 
+/// Joints of the palm: the wrist and the base of each finger (the thumb's CMC).
+const PALM_JOINTS: [usize; 6] = [0, 1, 5, 9, 13, 17];
+
+/// Whether 2D labels show a hand's palm: at least 3 of its 6 joints ([`PALM_JOINTS`])
+/// labelled. A view that shows only fingers entering its edge does not see the hand as a
+/// palm detector must (the rig's labels mark every joint inside the image).
+pub fn sees_palm(labels: &Keypoints2d) -> bool {
+    PALM_JOINTS
+        .iter()
+        .filter(|&&j| labels.points[j][2] > 0.0)
+        .count()
+        >= 3
+}
+
 /// Projects 21 joints into a camera (confidence 1, or 0 behind the camera).
 pub fn project_joints(camera: &Camera, joints: &Joints) -> Keypoints2d {
     let mut kp = Keypoints2d::default();
@@ -117,6 +132,9 @@ pub struct Dataset {
     pub root: RootJoint,
     /// The frames, sequences contiguous.
     pub frames: Vec<Frame>,
+    /// The views' names in camera order (a rig's camera serials), or empty where the
+    /// dataset names none.
+    pub view_names: Vec<String>,
 }
 
 impl Dataset {
@@ -138,6 +156,68 @@ impl Dataset {
             .map(|f| f.cameras.len())
             .max()
             .unwrap_or(0)
+    }
+
+    /// View `v` alone, as a dataset of one camera for a mono evaluation: each frame keeps
+    /// that view's camera (with its extrinsics: the 3D stays in the dataset's frame) and
+    /// image, and the hands that view sees: whose palm its 2D labels show
+    /// ([`sees_palm`]; every hand where the dataset has no 2D labels). Frames where the
+    /// view sees no hand stay, without hands, so that a tracked run still sees the
+    /// sequence as its video.
+    pub fn view(&self, v: usize) -> EvalResult<Dataset> {
+        let frames = self
+            .frames
+            .iter()
+            .map(|f| {
+                let camera = *f.cameras.get(v).ok_or_else(|| {
+                    EvalError::Settings(format!(
+                        "view {} of {}: frame {} of sequence {:?} has {} camera(s)",
+                        v + 1,
+                        self.name,
+                        f.index,
+                        f.sequence,
+                        f.cameras.len()
+                    ))
+                })?;
+                let hands = f
+                    .hands
+                    .iter()
+                    .filter_map(|h| match &h.keypoints_2d {
+                        None => Some(h.clone()),
+                        Some(k) => {
+                            let kp = k.get(v).copied().unwrap_or_default();
+                            sees_palm(&kp).then(|| GtHand {
+                                keypoints_2d: Some(vec![kp]),
+                                ..h.clone()
+                            })
+                        }
+                    })
+                    .collect();
+                Ok(Frame {
+                    sequence: f.sequence.clone(),
+                    index: f.index,
+                    images: f.images.get(v).cloned().into_iter().collect(),
+                    cameras: vec![camera],
+                    hands,
+                    crop: if v == 0 { f.crop } else { None },
+                })
+            })
+            .collect::<EvalResult<Vec<Frame>>>()?;
+        Ok(Dataset {
+            name: self.name.clone(),
+            source: self.source.clone(),
+            root: self.root,
+            frames,
+            view_names: vec![self.view_name(v)],
+        })
+    }
+
+    /// The name of view `v`: [`Dataset::view_names`]' entry, else `view N` (from 1).
+    pub fn view_name(&self, v: usize) -> String {
+        self.view_names
+            .get(v)
+            .cloned()
+            .unwrap_or_else(|| format!("view {}", v + 1))
     }
 
     /// Number of labelled hands over all frames.

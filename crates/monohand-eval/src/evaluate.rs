@@ -255,6 +255,9 @@ pub struct HandResult {
     /// Mean 2D error of the fitted joints projected into the first view
     /// against the ground-truth 2D keypoints (pixels).
     pub reprojection_px: Option<f64>,
+    /// The fitted hand's distance from the first camera over the true one's
+    /// ([`metrics::depth_ratio`]; above 1: too far), `None` if not detected.
+    pub depth_ratio: Option<f64>,
     /// Time spent on this hand: keypoint source share + fit (seconds).
     pub seconds: f64,
 }
@@ -316,9 +319,11 @@ pub fn skeletons(
             if !gt.contains_key(&key) {
                 order.push(key.clone());
             }
-            gt.entry(key)
-                .or_default()
-                .push(h.joints_3d.map(|p| Vector3::new(p[0], p[1], p[2])));
+            // The subject's skeleton is fitted to the frames where every joint is labelled.
+            let joints = gt.entry(key).or_default();
+            if h.joints_3d.iter().flatten().all(|x| x.is_finite()) {
+                joints.push(h.joints_3d.map(|p| Vector3::new(p[0], p[1], p[2])));
+            }
         }
     }
     let mut map = HashMap::new();
@@ -527,9 +532,10 @@ impl Evaluator<'_> {
     fn network_result(&self, input: &HandInput, world: Option<Joints>) -> HandResult {
         let (frame, hand, mask) = (input.frame, input.hand, &self.mask);
         let network_pred = world.map(|w| {
+            let labelled = metrics::labelled(&hand.joints_3d, mask);
             let (cw, cg) = (
-                metrics::centroid(&w, mask),
-                metrics::centroid(&hand.joints_3d, mask),
+                metrics::centroid(&w, &labelled),
+                metrics::centroid(&hand.joints_3d, &labelled),
             );
             w.map(|p| std::array::from_fn(|k| p[k] - cw[k] + cg[k]))
         });
@@ -542,6 +548,7 @@ impl Evaluator<'_> {
             gt: hand.joints_3d,
             keypoints_px: input.keypoints_px,
             reprojection_px: None,
+            depth_ratio: None,
             seconds: input.source_s,
         }
     }
@@ -644,6 +651,9 @@ impl Evaluator<'_> {
             gt: hand.joints_3d,
             errors,
             keypoints_px: input.keypoints_px,
+            depth_ratio: pred
+                .as_ref()
+                .and_then(|p| metrics::depth_ratio(p, &hand.joints_3d, mask, &frame.cameras[0])),
             reprojection_px,
             seconds: input.source_s + fit_s,
         })
@@ -708,6 +718,9 @@ pub struct RunSummary {
     pub keypoints_px: f64,
     /// Mean 2D error of the fitted joints reprojected into the first view (pixels).
     pub reprojection_px: f64,
+    /// Median over detected hands of the fitted distance over the true one, from the first
+    /// camera ([`HandResult::depth_ratio`]; NaN for a relative-only run).
+    pub depth_ratio: f64,
     /// Frames per second over keypoint source and fit.
     pub fps: f64,
 }
@@ -760,9 +773,16 @@ impl RunResult {
         let mut out = ErrorLists::default();
         for e in self.hands.iter().filter_map(|h| h.errors.as_ref()) {
             let a = pick(e);
-            out.joints
-                .extend((0..NUM_JOINTS).filter(|&j| mask[j]).map(|j| a[j]));
-            out.frames.push(metrics::masked_mean(a, mask));
+            // A joint without ground truth has a NaN error, a hand without any a NaN mean.
+            out.joints.extend(
+                (0..NUM_JOINTS)
+                    .filter(|&j| mask[j] && !a[j].is_nan())
+                    .map(|j| a[j]),
+            );
+            let frame = metrics::masked_mean(a, mask);
+            if !frame.is_nan() {
+                out.frames.push(frame);
+            }
         }
         out
     }
@@ -837,6 +857,14 @@ impl RunResult {
             auc_pa_joint: metrics::auc(&pa.joints, lo, hi),
             keypoints_px: metrics::mean(&kp),
             reprojection_px: metrics::mean(&rp),
+            depth_ratio: metrics::quantile(
+                &self
+                    .hands
+                    .iter()
+                    .filter_map(|h| h.depth_ratio)
+                    .collect::<Vec<_>>(),
+                0.5,
+            ),
             fps: if secs > 0.0 {
                 self.hands.len() as f64 / secs
             } else {
@@ -873,6 +901,7 @@ mod tests {
             gt,
             keypoints_px: None,
             reprojection_px: None,
+            depth_ratio: None,
             seconds: 0.01,
         }
     }

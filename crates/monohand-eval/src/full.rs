@@ -84,7 +84,7 @@ pub fn evaluate_full(
                 }
                 let per_hand = per_frame / frame.hands.len().max(1) as f64;
                 for h in 0..frame.hands.len() {
-                    let found = best_of_side(record, frame.hands[h].side);
+                    let found = matching_hand(record, frame, h);
                     let scored = Scored {
                         frame,
                         h,
@@ -267,15 +267,43 @@ impl Sink for Keep {
     }
 }
 
-/// Of a record's hands of `side`, the one with the highest mean keypoint confidence.
-fn best_of_side(record: &FrameRecord, side: HandSide) -> Option<&HandRecord> {
-    let conf = |h: &HandRecord| h.keypoints_2d.iter().map(|p| p[2]).sum::<f64>();
-    record
+/// The record's hand that is labelled hand `h` of `frame`: of those whose keypoints in the
+/// first view lie within [`MATCH_PX`] of its 2D labels (or its 3D labels projected) on
+/// average, the nearest, whatever side the network gave it (a hand given the wrong side
+/// is fitted with the other side's skeleton, which its errors then show). Where none does,
+/// the most confident hand of the labelled side.
+fn matching_hand<'a>(record: &'a FrameRecord, frame: &Frame, h: usize) -> Option<&'a HandRecord> {
+    let gt = frame.gt_keypoints(h, 0);
+    let apart = |rec: &HandRecord| {
+        let mut points = rec.keypoints_2d;
+        if let Some(c) = &frame.crop {
+            for p in points.iter_mut() {
+                (p[0], p[1]) = c.to_crop(p[0], p[1]);
+            }
+        }
+        mean_px(&metrics::keypoint_errors_px(&points, &gt.points)).filter(|&d| d <= MATCH_PX)
+    };
+    let nearest = record
         .hands
         .iter()
-        .filter(|h| h.side == side)
-        .max_by(|a, b| conf(a).total_cmp(&conf(b)))
+        .filter_map(|r| Some((apart(r)?, r)))
+        .min_by(|a, b| a.0.total_cmp(&b.0))
+        .map(|(_, r)| r);
+    let conf = |r: &HandRecord| r.keypoints_2d.iter().map(|p| p[2]).sum::<f64>();
+    let side = frame.hands[h].side;
+    nearest.or_else(|| {
+        record
+            .hands
+            .iter()
+            .filter(|r| r.side == side)
+            .max_by(|a, b| conf(a).total_cmp(&conf(b)))
+    })
 }
+
+/// The largest mean distance (pixels of the dataset's images) between a found hand's
+/// keypoints and a labelled hand's 2D for the two to be taken as one hand: a hand's
+/// width at its smallest in these sets (80 px), so that a neighbour's hand is never taken.
+const MATCH_PX: f64 = 60.0;
 
 /// Labelled hand `h` of `frame` and what the engine found of its side.
 struct Scored<'a> {
@@ -315,6 +343,9 @@ impl Scored<'_> {
             gt: hand.joints_3d,
             keypoints_px: self.keypoints_px(),
             reprojection_px,
+            depth_ratio: pred.and_then(|p| {
+                metrics::depth_ratio(&p, &hand.joints_3d, mask, &self.frame.cameras[0])
+            }),
             seconds: self.seconds,
         }
     }
@@ -340,9 +371,16 @@ impl Scored<'_> {
     fn network(&self, mask: &metrics::JointMask) -> HandResult {
         let gt = &self.frame.hands[self.h].joints_3d;
         let pred = self.found.and_then(|f| f.world_mm).map(|w| {
-            let (cw, cg) = (metrics::centroid(&w, mask), metrics::centroid(gt, mask));
+            let labelled = metrics::labelled(gt, mask);
+            let (cw, cg) = (
+                metrics::centroid(&w, &labelled),
+                metrics::centroid(gt, &labelled),
+            );
             w.map(|p| std::array::from_fn(|k| p[k] - cw[k] + cg[k]))
         });
-        self.result(pred, None, mask)
+        HandResult {
+            depth_ratio: None,
+            ..self.result(pred, None, mask)
+        }
     }
 }

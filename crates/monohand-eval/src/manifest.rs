@@ -127,6 +127,7 @@ pub fn parse_manifest(reader: impl BufRead, file: &str, base: &Path) -> EvalResu
         source: PathBuf::from(file),
         root,
         frames,
+        view_names: Vec::new(),
     })
 }
 

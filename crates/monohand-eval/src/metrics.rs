@@ -49,12 +49,20 @@ pub fn joint_errors(pred: &Joints, gt: &Joints) -> [f64; NUM_JOINTS] {
     std::array::from_fn(|j| (v(&pred[j]) - v(&gt[j])).norm())
 }
 
-/// Mean of the masked entries (NaN if the mask is empty).
+/// The joints of `mask` that `gt` has: a dataset marks a joint it lacks with NaN
+/// coordinates (a rig's reference where too few views labelled it), and every metric
+/// leaves such joints out.
+pub fn labelled(gt: &Joints, mask: &JointMask) -> JointMask {
+    std::array::from_fn(|j| mask[j] && gt[j].iter().all(|x| x.is_finite()))
+}
+
+/// Mean of the masked entries that are numbers (a joint without ground truth has a NaN
+/// error); NaN if there is none.
 pub fn masked_mean(values: &[f64; NUM_JOINTS], mask: &JointMask) -> f64 {
     let (s, n) = values
         .iter()
         .zip(mask)
-        .filter(|(_, &m)| m)
+        .filter(|(x, &m)| m && !x.is_nan())
         .fold((0.0, 0usize), |(s, n), (x, _)| (s + x, n + 1));
     if n == 0 {
         f64::NAN
@@ -223,9 +231,10 @@ pub fn quantile(x: &[f64], q: f64) -> f64 {
 
 /// The mean of the masked joints.
 pub fn centroid(joints: &Joints, mask: &JointMask) -> [f64; 3] {
+    let mask = labelled(joints, mask);
     let n = mask.iter().filter(|&&m| m).count().max(1) as f64;
     let mut c = [0.0; 3];
-    for (p, _) in joints.iter().zip(mask).filter(|(_, &m)| m) {
+    for (p, _) in joints.iter().zip(mask).filter(|(_, m)| *m) {
         for k in 0..3 {
             c[k] += p[k] / n;
         }
@@ -233,11 +242,27 @@ pub fn centroid(joints: &Joints, mask: &JointMask) -> [f64; 3] {
     c
 }
 
-/// Per-joint errors after shifting both hands to their centroids (over `mask`).
+/// Per-joint errors after shifting both hands to their centroids (over `mask`, of the
+/// joints each has).
 pub fn centroid_errors(pred: &Joints, gt: &Joints, mask: &JointMask) -> [f64; NUM_JOINTS] {
     let (cp, cg) = (centroid(pred, mask), centroid(gt, mask));
     let shift = |j: &Joints, c: [f64; 3]| j.map(|p| [p[0] - c[0], p[1] - c[1], p[2] - c[2]]);
     joint_errors(&shift(pred, cp), &shift(gt, cg))
+}
+
+/// The ratio of the predicted hand's distance to the true one's: the depths of the
+/// centroids of the masked joints `gt` has, in `camera`'s frame (joints in its reference
+/// frame). Above 1: the hand was placed too far. `None` if a centroid is not in front.
+pub fn depth_ratio(
+    pred: &Joints,
+    gt: &Joints,
+    mask: &JointMask,
+    camera: &monohand_core::camera::Camera,
+) -> Option<f64> {
+    let mask = labelled(gt, mask);
+    let depth = |j: &Joints| camera.extrinsics.transform(&v(&centroid(j, &mask))).z;
+    let (p, g) = (depth(pred), depth(gt));
+    (p > 0.0 && g > 0.0).then(|| p / g)
 }
 
 /// Mean over joints of the second difference `|x(t+1) - 2 x(t) + x(t-1)|` (mm per
@@ -271,7 +296,9 @@ pub struct HandErrors {
 impl HandErrors {
     /// Every metric of one prediction against its ground truth; `root` is the
     /// root joint (wrist, or the palm centre for STB).
+    /// Joints `gt` lacks (NaN) are left out of the masked metrics and have NaN errors.
     pub fn compute(pred: &Joints, gt: &Joints, mask: &JointMask, root: usize) -> HandErrors {
+        let mask = &labelled(gt, mask);
         HandErrors {
             absolute: joint_errors(pred, gt),
             root_relative: root_relative_errors(pred, gt, root),

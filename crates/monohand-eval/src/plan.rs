@@ -3,7 +3,10 @@
 
 use crate::dataset::Dataset;
 use crate::error::{EvalError, EvalResult};
-use crate::evaluate::{evaluate, evaluated_joints, EvalSettings, ProjectedLabels, SkeletonChoice};
+use crate::evaluate::{
+    evaluate, evaluated_joints, EvalSettings, ProjectedLabels, SkeletonChoice, ViewMode,
+    NETWORK_RUN_LABEL,
+};
 use crate::report::Report;
 use monohand::HandPipeline;
 use std::sync::Arc;
@@ -140,6 +143,61 @@ impl Plan {
                 return Err(EvalError::Settings(
                     "the full stage needs the networks".into(),
                 ))
+            }
+        }
+        Ok(report)
+    }
+
+    /// Runs the plan on each view of `dataset` alone ([`Dataset::view`]: that camera, its
+    /// images and its labelled hands, a mono fit), then, with two or more views, on all of
+    /// them together, into one report: the runs of view `v` are labelled with its name
+    /// ([`Dataset::view_name`]), the network's 3D of that view `NAME: network 3D ...`, the
+    /// runs of every view `all N views`. The settings' view modes are replaced.
+    pub fn run_views(
+        &self,
+        dataset: &Dataset,
+        networks: Option<(&Arc<HandPipeline>, &str)>,
+    ) -> EvalResult<Report> {
+        let n = dataset.max_cameras();
+        let with_modes = |modes: Vec<ViewMode>| Plan {
+            settings: EvalSettings {
+                modes,
+                ..self.settings.clone()
+            },
+            ..self.clone()
+        };
+        let mut report = Report::new(
+            dataset,
+            self.stage.describe(),
+            evaluated_joints(dataset.root),
+        );
+        report.settings = self.settings_rows(dataset);
+        if let Some(row) = report.settings.iter_mut().find(|(k, _)| k == "views") {
+            row.1 = format!("each of {n} alone (mono), then all together");
+        }
+        let mono = with_modes(vec![ViewMode::Mono]);
+        for v in 0..n {
+            let name = dataset.view_name(v);
+            let one = dataset.view(v)?;
+            let part = mono
+                .run(&one, networks)
+                .map_err(|e| e.context(format!("evaluating {name} alone")))?;
+            for mut run in part.runs {
+                run.label = match run.relative_only {
+                    true => format!("{name}: {NETWORK_RUN_LABEL}"),
+                    false => run.label.replacen(ViewMode::Mono.as_str(), &name, 1),
+                };
+                report.runs.push(run);
+            }
+            report.skeletons.extend(part.skeletons);
+        }
+        if n >= 2 {
+            let part = with_modes(vec![ViewMode::Stereo]).run(dataset, networks)?;
+            for mut run in part.runs.into_iter().filter(|r| !r.relative_only) {
+                run.label =
+                    run.label
+                        .replacen(ViewMode::Stereo.as_str(), &format!("all {n} views"), 1);
+                report.runs.push(run);
             }
         }
         Ok(report)

@@ -179,6 +179,7 @@ fn dropped_joints_and_bad_settings() {
         source: PathBuf::from("-"),
         root: RootJoint::Wrist,
         frames: vec![frame],
+        view_names: Vec::new(),
     };
     let settings = EvalSettings {
         skeleton: SkeletonChoice::Default,

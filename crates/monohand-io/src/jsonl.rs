@@ -130,6 +130,22 @@ pub struct HandRecord {
     /// negative towards the camera (MediaPipe's landmark `z`). `lift` uses it when present.
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub depth_px: Option<[f64; NUM_JOINTS]>,
+    /// The hand size the fit used, with the 3D.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub hand_size: Option<HandSizeRecord>,
+}
+
+/// The hand size a fit used ([`HandRecord::hand_size`]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct HandSizeRecord {
+    /// The model's wrist-to-middle-fingertip length, mm.
+    pub length_mm: f64,
+    /// The size as a factor on the default adult hand.
+    pub scale: f64,
+    /// Where it came from: `default` (the population average), `scale` (`--hand-scale`),
+    /// `measured` (by the views: `--hand-scale auto`, `--save-hand`), `file` (`--hand`),
+    /// `ruler` (`--hand-length-mm`).
+    pub source: String,
 }
 
 /// A rotated rectangle in pixels.
@@ -172,6 +188,7 @@ impl HandRecord {
             oriented_box: None,
             world_mm: None,
             depth_px: None,
+            hand_size: None,
         }
     }
 

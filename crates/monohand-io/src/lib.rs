@@ -9,6 +9,7 @@
 //!   OpenCV FileStorage YAML/XML, and a writer for the project JSON.
 //! - [`openpose`]: OpenPose `--write_json` hand keypoints, read and written.
 //! - [`skeleton`]: bone-length files for sizing the hand model.
+//! - [`hand`]: a person's hand measured once (its size, its bones) and reused.
 //! - [`jsonl`]: the project's JSON Lines output (one frame per line), read and written.
 //! - [`export`]: CSV, OpenPose-style JSON with 3D, and an animated glTF (`.glb`) 3D view.
 //! - [`sink`]: writing so that a failure (a full disk) leaves no damaged file.
@@ -22,6 +23,7 @@
 pub mod calibration;
 pub mod error;
 pub mod export;
+pub mod hand;
 pub mod hand_mesh;
 pub mod jsonl;
 pub mod openpose;

@@ -93,6 +93,142 @@ fn skeletons(hand_scale: f64) -> PyResult<[HandSkeleton; 2]> {
     monohand::hand_skeletons(hand_scale, None).map_err(session_err)
 }
 
+/// The hands of a `hand=` (a `HandSize` or a hand file's path) or a `hand_scale=` (not
+/// both; neither: the default size), and where their size came from.
+fn sized_hands(
+    hand: Option<&Bound<'_, PyAny>>,
+    hand_scale: Option<f64>,
+) -> PyResult<([HandSkeleton; 2], monohand::HandSizeSource)> {
+    match (hand, hand_scale) {
+        (Some(_), Some(_)) => Err(PyValueError::new_err("give hand= or hand_scale=, not both")),
+        (Some(h), None) => PyHandSize::from_arg(h)?.skeletons(),
+        (None, Some(s)) => Ok((skeletons(s)?, monohand::HandSizeSource::Scale)),
+        (None, None) => Ok((skeletons(1.0)?, monohand::HandSizeSource::Default)),
+    }
+}
+
+/// A person's hand, measured once and reused: the hand file of `monohand run --save-hand`
+/// (docs/absolute-depth.md).
+///
+/// `HandSize.load(path)` reads one, `HandSize.from_length(mm)` makes one from a ruler's
+/// hand length (the hand flat, wrist crease to the end of the middle finger), `save(path)`
+/// writes it. `Session(hand=...)` and `Lifter(hand=...)` fit both hands at its size. (The
+/// name `Hand` is the fitted hand a session returns.)
+#[pyclass(module = "monohand._monohand", name = "HandSize", frozen)]
+#[derive(Clone)]
+struct PyHandSize {
+    file: monohand_io::hand::HandFile,
+    /// What the records say of it: `file` when loaded, `ruler` from a length.
+    source: monohand::HandSizeSource,
+}
+
+impl PyHandSize {
+    /// The hand size of `hand`: a `HandSize`, or a path to a hand file.
+    fn from_arg(hand: &Bound<'_, PyAny>) -> PyResult<PyHandSize> {
+        if let Ok(h) = hand.cast::<PyHandSize>() {
+            return Ok(h.get().clone());
+        }
+        let path: std::path::PathBuf = hand.extract().map_err(|_| {
+            PyValueError::new_err("hand must be a HandSize or the path of a hand file")
+        })?;
+        PyHandSize::load(path)
+    }
+
+    /// Both hands' models at this size, and where the size came from.
+    fn skeletons(&self) -> PyResult<([HandSkeleton; 2], monohand::HandSizeSource)> {
+        Ok((skeletons(self.file.scale)?, self.source))
+    }
+}
+
+#[pymethods]
+impl PyHandSize {
+    /// Reads a hand file.
+    #[staticmethod]
+    fn load(path: std::path::PathBuf) -> PyResult<PyHandSize> {
+        let file = monohand_io::hand::read_hand(&path).map_err(io_err)?;
+        Ok(PyHandSize {
+            file,
+            source: monohand::HandSizeSource::File,
+        })
+    }
+
+    /// The hand of a ruler's length in mm (the hand flat, from the wrist crease to the end
+    /// of the middle finger).
+    #[staticmethod]
+    fn from_length(length_mm: f64) -> PyResult<PyHandSize> {
+        let scale = monohand::scale_from_ruler(length_mm)
+            .map_err(|e| PyValueError::new_err(e.to_string()))?;
+        let model = HandSkeleton::default_for(HandSide::Right).hand_length() * scale;
+        Ok(PyHandSize {
+            file: monohand_io::hand::HandFile {
+                ruler_mm: Some(length_mm),
+                ..monohand_io::hand::HandFile::new(
+                    monohand_io::hand::HandSource::Ruler,
+                    scale,
+                    model,
+                )
+            },
+            source: monohand::HandSizeSource::Ruler,
+        })
+    }
+
+    /// Writes the hand file (whole or not at all).
+    fn save(&self, path: std::path::PathBuf) -> PyResult<()> {
+        monohand_io::hand::write_hand(&path, &self.file).map_err(io_err)
+    }
+
+    /// The size as a factor on the default adult hand.
+    #[getter]
+    fn scale(&self) -> f64 {
+        self.file.scale
+    }
+
+    /// The standard uncertainty of `scale` (None where unknown).
+    #[getter]
+    fn scale_sigma(&self) -> Option<f64> {
+        self.file.scale_sigma
+    }
+
+    /// The model's wrist-to-middle-fingertip length at this size, mm.
+    #[getter]
+    fn hand_length_mm(&self) -> f64 {
+        self.file.hand_length_mm
+    }
+
+    /// `"views"` (measured by a calibrated rig) or `"ruler"`.
+    #[getter]
+    fn source(&self) -> &'static str {
+        self.file.source.as_str()
+    }
+
+    /// The side it was measured on (None for a ruler's).
+    #[getter]
+    fn side(&self) -> Option<&'static str> {
+        self.file.side.map(side_name)
+    }
+
+    /// The frames it was measured on.
+    #[getter]
+    fn frames(&self) -> Vec<u64> {
+        self.file.frames.clone()
+    }
+
+    /// Each bone's length where the views support it (None elsewhere), mm.
+    #[getter]
+    fn bone_lengths_mm(&self) -> Option<Vec<Option<f64>>> {
+        self.file.bone_lengths_mm.map(|b| b.to_vec())
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "HandSize(scale={:.4}, hand_length_mm={:.1}, source={:?})",
+            self.file.scale,
+            self.file.hand_length_mm,
+            self.file.source.as_str()
+        )
+    }
+}
+
 /// A record as plain Python lists, dicts and numbers: exactly what `monohand run` writes
 /// to JSON Lines, read back by Python's own `json`.
 fn as_python<'py>(py: Python<'py>, record: &impl serde::Serialize) -> PyResult<Bound<'py, PyAny>> {
@@ -609,7 +745,7 @@ impl PySession {
 #[pymethods]
 impl PySession {
     #[new]
-    #[pyo3(signature = (cameras=None, hands=2, tracking=true, model_dir=None, smoothing=false, heads=false, detect_every=10, models=None, hand_scale=1.0, mirror_pass=true, rectify_crops="off", precision="f32"))]
+    #[pyo3(signature = (cameras=None, hands=2, tracking=true, model_dir=None, smoothing=false, heads=false, detect_every=10, models=None, hand_scale=None, mirror_pass=true, rectify_crops="off", precision="f32", hand=None))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -621,11 +757,13 @@ impl PySession {
         heads: bool,
         detect_every: usize,
         models: Option<PyRef<'_, PyModels>>,
-        hand_scale: f64,
+        hand_scale: Option<f64>,
         mirror_pass: bool,
         rectify_crops: &str,
         precision: &str,
+        hand: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<PySession> {
+        let (skeletons, hand_size) = sized_hands(hand, hand_scale)?;
         let cameras = to_cameras(cameras)?;
         let precision = precision_arg(precision)?;
         let rectify = rectify_crops
@@ -637,10 +775,11 @@ impl PySession {
             .heads(heads)
             .mirror_pass(mirror_pass)
             .precision(precision)
-            .skeletons(skeletons(hand_scale)?)
+            .skeletons(skeletons)
             .smoothing(smoothing.then(OneEuroParams::default))
             .detect_every(detect_every);
         options.settings.rectify = rectify;
+        options.settings.fit.hand_size = hand_size;
         let resolved = options
             .settings
             .clone()
@@ -1052,13 +1191,18 @@ fn to_keypoints(keypoints: PyReadonlyArray2<'_, f64>) -> PyResult<Keypoints2d> {
 #[pymethods]
 impl PyLifter {
     #[new]
-    #[pyo3(signature = (camera, tracking=true, hand_scale=1.0))]
-    fn new(camera: &Bound<'_, PyAny>, tracking: bool, hand_scale: f64) -> PyResult<PyLifter> {
+    #[pyo3(signature = (camera, tracking=true, hand_scale=None, hand=None))]
+    fn new(
+        camera: &Bound<'_, PyAny>,
+        tracking: bool,
+        hand_scale: Option<f64>,
+        hand: Option<&Bound<'_, PyAny>>,
+    ) -> PyResult<PyLifter> {
         let cameras = to_cameras(Some(camera))?;
         Ok(PyLifter {
             inner: monohand::Lifter::new(
                 cameras,
-                skeletons(hand_scale)?,
+                sized_hands(hand, hand_scale)?.0,
                 FitOptions::default(),
                 tracking,
             )
@@ -1357,6 +1501,7 @@ fn _monohand(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyCamera>()?;
     m.add_class::<PyPose>()?;
     m.add_class::<PyHand>()?;
+    m.add_class::<PyHandSize>()?;
     m.add_class::<PyModels>()?;
     m.add_class::<PySession>()?;
     m.add_class::<PyLifter>()?;

@@ -318,3 +318,41 @@ def test_int8_sessions_equal_the_cli_in_int8_and_say_so(tmp_path, moving_video):
             d = np.linalg.norm(np.array(a["keypoints_2d"])[:, :2] - np.array(b["keypoints_2d"])[:, :2], axis=1)
             near += d.mean() < 2.0
     assert near >= 35, f"int8 keypoints within 2 px of f32's in {near} of 40 frames"
+
+
+def test_a_hand_size_sizes_the_session_as_the_cli_and_is_saved_and_loaded(tmp_path, moving_video):
+    # A ruler's hand (the hand flat, wrist crease to the end of the middle finger), saved and
+    # read back: the file the CLI's --hand reads.
+    ruler = monohand.HandSize.from_length(175.0)
+    assert ruler.source == "ruler" and 0.9 < ruler.scale < 0.93 and ruler.frames == []
+    path = tmp_path / "hand.json"
+    ruler.save(path)
+    hand = monohand.HandSize.load(path)
+    assert (hand.scale, hand.hand_length_mm, hand.source) == (ruler.scale, ruler.hand_length_mm, "ruler")
+
+    out = tmp_path / "cli.jsonl"
+    run_cli("run", str(moving_video), "-o", str(out), "--hand", str(path))
+    cli = read_jsonl(out)
+    with monohand.read_video(str(moving_video)) as video, monohand.Session(None, hand=str(path)) as s:
+        py = [s.process(f.image, f.time_s) for f in video]
+    fitted = 0
+    for hands, rec in zip(py, cli):
+        for h, r in zip(hands, rec["hands"]):
+            d = h.to_dict()
+            assert d.get("joints_3d_mm") == r.get("joints_3d_mm")
+            if r.get("joints_3d_mm") is not None:
+                fitted += 1
+                assert d["hand_size"] == r["hand_size"]
+                assert r["hand_size"]["source"] == "file" and r["hand_size"]["scale"] == hand.scale
+    assert fitted >= 38, fitted
+    # The same hand without the file: the ruler's, said as such; the default, as such.
+    with monohand.Session(None, hand=ruler) as s, monohand.read_video(str(moving_video)) as video:
+        first = next(h for f in video for h in s.process(f.image, f.time_s) if h.joints_3d_mm is not None)
+    assert first.to_dict()["hand_size"]["source"] == "ruler"
+
+    with pytest.raises(ValueError, match="not both"):
+        monohand.Session(None, hand=hand, hand_scale=0.9)
+    with pytest.raises(ValueError, match="by ruler is outside"):
+        monohand.HandSize.from_length(20.0)
+    with pytest.raises(monohand.MonohandError, match="missing.json"):
+        monohand.HandSize.load(tmp_path / "missing.json")

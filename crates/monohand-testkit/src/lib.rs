@@ -49,6 +49,27 @@ pub fn dev_set_dir() -> PathBuf {
     d
 }
 
+/// The table rig's development set (4 calibrated views of a hand grasping on a table, with
+/// a 3D reference), `../shared/data/table_rig_dev`; fails the test if it is missing.
+pub fn table_rig_dir() -> PathBuf {
+    let d = shared_data().join("table_rig_dev");
+    assert!(
+        d.join("reference_3d_mm.json").is_file() && d.join("cameras").is_dir(),
+        "the table rig set is missing at {} (../shared/data beside the repository)",
+        d.display()
+    );
+    d
+}
+
+/// The table rig's views, master camera first: their serials (`cameras/<serial>.json`,
+/// `images/<serial>/`).
+pub const TABLE_RIG_VIEWS: [&str; 4] = [
+    "141122079464",
+    "141722072294",
+    "141722075121",
+    "141722076181",
+];
+
 /// The STB dataset's sequence B1Counting, `../shared/data/stb_b1counting` (its labels
 /// `labels/B1Counting_BB.mat` and stereo cameras `camera_params.json`); fails the test if
 /// either is missing.

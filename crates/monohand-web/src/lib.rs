@@ -52,7 +52,8 @@ use std::sync::Arc;
 
 /// What a page may set, as JSON (every field optional):
 /// `{"hands": 2, "detect_every": 10, "mirror_pass": true, "precision": "f32", "camera":
-/// {"fx": .., "fy": .., "cx": .., "cy": .., "width": .., "height": ..}}`.
+/// {"fx": .., "fy": .., "cx": .., "cy": .., "width": .., "height": ..}, "hand": {..a hand
+/// file..}, "hand_length_mm": 180}`.
 #[derive(Debug, Clone, Default, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct TrackerOptions {
@@ -69,6 +70,11 @@ pub struct TrackerOptions {
     /// The camera's intrinsics, for frames of its size; without them, the generic 60
     /// degree camera for the frames' size, said once in the notes (as the CLI does).
     pub camera: Option<Intrinsics>,
+    /// The person's hand, the content of a hand file (`run --save-hand`, `run --hand`):
+    /// both hands are fitted at its size.
+    pub hand: Option<monohand_io::hand::HandFile>,
+    /// A ruler's hand length, mm (`run --hand-length-mm`; not with `hand`).
+    pub hand_length_mm: Option<f64>,
 }
 
 impl TrackerOptions {
@@ -78,6 +84,26 @@ impl TrackerOptions {
             return Ok(TrackerOptions::default());
         }
         serde_json::from_str(text).map_err(|e| WebError::Options(e.to_string()))
+    }
+}
+
+/// The hand size the options give (`hand` or `hand_length_mm`), and where it came from.
+fn hand_size(
+    options: &TrackerOptions,
+) -> Result<Option<(f64, monohand::HandSizeSource)>, WebError> {
+    match (&options.hand, options.hand_length_mm) {
+        (Some(_), Some(_)) => Err(WebError::Options(
+            "give hand or hand_length_mm, not both".into(),
+        )),
+        (Some(file), None) => {
+            file.validate("hand")
+                .map_err(|e| WebError::Options(e.to_string()))?;
+            Ok(Some((file.scale, monohand::HandSizeSource::File)))
+        }
+        (None, Some(mm)) => monohand::scale_from_ruler(mm)
+            .map(|s| Some((s, monohand::HandSizeSource::Ruler)))
+            .map_err(|e| WebError::Options(format!("hand_length_mm: {e}"))),
+        (None, None) => Ok(None),
     }
 }
 
@@ -140,6 +166,12 @@ impl Tracker {
                 .parse()
                 .map_err(|e: String| WebError::Options(format!("precision: {e}")))?;
             session_options = session_options.precision(p);
+        }
+        if let Some((scale, source)) = hand_size(&options)? {
+            let skeletons = monohand::hand_skeletons(scale, None)
+                .map_err(|e| WebError::Options(format!("hand: {e}")))?;
+            session_options = session_options.skeletons(skeletons);
+            session_options.settings.fit.hand_size = source;
         }
         let resolved = session_options
             .settings

@@ -117,6 +117,76 @@ impl std::str::FromStr for HandScale {
     }
 }
 
+/// Where the hand size of a fit came from: what the records ([`HandSizeRecord`]) and the
+/// summary say.
+///
+/// [`HandSizeRecord`]: monohand_io::jsonl::HandSizeRecord
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum HandSizeSource {
+    /// The population average (no size given).
+    #[default]
+    Default,
+    /// A factor given (`--hand-scale S`).
+    Scale,
+    /// Measured by two or more calibrated views (`--hand-scale auto`, `--save-hand`).
+    Measured,
+    /// A hand file (`--hand`).
+    File,
+    /// A ruler's hand length (`--hand-length-mm`).
+    Ruler,
+}
+
+impl HandSizeSource {
+    /// `default`, `scale`, `measured`, `file` or `ruler`, as the records say it.
+    pub const fn as_str(self) -> &'static str {
+        match self {
+            HandSizeSource::Default => "default",
+            HandSizeSource::Scale => "scale",
+            HandSizeSource::Measured => "measured",
+            HandSizeSource::File => "file",
+            HandSizeSource::Ruler => "ruler",
+        }
+    }
+}
+
+/// A ruler's hand length (the hand flat, from the wrist crease to the end of the middle
+/// finger) minus the model's (from its wrist joint along the middle finger's bones to its
+/// tip keypoint), mm. Measured on the table rig (docs/absolute-depth.md): its reference,
+/// triangulated from manual labels that put the wrist on the crease and the tip at the
+/// finger's end, gives 178.3 mm (the median over its frames of the chain wrist, middle
+/// base, the three joints, tip); `--save-hand` with its 4 shared views gives the model's
+/// 176.9 mm. One person: a ruler's own error (1-2 mm) is of the same order.
+pub const RULER_OFFSET_MM: f64 = 1.4;
+
+/// A ruler's hand length that no hand size in [`HAND_SCALE_RANGE`] has.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("a hand {length_mm} mm long by ruler is outside the sizes the model takes ({lo:.0} to {hi:.0} mm)")]
+pub struct RulerLengthError {
+    /// What was given.
+    pub length_mm: f64,
+    /// The shortest ruler length accepted, mm.
+    pub lo: f64,
+    /// The longest, mm.
+    pub hi: f64,
+}
+
+/// The hand scale ([`HandScale::Fixed`]) of a hand whose ruler length is `length_mm`
+/// ([`RULER_OFFSET_MM`]); an error outside [`HAND_SCALE_RANGE`].
+pub fn scale_from_ruler(length_mm: f64) -> Result<f64, RulerLengthError> {
+    let default = HandSkeleton::default_for(HandSide::Right).hand_length();
+    let scale = (length_mm - RULER_OFFSET_MM) / default;
+    let (lo, hi) = HAND_SCALE_RANGE;
+    if scale.is_finite() && scale > lo && scale < hi {
+        Ok(scale)
+    } else {
+        Err(RulerLengthError {
+            length_mm,
+            lo: lo * default + RULER_OFFSET_MM,
+            hi: hi * default + RULER_OFFSET_MM,
+        })
+    }
+}
+
 /// The default (population average) left and right hands scaled by `scale`, with the
 /// subject's 20 bone lengths (mm, at scale 1) when given: the hand-size policy of the
 /// engine, the CLI and the Python package.

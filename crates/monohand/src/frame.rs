@@ -38,6 +38,8 @@ pub struct FittedFrame {
     pub cameras: Vec<Camera>,
     /// Where each of [`FittedFrame::cameras`] came from, and why, in the same order.
     pub camera_origins: Vec<CameraOrigin>,
+    /// The hand size the frame was fitted with (`None` when it was not fitted).
+    pub hand_size: Option<monohand_io::jsonl::HandSizeRecord>,
 }
 
 /// Why a frame's cameras could not be made: it gets no 3D ([`FittedFrame::error`]).

@@ -17,6 +17,7 @@ use crate::tracks::{Anchored, Tracks};
 use monohand_core::filtering::{mean_depth, scale_to_depth, OneEuroParams};
 use monohand_core::fitting::{ProportionEstimate, ScaleEstimate};
 use monohand_core::prelude::*;
+use monohand_io::jsonl::HandSizeRecord;
 use nalgebra::Vector3;
 
 /// A hand is forgotten (its tracker, side vote and filter dropped) after this many frames
@@ -28,6 +29,9 @@ pub const FORGET_AFTER_FRAMES: u64 = 30;
 pub struct FitSettings {
     /// The hand models, left then right.
     pub skeletons: [HandSkeleton; 2],
+    /// Where their size came from, for the records (measured once `auto_scale_frames` has
+    /// measured it).
+    pub hand_size: crate::HandSizeSource,
     /// The fitter's settings.
     pub options: FitOptions,
     /// Each fit starts from the hand's previous one (video).
@@ -62,6 +66,7 @@ impl Default for FitSettings {
                 HandSkeleton::default_for(HandSide::Left),
                 HandSkeleton::default_for(HandSide::Right),
             ],
+            hand_size: crate::HandSizeSource::Default,
             options: FitOptions::default(),
             tracking: true,
             auto_scale_frames: None,
@@ -90,6 +95,11 @@ pub const DEPTH_FILTER: OneEuroParams = OneEuroParams {
 pub struct HandsFitter<T = ()> {
     /// The camera of each view, frame by frame.
     cameras: CameraChoice,
+    /// Each given camera's extrinsics (the user's world frame into it). The hands are
+    /// fitted in the first camera's frame ([`in_first_frame`]) and mapped into the world
+    /// frame as they leave, so that no start, prior or filter depends on where the world
+    /// frame is.
+    world: Vec<Extrinsics>,
     prototypes: [HandTracker; 2],
     settings: FitSettings,
     /// Each hand seen: its identity, voted side, tracker and filters.
@@ -120,10 +130,12 @@ impl<T> HandsFitter<T> {
         for c in &cameras {
             c.validate()?;
         }
+        let world = cameras.iter().map(|c| c.extrinsics).collect();
         let mut cameras = CameraChoice::new(cameras);
         let notes = cameras.take_notes();
         Ok(HandsFitter {
             cameras,
+            world,
             prototypes: [
                 HandTracker::new(settings.skeletons[0], settings.options)?,
                 HandTracker::new(settings.skeletons[1], settings.options)?,
@@ -146,6 +158,28 @@ impl<T> HandsFitter<T> {
     /// The hand size measured with `auto_scale_frames`, once known.
     pub fn scale(&self) -> Option<&ScaleEstimate> {
         self.shape.scale.as_ref()
+    }
+
+    /// The hand size the fits use now (the right hand's model; the left mirrors it) and
+    /// where it came from.
+    pub fn hand_size(&self) -> HandSizeRecord {
+        let sk = self.prototypes[1].fitter().skeleton();
+        let default = HandSkeleton::default_for(HandSide::Right).hand_length();
+        let source = match self.shape.scale {
+            Some(_) => crate::HandSizeSource::Measured,
+            None => self.settings.hand_size,
+        };
+        HandSizeRecord {
+            length_mm: sk.hand_length(),
+            scale: sk.hand_length() / default,
+            source: source.as_str().to_string(),
+        }
+    }
+
+    /// The hand the views measured with `auto_scale_frames`, as a hand file says it, once
+    /// known.
+    pub fn measured_hand(&self) -> Option<&monohand_io::hand::HandFile> {
+        self.shape.measured.as_ref()
     }
 
     /// The proportions learnt with `proportion_frames` for the left and the right hand,
@@ -176,13 +210,33 @@ impl<T> HandsFitter<T> {
         } else {
             vec![(self.fit_frame(frame), payload)]
         };
-        self.smooth(fitted, false)
+        let done = self.smooth(fitted, false);
+        self.in_world(done)
     }
 
     /// Fits the frames still kept back, at the end of the input.
     pub fn flush(&mut self) -> Vec<(FittedFrame, T)> {
         let fitted = self.finish_scale();
-        self.smooth(fitted, true)
+        let done = self.smooth(fitted, true);
+        self.in_world(done)
+    }
+
+    /// Frames fitted in the first camera's frame, with their cameras and hands in the
+    /// world frame of the given cameras (unchanged without calibrated cameras).
+    fn in_world(&self, mut frames: Vec<(FittedFrame, T)>) -> Vec<(FittedFrame, T)> {
+        let Some(first) = self.world.first().filter(|e| !e.is_identity()) else {
+            return frames;
+        };
+        let to_world = first.inverse();
+        for (frame, _) in &mut frames {
+            for (camera, e) in frame.cameras.iter_mut().zip(&self.world) {
+                camera.extrinsics = *e;
+            }
+            for fit in frame.hands.iter_mut().filter_map(|h| h.fit.as_mut()) {
+                *fit = fit.transformed(&to_world);
+            }
+        }
+        frames
     }
 
     /// With [`FitSettings::offline`]: takes the newly fitted frames and gives back,
@@ -264,7 +318,7 @@ impl<T> HandsFitter<T> {
             &self.settings,
             &pending,
             &anchored,
-            self.cameras.cameras(),
+            &in_first_frame(self.cameras.cameras()),
             &mut self.prototypes,
             &mut self.notes,
         );
@@ -277,6 +331,7 @@ impl<T> HandsFitter<T> {
     fn fit_frame(&mut self, frame: VisionFrame) -> FittedFrame {
         let t = Instant::now();
         let mut out = FittedFrame {
+            hand_size: None,
             hands: Vec::new(),
             error: None,
             fit_ms: 0.0,
@@ -310,7 +365,8 @@ impl<T> HandsFitter<T> {
             out.error = Some(e.to_string());
             return out;
         }
-        out.cameras = self.cameras.cameras().to_vec();
+        out.cameras = in_first_frame(self.cameras.cameras());
+        out.hand_size = Some(self.hand_size());
         out.camera_origins = self.cameras.origins().to_vec();
         let index = out.vision.index;
         for view in out.vision.views.iter().flatten() {
@@ -319,7 +375,7 @@ impl<T> HandsFitter<T> {
             }
         }
         for (id, side, views) in self.tracks.associate(&out.vision) {
-            let fit = self.fit_hand(id, &out.vision, &views);
+            let fit = self.fit_hand(id, &out.vision, &out.cameras, &views);
             out.hands.push(TrackedHand {
                 id,
                 side,
@@ -332,10 +388,13 @@ impl<T> HandsFitter<T> {
         out
     }
 
+    /// Fits hand `id` of `frame` seen in `views` with `cameras` (in the first camera's
+    /// frame).
     fn fit_hand(
         &mut self,
         id: HandId,
         frame: &VisionFrame,
+        cameras: &[Camera],
         views: &[(usize, usize)],
     ) -> Option<FitResult> {
         let track = self.tracks.get_mut(&id)?;
@@ -346,14 +405,14 @@ impl<T> HandsFitter<T> {
             .iter()
             .filter_map(|&(v, k)| {
                 let d = detected(frame, v, k)?;
-                let cam = self.cameras.cameras().get(v)?;
+                let cam = cameras.get(v)?;
                 Some(View::new(cam, &d.keypoints).with_cues(d.cues.as_ref()))
             })
             .collect();
         match fit_views(&mut track.tracker, &views) {
             FitOutcome::Fitted(mut fit) => {
                 // One camera only: with several the distance is seen, not guessed.
-                if let (Some(f), [cam]) = (track.depth.as_mut(), self.cameras.cameras()) {
+                if let (Some(f), [cam]) = (track.depth.as_mut(), cameras) {
                     f.apply(frame.time_s, cam, &mut fit.joints_3d);
                 }
                 if let Some(f) = track.filter.as_mut() {
@@ -375,6 +434,26 @@ impl<T> HandsFitter<T> {
             }
         }
     }
+}
+
+/// The cameras re-expressed in the first one's frame: the first without extrinsics, each
+/// other mapping the first's frame into its own. A fit with them is in the first camera's
+/// frame whatever the cameras' world frame is.
+fn in_first_frame(cameras: &[Camera]) -> Vec<Camera> {
+    let Some(first) = cameras.first() else {
+        return Vec::new();
+    };
+    let from_first = first.extrinsics.inverse();
+    cameras
+        .iter()
+        .enumerate()
+        .map(|(v, c)| {
+            c.with_extrinsics(match v {
+                0 => Extrinsics::default(),
+                _ => c.extrinsics.after(&from_first),
+            })
+        })
+        .collect()
 }
 
 /// Refits `hand` of a frame towards its neighbours' joints, with its track's fitter; its

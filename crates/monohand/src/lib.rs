@@ -49,8 +49,8 @@ pub use cameras::StatedCamera;
 pub use crops::{CropTracker, HandId, ViewError, ViewHands, VisionFrame};
 pub use error::{SessionError, SessionResult};
 pub use fit::{
-    fit_views, hand_skeletons, is_finite, learn_proportions, FitOutcome, HandScale, HandScaleError,
-    HAND_SCALE_RANGE,
+    fit_views, hand_skeletons, is_finite, learn_proportions, scale_from_ruler, FitOutcome,
+    HandScale, HandScaleError, HandSizeSource, RulerLengthError, HAND_SCALE_RANGE, RULER_OFFSET_MM,
 };
 pub use frame::{CameraError, CameraOrigin, FittedFrame, TrackedHand};
 pub use hands::{FitSettings, HandsFitter, DEPTH_FILTER, FORGET_AFTER_FRAMES};

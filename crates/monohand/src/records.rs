@@ -86,6 +86,7 @@ pub fn fitted_record(done: &FittedFrame, source: Option<String>) -> FrameRecord 
                     rec.side_score = rec.side_score.map(|p| 1.0 - p);
                 }
                 if let Some(fit) = &hand.fit {
+                    rec.hand_size = done.hand_size.clone();
                     rec.joints_3d_mm = Some(fit.joints_3d.map(|x| [x.x, x.y, x.z]));
                     rec.pose = Some(PoseRecord::from_pose(&fit.pose));
                     rec.reprojection_error_px = Some(fit.reprojection_error_px);
@@ -98,6 +99,7 @@ pub fn fitted_record(done: &FittedFrame, source: Option<String>) -> FrameRecord 
                 if let Some(fit) = &hand.fit {
                     let mut rec = HandRecord::from_fit(hand.side, &Keypoints2d::default(), fit);
                     rec.id = Some(hand.id);
+                    rec.hand_size = done.hand_size.clone();
                     record.hands.push(rec);
                 }
             }

@@ -9,9 +9,13 @@ use crate::hands::FitSettings;
 use crate::notes::{Note, NoteTopic};
 use crate::tracks::{side_index, Anchored};
 use monohand_core::fitting::{estimate_hand_scale, ProportionEstimate, ScaleEstimate};
+use monohand_core::hand_model::BONES;
 use monohand_core::observation::NetworkCues;
 use monohand_core::prelude::*;
+use monohand_core::triangulation::triangulate;
+use monohand_io::hand::{HandFile, HandSource};
 use monohand_vision::DetectedHand;
+use nalgebra::{Point2, Vector3};
 use std::collections::HashMap;
 
 /// Smallest and largest hand size `--hand-scale auto` may find, relative to the template.
@@ -22,6 +26,8 @@ const SCALE_RANGE: (f64, f64) = (0.6, 1.6);
 pub(crate) struct HandShape {
     /// The hand size measured, once known.
     pub scale: Option<ScaleEstimate>,
+    /// The hand measured by the views, as a hand file says it, once known.
+    pub measured: Option<HandFile>,
     /// Each side's proportions learnt (left, right), once known.
     pub proportions: [Option<ProportionEstimate>; 2],
 }
@@ -68,7 +74,7 @@ impl HandShape {
             );
             return;
         }
-        let Some((side, views)) = best_seen_twice(frames, anchored, cameras) else {
+        let Some((side, seen, views)) = best_seen_twice(frames, anchored, cameras) else {
             say(
                 notes,
                 "no hand was seen by two views in the first frames; keeping the default size"
@@ -93,6 +99,9 @@ impl HandShape {
                         tracing::warn!("hand scale not applied: {e}");
                     }
                 }
+                self.measured = Some(measured_hand(
+                    &template, settings, &est, side, &seen, &views, cameras.len(),
+                ));
                 self.scale = Some(est);
             }
             Ok(est) => say(notes, format!(
@@ -148,13 +157,13 @@ impl HandShape {
     }
 }
 
-/// The hand seen by two views in the most kept frames (ties: the lowest id): its side and,
-/// per such frame, its views.
+/// The hand seen by two views in the most kept frames (ties: the lowest id): its side,
+/// those frames' indices and, per such frame, its views.
 fn best_seen_twice<'a, T>(
     frames: &'a [(VisionFrame, T)],
     anchored: &[Vec<Anchored>],
     cameras: &'a [Camera],
-) -> Option<(HandSide, Vec<Vec<View<'a>>>)> {
+) -> Option<(HandSide, Vec<u64>, Vec<Vec<View<'a>>>)> {
     let mut counts: HashMap<crate::HandId, usize> = HashMap::new();
     for hands in anchored {
         for (id, _, views) in hands {
@@ -167,11 +176,13 @@ fn best_seen_twice<'a, T>(
         .iter()
         .max_by_key(|(id, c)| (**c, std::cmp::Reverse(**id)))?;
     let mut side = HandSide::Right;
+    let mut indices = Vec::new();
     let mut seen: Vec<Vec<View<'a>>> = Vec::new();
     for ((frame, _), hands) in frames.iter().zip(anchored) {
         for (id, s, views) in hands {
             if *id == best && views.len() >= 2 {
                 side = *s;
+                indices.push(frame.index);
                 seen.push(
                     views
                         .iter()
@@ -184,7 +195,106 @@ fn best_seen_twice<'a, T>(
             }
         }
     }
-    Some((side, seen))
+    Some((side, indices, seen))
+}
+
+/// Fewest frames a bone's length is taken from ([`measured_hand`]).
+const MIN_BONE_FRAMES: usize = 5;
+
+/// Fewest frames in each half for the two halves' sizes to give the size's uncertainty.
+const MIN_HALF_FRAMES: usize = 3;
+
+/// Keypoints at least this confident are triangulated for the bones' lengths.
+const TRIANGULATE_CONFIDENCE: f64 = 0.5;
+
+/// The hand the views measured (`est`, on the frames `seen` with their `views`), as a
+/// hand file says it: its size, the size's uncertainty (half the difference of the sizes
+/// the two halves of the frames give, where each has [`MIN_HALF_FRAMES`]), and each bone's
+/// length where the keypoints of two or more views triangulate it in [`MIN_BONE_FRAMES`]
+/// frames or more (the median over the frames, with the median absolute deviation's
+/// standard error).
+fn measured_hand(
+    template: &HandSkeleton,
+    settings: &FitSettings,
+    est: &ScaleEstimate,
+    side: HandSide,
+    seen: &[u64],
+    views: &[Vec<View<'_>>],
+    cameras: usize,
+) -> HandFile {
+    let (lo, hi) = SCALE_RANGE;
+    let half = views.len() / 2;
+    let sigma = (half >= MIN_HALF_FRAMES).then(|| {
+        let size = |part: &[Vec<View<'_>>]| {
+            estimate_hand_scale(template, &settings.options, part, lo, hi)
+                .ok()
+                .map(|e| e.scale)
+        };
+        Some((size(&views[..half])? - size(&views[half..])?).abs() / 2.0)
+    });
+    let relative = template_scale(template, side);
+    let mut lengths: Vec<Vec<f64>> = vec![Vec::new(); BONES.len()];
+    for frame in views {
+        let joints: [Option<Vector3<f64>>; NUM_JOINTS] = std::array::from_fn(|j| {
+            let rays: Vec<_> = frame
+                .iter()
+                .filter_map(|v| {
+                    let [u, w, p] = v.keypoints.points[j];
+                    let dir = v.camera.ray(Point2::new(u, w))?;
+                    let to_ref = v.camera.extrinsics.rotation.inverse();
+                    (p >= TRIANGULATE_CONFIDENCE).then(|| (v.camera.centre(), to_ref * dir, 1.0))
+                })
+                .collect();
+            triangulate(&rays)
+        });
+        for (b, &(p, c)) in BONES.iter().enumerate() {
+            if let (Some(a), Some(z)) = (joints[p], joints[c]) {
+                lengths[b].push((z - a).norm());
+            }
+        }
+    }
+    let mut bone_lengths = [None; BONES.len()];
+    let mut bone_sigma = [None; BONES.len()];
+    for (b, l) in lengths.iter_mut().enumerate() {
+        if l.len() >= MIN_BONE_FRAMES {
+            let mid = median(l);
+            let mut dev: Vec<f64> = l.iter().map(|x| (x - mid).abs()).collect();
+            // The median's standard error: 1.2533 sigma / sqrt(n), sigma = 1.4826 MAD.
+            let n = l.len() as f64;
+            bone_lengths[b] = Some(mid);
+            bone_sigma[b] = Some(1.4826 * median(&mut dev) * 1.2533 / n.sqrt());
+        }
+    }
+    HandFile {
+        scale_sigma: sigma.flatten().map(|s| s * relative),
+        side: Some(side),
+        views: Some(cameras),
+        frames: seen.to_vec(),
+        bone_lengths_mm: Some(bone_lengths),
+        bone_sigma_mm: Some(bone_sigma),
+        ..HandFile::new(
+            HandSource::Views,
+            est.scale * relative,
+            template.hand_length() * est.scale,
+        )
+    }
+}
+
+/// The scale of `template` relative to the default hand of `side` (the measurement is
+/// relative to the skeleton the run started from, which `--hand-scale` or a hand file may
+/// have sized).
+fn template_scale(template: &HandSkeleton, side: HandSide) -> f64 {
+    template.hand_length() / HandSkeleton::default_for(side).hand_length()
+}
+
+/// The median of `x` (sorted in place; NaN if empty).
+fn median(x: &mut [f64]) -> f64 {
+    x.sort_by(f64::total_cmp);
+    match x.len() {
+        0 => f64::NAN,
+        n if n % 2 == 1 => x[n / 2],
+        n => (x[n / 2 - 1] + x[n / 2]) / 2.0,
+    }
 }
 
 /// Hand `k` of view `v` of a frame.

@@ -110,6 +110,11 @@ pub(crate) struct RunArgs {
     /// Worker threads for independent images (default: all cores; 1: one core).
     #[arg(long, value_name = "N")]
     pub threads: Option<usize>,
+    /// Measure the person's hand with the calibrated views (two or more --view) over the
+    /// first --scale-frames frames, fit with it, and write it here for --hand
+    /// (docs/absolute-depth.md).
+    #[arg(long, value_name = "FILE.json")]
+    pub save_hand: Option<PathBuf>,
     #[command(flatten)]
     pub hand: HandModelArgs,
     #[command(flatten)]
@@ -145,6 +150,12 @@ pub(crate) fn run(args: &RunArgs) -> Result<Outcome> {
         .enumerate()
         .map(|(v, s)| Input::parse(s).with_context(|| format!("view {}", v + 1)))
         .collect::<Result<_>>()?;
+    if args.save_hand.is_some() && inputs.len() < 2 {
+        bail!(
+            "--save-hand measures the hand with two or more calibrated views (--view FILE \
+             --camera CAM.json, once per camera); one camera cannot tell a hand's size"
+        );
+    }
     let cameras = crate::read_cameras(&args.cameras)?;
     let video = inputs.iter().any(Input::is_video);
     let tracking = (video || args.track) && !args.no_track;
@@ -169,17 +180,50 @@ pub(crate) fn run(args: &RunArgs) -> Result<Outcome> {
     };
     let report = engine.run(sources, &mut sinks, &terminal)?;
     terminal.progress.finish();
-    summarise(&report)
+    let outcome = summarise(&report)?;
+    if let Some(path) = &args.save_hand {
+        save_hand(path, &report)?;
+    }
+    Ok(outcome)
+}
+
+/// Writes the hand the views measured to `path` (`--save-hand`), or says why none was.
+fn save_hand(path: &std::path::Path, report: &RunReport) -> Result<()> {
+    let Some(hand) = &report.measured_hand else {
+        bail!(
+            "--save-hand: no hand was measured (no hand was seen by two views in the first \
+             frames, or they did not tell its size: see the notes above); {} not written",
+            path.display()
+        );
+    };
+    monohand_io::hand::write_hand(path, hand)?;
+    let sigma = hand
+        .scale_sigma
+        .map(|s| format!(" ± {s:.3}"))
+        .unwrap_or_default();
+    crate::say(&format!(
+        "hand measured by {} views on {} frames: {:.3}{sigma} x the default hand, {:.0} mm \
+         (the model's wrist to middle fingertip); written to {}",
+        hand.views.unwrap_or(0),
+        hand.frames.len(),
+        hand.scale,
+        hand.hand_length_mm,
+        path.display()
+    ));
+    Ok(())
 }
 
 /// The plain settings of the arguments, for an input tracked or not (the library
 /// checks them: [`crate::resolve`]).
 fn settings(args: &RunArgs, tracking: bool) -> Result<Settings> {
-    let auto_frames = (args.hand.hand_scale == HandScale::Auto).then_some(args.hand.scale_frames);
+    let (scale, hand_size) = args.hand.size()?;
+    let auto_frames =
+        (scale == HandScale::Auto || args.save_hand.is_some()).then_some(args.hand.scale_frames);
     Ok(Settings {
         pipeline: args.models.options().1,
         fit: FitSettings {
-            skeletons: args.hand.skeletons(args.hand.hand_scale.initial())?,
+            skeletons: args.hand.skeletons(scale.initial())?,
+            hand_size,
             options: args.hand.fit_options()?,
             tracking,
             auto_scale_frames: auto_frames,

@@ -10,7 +10,9 @@
 use super::fusion::{fuse_keypoints, fuse_network_depth};
 use super::init::{self, StartSolver};
 use super::options::{FitOptions, View};
-use super::problem::{free_dofs, DofMask, JointMask, PreparedView, NUM_BONES, NUM_CUES};
+use super::problem::{
+    free_dofs, palm_of, DofMask, JointMask, Palm, PreparedView, NUM_BONES, NUM_CUES,
+};
 use crate::error::{CoreError, CoreResult};
 use crate::hand_model::params::ANGLES_PER_FINGER;
 use crate::hand_model::{HandPose, HandSkeleton, BONES, NUM_DOF, NUM_JOINTS};
@@ -52,6 +54,24 @@ pub struct FitResult {
     pub cost: f64,
     /// Number of (view, joint) observations used.
     pub used_observations: usize,
+}
+
+impl FitResult {
+    /// The same fit in another frame: its joints and pose mapped by `by` (a rigid
+    /// transform from the fit's reference frame into the other).
+    pub fn transformed(&self, by: &crate::camera::Extrinsics) -> FitResult {
+        let q = UnitQuaternion::from_rotation_matrix(&by.rotation);
+        FitResult {
+            pose: HandPose {
+                translation: by.transform(&self.pose.translation),
+                rotation: q * self.pose.rotation,
+                ..self.pose
+            },
+            joints_3d: self.joints_3d.map(|x| by.transform(&x)),
+            model_joints_3d: self.model_joints_3d.map(|x| by.transform(&x)),
+            ..*self
+        }
+    }
 }
 
 /// A solver run's result before it is turned into a [`FitResult`].
@@ -104,6 +124,8 @@ pub struct HandFitter {
     prior_weight: f64,
     /// The network's 3D of a fit with one view, for [`FitOptions::fusion`].
     fusion_cues: Option<NetworkCues>,
+    /// The skeleton's palm in its own frame, for the hand-frame cues.
+    palm: Palm,
 }
 
 impl HandFitter {
@@ -121,6 +143,7 @@ impl HandFitter {
             prior: None,
             prior_weight: 0.0,
             fusion_cues: None,
+            palm: palm_of(&skeleton),
         })
     }
 
@@ -148,6 +171,7 @@ impl HandFitter {
         self.posed = skeleton;
         self.given = skeleton;
         self.planar = skeleton.planar_thumb();
+        self.palm = palm_of(&skeleton);
         Ok(())
     }
 
@@ -318,16 +342,19 @@ impl HandFitter {
         let o = &self.options;
         let mut used = 0;
         for (vi, v) in views.iter().enumerate() {
-            let (pv, n) = PreparedView::prepare(v, vi, o)?;
+            let (pv, n) = PreparedView::prepare(v, vi, o, &self.palm)?;
             used += n;
             self.views.push(pv);
         }
         // Several views' network 3D are estimates of one shape: together they weigh as
         // much as one view's (the pixel terms, which add geometry, are summed as they are).
-        let has_cues = self
-            .views
-            .iter()
-            .any(|v| v.bone_weights.iter().flatten().any(|&w| w > 0.0));
+        let has_cues = self.views.iter().any(|v| {
+            v.bone_weights
+                .iter()
+                .chain(&v.hand_weights)
+                .flatten()
+                .any(|&w| w > 0.0)
+        });
         self.posed = if has_cues { self.given } else { self.planar };
         if let [v] = views {
             // Each cue is fused only if the fit itself uses it.
@@ -342,6 +369,7 @@ impl HandFitter {
             for pv in &mut self.views {
                 pv.bone_weights
                     .iter_mut()
+                    .chain(&mut pv.hand_weights)
                     .flatten()
                     .for_each(|w| *w *= share);
             }
@@ -375,7 +403,7 @@ impl HandFitter {
         // warm-started and a from-scratch fit of one frame compare fairly.
         let cost = match self.prior {
             Some(_) => self
-                .data_cost(&joints_3d, &self.observed_joints())
+                .data_cost(&joints_3d, &sol.pose, &self.observed_joints())
                 .unwrap_or(sol.cost),
             None => sol.cost,
         };
@@ -439,13 +467,19 @@ impl HandFitter {
             .filter_map(|j| self.temporal_residual(j, &pts, mask))
             .map(|r| r.norm_squared())
             .sum();
-        Some(self.data_cost(&pts, mask)? + temporal)
+        Some(self.data_cost(&pts, pose, mask)? + temporal)
     }
 
     /// The pixel and cue terms of the cost for given joints; `None` if a joint
     /// is where a camera does not see it. The pixels are the observed ones, the joints
     /// projected through each camera's lens.
-    fn data_cost(&self, pts: &[Vector3<f64>; NUM_JOINTS], mask: &JointMask) -> Option<f64> {
+    fn data_cost(
+        &self,
+        pts: &[Vector3<f64>; NUM_JOINTS],
+        pose: &HandPose,
+        mask: &JointMask,
+    ) -> Option<f64> {
+        let to_hand = pose.rotation.inverse().to_rotation_matrix().into_inner();
         let mut cost = 0.0;
         for v in &self.views {
             let ext = &v.camera.extrinsics;
@@ -480,6 +514,9 @@ impl HandFitter {
                     if let Some(res) = self.bone_residual(v, cue, b, pts, mask) {
                         cost += res.norm_squared();
                     }
+                    if let Some(res) = self.hand_residual(v, cue, b, pts, &to_hand, mask) {
+                        cost += res.norm_squared();
+                    }
                 }
             }
         }
@@ -499,6 +536,7 @@ impl HandFitter {
         forward_kinematics_with_jacobian(&self.posed, pose, &mut pts, &mut jac);
         h.fill(0.0);
         g.fill(0.0);
+        let to_hand = pose.rotation.inverse().to_rotation_matrix().into_inner();
         let mut blocks = Blocks::new();
         let mut forms = [JointForm::default(); NUM_JOINTS];
         let mut cost = 0.0;
@@ -533,8 +571,11 @@ impl HandFitter {
             // degrees of freedom cover its parent's (same finger, or the wrist).
             // Each cue's block is `w_k D` with one `D` per bone, so the cues of a
             // bone add up to `(Σ w_k²) DᵀD` and `Dᵀ Σ w_k r_k`: one product per bone.
+            // The hand-frame cues likewise with `D = Rᵀ (jac_c - jac_p)` over the finger's
+            // angles alone: the bone in the hand's frame does not move with the root.
             for (b, &(p, c)) in BONES.iter().enumerate() {
                 let (mut w2, mut wr) = (0.0, Vector3::zeros());
+                let (mut h2, mut hr) = (0.0, Vector3::zeros());
                 for cue in 0..NUM_CUES {
                     if let Some(res) = self.bone_residual(v, cue, b, &pts, mask) {
                         cost += res.norm_squared();
@@ -542,10 +583,21 @@ impl HandFitter {
                         w2 += w * w;
                         wr += w * res;
                     }
+                    if let Some(res) = self.hand_residual(v, cue, b, &pts, &to_hand, mask) {
+                        cost += res.norm_squared();
+                        let w = v.hand_weights[cue][b];
+                        h2 += w * w;
+                        hr += w * res;
+                    }
                 }
                 if w2 > 0.0 {
                     let d: SMatrix<f64, 3, LOCAL_DOF> = r * (jac[c] - jac[p]);
                     blocks.add_scaled(&d, w2, &wr, c);
+                }
+                if h2 > 0.0 {
+                    let mut d: SMatrix<f64, 3, LOCAL_DOF> = to_hand * (jac[c] - jac[p]);
+                    d.fixed_columns_mut::<6>(0).fill(0.0);
+                    blocks.add_scaled(&d, h2, &hr, c);
                 }
             }
         }
@@ -581,6 +633,26 @@ impl HandFitter {
         (w > 0.0 && mask[p] && mask[c]).then(|| {
             let bone = v.camera.extrinsics.rotation * (pts[c] - pts[p]);
             w * (bone - self.bone_lengths[b] * v.bone_targets[cue][b])
+        })
+    }
+
+    /// The weighted residual of finger bone `b` against cue `cue` in the hand's own frame
+    /// (`to_hand`: the fitted rotation's inverse), mm; `None` where the cue is absent or
+    /// a joint of the bone is masked out.
+    #[inline]
+    fn hand_residual(
+        &self,
+        v: &PreparedView,
+        cue: usize,
+        b: usize,
+        pts: &[Vector3<f64>; NUM_JOINTS],
+        to_hand: &Matrix3<f64>,
+        mask: &JointMask,
+    ) -> Option<Vector3<f64>> {
+        let w = v.hand_weights[cue][b];
+        let (p, c) = BONES[b];
+        (w > 0.0 && mask[p] && mask[c]).then(|| {
+            w * (to_hand * (pts[c] - pts[p]) - self.bone_lengths[b] * v.hand_targets[cue][b])
         })
     }
 
@@ -997,6 +1069,7 @@ mod tests {
             cost: CostSettings {
                 world_weight: 0.7,
                 depth_weight: 0.4,
+                hand_frame_weight: 0.5,
                 ..CostSettings::default()
             },
             tracking: TrackingSettings {

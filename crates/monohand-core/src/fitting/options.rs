@@ -127,6 +127,13 @@ pub struct CostSettings {
     /// [`world_weight`](Self::world_weight) / [`depth_weight`](Self::depth_weight).
     /// Default: the inverse of the measured angular error, `CUE_BONE_ERROR_DEG`.
     pub cue_segment_weights: [[f64; 4]; 2],
+    /// Weight of the network's finger bone directions in the hand's own frame (both
+    /// cues, each with its [`cue_segment_weights`](Self::cue_segment_weights)): each
+    /// cue's tilt of the whole hand (the rotation that best places the skeleton's palm on
+    /// its palm) is undone, so that these residuals inform the fingers' articulation
+    /// only, and leave the hand's tilt and distance to the keypoints. Each finger bone adds
+    /// `w p^k L (R^T d_model - d_cue)` (mm, `R` the fitted hand's rotation). 0 turns it off.
+    pub hand_frame_weight: f64,
 }
 
 impl Default for CostSettings {
@@ -144,6 +151,9 @@ impl Default for CostSettings {
             world_weight: 1.08,
             depth_weight: 1.62,
             cue_segment_weights: cue_segment_weights_from(&CUE_BONE_ERROR_DEG),
+            // Chosen on both dev sets and both halves of each (docs/accuracy.md, "Depth from
+            // every viewpoint").
+            hand_frame_weight: 2.0,
         }
     }
 }
@@ -164,6 +174,7 @@ impl CostSettings {
         for (name, w) in [
             ("world_weight", self.world_weight),
             ("depth_weight", self.depth_weight),
+            ("hand_frame_weight", self.hand_frame_weight),
         ]
         .into_iter()
         .chain(

@@ -63,7 +63,21 @@ pub(crate) struct PreparedView {
     pub bone_targets: [[Vector3<f64>; NUM_BONES]; NUM_CUES],
     /// Weight of each bone residual per cue (0 where the cue is absent).
     pub bone_weights: [[f64; NUM_BONES]; NUM_CUES],
+    /// Target unit direction of each finger bone in the hand's own frame, from each cue:
+    /// its camera-frame direction turned by the rotation that best places the skeleton's
+    /// palm on the cue's ([`CostSettings::hand_frame_weight`]).
+    pub hand_targets: [[Vector3<f64>; NUM_BONES]; NUM_CUES],
+    /// Weight of each of those residuals (0 where absent, and for the palm's own bones,
+    /// which no angle moves).
+    pub hand_weights: [[f64; NUM_BONES]; NUM_CUES],
 }
+
+/// The skeleton's palm in its own frame: the wrist (the origin) and the joints at the
+/// palm's end of the five fingers' first bones, which no joint angle moves.
+pub(crate) type Palm = [Vector3<f64>; NUM_PALM_BONES];
+
+/// Bones from the wrist to a finger's base (one per finger).
+pub(crate) const NUM_PALM_BONES: usize = 5;
 
 /// Number of bones (one per non-wrist joint).
 pub(crate) const NUM_BONES: usize = BONES.len();
@@ -78,6 +92,7 @@ impl PreparedView {
         v: &View,
         vi: usize,
         o: &FitOptions,
+        palm: &Palm,
     ) -> CoreResult<(PreparedView, usize)> {
         let mut used = 0;
         v.camera.validate()?;
@@ -96,6 +111,8 @@ impl PreparedView {
             ],
             bone_targets: [[Vector3::zeros(); NUM_BONES]; NUM_CUES],
             bone_weights: [[0.0; NUM_BONES]; NUM_CUES],
+            hand_targets: [[Vector3::zeros(); NUM_BONES]; NUM_CUES],
+            hand_weights: [[0.0; NUM_BONES]; NUM_CUES],
         };
         for (j, p) in v.keypoints.points.iter().enumerate() {
             pv.raw[j] = [p[0], p[1]];
@@ -111,7 +128,10 @@ impl PreparedView {
         if let Some(cues) = v.cues {
             cues.validate()
                 .map_err(|e| CoreError::InvalidKeypoints(format!("view {vi}: {e}")))?;
-            set_bone_targets(&mut pv, cues, &o.cost);
+            let found = set_bone_targets(&mut pv, cues, &o.cost);
+            if o.cost.hand_frame_weight > 0.0 {
+                set_hand_targets(&mut pv, &found, palm, &o.cost);
+            }
         }
         Ok((pv, used))
     }
@@ -162,14 +182,21 @@ impl PreparedView {
 /// is the cue's weight times its segment's reliability
 /// ([`CostSettings::cue_segment_weights`]) times the smaller confidence weight of
 /// its two joints.
-fn set_bone_targets(pv: &mut PreparedView, cues: &NetworkCues, o: &CostSettings) {
+/// Returns, per cue, the camera-frame unit direction of each bone it gives (whatever the
+/// cue's weight), for [`set_hand_targets`].
+fn set_bone_targets(
+    pv: &mut PreparedView,
+    cues: &NetworkCues,
+    o: &CostSettings,
+) -> [[Option<Vector3<f64>>; NUM_BONES]; NUM_CUES] {
+    let mut found = [[None; NUM_BONES]; NUM_CUES];
     let (su, sv, n) = (0..NUM_JOINTS)
         .filter(|&j| pv.start_weights[j] > 0.0)
         .fold((0.0, 0.0, 0.0), |(u, v, n), j| {
             (u + pv.ideal[j][0], v + pv.ideal[j][1], n + 1.0)
         });
     if n == 0.0 {
-        return;
+        return found;
     }
     let k = &pv.camera.intrinsics;
     let ray = Vector3::new((su / n - k.cx) / k.fx, (sv / n - k.cy) / k.fy, 1.0);
@@ -195,15 +222,69 @@ fn set_bone_targets(pv: &mut PreparedView, cues: &NetworkCues, o: &CostSettings)
             .into_iter()
             .enumerate()
         {
-            if let Some(unit) = d
-                .filter(|_| weight > 0.0)
-                .and_then(|d| (turn * d).try_normalize(1e-12))
-            {
+            let Some(unit) = d.and_then(|d| (turn * d).try_normalize(1e-12)) else {
+                continue;
+            };
+            found[cue][b] = Some(unit);
+            if weight > 0.0 {
                 pv.bone_targets[cue][b] = unit;
                 pv.bone_weights[cue][b] = weight * w * o.cue_segment_weights[cue][bone_segment(b)];
             }
         }
     }
+    found
+}
+
+/// Sets a prepared view's hand-frame targets from each cue's camera-frame bone directions
+/// (`found`): the rotation that best places the skeleton's `palm` on the cue's palm (its
+/// five wrist-to-base bones at the skeleton's lengths, at least three of them given) is
+/// the network's tilt of the hand; undone, the finger bones' directions are the
+/// network's articulation alone. A finger bone's weight is
+/// [`CostSettings::hand_frame_weight`] times its segment's reliability times the smaller
+/// confidence weight of its two joints.
+fn set_hand_targets(
+    pv: &mut PreparedView,
+    found: &[[Option<Vector3<f64>>; NUM_BONES]; NUM_CUES],
+    palm: &Palm,
+    o: &CostSettings,
+) {
+    for (cue, dirs) in found.iter().enumerate() {
+        // The wrist at the origin of both, then each palm bone the cue gives.
+        let mut from = [Vector3::zeros(); NUM_PALM_BONES + 1];
+        let mut to = from;
+        let mut n = 1;
+        for (b, dir) in dirs.iter().enumerate() {
+            if let (0, Some(d)) = (bone_segment(b), dir) {
+                let local = palm[b / 4];
+                (from[n], to[n]) = (local, d * local.norm());
+                n += 1;
+            }
+        }
+        if n < 4 {
+            continue;
+        }
+        let Some(tilt) = crate::alignment::align(&from[..n], &to[..n], false) else {
+            continue;
+        };
+        let undo = tilt.rotation.inverse();
+        for (b, &(p, c)) in BONES.iter().enumerate() {
+            let w = pv.weights[p].min(pv.weights[c]);
+            if let (1.., Some(d), true) = (bone_segment(b), dirs[b], w > 0.0) {
+                pv.hand_targets[cue][b] = undo * d;
+                pv.hand_weights[cue][b] =
+                    o.hand_frame_weight * w * o.cue_segment_weights[cue][bone_segment(b)];
+            }
+        }
+    }
+}
+
+/// The skeleton's [`Palm`]: the local ends of its five wrist-to-base bones.
+pub(crate) fn palm_of(skeleton: &crate::hand_model::HandSkeleton) -> Palm {
+    let rest = crate::kinematics::forward_kinematics_local(
+        skeleton,
+        &[0.0; crate::hand_model::NUM_ANGLES],
+    );
+    std::array::from_fn(|f| rest[BONES[4 * f].1])
 }
 
 /// The place of bone `b` in its finger: 0 wrist to base, 1 proximal, 2 middle,

@@ -156,6 +156,7 @@ pub fn load_hand_graph_cnn(dir: impl AsRef<Path>) -> EvalResult<Dataset> {
         source: dir.to_path_buf(),
         root: RootJoint::Wrist,
         frames,
+        view_names: Vec::new(),
     })
 }
 

@@ -4,6 +4,7 @@
 
 pub mod hand_graph_cnn;
 pub mod stb;
+pub mod table_rig;
 
 use crate::dataset::Dataset;
 use crate::error::{EvalError, EvalResult};
@@ -14,7 +15,8 @@ impl Dataset {
     /// folder holding `manifest.jsonl`) is a manifest ([`crate::manifest`]); a
     /// folder with `labels/*_BB.mat` is STB ([`crate::datasets::stb`]); a folder
     /// with hand-graph-cnn's `labels.json` is read by
-    /// [`crate::datasets::hand_graph_cnn`].
+    /// [`crate::datasets::hand_graph_cnn`]; a rig folder (`reference_3d_mm.json`, `cameras/`,
+    /// `images/`, `labels_2d/`) by [`crate::datasets::table_rig`].
     pub fn load(path: impl AsRef<Path>) -> EvalResult<Dataset> {
         let path = path.as_ref();
         if path.is_file() {
@@ -33,10 +35,14 @@ impl Dataset {
         if crate::datasets::hand_graph_cnn::is_hand_graph_cnn_folder(path) {
             return crate::datasets::hand_graph_cnn::load_hand_graph_cnn(path);
         }
+        if crate::datasets::table_rig::is_table_rig_folder(path) {
+            return crate::datasets::table_rig::load_table_rig(path);
+        }
         Err(EvalError::dataset(
             path,
             "not a dataset: expected a manifest (.jsonl file, or a folder with manifest.jsonl), \
-             an STB folder (labels/*_BB.mat) or a hand-graph-cnn folder (labels.json with crop boxes)",
+             an STB folder (labels/*_BB.mat), a hand-graph-cnn folder (labels.json with crop boxes) \
+             or a rig folder (reference_3d_mm.json, cameras/, images/, labels_2d/)",
         ))
     }
 }

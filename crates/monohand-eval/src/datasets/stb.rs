@@ -115,6 +115,7 @@ pub fn load_stb(dir: impl AsRef<Path>) -> EvalResult<Dataset> {
         source: dir.to_path_buf(),
         root: RootJoint::PalmCentre,
         frames,
+        view_names: Vec::new(),
     })
 }
 

@@ -76,16 +76,16 @@ impl Report {
     pub fn table(&self) -> String {
         let mut s = String::new();
         s.push_str(
-            "| run | hands | detected | MPJPE abs (mm) | median (mm) | root-rel (mm) | aligned (mm) | centroid (mm) | PA-MPJPE (mm) | jitter (mm/f²) | x / y / z (mm) | AUC abs joints | AUC abs frames | AUC aligned joints | AUC aligned frames | AUC PA joints | 2D in (px) | reproj (px) | labels' jitter (mm/f²) | fps |\n",
+            "| run | hands | detected | MPJPE abs (mm) | median (mm) | root-rel (mm) | aligned (mm) | centroid (mm) | PA-MPJPE (mm) | jitter (mm/f²) | x / y / z (mm) | AUC abs joints | AUC abs frames | AUC aligned joints | AUC aligned frames | AUC PA joints | 2D in (px) | reproj (px) | depth pred/true | labels' jitter (mm/f²) | fps |\n",
         );
         s.push_str(
-            "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
+            "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|\n",
         );
         let summaries = self.summaries();
         for r in &summaries {
             let _ = writeln!(
                 s,
-                "| {} | {} | {:.1}% | {} | {} | {} | {} | {} | {} | {} | {} / {} / {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
+                "| {} | {} | {:.1}% | {} | {} | {} | {} | {} | {} | {} | {} / {} / {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
                 r.label,
                 r.hands,
                 100.0 * r.detection_rate(),
@@ -106,13 +106,21 @@ impl Report {
                 f(r.auc_pa_joint, 3),
                 f(r.keypoints_px, 2),
                 f(r.reprojection_px, 2),
+                f(r.depth_ratio, 3),
                 f(r.gt_jitter, 2),
                 f(r.fps, 0),
             );
         }
-        let network = summaries.iter().find(|r| r.label == NETWORK_RUN_LABEL);
-        if let Some(n) = network {
-            for r in summaries.iter().filter(|r| r.label != NETWORK_RUN_LABEL) {
+        // Each fit against the network's 3D of its own view (`VIEW: network ...` for a
+        // view evaluated alone), else of the first view.
+        let is_network = |r: &RunSummary| r.label.ends_with(NETWORK_RUN_LABEL);
+        for r in summaries.iter().filter(|r| !is_network(r)) {
+            let own = format!("{}: {NETWORK_RUN_LABEL}", r.label);
+            let network = summaries
+                .iter()
+                .find(|n| n.label == own)
+                .or_else(|| summaries.iter().find(|n| n.label == NETWORK_RUN_LABEL));
+            if let Some(n) = network {
                 let _ = writeln!(
                     s,
                     "\n{} against the network's own 3D: PA-MPJPE {} x, centroid-aligned {} x, root-relative {} x",
@@ -172,7 +180,7 @@ impl Report {
             };
             let _ = write!(s, ",abs_{n}_mm");
         }
-        s.push_str(",acceleration_mm_f2\n");
+        s.push_str(",acceleration_mm_f2,depth_ratio\n");
         let opt = |x: Option<f64>| x.map(|v| format!("{v:.4}")).unwrap_or_default();
         for r in &self.runs {
             let acc = r.accelerations(&self.mask);
@@ -213,11 +221,17 @@ impl Report {
                 );
                 for j in 0..NUM_JOINTS {
                     s.push(',');
-                    if let Some(e) = &h.errors {
+                    // Blank where not detected or without ground truth.
+                    if let Some(e) = h.errors.as_ref().filter(|e| !e.absolute[j].is_nan()) {
                         let _ = write!(s, "{:.4}", e.absolute[j]);
                     }
                 }
-                let _ = writeln!(s, ",{}", opt(acc.map(|(pred, _)| pred)));
+                let _ = writeln!(
+                    s,
+                    ",{},{}",
+                    opt(acc.map(|(pred, _)| pred)),
+                    opt(h.depth_ratio)
+                );
             }
         }
         s

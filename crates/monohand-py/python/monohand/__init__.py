@@ -10,6 +10,8 @@ video, in real time on a CPU.
 
 - `Session`: frames in (one ``(H, W, 3)`` uint8 RGB array per camera), tracked hands out.
 - `Lifter` / `lift`: 2D keypoints made elsewhere in, absolute 3D out.
+- `HandSize`: a person's hand measured once (``monohand run --save-hand``) or by ruler, for
+  ``Session(hand=...)``: the absolute depth scales with it.
 - `read_video`: the frames of a video file, decoded by ffmpeg.
 - `calibrate`: a camera's (or a rig's) calibration from photos or a video of a chessboard.
 - `track_video`: a whole video to a table, one row per frame per hand.
@@ -31,6 +33,7 @@ from ._monohand import (
     Frame,
     FrameStream,
     Hand,
+    HandSize,
     Lifter,
     Models,
     MonohandError,
@@ -50,6 +53,7 @@ __all__ = [
     "Frame",
     "FrameStream",
     "Hand",
+    "HandSize",
     "Lifter",
     "Models",
     "MonohandError",

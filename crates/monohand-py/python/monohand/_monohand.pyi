@@ -148,6 +148,30 @@ class Models:
 
 Image = npt.NDArray[np.uint8]
 
+class HandSize:
+    """A person's hand measured once (``monohand run --save-hand``) or by ruler; both hands' size."""
+
+    @staticmethod
+    def load(path: Union[str, PathLike[str]]) -> HandSize: ...
+    @staticmethod
+    def from_length(length_mm: float) -> HandSize:
+        """A ruler's hand length: the hand flat, wrist crease to the end of the middle finger."""
+    def save(self, path: Union[str, PathLike[str]]) -> None: ...
+    @property
+    def scale(self) -> float: ...
+    @property
+    def scale_sigma(self) -> Optional[float]: ...
+    @property
+    def hand_length_mm(self) -> float: ...
+    @property
+    def source(self) -> str: ...
+    @property
+    def side(self) -> Optional[str]: ...
+    @property
+    def frames(self) -> List[int]: ...
+    @property
+    def bone_lengths_mm(self) -> Optional[List[Optional[float]]]: ...
+
 class Session:
     """Frames in (``(H, W, 3)`` uint8 RGB, one per camera), tracked absolute 3D hands out."""
 
@@ -161,10 +185,11 @@ class Session:
         heads: bool = False,
         detect_every: int = 10,
         models: Optional[Models] = None,
-        hand_scale: float = 1.0,
+        hand_scale: Optional[float] = None,
         mirror_pass: bool = True,
         rectify_crops: str = "off",
         precision: str = "f32",
+        hand: Optional[Union[HandSize, str, PathLike[str]]] = None,
     ) -> None: ...
     def process(self, image: Union[Image, List[Image]], time_s: Optional[float] = None) -> List[Hand]:
         """One frame (default time: 30 fps); its hands."""
@@ -184,7 +209,11 @@ class Lifter:
     """2D keypoints made elsewhere in, absolute 3D out, frame after frame."""
 
     def __init__(
-        self, camera: Union[Camera, Sequence[Camera]], tracking: bool = True, hand_scale: float = 1.0
+        self,
+        camera: Union[Camera, Sequence[Camera]],
+        tracking: bool = True,
+        hand_scale: Optional[float] = None,
+        hand: Optional[Union[HandSize, str, PathLike[str]]] = None,
     ) -> None: ...
     def lift(self, keypoints_2d: npt.NDArray[np.float64], side: str = "right") -> Hand: ...
 

@@ -131,6 +131,10 @@ pub struct RunReport {
     pub cancelled: bool,
     /// Wall-clock seconds of the run.
     pub seconds: f64,
+    /// The hand the views measured (with [`crate::FitSettings::auto_scale_frames`]).
+    pub measured_hand: Option<monohand_io::hand::HandFile>,
+    /// The hand size the fits used at the end, and where it came from.
+    pub hand_size: Option<monohand_io::jsonl::HandSizeRecord>,
 }
 
 impl RunReport {
@@ -168,8 +172,15 @@ impl RunReport {
             Some(e) => format!("{e:.2} px"),
             None => "-".into(),
         };
+        let size = match &self.hand_size {
+            Some(h) => format!(
+                ", hand size {:.0} mm ({:.3} x the default, {})",
+                h.length_mm, h.scale, h.source
+            ),
+            None => String::new(),
+        };
         format!(
-            "{} frames ({} with hands, {} unreadable), {} hands ({} in 3D), mean reprojection error {mean_rep}, {:.1} fps{}",
+            "{} frames ({} with hands, {} unreadable), {} hands ({} in 3D), mean reprojection error {mean_rep}{size}, {:.1} fps{}",
             self.frames,
             self.frames_with_hands,
             self.unreadable,
@@ -345,7 +356,10 @@ impl Engine {
             let source = sources.swap_remove(0);
             self.run_independent(source, &mut fit, &mut out, keep_image)
         };
-        out.end(result)
+        let mut report = out.end(result)?;
+        report.measured_hand = fit.measured_hand().cloned();
+        report.hand_size = (report.hands_3d > 0).then(|| fit.hand_size());
+        Ok(report)
     }
 
     /// Decode → networks → fit on three threads, in order.
