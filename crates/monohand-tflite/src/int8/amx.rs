@@ -74,6 +74,59 @@ pub(super) fn tile(m: usize, width: usize) -> TileFn {
     }
 }
 
+/// The rows of a tile of fewer than 16, with the AVX-512 VNNI kernel in tiles of at most 8
+/// rows: a step of [`tile16`] written as a macro, as its depth steps are, so that the code
+/// generated is that of one function.
+macro_rules! short_tile {
+    ($t:ident) => {
+        let mut i = 0;
+        while i < $t.m {
+            let m = MR_512.min($t.m - i);
+            let part = Tile {
+                // SAFETY: row i < m of the tile's codes.
+                a: unsafe { $t.a.add(i * $t.lda) },
+                // SAFETY: row i < m of its output.
+                out: unsafe { $t.out.add(i * $t.ldo) },
+                res: if $t.res.is_null() {
+                    $t.res
+                } else {
+                    // SAFETY: row i < m of its residual, which it has.
+                    unsafe { $t.res.add(i * $t.ldo) }
+                },
+                m,
+                ..*$t
+            };
+            // SAFETY: `part` is rows i..i + m of `t`, within its contract, m <= 8 as
+            // the AVX-512 VNNI kernel's tiles need, the CPU has its features.
+            unsafe { avx512::tile(m, $t.width)(&part) };
+            i += m;
+        }
+    };
+}
+
+/// The AVX-512 VNNI kernel's epilogue on the 16 rows of sums that AMX stored, less `zcorr`:
+/// a step of [`tile16`] written as a macro, as [`short_tile`].
+macro_rules! sums_epilogue {
+    ($t:ident, $sums:ident) => {
+        let mut zcorr = [_mm512_setzero_si512(); P];
+        for (p, z) in zcorr.iter_mut().enumerate() {
+            *z = _mm512_loadu_si512($t.zcorr.add(16 * p) as *const __m512i);
+        }
+        let e = avx512::Epilogue::<P>::new($t);
+        for i in 0..ROWS {
+            let mut acc = [_mm512_setzero_si512(); P];
+            for (p, acc) in acc.iter_mut().enumerate() {
+                let v =
+                    _mm512_load_si512($sums.0.as_ptr().add(i * 2 * NR + 16 * p) as *const __m512i);
+                // The same i32 as the VNNI kernel's: it starts at -zcorr and adds the
+                // same products (wrapping alike).
+                *acc = _mm512_sub_epi32(v, zcorr[p]);
+            }
+            e.store_row($t, i, &acc);
+        }
+    };
+}
+
 /// A micro-tile of `t.m` rows and `P` panels: 16 rows with AMX, fewer with the AVX-512
 /// VNNI kernel (in tiles of at most 8 rows).
 ///
@@ -84,28 +137,7 @@ pub(super) fn tile(m: usize, width: usize) -> TileFn {
 #[target_feature(enable = "avx512f,avx512bw,avx512vl,avx512vnni")]
 unsafe fn tile16<const P: usize>(t: &Tile) {
     if t.m < ROWS {
-        let mut i = 0;
-        while i < t.m {
-            let m = MR_512.min(t.m - i);
-            let part = Tile {
-                // SAFETY: row i < m of the tile's codes.
-                a: unsafe { t.a.add(i * t.lda) },
-                // SAFETY: row i < m of its output.
-                out: unsafe { t.out.add(i * t.ldo) },
-                res: if t.res.is_null() {
-                    t.res
-                } else {
-                    // SAFETY: row i < m of its residual, which it has.
-                    unsafe { t.res.add(i * t.ldo) }
-                },
-                m,
-                ..*t
-            };
-            // SAFETY: `part` is rows i..i + m of `t`, within its contract, m <= 8 as
-            // the AVX-512 VNNI kernel's tiles need, the CPU has its features.
-            unsafe { avx512::tile(m, t.width)(&part) };
-            i += m;
-        }
+        short_tile!(t);
         return;
     }
     let (full, rest) = (t.groups / GROUPS, t.groups % GROUPS);
@@ -178,22 +210,7 @@ unsafe fn tile16<const P: usize>(t: &Tile) {
                 options(nostack)
             );
         }
-        let mut zcorr = [_mm512_setzero_si512(); P];
-        for (p, z) in zcorr.iter_mut().enumerate() {
-            *z = _mm512_loadu_si512(t.zcorr.add(16 * p) as *const __m512i);
-        }
-        let e = avx512::Epilogue::<P>::new(t);
-        for i in 0..ROWS {
-            let mut acc = [_mm512_setzero_si512(); P];
-            for (p, acc) in acc.iter_mut().enumerate() {
-                let v =
-                    _mm512_load_si512(sums.0.as_ptr().add(i * 2 * NR + 16 * p) as *const __m512i);
-                // The same i32 as the VNNI kernel's: it starts at -zcorr and adds the
-                // same products (wrapping alike).
-                *acc = _mm512_sub_epi32(v, zcorr[p]);
-            }
-            e.store_row(t, i, &acc);
-        }
+        sums_epilogue!(t, sums);
     }
 }
 
