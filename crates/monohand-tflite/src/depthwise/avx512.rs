@@ -82,6 +82,136 @@ unsafe fn sweep<const K: usize>(
     }
 }
 
+/// The taps of one pixel's window summed onto the biases, then stored: the body of
+/// [`block`]'s `one`, a step of it written as a macro (as [`crate::int8`]'s AMX kernel
+/// writes its depth steps) so that the code generated is that of one function. With
+/// `K > 0` and the window wholly inside the image, the `K x K` taps unrolled.
+macro_rules! window_taps {
+    (
+        $win:ident,
+        $g:ident,
+        $src:ident,
+        $k:ident,
+        $c:ident,
+        $ch:ident,
+        $row:ident,
+        $bias:ident,
+        $load:ident,
+        $store:ident
+    ) => {{
+        let mut acc = $bias;
+        if K > 0 && $win.ky == (0, K) && $win.kx == (0, K) {
+            // SAFETY: the window's K x K taps are all inside the image (its valid rows and
+            // columns are (0, K)), the top-left one included.
+            let i0 = unsafe { $src.add($win.input($g, 0, 0) + $ch) };
+            for ky in 0..K {
+                for kx in 0..K {
+                    // SAFETY: as above, tap (ky, kx) is inside the image; and of the
+                    // K x K weights (kh == kw == K).
+                    let (i, w) = unsafe {
+                        (
+                            i0.add(ky * $row + kx * $c),
+                            $k.add((ky * K + kx) * $c + $ch),
+                        )
+                    };
+                    for (r, a) in acc.iter_mut().enumerate() {
+                        *a = _mm512_fmadd_ps($load(i, r), $load(w, r), *a);
+                    }
+                }
+            }
+        } else {
+            for ky in $win.ky.0..$win.ky.1 {
+                for kx in $win.kx.0..$win.kx.1 {
+                    // SAFETY: (ky, kx) is a valid tap of the window, so its input pixel is
+                    // inside the image (`Window::input`), and ky < kh, kx < kw.
+                    let (i, w) = unsafe {
+                        (
+                            $src.add($win.input($g, ky, kx) + $ch),
+                            $k.add((ky * $g.kw + kx) * $c + $ch),
+                        )
+                    };
+                    for (r, a) in acc.iter_mut().enumerate() {
+                        *a = _mm512_fmadd_ps($load(i, r), $load(w, r), *a);
+                    }
+                }
+            }
+        }
+        $store($win.pixel, &acc);
+    }};
+}
+
+/// The output rows of [`block`] with a `K x K` kernel (`K > 0`), `P` neighbouring pixels of
+/// a row at a time where all their windows are inside the image, the others one by one
+/// (`one`): a step of [`block`] written as a macro, as [`window_taps`].
+macro_rules! pixel_rows {
+    (
+        $g:ident,
+        $src:ident,
+        $k:ident,
+        $c:ident,
+        $ch:ident,
+        $row:ident,
+        $bias:ident,
+        $load:ident,
+        $store:ident,
+        $one:ident
+    ) => {
+        for oy in $g.rows.0..$g.rows.1 {
+            let y0 = (oy * $g.sy) as isize - $g.pt as isize;
+            let ky = valid(y0, $g.h, $g.kh);
+            let mut ox = 0;
+            while ox < $g.ow {
+                let x0 = (ox * $g.sx) as isize - $g.pl as isize;
+                let kx = valid(x0, $g.w, $g.kw);
+                let pixel = (oy - $g.rows.0) * $g.ow + ox;
+                // The windows of pixels ox .. ox + P all inside the image: the first's and
+                // the last's are (the ones between lie between them).
+                let last = x0 + ((P - 1) * $g.sx) as isize;
+                if ky == (0, K) && kx == (0, K) && ox + P <= $g.ow && valid(last, $g.w, K) == (0, K)
+                {
+                    let mut acc = [$bias; P];
+                    // SAFETY: the P windows' K x K taps are all inside the image (checked
+                    // above: rows (0, K) of each, columns (0, K) of the first and the last),
+                    // the first one's top-left tap included.
+                    let i0 = unsafe { $src.add((y0 as usize * $g.w + x0 as usize) * $c + $ch) };
+                    for ky in 0..K {
+                        for kx in 0..K {
+                            // SAFETY: of the K x K weights (kh == kw == K).
+                            let w = unsafe { $k.add((ky * K + kx) * $c + $ch) };
+                            let mut wv = [_mm512_setzero_ps(); N];
+                            for (r, v) in wv.iter_mut().enumerate() {
+                                *v = $load(w, r);
+                            }
+                            for (p, acc) in acc.iter_mut().enumerate() {
+                                // SAFETY: tap (ky, kx) of pixel ox + p's window, inside the
+                                // image as above.
+                                let i = unsafe { i0.add(ky * $row + (kx + p * $g.sx) * $c) };
+                                for (r, a) in acc.iter_mut().enumerate() {
+                                    *a = _mm512_fmadd_ps($load(i, r), wv[r], *a);
+                                }
+                            }
+                        }
+                    }
+                    for (p, acc) in acc.iter().enumerate() {
+                        // Pixels ox .. ox + P <= ow of output row oy, one of `dst`'s rows.
+                        $store(pixel + p, acc);
+                    }
+                    ox += P;
+                } else {
+                    $one(Window {
+                        pixel,
+                        y0,
+                        x0,
+                        ky,
+                        kx,
+                    });
+                    ox += 1;
+                }
+            }
+        }
+    };
+}
+
 /// Channels `ch .. ch + 16·N` of the whole output; with `MASKED`, the last vector's
 /// lanes outside `mask` are neither read nor written. With `K > 0` (a `K x K` kernel)
 /// the windows inside the image take a fully unrolled path (the same taps in the same
@@ -149,96 +279,10 @@ unsafe fn block<const N: usize, const MASKED: bool, const K: usize, const P: usi
         }
     };
     let row = g.w * c;
-    let one = |win: Window| {
-        let mut acc = bias;
-        if K > 0 && win.ky == (0, K) && win.kx == (0, K) {
-            // SAFETY: the window's K x K taps are all inside the image (its valid rows and
-            // columns are (0, K)), the top-left one included.
-            let i0 = unsafe { src.add(win.input(g, 0, 0) + ch) };
-            for ky in 0..K {
-                for kx in 0..K {
-                    // SAFETY: as above, tap (ky, kx) is inside the image; and of the
-                    // K x K weights (kh == kw == K).
-                    let (i, w) =
-                        unsafe { (i0.add(ky * row + kx * c), k.add((ky * K + kx) * c + ch)) };
-                    for (r, a) in acc.iter_mut().enumerate() {
-                        *a = _mm512_fmadd_ps(load(i, r), load(w, r), *a);
-                    }
-                }
-            }
-        } else {
-            for ky in win.ky.0..win.ky.1 {
-                for kx in win.kx.0..win.kx.1 {
-                    // SAFETY: (ky, kx) is a valid tap of the window, so its input pixel is
-                    // inside the image (`Window::input`), and ky < kh, kx < kw.
-                    let (i, w) = unsafe {
-                        (
-                            src.add(win.input(g, ky, kx) + ch),
-                            k.add((ky * g.kw + kx) * c + ch),
-                        )
-                    };
-                    for (r, a) in acc.iter_mut().enumerate() {
-                        *a = _mm512_fmadd_ps(load(i, r), load(w, r), *a);
-                    }
-                }
-            }
-        }
-        store(win.pixel, &acc);
-    };
+    let one = |win: Window| window_taps!(win, g, src, k, c, ch, row, bias, load, store);
     if K == 0 || P < 2 {
         each_window(g, one);
         return;
     }
-    for oy in g.rows.0..g.rows.1 {
-        let y0 = (oy * g.sy) as isize - g.pt as isize;
-        let ky = valid(y0, g.h, g.kh);
-        let mut ox = 0;
-        while ox < g.ow {
-            let x0 = (ox * g.sx) as isize - g.pl as isize;
-            let kx = valid(x0, g.w, g.kw);
-            let pixel = (oy - g.rows.0) * g.ow + ox;
-            // The windows of pixels ox .. ox + P all inside the image: the first's and
-            // the last's are (the ones between lie between them).
-            let last = x0 + ((P - 1) * g.sx) as isize;
-            if ky == (0, K) && kx == (0, K) && ox + P <= g.ow && valid(last, g.w, K) == (0, K) {
-                let mut acc = [bias; P];
-                // SAFETY: the P windows' K x K taps are all inside the image (checked
-                // above: rows (0, K) of each, columns (0, K) of the first and the last),
-                // the first one's top-left tap included.
-                let i0 = unsafe { src.add((y0 as usize * g.w + x0 as usize) * c + ch) };
-                for ky in 0..K {
-                    for kx in 0..K {
-                        // SAFETY: of the K x K weights (kh == kw == K).
-                        let w = unsafe { k.add((ky * K + kx) * c + ch) };
-                        let mut wv = [_mm512_setzero_ps(); N];
-                        for (r, v) in wv.iter_mut().enumerate() {
-                            *v = load(w, r);
-                        }
-                        for (p, acc) in acc.iter_mut().enumerate() {
-                            // SAFETY: tap (ky, kx) of pixel ox + p's window, inside the
-                            // image as above.
-                            let i = unsafe { i0.add(ky * row + (kx + p * g.sx) * c) };
-                            for (r, a) in acc.iter_mut().enumerate() {
-                                *a = _mm512_fmadd_ps(load(i, r), wv[r], *a);
-                            }
-                        }
-                    }
-                }
-                for (p, acc) in acc.iter().enumerate() {
-                    // Pixels ox .. ox + P <= ow of output row oy, one of `dst`'s rows.
-                    store(pixel + p, acc);
-                }
-                ox += P;
-            } else {
-                one(Window {
-                    pixel,
-                    y0,
-                    x0,
-                    ky,
-                    kx,
-                });
-                ox += 1;
-            }
-        }
-    }
+    pixel_rows!(g, src, k, c, ch, row, bias, load, store, one);
 }
