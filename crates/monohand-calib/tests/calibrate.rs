@@ -3,6 +3,8 @@
 //! `tests/data/make_opencv_fixtures.py`).
 #![allow(clippy::unwrap_used, clippy::expect_used)] // a failed test is a panic
 
+mod support;
+
 use monohand_calib::calibrate::{
     calibrate_camera, calibrate_rig, BoardView, CalibWarning, CalibrateOptions, CameraCalibration,
     DistortionModel,
@@ -13,8 +15,8 @@ use nalgebra::{Point2, Rotation3, Unit, Vector3};
 use rand::{rngs::StdRng, Rng, SeedableRng};
 use rand_distr::{Distribution, Normal};
 use serde_json::Value;
-use std::path::PathBuf;
 use std::time::Instant;
+use support::{angle_deg, f, fixture_views, junk_views, read_json};
 
 // ---------------------------------------------------------------- synthetic data
 
@@ -187,10 +189,6 @@ fn synthetic_rational_camera_is_recovered() {
 
 // ---------------------------------------------------------------- OpenCV's stereo sample
 
-fn data_dir() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/data")
-}
-
 /// The fixtures (corners and OpenCV's results); fails if OpenCV's photographs are missing
 /// from the shared data (the fixtures are made from them).
 fn opencv_fixtures() -> (Value, Value) {
@@ -202,29 +200,10 @@ fn opencv_fixtures() -> (Value, Value) {
             photos.display()
         );
     }
-    let read = |f: &str| -> Value {
-        serde_json::from_str(&std::fs::read_to_string(data_dir().join(f)).unwrap()).unwrap()
-    };
-    (read("opencv_corners.json"), read("opencv_reference.json"))
-}
-
-/// Camera `side`'s views per instant (`None` where OpenCV found no board).
-fn fixture_views(corners: &Value, side: &str) -> Vec<Option<BoardView>> {
-    corners[side]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|v| {
-            let c = v["corners"].as_array()?;
-            Some(BoardView {
-                name: v["name"].as_str().unwrap().to_string(),
-                corners: c
-                    .iter()
-                    .map(|p| Point2::new(p[0].as_f64().unwrap(), p[1].as_f64().unwrap()))
-                    .collect(),
-            })
-        })
-        .collect()
+    (
+        read_json("opencv_corners.json"),
+        read_json("opencv_reference.json"),
+    )
 }
 
 fn fixture_board(corners: &Value) -> Board {
@@ -234,10 +213,6 @@ fn fixture_board(corners: &Value) -> Board {
         corners["square_mm"].as_f64().unwrap(),
     )
     .unwrap()
-}
-
-fn f(v: &Value) -> f64 {
-    v.as_f64().unwrap()
 }
 
 /// Every view kept, as OpenCV does.
@@ -315,11 +290,6 @@ fn opencv_sample_each_camera_matches_opencv() {
         );
         assert!(drms.abs() < 0.05, "{side}: rms off");
     }
-}
-
-/// The angle of a rotation vector, degrees.
-fn angle_deg(r: &Rotation3<f64>) -> f64 {
-    r.angle().to_degrees()
 }
 
 #[test]
@@ -577,15 +547,7 @@ fn bad_input_is_an_error_not_a_panic() {
         "{e}"
     );
     // Garbage corners (random pixels): an error or a result, never a panic.
-    let mut rng = StdRng::seed_from_u64(5);
-    let junk: Vec<BoardView> = (0..5)
-        .map(|i| BoardView {
-            name: format!("junk {i}"),
-            corners: (0..54)
-                .map(|_| Point2::new(rng.random_range(0.0..1280.0), rng.random_range(0.0..720.0)))
-                .collect(),
-        })
-        .collect();
+    let junk = junk_views();
     let r = calibrate_camera(&board, &junk, 1280, 720, &o);
     println!("junk: {:?}", r.as_ref().map(|c| c.rms_px));
     // Rigs: mismatched shapes.

@@ -4,6 +4,8 @@
 //! (`tests/data/opencv_fisheye_reference.json`, made by `make_opencv_fisheye_reference.py`).
 #![allow(clippy::unwrap_used, clippy::expect_used)] // a failed test is a panic
 
+mod support;
+
 use monohand_calib::calibrate::{
     calibrate_camera, calibrate_rig, BoardView, CalibrateOptions, CameraCalibration,
     DistortionModel,
@@ -14,8 +16,8 @@ use nalgebra::{Point2, Rotation3, Unit, Vector3};
 use rand::{rngs::StdRng, Rng, SeedableRng};
 use rand_distr::{Distribution, Normal};
 use serde_json::Value;
-use std::path::PathBuf;
 use std::time::Instant;
+use support::{angle_deg, f, fixture_views, junk_views, read_json};
 
 const FISHEYE: CalibrateOptions = CalibrateOptions {
     model: DistortionModel::Fisheye,
@@ -270,11 +272,6 @@ fn border_error(cam: &Camera, truth: &Camera) -> (f64, usize) {
     (worst, lost)
 }
 
-/// The angle of a rotation, degrees.
-fn angle_deg(r: &Rotation3<f64>) -> f64 {
-    r.angle().to_degrees()
-}
-
 #[test]
 fn a_fisheye_rig_is_recovered() {
     let board = Board::new(9, 6, 25.0).unwrap();
@@ -380,15 +377,7 @@ fn bad_fisheye_input_is_an_error_not_a_panic() {
         "{e}"
     );
     // Garbage corners (random pixels): an error or a result, never a panic.
-    let mut rng = StdRng::seed_from_u64(5);
-    let junk: Vec<BoardView> = (0..5)
-        .map(|i| BoardView {
-            name: format!("junk {i}"),
-            corners: (0..54)
-                .map(|_| Point2::new(rng.random_range(0.0..1280.0), rng.random_range(0.0..720.0)))
-                .collect(),
-        })
-        .collect();
+    let junk = junk_views();
     let r = calibrate_camera(&board, &junk, 1280, 720, &FISHEYE);
     println!("junk: {:?}", r.as_ref().map(|c| c.rms_px));
     let mut nan = views.clone();
@@ -400,34 +389,6 @@ fn bad_fisheye_input_is_an_error_not_a_panic() {
 }
 
 // ---------------------------------------------------------------- OpenCV's stereo sample
-
-fn data_dir() -> PathBuf {
-    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/data")
-}
-
-fn read_json(name: &str) -> Value {
-    serde_json::from_str(&std::fs::read_to_string(data_dir().join(name)).unwrap()).unwrap()
-}
-
-fn f(v: &Value) -> f64 {
-    v.as_f64().unwrap()
-}
-
-/// Camera `side`'s views in `opencv_corners.json` (OpenCV's corners on the sample photos).
-fn fixture_views(corners: &Value, side: &str) -> Vec<Option<BoardView>> {
-    corners[side]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|v| {
-            let c = v["corners"].as_array()?;
-            Some(BoardView {
-                name: v["name"].as_str().unwrap().to_string(),
-                corners: c.iter().map(|p| Point2::new(f(&p[0]), f(&p[1]))).collect(),
-            })
-        })
-        .collect()
-}
 
 /// The largest pixel distance between where `a` and `b` image the rays of `a`'s pixels
 /// (every 8th pixel of the image): how far apart the two lenses are, whatever their

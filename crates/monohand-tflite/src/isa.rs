@@ -38,6 +38,19 @@ pub(crate) fn wasm_madd(
     }
 }
 
+/// The mask of the first `n` (<= 16) lanes of an AVX-512 vector of f32 or i32: the
+/// AVX-512 kernels' loads and stores of a tile's last, partial vector (f32 and int8 1x1
+/// convolutions, the int8 quantizer).
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+pub(crate) fn lanes(n: usize) -> u16 {
+    if n >= 16 {
+        0xffff
+    } else {
+        (1u16 << n) - 1
+    }
+}
+
 /// The first `lanes` floats at `p` (4 or more: a whole vector), the other lanes 0: the
 /// WebAssembly kernels' read of a tile's last, partial vector (a residual).
 ///

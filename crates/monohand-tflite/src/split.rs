@@ -491,6 +491,26 @@ pub(crate) mod testing {
         (r, own.jobs.load(Ordering::Relaxed))
     }
 
+    /// A small deterministic generator of values in [-1, 1) (the 1x1 convolutions' tests,
+    /// f32 and int8).
+    pub(crate) struct Lcg(pub(crate) u64);
+
+    impl Lcg {
+        /// The next value.
+        pub(crate) fn next(&mut self) -> f32 {
+            self.0 = self
+                .0
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((self.0 >> 40) as f32 / (1u64 << 24) as f32) * 2.0 - 1.0
+        }
+
+        /// `n` values times `scale`.
+        pub(crate) fn vec(&mut self, n: usize, scale: f32) -> Vec<f32> {
+            (0..n).map(|_| self.next() * scale).collect()
+        }
+    }
+
     /// How many values of `a` and `b` differ in their bits (the kernels' tests: a SIMD
     /// kernel against the portable loop it must equal).
     pub(crate) fn differing_bits(a: &[f32], b: &[f32]) -> usize {
