@@ -38,6 +38,10 @@ pub struct FittedFrame {
     pub cameras: Vec<Camera>,
     /// Where each of [`FittedFrame::cameras`] came from, and why, in the same order.
     pub camera_origins: Vec<CameraOrigin>,
+    /// The keypoint confidence below which the fit leaves a joint out (its
+    /// [`CostSettings::min_confidence`](monohand_core::fitting::CostSettings)): the
+    /// per-view errors of the records ([`crate::rig_check`]) count the same joints.
+    pub min_confidence: f64,
 }
 
 /// Why a frame's cameras could not be made: it gets no 3D ([`FittedFrame::error`]).
