@@ -146,6 +146,29 @@ pub struct HandSizeRecord {
     /// `measured` (by the views: `--hand-scale auto`, `--save-hand`), `file` (`--hand`),
     /// `ruler` (`--hand-length-mm`).
     pub source: String,
+    /// With several cameras, how each view agreed with the fitted hand, one entry per
+    /// camera in the order of the frame's `cameras` (absent with one camera or no 3D).
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub views: Option<Vec<ViewFitRecord>>,
+}
+
+/// How one view of a calibrated rig agreed with a hand's fit: the rig's check of itself (a
+/// camera bumped after its calibration, or a video out of sync, shows as a view whose
+/// error stays far above the others').
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct ViewFitRecord {
+    /// Whether the view saw the hand and took part in its fit.
+    pub used: bool,
+    /// Mean distance in pixels between the view's keypoints (those the fit uses: the
+    /// confident ones) and the recorded 3D joints projected through the view's camera;
+    /// absent when the view did not see the hand.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub reprojection_error_px: Option<f64>,
+    /// The mean of the same joints' `projected - observed` vectors `[du, dv]`, pixels: the
+    /// part of the error common to every joint (random keypoint errors cancel in it; a
+    /// turned camera or a late video shifts every joint alike).
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub offset_px: Option<[f64; 2]>,
 }
 
 /// A rotated rectangle in pixels.
@@ -189,6 +212,7 @@ impl HandRecord {
             world_mm: None,
             depth_px: None,
             hand_size: None,
+            views: None,
         }
     }
 
@@ -274,6 +298,11 @@ impl HandRecord {
         }
         if self.depth_px.is_some_and(|d| bad(d.iter())) {
             return Some("depth_px");
+        }
+        let views = self.views.iter().flatten();
+        let offsets = views.clone().filter_map(|v| v.offset_px.as_ref()).flatten();
+        if bad(views.filter_map(|v| v.reprojection_error_px.as_ref())) || bad(offsets) {
+            return Some("views");
         }
         None
     }

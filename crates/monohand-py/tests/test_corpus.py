@@ -65,9 +65,15 @@ def test_each_video_once_complete_or_partial_and_a_summary(videos, tmp_path):
         assert r["camera_source"] == "generic" and r["camera"]["width"] == 640
         assert '"offline": true' in r["settings"] and r["monohand_version"]
     assert status["missing.mkv"]["status"] == "failed"
-    assert "missing.mkv" in status["missing.mkv"]["reason"]
+    # Each failed file named once in its reason, and once on its progress line.
+    missing = status["missing.mkv"]["reason"]
+    assert missing.startswith(videos[5] + ": ") and missing.count("missing.mkv") == 1, missing
     cut = status["cut.mkv"]
     assert cut["status"] == "failed" and 0 < cut["frames"] < 16, cut
+    assert cut["reason"].startswith(videos[4] + ": ") and cut["reason"].count("cut.mkv") == 1, cut
+    for line in err.splitlines():
+        if "cut.mkv" in line or "missing.mkv" in line:
+            assert line.count(".mkv") == 1 and ": failed (" in line, line
     partial = pq.read_table(str(out / f"{cut['video_id']}.partial.parquet")).to_pylist()
     assert [r["frame"] for r in partial] == list(range(cut["frames"]))
     # A finished video's rows are `run --offline`'s records, frame by frame.

@@ -40,6 +40,10 @@ pub struct FittedFrame {
     pub camera_origins: Vec<CameraOrigin>,
     /// The hand size the frame was fitted with (`None` when it was not fitted).
     pub hand_size: Option<monohand_io::jsonl::HandSizeRecord>,
+    /// The keypoint confidence below which the fit leaves a joint out (its
+    /// [`CostSettings::min_confidence`](monohand_core::fitting::CostSettings)): the
+    /// per-view errors of the records ([`crate::rig_check`]) count the same joints.
+    pub min_confidence: f64,
 }
 
 /// Why a frame's cameras could not be made: it gets no 3D ([`FittedFrame::error`]).

@@ -338,6 +338,7 @@ impl<T> HandsFitter<T> {
             vision: frame,
             cameras: Vec::new(),
             camera_origins: Vec::new(),
+            min_confidence: self.settings.options.cost.min_confidence,
         };
         for (v, view) in out.vision.views.iter().enumerate().skip(1) {
             if let Err(e) = view {

@@ -40,6 +40,7 @@ mod lifter;
 mod notes;
 pub mod offline;
 pub mod records;
+pub mod rig_check;
 mod session;
 pub mod settings;
 mod shape;

@@ -3,6 +3,7 @@
 //! write the same numbers.
 
 use crate::frame::FittedFrame;
+use crate::rig_check::view_fits;
 use monohand_core::observation::Keypoints2d;
 use monohand_io::jsonl::{
     CameraRecord, FrameRecord, HandRecord, HeadRecord, OrientedBox, PoseRecord,
@@ -92,6 +93,7 @@ pub fn fitted_record(done: &FittedFrame, source: Option<String>) -> FrameRecord 
                     rec.reprojection_error_px = Some(fit.reprojection_error_px);
                     rec.converged = Some(fit.converged);
                     rec.iterations = Some(fit.iterations);
+                    rec.views = view_fits(done, hand);
                 }
             }
             // Only other views see it: no keypoints in the first view, the 3D in its frame.
@@ -100,6 +102,7 @@ pub fn fitted_record(done: &FittedFrame, source: Option<String>) -> FrameRecord 
                     let mut rec = HandRecord::from_fit(hand.side, &Keypoints2d::default(), fit);
                     rec.id = Some(hand.id);
                     rec.hand_size = done.hand_size.clone();
+                    rec.views = view_fits(done, hand);
                     record.hands.push(rec);
                 }
             }

@@ -180,7 +180,7 @@ pub(crate) fn run(args: &RunArgs) -> Result<Outcome> {
     };
     let report = engine.run(sources, &mut sinks, &terminal)?;
     terminal.progress.finish();
-    let outcome = summarise(&report)?;
+    let outcome = summarise(&report, &specs, &args.cameras)?;
     if let Some(path) = &args.save_hand {
         save_hand(path, &report)?;
     }
@@ -253,9 +253,23 @@ fn stall_timeout(args: &RunArgs) -> Result<std::time::Duration> {
     ))
 }
 
-/// Says what the run did, and how it ended.
-fn summarise(report: &RunReport) -> Result<Outcome> {
+/// Says what the run did (with several cameras, how each view agreed with the hands, and
+/// the files of a view that did not: `views`, `cameras`), and how it ended.
+fn summarise(report: &RunReport, views: &[String], cameras: &[PathBuf]) -> Result<Outcome> {
     crate::say(&report.summary());
+    if let Some(verdict) = report.rig.verdict() {
+        crate::say(&verdict.to_string());
+        for v in verdict.suspects() {
+            let (Some(view), Some(camera)) = (views.get(v), cameras.get(v)) else {
+                continue;
+            };
+            crate::say(&format!(
+                "view {}: --view {view} --camera {}: check its calibration and its sync",
+                v + 1,
+                camera.display()
+            ));
+        }
+    }
     if let Some(e) = &report.input_error {
         if report.frames == 0 {
             bail!("{e}");

@@ -169,7 +169,7 @@ pub fn probe_with(tools: &FfmpegTools, input: &VideoInput) -> IoResult<VideoInfo
         .stdin(Stdio::null())
         .output()
         .map_err(|e| spawn_error(&tools.ffprobe, e))?;
-    let stderr = String::from_utf8_lossy(&out.stderr).trim().to_string();
+    let stderr = super::reader::ffmpeg_said(&String::from_utf8_lossy(&out.stderr), &name);
     if !out.status.success() {
         return Err(IoError::Video {
             input: name,

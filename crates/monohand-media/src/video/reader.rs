@@ -71,6 +71,20 @@ pub(super) fn drain_stderr(pipe: impl Read + Send + 'static) -> JoinHandle<Strin
     drain_stderr_with(pipe, None)
 }
 
+/// What ffmpeg or ffprobe said about `input`, for an [`IoError::Video`] (whose message
+/// already starts with the input's name): its lines joined with `; `, each without the
+/// `input: ` that ffmpeg puts before them, so that the error names the file once.
+pub(super) fn ffmpeg_said(stderr: &str, input: &str) -> String {
+    let prefix = format!("{input}: ");
+    stderr
+        .lines()
+        .map(str::trim)
+        .filter(|l| !l.is_empty())
+        .map(|l| l.strip_prefix(prefix.as_str()).unwrap_or(l))
+        .collect::<Vec<_>>()
+        .join("; ")
+}
+
 /// [`drain_stderr`] for a decoder run with `-v level+info` and the `showinfo` filter
 /// ([`reader_args`]): each frame's `pts_time` goes to `times` (NaN when the frame has
 /// none), and only the lines of level error and worse are kept for messages.
@@ -486,9 +500,10 @@ impl VideoReader {
 
     fn error_with(&self, why: String, stderr: &str) -> IoError {
         let mut message = format!("{why} after {} good frame(s)", self.next_index);
-        if !stderr.is_empty() {
+        let said = ffmpeg_said(stderr, &self.name);
+        if !said.is_empty() {
             message.push_str(": ");
-            message.push_str(stderr);
+            message.push_str(&said);
         }
         IoError::Video {
             input: self.name.clone(),
@@ -558,6 +573,18 @@ pub fn reader_args(input: &VideoInput, features: FfmpegFeatures, pix_fmt: &str) 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn what_ffmpeg_said_names_the_input_once() {
+        let stderr = "[mov,mp4,m4a,3gp,3g2,mj2 @ 0x55c8bd6db4c0] moov atom not found\n\
+                      dir/bad.mp4: Invalid data found when processing input\n";
+        assert_eq!(
+            ffmpeg_said(stderr, "dir/bad.mp4"),
+            "[mov,mp4,m4a,3gp,3g2,mj2 @ 0x55c8bd6db4c0] moov atom not found; \
+             Invalid data found when processing input"
+        );
+        assert_eq!(ffmpeg_said(" \n", "x.mp4"), "");
+    }
 
     #[test]
     fn input_strings_map_to_ffmpeg_arguments() {

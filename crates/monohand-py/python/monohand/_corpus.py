@@ -38,6 +38,13 @@ class _WriteFailed(Exception):
     """Writing the video's file failed (its cause: the OSError)."""
 
 
+def reason(path: str, error: BaseException) -> str:
+    """Why the video at `path` failed, naming the file once: monohand's errors about a
+    file begin with its name already, others get it put before them."""
+    text = str(error)
+    return text if path in text else f"{path}: {text}"
+
+
 def video_id(path: str) -> str:
     """A stable id of a video file: its absolute path, size and modification time."""
     st = os.stat(path)
@@ -172,7 +179,7 @@ def track_one(
                             flush()
             row["status"] = "done"
         except (monohand.MonohandError, ValueError, OSError) as e:
-            row["reason"] = str(e) if path in str(e) else f"{path}: {e}"
+            row["reason"] = reason(path, e)
         flush()
         if reprojection_n:
             row["mean_reprojection_px"] = reprojection_sum / reprojection_n

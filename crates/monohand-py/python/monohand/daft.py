@@ -165,6 +165,8 @@ class _VideoTracker:
     @daft.method(return_dtype=DataType.list(FRAME_DTYPE))
     def track(self, path: str, intrinsics: Optional[Dict[str, Any]] = None) -> List[Dict[str, Any]]:
         """Every frame of the video at ``path``, in order; or one error row."""
+        from monohand import _corpus
+
         frames: List[Dict[str, Any]] = []
         try:
             camera = _camera(intrinsics)
@@ -182,7 +184,7 @@ class _VideoTracker:
                     )
         except (monohand.MonohandError, ValueError, OSError) as e:
             # Frames already tracked stay; the reason ends the video.
-            frames.append({"frame": None, "time_s": None, "hands": [], "error": f"{path}: {e}"})
+            frames.append({"frame": None, "time_s": None, "hands": [], "error": _corpus.reason(path, e)})
         if not frames:
             frames.append({"frame": None, "time_s": None, "hands": [], "error": f"{path}: no frames"})
         return frames
@@ -363,7 +365,10 @@ def track_corpus(
             if progress:
                 spent = time.monotonic() - start
                 left = spent / k * (len(todo) - k)
-                what = f"{row['frames']} frames" if row["status"] == "done" else row.get("reason")
+                # The line names the video already: its reason without the name.
+                reason = row.get("reason") or ""
+                reason = reason[len(row["path"]) + 2 :] if reason.startswith(f"{row['path']}: ") else reason
+                what = f"{row['frames']} frames" if row["status"] == "done" else reason
                 print(
                     f"monohand: [{k}/{len(todo)}] {row['path']}: {row['status']} ({what}); "
                     f"{spent:.0f} s spent, about {left:.0f} s left",

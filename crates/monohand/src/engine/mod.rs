@@ -135,11 +135,15 @@ pub struct RunReport {
     pub measured_hand: Option<monohand_io::hand::HandFile>,
     /// The hand size the fits used at the end, and where it came from.
     pub hand_size: Option<monohand_io::jsonl::HandSizeRecord>,
+    /// With several cameras: each view's agreement with the fitted hands
+    /// ([`crate::rig_check`]; [`RunReport::rig_summary`]).
+    pub rig: crate::rig_check::RigCheck,
 }
 
 impl RunReport {
     fn add(&mut self, rec: &FrameRecord) {
         self.frames += 1;
+        self.rig.add(rec);
         if rec.error.is_some() {
             self.unreadable += 1;
         }
@@ -158,6 +162,13 @@ impl RunReport {
     /// The mean reprojection error of the hands with 3D, pixels.
     pub fn mean_reprojection_px(&self) -> Option<f64> {
         (self.hands_3d > 0).then(|| self.reprojection_sum_px / self.hands_3d as f64)
+    }
+
+    /// With several cameras, each view's median reprojection error and the views whose
+    /// error stays far above the others' ([`crate::rig_check::RigCheck::verdict`]);
+    /// `None` when no hand was fitted from several views.
+    pub fn rig_summary(&self) -> Option<String> {
+        self.rig.verdict().map(|v| v.to_string())
     }
 
     /// Whether frames were written and none of them could be read.
