@@ -4,6 +4,8 @@
 //! whose file was turned by 2 degrees and a video 3 frames ahead of the others, and
 //! nothing on the unchanged rig.
 
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a failed test is a panic
+
 mod common;
 
 use common::{monohand, networks_ready, ok, p};

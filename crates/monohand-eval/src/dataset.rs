@@ -97,7 +97,7 @@ impl Frame {
 }
 
 /// Joints of the palm: the wrist and the base of each finger (the thumb's CMC).
-const PALM_JOINTS: [usize; 6] = [0, 1, 5, 9, 13, 17];
+pub const PALM_JOINTS: [usize; 6] = [0, 1, 5, 9, 13, 17];
 
 /// Whether 2D labels show a hand's palm: at least 3 of its 6 joints ([`PALM_JOINTS`])
 /// labelled. A view that shows only fingers entering its edge does not see the hand as a

@@ -133,6 +133,10 @@ pub struct HandRecord {
     /// The hand size the fit used, with the 3D.
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub hand_size: Option<HandSizeRecord>,
+    /// With several cameras, how each view agreed with the fitted hand, one entry per
+    /// camera in the order of the frame's `cameras` (absent with one camera or no 3D).
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub views: Option<Vec<ViewFitRecord>>,
 }
 
 /// The hand size a fit used ([`HandRecord::hand_size`]).
@@ -146,10 +150,6 @@ pub struct HandSizeRecord {
     /// `measured` (by the views: `--hand-scale auto`, `--save-hand`), `file` (`--hand`),
     /// `ruler` (`--hand-length-mm`).
     pub source: String,
-    /// With several cameras, how each view agreed with the fitted hand, one entry per
-    /// camera in the order of the frame's `cameras` (absent with one camera or no 3D).
-    #[serde(skip_serializing_if = "Option::is_none", default)]
-    pub views: Option<Vec<ViewFitRecord>>,
 }
 
 /// How one view of a calibrated rig agreed with a hand's fit: the rig's check of itself (a

@@ -150,9 +150,7 @@ pub fn load_hand_graph_cnn(dir: impl AsRef<Path>) -> EvalResult<Dataset> {
         return Err(EvalError::dataset(&path, "no frames"));
     }
     Ok(Dataset {
-        name: dir
-            .file_name()
-            .map_or_else(|| SEQUENCE.to_string(), |n| n.to_string_lossy().to_string()),
+        name: super::folder_name(dir, SEQUENCE),
         source: dir.to_path_buf(),
         root: RootJoint::Wrist,
         frames,

@@ -46,3 +46,9 @@ impl Dataset {
         ))
     }
 }
+
+/// A dataset's name: its folder's, else `fallback`.
+fn folder_name(dir: &Path, fallback: &str) -> String {
+    dir.file_name()
+        .map_or_else(|| fallback.to_string(), |n| n.to_string_lossy().to_string())
+}

@@ -172,9 +172,7 @@ pub fn load_table_rig(dir: impl AsRef<Path>) -> EvalResult<Dataset> {
         return Err(EvalError::dataset(dir.join(REFERENCE), "no frames"));
     }
     Ok(Dataset {
-        name: dir
-            .file_name()
-            .map_or_else(|| SEQUENCE.to_string(), |n| n.to_string_lossy().to_string()),
+        name: super::folder_name(dir, SEQUENCE),
         source: dir.to_path_buf(),
         root: RootJoint::Wrist,
         frames,
