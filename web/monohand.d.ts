@@ -76,6 +76,8 @@ export interface HandRecord {
   world_mm?: Joints<Vec3>;
   /** The network's depth of each joint relative to the wrist, image pixels, negative towards the camera. */
   depth_px?: Joints<number>;
+  /** The hand size the fit used (with the 3D): the model's wrist-to-middle-fingertip length, the factor on the default adult hand, and where it came from ('default', 'file' for the `hand` option, 'ruler' for `handLengthMm`). */
+  hand_size?: { length_mm: number; scale: number; source: 'default' | 'scale' | 'measured' | 'file' | 'ruler' };
 }
 
 /** One frame's record (docs/output-format.md, "Frame object"). */
