@@ -104,12 +104,11 @@ fn stb_stereo_pair_mono_and_stereo_against_the_labels() {
         p(&rc),
         "-o",
         p(&stereo_out),
-        paper[0],
-        paper[1],
-        paper[2],
-        paper[3],
-        paper[4],
-    ]));
+    ]
+    .iter()
+    .chain(&paper)
+    .copied()
+    .collect::<Vec<_>>()));
     let (stereo, stereo_axis) = stb_error(&read_jsonl(&stereo_out).unwrap(), &truth);
     eprintln!(
         "STB frame 0, detected keypoints, default hand model: mono {mono:.1} mm (|x|,|y|,|z| = {mono_axis:.1?}), stereo {stereo:.1} mm ({stereo_axis:.1?})"
