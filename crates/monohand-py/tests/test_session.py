@@ -343,7 +343,8 @@ def test_a_hand_size_sizes_the_session_as_the_cli_and_is_saved_and_loaded(tmp_pa
             if r.get("joints_3d_mm") is not None:
                 fitted += 1
                 assert d["hand_size"] == r["hand_size"]
-                assert r["hand_size"]["source"] == "file" and r["hand_size"]["scale"] == hand.scale
+                assert r["hand_size"]["source"] == "file"
+                assert r["hand_size"]["scale"] == pytest.approx(hand.scale, rel=1e-12)
     assert fitted >= 38, fitted
     # The same hand without the file: the ruler's, said as such; the default, as such.
     with monohand.Session(None, hand=ruler) as s, monohand.read_video(str(moving_video)) as video:
