@@ -92,23 +92,25 @@ fn stb_stereo_pair_mono_and_stereo_against_the_labels() {
     let (mono, mono_axis) = stb_error(&read_jsonl(&mono_out).unwrap(), &truth);
 
     let stereo_out = dir.path().join("stereo.jsonl");
-    ok(&monohand(&[
-        "run",
-        "--view",
-        p(&left_png),
-        "--camera",
-        p(&lc),
-        "--view",
-        p(&images.join("BB_right_0.png")),
-        "--camera",
-        p(&rc),
-        "-o",
-        p(&stereo_out),
-    ]
-    .iter()
-    .chain(&paper)
-    .copied()
-    .collect::<Vec<_>>()));
+    ok(&monohand(
+        &[
+            "run",
+            "--view",
+            p(&left_png),
+            "--camera",
+            p(&lc),
+            "--view",
+            p(&images.join("BB_right_0.png")),
+            "--camera",
+            p(&rc),
+            "-o",
+            p(&stereo_out),
+        ]
+        .iter()
+        .chain(&paper)
+        .copied()
+        .collect::<Vec<_>>(),
+    ));
     let (stereo, stereo_axis) = stb_error(&read_jsonl(&stereo_out).unwrap(), &truth);
     eprintln!(
         "STB frame 0, detected keypoints, default hand model: mono {mono:.1} mm (|x|,|y|,|z| = {mono_axis:.1?}), stereo {stereo:.1} mm ({stereo_axis:.1?})"
