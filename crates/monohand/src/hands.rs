@@ -164,14 +164,13 @@ impl<T> HandsFitter<T> {
     /// where it came from.
     pub fn hand_size(&self) -> HandSizeRecord {
         let sk = self.prototypes[1].fitter().skeleton();
-        let default = HandSkeleton::default_for(HandSide::Right).hand_length();
         let source = match self.shape.scale {
             Some(_) => crate::HandSizeSource::Measured,
             None => self.settings.hand_size,
         };
         HandSizeRecord {
             length_mm: sk.hand_length(),
-            scale: sk.hand_length() / default,
+            scale: crate::shape::template_scale(sk, HandSide::Right),
             source: source.as_str().to_string(),
         }
     }

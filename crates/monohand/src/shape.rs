@@ -283,7 +283,7 @@ fn measured_hand(
 /// The scale of `template` relative to the default hand of `side` (the measurement is
 /// relative to the skeleton the run started from, which `--hand-scale` or a hand file may
 /// have sized).
-fn template_scale(template: &HandSkeleton, side: HandSide) -> f64 {
+pub(crate) fn template_scale(template: &HandSkeleton, side: HandSide) -> f64 {
     template.hand_length() / HandSkeleton::default_for(side).hand_length()
 }
 
