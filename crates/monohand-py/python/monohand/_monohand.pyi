@@ -165,7 +165,12 @@ class Session:
         mirror_pass: bool = True,
         rectify_crops: str = "off",
         precision: str = "f32",
-    ) -> None: ...
+        rerun: Optional[Union[str, PathLike[str]]] = None,
+        rerun_image_scale: float = 1.0,
+    ) -> None:
+        """``rerun``: a Rerun recording (.rrd) of every frame the session processes or
+        tracks (cameras, images scaled by ``rerun_image_scale``, 2D keypoints, 3D hands,
+        each hand's distance), complete when the session is closed."""
     def process(self, image: Union[Image, List[Image]], time_s: Optional[float] = None) -> List[Hand]:
         """One frame (default time: 30 fps); its hands."""
     def process_dict(self, image: Union[Image, List[Image]], time_s: Optional[float] = None) -> Dict[str, Any]:
