@@ -7,11 +7,12 @@ cd "$(dirname "$0")/.."
 
 # The Rust tests in release, like the CLI and the wheel below: the dependencies are
 # compiled once for all three (one profile, scripts/test-release.toml, and one set of
-# features, crates/monohand-workspace-hack).
-rust_tests=(cargo test --workspace --release --config scripts/test-release.toml)
+# features, crates/monohand-workspace-hack). The CLI's `rerun` feature (`run --rerun`,
+# off in a plain build: docs/visualisation.md) is on here, as in the wheel.
+rust_tests=(cargo test --workspace --release --config scripts/test-release.toml --features monohand-cli/rerun)
 # The CLI the Python tests run (release: the dependencies are those the tests built, tract
-# is not compiled again).
-cli_build=(cargo build --release -p monohand-cli)
+# is not compiled again), with Rerun recordings.
+cli_build=(cargo build --release -p monohand-cli --features rerun)
 
 # TEST_BUILD_ONLY=1: compile the Rust tests and the CLI, run nothing (.ci/run does that in
 # the background while it lints, then runs this script whole, which finds them built).

@@ -3,7 +3,6 @@
 //! says how each view agreed with each fitted hand, and the run's summary names a camera
 //! whose file was turned by 2 degrees and a video 3 frames ahead of the others, and
 //! nothing on the unchanged rig.
-
 #![allow(clippy::unwrap_used, clippy::expect_used)] // a failed test is a panic
 
 mod common;

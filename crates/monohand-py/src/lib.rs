@@ -725,13 +725,64 @@ impl PyModels {
 /// image size; the 3D is then only as absolute as that guess). `hand_scale` sizes the
 /// average adult hand (0.9 for a small hand; the absolute depth scales with it). Use it as
 /// a context manager,
-/// and call `process(image, time_s)` once per frame in order.
+/// and call `process(image, time_s)` once per frame in order. `rerun="hands.rrd"` writes
+/// every frame of the session (`process`'s and `track`'s) into a Rerun recording, as
+/// `monohand run --rerun` does (images scaled by `rerun_image_scale`); it is complete once
+/// the session is closed.
 #[pyclass(module = "monohand._monohand", name = "Session")]
 struct PySession {
     inner: Option<monohand::Session>,
     next_time: f64,
     /// The same pipeline, cameras and settings as the engine `track` runs.
     engine: Arc<Engine>,
+    /// The Rerun recording every frame also goes to.
+    rerun: Option<SharedSink>,
+}
+
+/// A sink that several runs of the session write to in turn (its Rerun recording).
+#[derive(Clone)]
+struct SharedSink(Arc<Mutex<Box<dyn Sink + Send>>>);
+
+impl SharedSink {
+    fn lock(
+        &self,
+    ) -> Result<std::sync::MutexGuard<'_, Box<dyn Sink + Send>>, monohand::engine::SinkError> {
+        self.0
+            .lock()
+            .map_err(|_| "the recording failed in another thread".into())
+    }
+}
+
+impl Sink for SharedSink {
+    fn wants_images(&self) -> bool {
+        true
+    }
+
+    fn wants_every_view(&self) -> bool {
+        true
+    }
+
+    fn write(&mut self, frame: &Output<'_>) -> Result<(), monohand::engine::SinkError> {
+        self.lock()?.write(frame)
+    }
+}
+
+/// The Rerun recording of `Session(rerun=...)`.
+#[cfg(feature = "rerun")]
+fn rerun_sink(path: &std::path::Path, views: usize, scale: f64) -> PyResult<SharedSink> {
+    let names = (1..=views.max(1)).map(|v| format!("view{v}")).collect();
+    let sink = monohand::engine::RerunSink::create(path, names, scale)
+        .map_err(|e| PyValueError::new_err(format!("rerun: {}: {e}", path.display())))?;
+    Ok(SharedSink(Arc::new(Mutex::new(Box::new(sink)))))
+}
+
+/// Without the `rerun` feature: refused, saying why.
+#[cfg(not(feature = "rerun"))]
+fn rerun_sink(path: &std::path::Path, _views: usize, _scale: f64) -> PyResult<SharedSink> {
+    Err(PyValueError::new_err(format!(
+        "rerun: {}: this build of monohand has no Rerun recordings (the crate's `rerun` feature)",
+        path.display()
+    )))
 }
 
 impl PySession {
@@ -745,7 +796,7 @@ impl PySession {
 #[pymethods]
 impl PySession {
     #[new]
-    #[pyo3(signature = (cameras=None, hands=2, tracking=true, model_dir=None, smoothing=false, heads=false, detect_every=10, models=None, hand_scale=None, mirror_pass=true, rectify_crops="off", precision="f32", hand=None))]
+    #[pyo3(signature = (cameras=None, hands=2, tracking=true, model_dir=None, smoothing=false, heads=false, detect_every=10, models=None, hand_scale=None, mirror_pass=true, rectify_crops="off", precision="f32", hand=None, rerun=None, rerun_image_scale=1.0))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -762,9 +813,14 @@ impl PySession {
         rectify_crops: &str,
         precision: &str,
         hand: Option<&Bound<'_, PyAny>>,
+        rerun: Option<std::path::PathBuf>,
+        rerun_image_scale: f64,
     ) -> PyResult<PySession> {
         let (skeletons, hand_size) = sized_hands(hand, hand_scale)?;
         let cameras = to_cameras(cameras)?;
+        let rerun = rerun
+            .map(|p| rerun_sink(&p, cameras.len(), rerun_image_scale))
+            .transpose()?;
         let precision = precision_arg(precision)?;
         let rectify = rectify_crops
             .parse()
@@ -819,6 +875,7 @@ impl PySession {
             inner: Some(inner),
             next_time: 0.0,
             engine: Arc::new(engine),
+            rerun,
         })
     }
 
@@ -852,10 +909,12 @@ impl PySession {
         let (tx, rx) = sync_channel::<FrameRecord>(8);
         let watch = Arc::new(Watch::default());
         let observer = Arc::clone(&watch);
+        let rerun = self.rerun.clone();
         let worker = std::thread::Builder::new()
             .name("monohand-track".into())
             .spawn(move || {
                 let mut sinks: Vec<Box<dyn Sink>> = vec![Box::new(ChannelSink(tx))];
+                sinks.extend(rerun.map(|r| Box::new(r) as Box<dyn Sink>));
                 engine.run(vec![source], &mut sinks, &*observer)
             })
             .map_err(|e| MonohandError::new_err(format!("could not start a thread: {e}")))?;
@@ -915,9 +974,15 @@ impl PySession {
             .collect())
     }
 
-    /// Frees the networks; later calls raise.
-    fn close(&mut self) {
+    /// Frees the networks and completes the Rerun recording; later calls raise.
+    fn close(&mut self) -> PyResult<()> {
         self.inner = None;
+        if let Some(r) = self.rerun.take() {
+            r.lock()
+                .and_then(|mut s| s.finish())
+                .map_err(|e| MonohandError::new_err(format!("rerun: {e}")))?;
+        }
+        Ok(())
     }
 
     fn __enter__(slf: Py<Self>) -> Py<Self> {
@@ -925,9 +990,9 @@ impl PySession {
     }
 
     #[pyo3(signature = (*_args))]
-    fn __exit__(&mut self, _args: &Bound<'_, pyo3::types::PyTuple>) -> bool {
-        self.close();
-        false
+    fn __exit__(&mut self, _args: &Bound<'_, pyo3::types::PyTuple>) -> PyResult<bool> {
+        self.close()?;
+        Ok(false)
     }
 }
 
@@ -961,6 +1026,22 @@ impl PySession {
         record.time_s = Some(t);
         if let Some(e) = record.error.take() {
             return Err(MonohandError::new_err(e));
+        }
+        if let Some(rerun) = &self.rerun {
+            let mut views = images.into_iter().map(Some);
+            let first = views.next().flatten();
+            let others: Vec<Option<monohand::RgbImage>> = views.collect();
+            let output = Output {
+                record: &record,
+                image: first.as_ref(),
+                cameras: &frame.cameras,
+                other_images: &others,
+                fitted: Some(&frame),
+            };
+            rerun
+                .lock()
+                .and_then(|mut s| s.write(&output))
+                .map_err(|e| MonohandError::new_err(format!("rerun: {e}")))?;
         }
         Ok(record)
     }

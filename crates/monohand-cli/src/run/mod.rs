@@ -31,7 +31,7 @@ pub(crate) struct RunArgs {
     pub views: Vec<String>,
     /// A folder of videos and images, each run into --output-dir as `<file name>.jsonl`,
     /// complete or absent; a rerun skips the complete ones (docs/pipeline.md).
-    #[arg(long, value_name = "DIR", requires = "output_dir", conflicts_with_all = ["input", "views", "overlay", "gltf", "show", "format", "output"])]
+    #[arg(long, value_name = "DIR", requires = "output_dir", conflicts_with_all = ["input", "views", "overlay", "gltf", "rerun", "show", "format", "output"])]
     pub each: Option<PathBuf>,
     /// Where --each writes.
     #[arg(long, value_name = "OUT", requires = "each")]
@@ -67,6 +67,15 @@ pub(crate) struct RunArgs {
     /// Write the 3D hands as an animated glTF binary (.glb).
     #[arg(long, value_name = "OUT.glb")]
     pub gltf: Option<PathBuf>,
+    /// Write a Rerun recording (.rrd; open it with `rerun FILE`): every camera's
+    /// intrinsics, pose and image, the 2D keypoints, the 3D hands and each hand's distance
+    /// over time (docs/visualisation.md). Needs the CLI built with `--features rerun`.
+    #[arg(long, value_name = "OUT.rrd")]
+    pub rerun: Option<PathBuf>,
+    /// Scale the images stored in --rerun by this factor in (0, 1] (0.5: a quarter of the
+    /// pixels).
+    #[arg(long, value_name = "S", default_value_t = 1.0, requires = "rerun")]
+    pub rerun_image_scale: f64,
     /// How --gltf draws each hand.
     #[arg(long, value_enum, value_name = "STYLE", default_value = "skinned")]
     pub gltf_hand: GltfStyle,

@@ -30,7 +30,7 @@ pub(crate) enum GltfStyle {
     Joints,
 }
 
-/// The sinks of a run, in the order they are written: poses, glTF, window, overlay
+/// The sinks of a run, in the order they are written: poses, glTF, Rerun, window, overlay
 /// (nothing is created if an argument is wrong). `single_image`: the input is one image
 /// (the only case an image-file overlay takes, and a window then stays open at the end).
 pub(crate) fn create(
@@ -62,6 +62,7 @@ pub(crate) fn create(
             .map_err(|e| anyhow!("--overlay {e}"))?,
         ),
     };
+    let rerun = args.rerun.as_ref().map(|p| rerun(args, p)).transpose()?;
     let poses: Box<dyn Sink> = match args.format {
         OutputFormat::Jsonl => Box::new(JsonlSink::open(&args.output)?),
         OutputFormat::Csv => Box::new(CsvSink::open(&args.output)?),
@@ -92,6 +93,9 @@ pub(crate) fn create(
         let gltf = GltfSink::create(p, hand).map_err(|e| anyhow!("--gltf {}: {e}", p.display()))?;
         sinks.push(Box::new(gltf));
     }
+    if let Some(r) = rerun {
+        sinks.push(r);
+    }
     if let Some(show) = show {
         sinks.push(Box::new(show));
     }
@@ -99,4 +103,50 @@ pub(crate) fn create(
         sinks.push(Box::new(o));
     }
     Ok(sinks)
+}
+
+/// Each view's name in a Rerun recording: its camera file's stem (else its input's), made
+/// unique with the view's number.
+fn view_names(args: &RunArgs) -> Vec<String> {
+    let inputs: Vec<&str> = args
+        .input
+        .iter()
+        .chain(&args.views)
+        .map(String::as_str)
+        .collect();
+    let stem = |p: &Path| p.file_stem().map(|s| s.to_string_lossy().into_owned());
+    let mut names: Vec<String> = (0..inputs.len().max(args.cameras.len()))
+        .map(|v| {
+            let from_camera = args.cameras.get(v).and_then(|c| stem(c));
+            let from_input = inputs.get(v).and_then(|i| stem(Path::new(i)));
+            from_camera
+                .or(from_input)
+                .unwrap_or_else(|| format!("view{}", v + 1))
+        })
+        .collect();
+    for v in 0..names.len() {
+        if names[..v].contains(&names[v]) || names[v + 1..].contains(&names[v]) {
+            names[v] = format!("{}_{}", names[v], v + 1);
+        }
+    }
+    names
+}
+
+/// The Rerun sink of `--rerun`.
+#[cfg(feature = "rerun")]
+fn rerun(args: &RunArgs, path: &Path) -> Result<Box<dyn Sink>> {
+    let sink = monohand::engine::RerunSink::create(path, view_names(args), args.rerun_image_scale)
+        .map_err(|e| anyhow!("--rerun {}: {e}", path.display()))?;
+    Ok(Box::new(sink))
+}
+
+/// Without the `rerun` feature, `--rerun` says how to get it.
+#[cfg(not(feature = "rerun"))]
+fn rerun(args: &RunArgs, path: &Path) -> Result<Box<dyn Sink>> {
+    let _ = view_names(args);
+    anyhow::bail!(
+        "--rerun {}: this monohand was built without Rerun recordings; build it with \
+         `cargo build --release -p monohand-cli --features rerun` (docs/visualisation.md)",
+        path.display()
+    )
 }

@@ -190,7 +190,13 @@ class Session:
         rectify_crops: str = "off",
         precision: str = "f32",
         hand: Optional[Union[HandSize, str, PathLike[str]]] = None,
-    ) -> None: ...
+        rerun: Optional[Union[str, PathLike[str]]] = None,
+        rerun_image_scale: float = 1.0,
+    ) -> None:
+        """``hand``: the person's hand size (a ``HandSize`` or a hand file's path).
+        ``rerun``: a Rerun recording (.rrd) of every frame the session processes or
+        tracks (cameras, images scaled by ``rerun_image_scale``, 2D keypoints, 3D hands,
+        each hand's distance), complete when the session is closed."""
     def process(self, image: Union[Image, List[Image]], time_s: Optional[float] = None) -> List[Hand]:
         """One frame (default time: 30 fps); its hands."""
     def process_dict(self, image: Union[Image, List[Image]], time_s: Optional[float] = None) -> Dict[str, Any]:

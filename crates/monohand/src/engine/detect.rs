@@ -65,6 +65,8 @@ pub fn detect_images(
                     record,
                     image: None,
                     cameras: &[],
+                    other_images: &[],
+                    fitted: None,
                 })?;
             }
         }

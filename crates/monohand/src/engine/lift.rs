@@ -233,6 +233,8 @@ pub fn lift_keypoints(
             record: &record,
             image: None,
             cameras: &[],
+            other_images: &[],
+            fitted: None,
         });
         if result.is_err() {
             break;

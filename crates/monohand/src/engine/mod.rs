@@ -26,6 +26,8 @@ mod source;
 pub use sinks::{
     CsvSink, GltfSink, JsonlSink, OpenPoseSink, Output, OverlaySink, Sink, SinkError, WindowSink,
 };
+#[cfg(feature = "rerun")]
+pub use sinks::{RerunError, RerunSink};
 pub use source::{
     chain, stated_camera, CallerFrames, FrameSource, ImageFiles, Input, InputError, SourceError,
     SourceFrame, VideoSource,
@@ -252,7 +254,18 @@ struct Extra {
     source: Option<String>,
     is_video: bool,
     image: Option<RgbImage>,
+    /// The other views' images, when a sink wants every view's.
+    others: Vec<Option<RgbImage>>,
     decode_ms: f64,
+}
+
+/// Which images the sinks want kept beside each frame.
+#[derive(Debug, Clone, Copy)]
+struct Keep {
+    /// The first view's ([`Sink::wants_images`]).
+    first: bool,
+    /// Every view's ([`Sink::wants_every_view`]).
+    all: bool,
 }
 
 impl Engine {
@@ -359,13 +372,17 @@ impl Engine {
         let tracking = self.settings.tracking();
         let mut fit = HandsFitter::new(self.cameras.clone(), &self.settings)
             .map_err(crate::SessionError::from)?;
-        let keep_image = sinks.iter().any(|s| s.wants_images());
+        let all = sinks.iter().any(|s| s.wants_every_view());
+        let keep = Keep {
+            first: all || sinks.iter().any(|s| s.wants_images()),
+            all,
+        };
         let mut out = Writer::new(sinks, observer);
         let result = if tracking || sources.len() > 1 {
-            self.run_threaded(sources, &mut fit, &mut out, keep_image)
+            self.run_threaded(sources, &mut fit, &mut out, keep)
         } else {
             let source = sources.swap_remove(0);
-            self.run_independent(source, &mut fit, &mut out, keep_image)
+            self.run_independent(source, &mut fit, &mut out, keep.first)
         };
         let mut report = out.end(result)?;
         report.measured_hand = fit.measured_hand().cloned();
@@ -379,7 +396,7 @@ impl Engine {
         sources: Vec<Box<dyn FrameSource>>,
         fit: &mut HandsFitter<Extra>,
         out: &mut Writer<'_, '_>,
-        keep_image: bool,
+        keep: Keep,
     ) -> EngineResult<()> {
         let max_frames = self.settings.max_frames();
         let tracking = self.settings.tracking();
@@ -434,8 +451,13 @@ impl Engine {
                         .collect();
                     let mut f = stage.process(raw.index, raw.timestamp_s, &images);
                     f.focal = raw.focal;
-                    let first = raw.images.into_iter().next().and_then(Result::ok);
-                    let image = match (keep_image, first, &recycler) {
+                    let mut images = raw.images.into_iter();
+                    let first = images.next().and_then(Result::ok);
+                    let others = match keep.all {
+                        true => images.map(Result::ok).collect(),
+                        false => Vec::new(),
+                    };
+                    let image = match (keep.first, first, &recycler) {
                         (true, image, _) => image,
                         (false, Some(image), Some(r)) => {
                             r.recycle(image);
@@ -447,6 +469,7 @@ impl Engine {
                         source: raw.source,
                         is_video: tracking,
                         image,
+                        others,
                         decode_ms: raw.decode_ms,
                     };
                     if vis_tx.send((f, extra)).is_err() {
@@ -537,6 +560,7 @@ impl Engine {
                     source: raw.source,
                     is_video: false,
                     image: image.filter(|_| keep_image),
+                    others: Vec::new(),
                     decode_ms: raw.decode_ms,
                 };
                 let done = fit.push(f, extra);
@@ -611,6 +635,8 @@ impl<'s, 'o> Writer<'s, 'o> {
                 record: &record,
                 image: extra.image.as_ref(),
                 cameras: &f.cameras,
+                other_images: &extra.others,
+                fitted: Some(&f),
             })?;
         }
         Ok(())

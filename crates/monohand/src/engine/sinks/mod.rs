@@ -6,6 +6,8 @@ mod gltf;
 mod jsonl;
 mod openpose;
 mod overlay;
+#[cfg(feature = "rerun")]
+mod rerun;
 mod window;
 
 pub use self::csv::CsvSink;
@@ -13,8 +15,11 @@ pub use gltf::GltfSink;
 pub use jsonl::JsonlSink;
 pub use openpose::OpenPoseSink;
 pub use overlay::{has_extension, OverlaySink, IMAGE_EXTENSIONS, VIDEO_EXTENSIONS};
+#[cfg(feature = "rerun")]
+pub use rerun::{RerunError, RerunSink};
 pub use window::WindowSink;
 
+use crate::frame::FittedFrame;
 use monohand_core::camera::Camera;
 use monohand_io::jsonl::FrameRecord;
 use monohand_vision::RgbImage;
@@ -33,6 +38,12 @@ pub struct Output<'a> {
     /// draw with a generic camera for the image size then). Sinks that draw use these, so
     /// that the drawing matches the fit.
     pub cameras: &'a [Camera],
+    /// The images of the other views (the second first), when a sink asked for every
+    /// view's ([`Sink::wants_every_view`]; `None`: that view's image could not be read).
+    pub other_images: &'a [Option<RgbImage>],
+    /// The frame as the fit left it, with every view's detections (`None` for records
+    /// not made by the fit: `detect`, `lift`).
+    pub fitted: Option<&'a FittedFrame>,
 }
 
 /// An output of the engine: receives every frame in order, then `finish` once.
@@ -43,6 +54,12 @@ pub trait Sink {
     /// Whether this sink needs the frames' pixels (the engine then keeps the first view's
     /// image for it).
     fn wants_images(&self) -> bool {
+        false
+    }
+
+    /// Whether this sink needs every view's pixels (the engine then keeps them all, in
+    /// [`Output::other_images`] beside the first view's).
+    fn wants_every_view(&self) -> bool {
         false
     }
 
