@@ -82,6 +82,7 @@ fn plan_of(args: &EvalArgs, modes: Vec<ViewMode>) -> Result<Plan> {
                     .then_some(DEPTH_FILTER),
                 ..FitSettings::default()
             },
+            fitted_crops: !args.no_fitted_crops,
         },
     })
 }
@@ -127,6 +128,10 @@ pub(crate) struct EvalArgs {
     /// Full stage: without `run`'s depth filter (docs/accuracy.md).
     #[arg(long)]
     pub no_depth_filter: bool,
+    /// Full stage, several cameras: each view finds its hands on its own, as `run
+    /// --no-fitted-crops`.
+    #[arg(long)]
+    pub no_fitted_crops: bool,
     /// Learn the hand's proportions from the network's 3D over this many first frames of
     /// each sequence (docs/accuracy.md).
     #[arg(long, value_name = "N")]

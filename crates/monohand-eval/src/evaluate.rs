@@ -89,6 +89,9 @@ pub struct EvalSettings {
     /// - the lift stage fits from keypoints as `lift` does, and refuses what needs the
     ///   images or the engine ([`monohand::ResolvedSettings::lifting`]).
     pub fit: FitSettings,
+    /// The full stage with several cameras: each view's crops from the hands fitted in 3D
+    /// ([`monohand::Settings::fitted_crops`]).
+    pub fitted_crops: bool,
 }
 
 impl Default for EvalSettings {
@@ -103,6 +106,7 @@ impl Default for EvalSettings {
                 tracking: false,
                 ..FitSettings::default()
             },
+            fitted_crops: true,
         }
     }
 }
@@ -133,6 +137,7 @@ impl EvalSettings {
                 ..self.fit
             },
             detect_every,
+            fitted_crops: self.fitted_crops,
             ..monohand::Settings::default()
         }
         .resolve()

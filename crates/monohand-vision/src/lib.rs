@@ -54,6 +54,6 @@ pub use models::{ModelFile, ModelStore};
 pub use monohand_tflite::Precision;
 pub use network::{NetOutputs, NetState, TfliteNet};
 pub use pipeline::{
-    DetectedHand, DetectedHead, Detections, HandDetector, HandKeypoints, HandPipeline, HandRegion,
-    KeypointEstimator, ModelOptions, ModelVariant, NetworkBytes, PipelineOptions,
+    CropSeed, DetectedHand, DetectedHead, Detections, HandDetector, HandKeypoints, HandPipeline,
+    HandRegion, KeypointEstimator, ModelOptions, ModelVariant, NetworkBytes, PipelineOptions,
 };

@@ -350,6 +350,27 @@ impl PipelineOptions {
     }
 }
 
+/// Where a hand already known is looked for: its 21 keypoints `[u, v]` in the image
+/// (pixel centres at integers, as [`DetectedHand::keypoints`]), from which the landmark
+/// network's crop is made as from a tracked hand's ([`roi_from_landmarks`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CropSeed {
+    /// The keypoints, MediaPipe/OpenPose order.
+    pub points: [[f64; 2]; NUM_LANDMARKS],
+    /// The detector score the hand found there carries.
+    pub score: f32,
+}
+
+impl CropSeed {
+    /// The seed of a hand found in the previous frame: its keypoints and score.
+    pub fn from_hand(hand: &DetectedHand) -> CropSeed {
+        CropSeed {
+            points: hand.keypoints.points.map(|p| [p[0], p[1]]),
+            score: hand.detection_score,
+        }
+    }
+}
+
 /// One hand found in an image (pixel-centre coordinates, see the module docs).
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct DetectedHand {
@@ -632,22 +653,37 @@ impl HandPipeline {
         previous: &[DetectedHand],
         detect_new: bool,
     ) -> Result<(Detections, Vec<Option<usize>>)> {
-        // The crop each previous hand's keypoints predict (a hand with non-finite keypoints
-        // is dropped).
-        let tracked: Vec<(usize, HandRegion)> = previous
+        let seeds: Vec<CropSeed> = previous.iter().map(CropSeed::from_hand).collect();
+        self.track_seeds(img, lens, &seeds, detect_new)
+    }
+
+    /// [`Self::track_through`] from seeds: each hand already known is looked for in the crop
+    /// its seed's keypoints predict (a previous frame's keypoints, or a hand fitted in 3D and
+    /// projected into this view), the palm detector running only when `detect_new` is set.
+    /// Returns the detections and, per hand, the index of the seed it continues (`None` for
+    /// a new detection). A seed with a non-finite keypoint is skipped.
+    pub fn track_seeds(
+        &self,
+        img: &RgbImage,
+        lens: Option<&Camera>,
+        seeds: &[CropSeed],
+        detect_new: bool,
+    ) -> Result<(Detections, Vec<Option<usize>>)> {
+        // The crop each seed's keypoints predict.
+        let tracked: Vec<(usize, HandRegion)> = seeds
             .iter()
             .enumerate()
-            .filter_map(|(i, prev)| {
+            .filter_map(|(i, seed)| {
                 let mut lm = [[0.0; 3]; NUM_LANDMARKS];
-                for (dst, p) in lm.iter_mut().zip(&prev.keypoints.points) {
-                    let [u, v] = from_pixel_centres([p[0], p[1]]);
-                    *dst = [u, v, p[2]];
+                for (dst, p) in lm.iter_mut().zip(&seed.points) {
+                    let [u, v] = from_pixel_centres(*p);
+                    *dst = [u, v, 0.0];
                 }
                 if lm.iter().any(|p| !(p[0].is_finite() && p[1].is_finite())) {
                     return None;
                 }
                 let region = HandRegion {
-                    score: prev.detection_score,
+                    score: seed.score,
                     roi: roi_from_landmarks(&lm),
                 };
                 Some((i, region))

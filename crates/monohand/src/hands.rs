@@ -114,6 +114,8 @@ pub struct HandsFitter<T = ()> {
     /// With [`FitSettings::offline`] and one camera: the frames refitted but not yet
     /// written, with their refitted distances.
     refitted: Held<(FittedFrame, T), DepthFrame>,
+    /// The number of the last frame fitted.
+    last_fitted: Option<u64>,
 }
 
 impl<T> HandsFitter<T> {
@@ -152,12 +154,23 @@ impl<T> HandsFitter<T> {
             notes,
             fitted: Held::default(),
             refitted: Held::default(),
+            last_fitted: None,
         })
     }
 
     /// The hand size measured with `auto_scale_frames`, once known.
     pub fn scale(&self) -> Option<&ScaleEstimate> {
         self.shape.scale.as_ref()
+    }
+
+    /// The hands fitted in the last frame fitted, predicted to the next frame, in the first
+    /// camera's frame: for the next frame's crops ([`crate::CropTracker::guide`]). Empty
+    /// while frames are kept back to measure the hand.
+    pub fn guides(&self) -> Vec<crate::crops::FittedGuide> {
+        match self.last_fitted {
+            Some(index) => self.tracks.guides(index),
+            None => Vec::new(),
+        }
     }
 
     /// The hand size the fits use now (the right hand's model; the left mirrors it) and
@@ -309,9 +322,11 @@ impl<T> HandsFitter<T> {
         let Some((_, pending)) = self.pending.take() else {
             return Vec::new();
         };
+        let cameras = in_first_frame(self.cameras.cameras());
+        let min_confidence = self.settings.options.cost.min_confidence;
         let anchored: Vec<Vec<Anchored>> = pending
             .iter()
-            .map(|(f, _)| self.tracks.associate(f))
+            .map(|(f, _)| self.tracks.associate(f, &cameras, min_confidence))
             .collect();
         self.shape.learn(
             &self.settings,
@@ -329,6 +344,7 @@ impl<T> HandsFitter<T> {
 
     fn fit_frame(&mut self, frame: VisionFrame) -> FittedFrame {
         let t = Instant::now();
+        self.last_fitted = Some(frame.index);
         let mut out = FittedFrame {
             hand_size: None,
             hands: Vec::new(),
@@ -374,7 +390,11 @@ impl<T> HandsFitter<T> {
                 self.tracks.vote(id, hand, index, &self.prototypes);
             }
         }
-        for (id, side, views) in self.tracks.associate(&out.vision) {
+        let min_confidence = self.settings.options.cost.min_confidence;
+        for (id, side, views) in self
+            .tracks
+            .associate(&out.vision, &out.cameras, min_confidence)
+        {
             let fit = self.fit_hand(id, &out.vision, &out.cameras, &views);
             out.hands.push(TrackedHand {
                 id,
@@ -419,6 +439,7 @@ impl<T> HandsFitter<T> {
                     let joints = f.filter(frame.time_s, &fit.joints_3d.map(|x| [x.x, x.y, x.z]));
                     fit.joints_3d = joints.map(Vector3::from);
                 }
+                self.tracks.fitted(id, frame.index, &fit.joints_3d);
                 Some(*fit)
             }
             FitOutcome::Diverged => {
@@ -439,7 +460,7 @@ impl<T> HandsFitter<T> {
 /// The cameras re-expressed in the first one's frame: the first without extrinsics, each
 /// other mapping the first's frame into its own. A fit with them is in the first camera's
 /// frame whatever the cameras' world frame is.
-fn in_first_frame(cameras: &[Camera]) -> Vec<Camera> {
+pub(crate) fn in_first_frame(cameras: &[Camera]) -> Vec<Camera> {
     let Some(first) = cameras.first() else {
         return Vec::new();
     };

@@ -98,6 +98,7 @@ impl Lifter {
                     .map(|h| Candidate {
                         side: h.side,
                         score: total(h),
+                        id: None,
                     })
                     .collect()
             })

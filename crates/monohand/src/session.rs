@@ -149,6 +149,9 @@ impl Session {
         let views = cameras.len().max(1);
         let mut crops = CropTracker::new(pipeline, views, &resolved);
         crops.rectify_through(resolved.lenses(&cameras));
+        if resolved.fitted_crops() {
+            crops.guide_through(crate::hands::in_first_frame(&cameras));
+        }
         Ok(Session {
             crops,
             fitter: HandsFitter::new(cameras, &resolved)?,
@@ -200,12 +203,11 @@ impl Session {
         let mut frame = self.crops.process(self.next_index, time_s, &images);
         frame.focal = focal;
         self.next_index += 1;
-        Ok(self
-            .fitter
-            .push(frame, ())
-            .into_iter()
-            .map(|(f, ())| f)
-            .collect())
+        let done = self.fitter.push(frame, ());
+        if self.crops.is_guided() {
+            self.crops.guide(self.fitter.guides());
+        }
+        Ok(done.into_iter().map(|(f, ())| f).collect())
     }
 
     /// The frames still kept back, at the end of the input.

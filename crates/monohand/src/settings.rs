@@ -119,6 +119,10 @@ pub struct Settings {
     /// Which calibrated cameras' hands are read in rectified views
     /// ([`monohand_vision::rectify`]).
     pub rectify: RectifyCrops,
+    /// With two or more calibrated cameras and tracking, each view's crops come from the
+    /// hands fitted in 3D in the frame before, projected into it
+    /// ([`crate::CropTracker::guide_through`]); on by default.
+    pub fitted_crops: bool,
 }
 
 /// Which hands are read in rectified views: the view of a virtual pinhole camera aimed at
@@ -166,6 +170,7 @@ impl Default for Settings {
             max_frames: None,
             threads: None,
             rectify: RectifyCrops::default(),
+            fitted_crops: true,
         }
     }
 }
@@ -346,6 +351,12 @@ impl ResolvedSettings {
     /// Worker threads for independent images (`None`: all cores).
     pub fn threads(&self) -> Option<usize> {
         self.derived.threads
+    }
+
+    /// Whether the hands fitted in 3D seed the next frame's crops ([`Settings::fitted_crops`];
+    /// it takes effect with tracking and two or more calibrated cameras).
+    pub fn fitted_crops(&self) -> bool {
+        self.derived.fitted_crops && self.tracking()
     }
 
     /// The same settings for frames not tracked (the images of a corpus whose videos are

@@ -104,6 +104,10 @@ pub(crate) struct RunArgs {
     /// `all` (docs/calibration.md#rectified-crops).
     #[arg(long, value_name = "off|lenses|all", default_value = "off")]
     pub rectify_crops: RectifyCrops,
+    /// With several calibrated views: each view finds its hands on its own, instead of
+    /// looking for each hand fitted in 3D where it projects (docs/pipeline.md#several-cameras).
+    #[arg(long)]
+    pub no_fitted_crops: bool,
     /// One Euro filter: minimum cutoff frequency, Hz (lower: smoother when still).
     #[arg(long, value_name = "HZ", default_value_t = OneEuroParams::default().min_cutoff)]
     pub smooth_min_cutoff: f64,
@@ -249,6 +253,7 @@ fn settings(args: &RunArgs, tracking: bool) -> Result<Settings> {
         max_frames: args.max_frames,
         threads: args.threads,
         rectify: args.rectify_crops,
+        fitted_crops: !args.no_fitted_crops,
     })
 }
 

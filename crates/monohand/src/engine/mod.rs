@@ -38,7 +38,7 @@ pub mod overlay_paths {
     pub use super::sinks::{has_extension, IMAGE_EXTENSIONS, VIDEO_EXTENSIONS};
 }
 
-use crate::crops::{CropTracker, ViewError, VisionFrame};
+use crate::crops::{CropTracker, FittedGuide, ViewError, VisionFrame};
 use crate::frame::FittedFrame;
 use crate::hands::HandsFitter;
 use crate::notes::{Note, NoteTopic};
@@ -407,6 +407,14 @@ impl Engine {
         // The first view's frames go back to its reader once the networks are done with
         // them (unless a sink keeps them): no new frame buffer per frame.
         let recycler = sources.first().and_then(|s| s.recycler());
+        // With several calibrated views, each frame's crops come from the hands fitted in
+        // the frame before: the networks wait for that fit.
+        let guides = settings
+            .fitted_crops()
+            .then(|| crate::hands::in_first_frame(&self.cameras))
+            .filter(|c| tracking && c.len() >= 2);
+        let (guide_tx, guide_rx) = sync_channel::<Vec<FittedGuide>>(1);
+        let guide_tx = guides.is_some().then_some(guide_tx);
         std::thread::scope(|scope| {
             let (raw_tx, raw_rx) = sync_channel::<RawFrame>(4);
             let (vis_tx, vis_rx) = sync_channel::<(VisionFrame, Extra)>(4);
@@ -420,6 +428,9 @@ impl Engine {
             let vision = scope.spawn(move || {
                 let mut stage = CropTracker::new(pipe, n_views, settings);
                 stage.rectify_through(settings.lenses(&self.cameras));
+                if let Some(cameras) = guides {
+                    stage.guide_through(cameras);
+                }
                 loop {
                     // A network alone shares its operators with the other cores only while
                     // frames are waiting: while this thread waits for the decoder, that core
@@ -475,9 +486,15 @@ impl Engine {
                     if vis_tx.send((f, extra)).is_err() {
                         break;
                     }
+                    if stage.is_guided() {
+                        match guide_rx.recv() {
+                            Ok(g) => stage.guide(g),
+                            Err(_) => break,
+                        }
+                    }
                 }
             });
-            let result = fit_all(&vis_rx, fit, out);
+            let result = fit_all(&vis_rx, fit, out, guide_tx);
             drop(vis_rx);
             let vision_panicked = vision.join().is_err();
             let reader = reader.join();
@@ -680,14 +697,20 @@ fn record(done: &FittedFrame, extra: &Extra) -> FrameRecord {
     )
 }
 
-/// Fits and writes every frame that comes out of the networks.
+/// Fits and writes every frame that comes out of the networks; with `guides`, sends each
+/// frame's fitted hands back to the networks for the next frame's crops, before writing.
 fn fit_all(
     rx: &Receiver<(VisionFrame, Extra)>,
     fit: &mut HandsFitter<Extra>,
     out: &mut Writer<'_, '_>,
+    guides: Option<std::sync::mpsc::SyncSender<Vec<FittedGuide>>>,
 ) -> EngineResult<()> {
     for (f, extra) in rx {
         let done = fit.push(f, extra);
+        if let Some(tx) = &guides {
+            // The networks have stopped when nobody listens; the frames in hand are written.
+            let _ = tx.send(fit.guides());
+        }
         out.emit(fit, done)?;
     }
     let done = fit.flush();

@@ -1,0 +1,140 @@
+//! Crops from the fitted 3D hand (issue 57): on real frames of the table rig
+//! (`../shared/data/table_rig_dev`, its 4 calibrated views, real networks, tracked), each
+//! view's crops come from the hand fitted in the frame before, projected into the view. Views
+//! that never found the hand themselves take part, the hand keeps one identity, and the
+//! session (frame by frame on the caller's thread) fits exactly what the engine (on its
+//! threads) fits.
+//!
+//! Needs `../shared/data` and the MediaPipe weights (fetched with pip on first use): without
+//! them the tests fail, they do not skip.
+#![allow(clippy::unwrap_used, clippy::expect_used)] // a failed test is a panic
+
+use monohand::engine::{CallerFrames, Engine, FrameSource, Output, Quiet, Sink, SinkError};
+use monohand::{HandPipeline, RgbImage, Session, SessionOptions, Settings};
+use monohand_core::prelude::*;
+use monohand_io::jsonl::FrameRecord;
+use monohand_testkit::{table_rig_dir, TABLE_RIG_VIEWS};
+use std::sync::{Arc, Mutex};
+
+/// The first frames (in 0-11 two views see the hand).
+const FRAMES: std::ops::Range<usize> = 0..30;
+
+fn frames(view: &str) -> Vec<(RgbImage, f64)> {
+    let dir = table_rig_dir().join("images").join(view);
+    FRAMES
+        .map(|k| {
+            let path = dir.join(format!("color_{k:06}.jpg"));
+            let image = monohand::vision::image_io::load_rgb(&path).expect("rig frame");
+            (image, k as f64 / 30.0)
+        })
+        .collect()
+}
+
+fn cameras() -> Vec<Camera> {
+    TABLE_RIG_VIEWS
+        .iter()
+        .map(|v| {
+            let path = table_rig_dir().join("cameras").join(format!("{v}.json"));
+            monohand_io::calibration::read_camera(path).expect("rig camera")
+        })
+        .collect()
+}
+
+fn settings(fitted_crops: bool) -> Settings {
+    Settings {
+        fitted_crops,
+        ..Settings::default()
+    }
+}
+
+#[derive(Default, Clone)]
+struct Collect(Arc<Mutex<Vec<FrameRecord>>>);
+
+impl Sink for Collect {
+    fn write(&mut self, frame: &Output<'_>) -> Result<(), SinkError> {
+        self.0.lock().unwrap().push(frame.record.clone());
+        Ok(())
+    }
+}
+
+fn run_engine(pipeline: &Arc<HandPipeline>, settings: Settings) -> Vec<FrameRecord> {
+    let settings = settings.resolve().expect("settings");
+    let engine = Engine::new(Arc::clone(pipeline), cameras(), settings).expect("engine");
+    let sources: Vec<Box<dyn FrameSource>> = TABLE_RIG_VIEWS
+        .iter()
+        .map(|v| Box::new(CallerFrames::new(frames(v).into_iter(), true)) as Box<dyn FrameSource>)
+        .collect();
+    let sink = Collect::default();
+    let mut sinks: Vec<Box<dyn Sink>> = vec![Box::new(sink.clone())];
+    engine.run(sources, &mut sinks, &Quiet).expect("run");
+    let records = sink.0.lock().unwrap().clone();
+    records
+}
+
+/// Per frame, per hand: the views that took part.
+fn views_used(records: &[FrameRecord]) -> Vec<Vec<usize>> {
+    records
+        .iter()
+        .map(|r| {
+            r.hands
+                .iter()
+                .map(|h| h.views.iter().flatten().filter(|v| v.used).count())
+                .collect()
+        })
+        .collect()
+}
+
+#[test]
+fn every_view_looks_where_the_fitted_hand_projects() {
+    let settings = Settings::default().resolve().expect("settings");
+    let pipeline =
+        Arc::new(HandPipeline::new(&Default::default(), settings.pipeline()).expect("networks"));
+    let guided = run_engine(&pipeline, settings.get().clone());
+    let alone = run_engine(&pipeline, self::settings(false));
+    assert_eq!(guided.len(), FRAMES.len());
+    // One hand, one identity, in every frame.
+    let ids: std::collections::BTreeSet<u64> = guided
+        .iter()
+        .flat_map(|r| r.hands.iter().filter_map(|h| h.id))
+        .collect();
+    assert_eq!(ids.len(), 1, "{ids:?}");
+    let used = views_used(&guided);
+    assert!(used.iter().all(|hands| hands.len() == 1), "{used:?}");
+    let own = views_used(&alone);
+    // Every frame is fitted from two views or more (in frames 0-11 only two see the
+    // hand), and in no frame do fewer views take part than when each view finds the hand
+    // itself; in some, more (on this machine frames 12-15 and 27: 83 view-frames against
+    // 78).
+    assert!(used.iter().all(|h| h[0] >= 2), "{used:?}");
+    assert!(
+        used.iter()
+            .zip(&own)
+            .all(|(g, a)| g[0] >= a.iter().sum::<usize>()),
+        "guided {used:?}\nalone {own:?}"
+    );
+    let total = |u: &[Vec<usize>]| u.iter().flatten().sum::<usize>();
+    assert!(
+        total(&used) > total(&own),
+        "guided {} view-frames, alone {}",
+        total(&used),
+        total(&own)
+    );
+    // The session, one frame at a time on this thread, fits exactly what the engine fits.
+    let mut session =
+        Session::with_pipeline(cameras(), Arc::clone(&pipeline), SessionOptions::default())
+            .expect("session");
+    let views: Vec<Vec<(RgbImage, f64)>> = TABLE_RIG_VIEWS.iter().map(|v| frames(v)).collect();
+    for (k, record) in guided.iter().enumerate() {
+        let images: Vec<&RgbImage> = views.iter().map(|v| &v[k].0).collect();
+        let done = session.process(&images, views[0][k].1).expect("frame");
+        let hands: Vec<_> = done.iter().flat_map(|f| &f.hands).collect();
+        assert_eq!(hands.len(), record.hands.len(), "frame {k}");
+        for (h, r) in hands.iter().zip(&record.hands) {
+            let fit = h.fit.as_ref().expect("3D");
+            let joints = r.joints_3d().expect("3D");
+            for (a, b) in fit.joints_3d.iter().zip(&joints) {
+                assert!((a - b).norm() < 1e-6, "frame {k}: {a} against {b}");
+            }
+        }
+    }
+}
