@@ -152,8 +152,9 @@ pub fn associate_by(
 /// How well two views' keypoints of one hand agree with their cameras (both in one frame):
 /// each joint both views see with at least `min_confidence` is triangulated from its two
 /// rays and projected back, and the larger of its two reprojection errors taken; the
-/// median over those joints, pixels (a joint triangulated behind a camera, or whose rays
-/// are parallel, counts as infinitely far). `None` with fewer than
+/// median over those joints, pixels (a joint triangulated behind a camera counts as
+/// infinitely far; one whose rays are parallel is taken [`PARALLEL_RAY_DEPTH_MM`] along the
+/// first view's ray). `None` with fewer than
 /// [`AGREEMENT_MIN_JOINTS`] such joints.
 pub fn agreement_px(
     a: (&Camera, &Keypoints2d),
@@ -175,12 +176,15 @@ pub fn agreement_px(
         let error = || {
             let da = to_ref_a * a.0.ray(ua)?;
             let db = to_ref_b * b.0.ray(ub)?;
-            let x = triangulate(&[(centre_a, da, 1.0), (centre_b, db, 1.0)])?;
+            // Rays too nearly parallel to meet (two cameras in one place): a point along
+            // the first, where both cameras see the same direction whatever its depth.
+            let x = triangulate(&[(centre_a, da, 1.0), (centre_b, db, 1.0)])
+                .unwrap_or(centre_a + PARALLEL_RAY_DEPTH_MM * da);
             let ea = (a.0.project(&x)? - ua).norm();
             let eb = (b.0.project(&x)? - ub).norm();
             Some(ea.max(eb))
         };
-        // A joint behind a camera, or whose rays are parallel, counts as far off.
+        // A joint behind a camera counts as far off.
         errors[n] = error().unwrap_or(f64::INFINITY);
         n += 1;
     }
@@ -191,6 +195,11 @@ pub fn agreement_px(
     errors.sort_by(f64::total_cmp);
     Some(errors[n / 2])
 }
+
+/// Where [`agreement_px`] takes a joint whose two rays are too nearly parallel to meet
+/// (less than about 0.1 degree apart: the two cameras in one place), mm along the first
+/// view's ray.
+pub const PARALLEL_RAY_DEPTH_MM: f64 = 1000.0;
 
 /// The fewest joints [`agreement_px`] compares.
 pub const AGREEMENT_MIN_JOINTS: usize = 5;
