@@ -380,7 +380,18 @@ fn guide_seeds(
     }
 }
 
-/// A fitted hand's joints projected into a view of `size` pixels: `None` when a joint is
+/// The grid projected keypoints are rounded to, pixels: a crop does not depend on the last
+/// bits of the cameras' extrinsics, so that a rig's hands are the same whichever camera's
+/// frame is the world (the extrinsics re-expressed in the first camera's frame differ by
+/// rounding, about 1e-10 px once projected).
+pub const SEED_GRID_PX: f64 = 1.0 / 64.0;
+
+fn snap(x: f64) -> f64 {
+    (x / SEED_GRID_PX).round() * SEED_GRID_PX
+}
+
+/// A fitted hand's joints projected into a view of `size` pixels, rounded to
+/// [`SEED_GRID_PX`]: `None` when a joint is
 /// behind the camera or less than [`GUIDE_MIN_INSIDE`] of the joints' box is inside the
 /// view.
 fn project_seed(
@@ -391,7 +402,7 @@ fn project_seed(
     let mut points = [[0.0; 2]; NUM_JOINTS];
     for (p, x) in points.iter_mut().zip(joints) {
         let px = camera.project(x)?;
-        *p = [px.x, px.y];
+        *p = [snap(px.x), snap(px.y)];
     }
     let bounds = BBox::around(points);
     let view = BBox::new(-0.5, -0.5, f64::from(size.0) - 0.5, f64::from(size.1) - 0.5);
@@ -426,7 +437,9 @@ mod tests {
         let seed = project_seed(&camera, (640, 480), &joints).expect("in view");
         for (p, x) in seed.points.iter().zip(&joints) {
             let px = camera.project(x).unwrap();
-            assert!((p[0] - px.x).abs() < 1e-12 && (p[1] - px.y).abs() < 1e-12);
+            let near = |a: f64, b: f64| (a - b).abs() <= SEED_GRID_PX / 2.0;
+            assert!(near(p[0], px.x) && near(p[1], px.y));
+            assert_eq!(p[0], snap(p[0]));
         }
         // Mostly outside the view, or behind the camera: not looked for.
         let aside = hand_at(Vector3::new(420.0, 0.0, 500.0));

@@ -47,7 +47,9 @@ mod shape;
 mod tracks;
 
 pub use cameras::StatedCamera;
-pub use crops::{CropTracker, HandId, ViewError, ViewHands, VisionFrame};
+pub use crops::{
+    CropTracker, FittedGuide, HandId, ViewError, ViewHands, VisionFrame, GUIDE_MIN_INSIDE,
+};
 pub use error::{SessionError, SessionResult};
 pub use fit::{
     fit_views, hand_skeletons, is_finite, learn_proportions, scale_from_ruler, FitOutcome,

@@ -1,7 +1,7 @@
 //! The hands followed over the frames: each identity's voted side, its 3D tracker and its
 //! filters, forgotten after [`FORGET_AFTER_FRAMES`] frames unseen.
 
-use crate::association::{agreement_px, associate_by, Candidate};
+use crate::association::{agreement_px, associate_by, Candidate, SAME_HAND_PX, SIDE_PENALTY_PX};
 use crate::crops::{FittedGuide, HandId, VisionFrame};
 use crate::hands::{FitSettings, FORGET_AFTER_FRAMES};
 use monohand_core::filtering::{DepthFilter, OneEuroFilter, OneEuroParams};
@@ -190,9 +190,6 @@ impl Tracks {
         let hands = if cameras.len() >= 2 && cameras.len() >= frame.views.len() {
             let pair = |a: (usize, usize), b: (usize, usize)| {
                 let e = agreement_px(keypoints(a)?, keypoints(b)?, min_confidence)?;
-                if std::env::var_os("MONOHAND_DEBUG_PAIRS").is_some() {
-                    eprintln!("pair {} {a:?} {b:?} {e:.1}", frame.index);
-                }
                 let other_side = candidates[a.0][a.1].side != candidates[b.0][b.1].side;
                 (e <= SAME_HAND_PX).then_some(e + if other_side { SIDE_PENALTY_PX } else { 0.0 })
             };
@@ -210,14 +207,3 @@ impl Tracks {
             .collect()
     }
 }
-
-/// Two views' hands whose keypoints agree within this many pixels through the cameras
-/// ([`agreement_px`]) are the same hand. On the 4 views of the dev rig, tracked, the pairs
-/// of views seeing its one hand agree within 0.3-23.8 px (median 2.8, 95% within 10.8).
-pub const SAME_HAND_PX: f64 = 30.0;
-
-/// What a hand of the other side adds to its agreement when an anchor chooses among the
-/// hands that agree with it: the same side wins among hands that both agree (two hands
-/// side by side along a stereo pair's baseline agree with each other's rays too), and a
-/// hand whose side one view got wrong is still matched.
-pub const SIDE_PENALTY_PX: f64 = 10.0;
