@@ -796,7 +796,7 @@ impl PySession {
 #[pymethods]
 impl PySession {
     #[new]
-    #[pyo3(signature = (cameras=None, hands=2, tracking=true, model_dir=None, smoothing=false, heads=false, detect_every=10, models=None, hand_scale=None, mirror_pass=true, rectify_crops="off", precision="f32", hand=None, rerun=None, rerun_image_scale=1.0))]
+    #[pyo3(signature = (cameras=None, hands=2, tracking=true, model_dir=None, smoothing=false, heads=false, detect_every=10, models=None, hand_scale=None, mirror_pass=true, rectify_crops="off", precision="f32", hand=None, rerun=None, rerun_image_scale=1.0, fitted_crops=true))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -815,6 +815,7 @@ impl PySession {
         hand: Option<&Bound<'_, PyAny>>,
         rerun: Option<std::path::PathBuf>,
         rerun_image_scale: f64,
+        fitted_crops: bool,
     ) -> PyResult<PySession> {
         let (skeletons, hand_size) = sized_hands(hand, hand_scale)?;
         let cameras = to_cameras(cameras)?;
@@ -835,6 +836,7 @@ impl PySession {
             .smoothing(smoothing.then(OneEuroParams::default))
             .detect_every(detect_every);
         options.settings.rectify = rectify;
+        options.settings.fitted_crops = fitted_crops;
         options.settings.fit.hand_size = hand_size;
         let resolved = options
             .settings

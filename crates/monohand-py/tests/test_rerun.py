@@ -9,7 +9,7 @@ import os
 import shutil
 import subprocess
 from pathlib import Path
-from typing import Dict, List, Set
+from typing import Dict, List, Set, Tuple
 
 import numpy as np
 import pytest
@@ -160,3 +160,28 @@ def test_a_session_writes_the_same_recording_from_python(tmp_path: Path) -> None
 def test_a_bad_image_scale_is_refused(tmp_path: Path) -> None:
     with pytest.raises(ValueError, match="image scale"):
         monohand.Session(None, rerun=str(tmp_path / "x.rrd"), rerun_image_scale=0.0)
+
+
+def test_a_sessions_views_look_where_the_fitted_hand_projects(tmp_path: Path) -> None:
+    # Two calibrated views of the rig: with the crops from the fitted hand (the default)
+    # the hand keeps one identity, and the views take part in at least as many frames as
+    # when each view finds the hand itself.
+    videos = [frames_of(serial, tmp_path / f"{serial}.mp4") for serial in (A, B)]
+    cameras = [monohand.Camera.load(str(shared(f"table_rig_dev/cameras/{s}.json"))) for s in (A, B)]
+
+    def views_used(fitted_crops: bool) -> List[Tuple[Set[str], int]]:
+        out = []
+        with monohand.read_video(str(videos[0])) as va, monohand.read_video(str(videos[1])) as vb:
+            with monohand.Session(cameras, fitted_crops=fitted_crops) as s:
+                for fa, fb in zip(va, vb):
+                    record = s.process_dict([fa.image, fb.image], fa.time_s)
+                    hands = [h for h in record["hands"] if h.get("joints_3d_mm")]
+                    used = sum(sum(1 for v in h.get("views") or [] if v["used"]) for h in hands)
+                    out.append(({str(h["id"]) for h in hands}, used))
+        return out
+
+    guided, alone = views_used(True), views_used(False)
+    assert len(guided) == len(alone) == FRAMES
+    ids = set().union(*(i for i, _ in guided))
+    assert len(ids) == 1, ids
+    assert sum(g for _, g in guided) >= sum(a for _, a in alone), (guided, alone)

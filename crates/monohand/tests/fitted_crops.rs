@@ -103,8 +103,7 @@ fn every_view_looks_where_the_fitted_hand_projects() {
     let own = views_used(&alone);
     // Every frame is fitted from two views or more (in frames 0-11 only two see the
     // hand), and in no frame do fewer views take part than when each view finds the hand
-    // itself; in some, more (on this machine frames 12-15 and 27: 83 view-frames against
-    // 78).
+    // itself; in some, more (a view that lost the hand looks where the fitted one projects).
     assert!(used.iter().all(|h| h[0] >= 2), "{used:?}");
     assert!(
         used.iter()

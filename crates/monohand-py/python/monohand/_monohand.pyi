@@ -192,8 +192,11 @@ class Session:
         hand: Optional[Union[HandSize, str, PathLike[str]]] = None,
         rerun: Optional[Union[str, PathLike[str]]] = None,
         rerun_image_scale: float = 1.0,
+        fitted_crops: bool = True,
     ) -> None:
         """``hand``: the person's hand size (a ``HandSize`` or a hand file's path).
+        ``fitted_crops``: with several calibrated cameras, each view's crops come from the
+        hand fitted in 3D in the frame before (``False``: each view finds its hands itself).
         ``rerun``: a Rerun recording (.rrd) of every frame the session processes or
         tracks (cameras, images scaled by ``rerun_image_scale``, 2D keypoints, 3D hands,
         each hand's distance), complete when the session is closed."""
