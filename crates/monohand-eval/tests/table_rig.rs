@@ -20,6 +20,23 @@ fn pipeline() -> Arc<HandPipeline> {
     Arc::new(HandPipeline::new(&Default::default(), options).expect("networks"))
 }
 
+/// The full stage, tracked as `run` tracks, with the default hand scaled by `hand_scale`.
+fn tracked(hand_scale: f64, fitted_crops: bool) -> Plan {
+    Plan {
+        stage: Stage::Full,
+        selection: Selection {
+            step: 1,
+            max_frames: None,
+        },
+        settings: EvalSettings {
+            skeleton: SkeletonChoice::Default,
+            hand_scale,
+            fitted_crops,
+            ..EvalSettings::tracked()
+        },
+    }
+}
+
 #[test]
 fn the_rig_is_read_with_its_cameras_labels_and_reference() {
     let ds = Dataset::load(table_rig_dir()).expect("rig");
@@ -60,19 +77,9 @@ fn each_view_alone_then_all_four_are_scored_in_the_masters_frame() {
     let mut ds = Dataset::load(table_rig_dir()).expect("rig");
     // Frames 13-52: every view sees the hand at some point, and the rig sees it whole.
     ds.frames.retain(|f| (13..53).contains(&f.index));
-    let plan = Plan {
-        stage: Stage::Full,
-        selection: Selection {
-            step: 1,
-            max_frames: None,
-        },
-        settings: EvalSettings {
-            skeleton: SkeletonChoice::Default,
-            // The size the rig's views measure (`run --save-hand`: 0.936).
-            hand_scale: 0.936,
-            ..EvalSettings::tracked()
-        },
-    };
+    // The size the rig's views measured (`run --save-hand`: 0.936) before they were matched
+    // through the cameras.
+    let plan = tracked(0.936, true);
     let pipeline = pipeline();
     let report = plan
         .run_views(&ds, Some((&pipeline, "MediaPipe (test)")))
@@ -121,20 +128,8 @@ fn four_views_with_the_measured_hand_are_within_twelve_millimetres_from_the_firs
     // and two views see it: the views are associated through the cameras, and each view's
     // crop comes from the hand fitted in the frame before (issue 57).
     let ds = Dataset::load(table_rig_dir()).expect("rig");
-    let plan = |fitted_crops: bool| Plan {
-        stage: Stage::Full,
-        selection: Selection {
-            step: 1,
-            max_frames: None,
-        },
-        settings: EvalSettings {
-            skeleton: SkeletonChoice::Default,
-            // The size the rig's views measure (`run --save-hand`: 0.939).
-            hand_scale: 0.939,
-            fitted_crops,
-            ..EvalSettings::tracked()
-        },
-    };
+    // The size the rig's views measure (`run --save-hand`: 0.939).
+    let plan = |fitted_crops: bool| tracked(0.939, fitted_crops);
     let pipeline = pipeline();
     let mask = evaluated_joints(ds.root);
     let all = |fitted_crops: bool| {

@@ -9,66 +9,23 @@
 //! them the tests fail, they do not skip.
 #![allow(clippy::unwrap_used, clippy::expect_used)] // a failed test is a panic
 
-use monohand::engine::{CallerFrames, Engine, FrameSource, Output, Quiet, Sink, SinkError};
+mod rig;
+
 use monohand::{HandPipeline, RgbImage, Session, SessionOptions, Settings};
 use monohand_core::prelude::*;
 use monohand_io::jsonl::FrameRecord;
-use monohand_testkit::{table_rig_dir, TABLE_RIG_VIEWS};
-use std::sync::{Arc, Mutex};
+use monohand_testkit::TABLE_RIG_VIEWS;
+use std::sync::Arc;
 
 /// The first frames (in 0-11 two views see the hand).
 const FRAMES: std::ops::Range<usize> = 0..30;
 
-fn frames(view: &str) -> Vec<(RgbImage, f64)> {
-    let dir = table_rig_dir().join("images").join(view);
-    FRAMES
-        .map(|k| {
-            let path = dir.join(format!("color_{k:06}.jpg"));
-            let image = monohand::vision::image_io::load_rgb(&path).expect("rig frame");
-            (image, k as f64 / 30.0)
-        })
-        .collect()
-}
-
 fn cameras() -> Vec<Camera> {
-    TABLE_RIG_VIEWS
-        .iter()
-        .map(|v| {
-            let path = table_rig_dir().join("cameras").join(format!("{v}.json"));
-            monohand_io::calibration::read_camera(path).expect("rig camera")
-        })
-        .collect()
-}
-
-fn settings(fitted_crops: bool) -> Settings {
-    Settings {
-        fitted_crops,
-        ..Settings::default()
-    }
-}
-
-#[derive(Default, Clone)]
-struct Collect(Arc<Mutex<Vec<FrameRecord>>>);
-
-impl Sink for Collect {
-    fn write(&mut self, frame: &Output<'_>) -> Result<(), SinkError> {
-        self.0.lock().unwrap().push(frame.record.clone());
-        Ok(())
-    }
+    TABLE_RIG_VIEWS.iter().map(|v| rig::camera(v)).collect()
 }
 
 fn run_engine(pipeline: &Arc<HandPipeline>, settings: Settings) -> Vec<FrameRecord> {
-    let settings = settings.resolve().expect("settings");
-    let engine = Engine::new(Arc::clone(pipeline), cameras(), settings).expect("engine");
-    let sources: Vec<Box<dyn FrameSource>> = TABLE_RIG_VIEWS
-        .iter()
-        .map(|v| Box::new(CallerFrames::new(frames(v).into_iter(), true)) as Box<dyn FrameSource>)
-        .collect();
-    let sink = Collect::default();
-    let mut sinks: Vec<Box<dyn Sink>> = vec![Box::new(sink.clone())];
-    engine.run(sources, &mut sinks, &Quiet).expect("run");
-    let records = sink.0.lock().unwrap().clone();
-    records
+    rig::run(pipeline, cameras(), &TABLE_RIG_VIEWS, FRAMES, settings)
 }
 
 /// Per frame, per hand: the views that took part.
@@ -90,7 +47,13 @@ fn every_view_looks_where_the_fitted_hand_projects() {
     let pipeline =
         Arc::new(HandPipeline::new(&Default::default(), settings.pipeline()).expect("networks"));
     let guided = run_engine(&pipeline, settings.get().clone());
-    let alone = run_engine(&pipeline, self::settings(false));
+    let alone = run_engine(
+        &pipeline,
+        Settings {
+            fitted_crops: false,
+            ..Settings::default()
+        },
+    );
     assert_eq!(guided.len(), FRAMES.len());
     // One hand, one identity, in every frame.
     let ids: std::collections::BTreeSet<u64> = guided
@@ -122,7 +85,10 @@ fn every_view_looks_where_the_fitted_hand_projects() {
     let mut session =
         Session::with_pipeline(cameras(), Arc::clone(&pipeline), SessionOptions::default())
             .expect("session");
-    let views: Vec<Vec<(RgbImage, f64)>> = TABLE_RIG_VIEWS.iter().map(|v| frames(v)).collect();
+    let views: Vec<Vec<(RgbImage, f64)>> = TABLE_RIG_VIEWS
+        .iter()
+        .map(|v| rig::frames(v, FRAMES))
+        .collect();
     for (k, record) in guided.iter().enumerate() {
         let images: Vec<&RgbImage> = views.iter().map(|v| &v[k].0).collect();
         let done = session.process(&images, views[0][k].1).expect("frame");

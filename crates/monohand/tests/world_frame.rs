@@ -7,13 +7,15 @@
 //! them the tests fail, they do not skip.
 #![allow(clippy::unwrap_used, clippy::expect_used)] // a failed test is a panic
 
-use monohand::engine::{CallerFrames, Engine, FrameSource, Output, Quiet, Sink, SinkError};
-use monohand::{HandPipeline, RgbImage, Session, SessionOptions};
+mod rig;
+
+use monohand::{HandPipeline, Session, SessionOptions};
 use monohand_core::prelude::*;
 use monohand_io::jsonl::FrameRecord;
-use monohand_testkit::{table_rig_dir, TABLE_RIG_VIEWS};
+use monohand_testkit::TABLE_RIG_VIEWS;
 use nalgebra::Vector3;
-use std::sync::{Arc, Mutex};
+use rig::camera;
+use std::sync::Arc;
 
 /// Frames of each view the tests run (the hand is in view in all four from frame 13).
 const FRAMES: std::ops::Range<usize> = 13..43;
@@ -21,48 +23,15 @@ const FRAMES: std::ops::Range<usize> = 13..43;
 /// The largest difference allowed, mm: the bound.
 const TOLERANCE_MM: f64 = 0.01;
 
-/// The frames of `view` with their times at 30 fps.
-fn frames(view: &str) -> Vec<(RgbImage, f64)> {
-    let dir = table_rig_dir().join("images").join(view);
-    FRAMES
-        .map(|k| {
-            let path = dir.join(format!("color_{k:06}.jpg"));
-            let image = monohand::vision::image_io::load_rgb(&path).expect("rig frame");
-            (image, k as f64 / 30.0)
-        })
-        .collect()
-}
-
-/// The camera of `view` as its file gives it (extrinsics from the master camera's frame).
-fn camera(view: &str) -> Camera {
-    let path = table_rig_dir().join("cameras").join(format!("{view}.json"));
-    monohand_io::calibration::read_camera(path).expect("rig camera")
-}
-
-/// Keeps every record.
-#[derive(Default, Clone)]
-struct Collect(Arc<Mutex<Vec<FrameRecord>>>);
-
-impl Sink for Collect {
-    fn write(&mut self, frame: &Output<'_>) -> Result<(), SinkError> {
-        self.0.lock().unwrap().push(frame.record.clone());
-        Ok(())
-    }
-}
-
 /// The records of a tracked run of `views` with `cameras`.
 fn run(pipeline: &Arc<HandPipeline>, cameras: Vec<Camera>, views: &[&str]) -> Vec<FrameRecord> {
-    let settings = monohand::Settings::default().resolve().expect("settings");
-    let engine = Engine::new(Arc::clone(pipeline), cameras, settings).expect("engine");
-    let sources: Vec<Box<dyn FrameSource>> = views
-        .iter()
-        .map(|v| Box::new(CallerFrames::new(frames(v).into_iter(), true)) as Box<dyn FrameSource>)
-        .collect();
-    let sink = Collect::default();
-    let mut sinks: Vec<Box<dyn Sink>> = vec![Box::new(sink.clone())];
-    engine.run(sources, &mut sinks, &Quiet).expect("run");
-    let records = sink.0.lock().unwrap().clone();
-    records
+    rig::run(
+        pipeline,
+        cameras,
+        views,
+        FRAMES,
+        monohand::Settings::default(),
+    )
 }
 
 /// Every hand's 3D joints of `records` mapped by `to`, frame by frame.
