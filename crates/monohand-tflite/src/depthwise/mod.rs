@@ -383,7 +383,9 @@ use portable::kernel;
     target_arch = "x86_64",
     all(target_arch = "wasm32", target_feature = "simd128")
 ))]
-use window::{channel_tail, each_window, sized, valid, Window};
+use window::{channel_tail, each_window, sized};
+#[cfg(target_arch = "x86_64")]
+use window::{valid, Window};
 
 #[cfg(target_arch = "x86_64")]
 mod avx2;
