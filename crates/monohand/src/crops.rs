@@ -1,4 +1,5 @@
-//! Stages 1 and 2 over every view, with MediaPipe's crop tracking and hand identities.
+//! Stages 1 and 2 over every view, with MediaPipe's crop tracking and hand identities, and,
+//! with several calibrated views, crops from the hands fitted in 3D.
 
 use crate::cameras::StatedCamera;
 use crate::clock::Instant;
@@ -134,9 +135,10 @@ impl CropTracker {
 
     /// Seeds each view's crops with the hands fitted in 3D, projected through `cameras`
     /// (one per view, in the first camera's frame): once [`CropTracker::guide`] has given
-    /// the fitted hands, each view looks for every one of them where it projects, with that
-    /// hand's identity, whether or not the view found the hand itself. Needs tracking and
-    /// two or more cameras; otherwise nothing changes.
+    /// the fitted hands, a view that does not follow one of them itself looks for it where
+    /// it projects, with that hand's identity; a view's own hand under a projected one takes
+    /// its identity and keeps its own crop. Needs tracking and two or more cameras;
+    /// otherwise nothing changes.
     pub fn guide_through(&mut self, cameras: Vec<Camera>) {
         if self.tracking && cameras.len() >= 2 {
             self.guide_cameras = cameras;
@@ -163,13 +165,7 @@ impl CropTracker {
 
     /// The camera view `v`'s hands are read through, for a frame of `size`.
     pub fn lens(&self, v: usize, size: (u32, u32)) -> Option<Camera> {
-        let cam = self.lenses.get(v).copied().flatten()?;
-        let k = &cam.intrinsics;
-        if (k.width, k.height) == size {
-            Some(cam)
-        } else {
-            cam.scaled_to(size.0, size.1).ok()
-        }
+        sized_for(self.lenses.get(v).copied().flatten()?, size)
     }
 
     /// Whether frames are tracked (video) rather than detected each on its own.
@@ -286,13 +282,7 @@ impl CropTracker {
 
     /// View `v`'s guide camera for a frame of `size`.
     fn guide_camera(&self, v: usize, size: (u32, u32)) -> Option<Camera> {
-        let cam = *self.guide_cameras.get(v)?;
-        let k = &cam.intrinsics;
-        if (k.width, k.height) == size {
-            Some(cam)
-        } else {
-            cam.scaled_to(size.0, size.1).ok()
-        }
+        sized_for(*self.guide_cameras.get(v)?, size)
     }
 
     /// Gives each hand view `v` found its identity (the seed's it continues, else a new one)
@@ -337,6 +327,17 @@ impl CropTracker {
             state.ids.clone_from(&ids);
         }
         Ok(ViewHands { detections, ids })
+    }
+}
+
+/// `camera` for frames of `size` ([`Camera::scaled_to`] when its own size differs; `None`
+/// where it cannot describe them).
+fn sized_for(camera: Camera, size: (u32, u32)) -> Option<Camera> {
+    let k = &camera.intrinsics;
+    if (k.width, k.height) == size {
+        Some(camera)
+    } else {
+        camera.scaled_to(size.0, size.1).ok()
     }
 }
 
