@@ -49,6 +49,7 @@ mod tracks;
 pub use cameras::StatedCamera;
 pub use crops::{
     CropTracker, FittedGuide, HandId, ViewError, ViewHands, VisionFrame, GUIDE_MIN_INSIDE,
+    SEED_GRID_PX,
 };
 pub use error::{SessionError, SessionResult};
 pub use fit::{
