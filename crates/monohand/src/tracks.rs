@@ -1,7 +1,9 @@
 //! The hands followed over the frames: each identity's voted side, its 3D tracker and its
 //! filters, forgotten after [`FORGET_AFTER_FRAMES`] frames unseen.
 
-use crate::association::{agreement_px, associate_by, Candidate, SAME_HAND_PX, SIDE_PENALTY_PX};
+use crate::association::{
+    agreement_px, associate, associate_by, Candidate, SAME_HAND_PX, SIDE_PENALTY_PX,
+};
 use crate::crops::{FittedGuide, HandId, VisionFrame};
 use crate::hands::{FitSettings, FORGET_AFTER_FRAMES};
 use monohand_core::filtering::{DepthFilter, OneEuroFilter, OneEuroParams};
@@ -195,7 +197,7 @@ impl Tracks {
             };
             associate_by(&slices, pair, false)
         } else {
-            associate_by(&slices, |_, (w, m)| Some(-candidates[w][m].score), true)
+            associate(&slices)
         };
         hands
             .into_iter()
