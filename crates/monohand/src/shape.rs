@@ -74,7 +74,9 @@ impl HandShape {
             );
             return;
         }
-        let Some((side, seen, views)) = best_seen_twice(frames, anchored, cameras) else {
+        let Some((side, seen, views)) =
+            best_seen_twice(frames, anchored, cameras, settings.tracking)
+        else {
             say(
                 notes,
                 "no hand was seen by two views in the first frames; keeping the default size"
@@ -158,17 +160,26 @@ impl HandShape {
 }
 
 /// The hand seen by two views in the most kept frames (ties: the lowest id): its side,
-/// those frames' indices and, per such frame, its views.
+/// those frames' indices and, per such frame, its views. Tracked, a hand is its id; untracked
+/// (a folder of photos per camera), every frame's hands get new ids, so a hand is its side.
 fn best_seen_twice<'a, T>(
     frames: &'a [(VisionFrame, T)],
     anchored: &[Vec<Anchored>],
     cameras: &'a [Camera],
+    tracking: bool,
 ) -> Option<(HandSide, Vec<u64>, Vec<Vec<View<'a>>>)> {
+    let key = |id: crate::HandId, side: HandSide| {
+        if tracking {
+            id
+        } else {
+            side_index(side) as crate::HandId
+        }
+    };
     let mut counts: HashMap<crate::HandId, usize> = HashMap::new();
     for hands in anchored {
-        for (id, _, views) in hands {
+        for (id, side, views) in hands {
             if views.len() >= 2 {
-                *counts.entry(*id).or_default() += 1;
+                *counts.entry(key(*id, *side)).or_default() += 1;
             }
         }
     }
@@ -180,7 +191,7 @@ fn best_seen_twice<'a, T>(
     let mut seen: Vec<Vec<View<'a>>> = Vec::new();
     for ((frame, _), hands) in frames.iter().zip(anchored) {
         for (id, s, views) in hands {
-            if *id == best && views.len() >= 2 {
+            if key(*id, *s) == best && views.len() >= 2 {
                 side = *s;
                 indices.push(frame.index);
                 seen.push(
