@@ -409,12 +409,15 @@ impl Engine {
         let recycler = sources.first().and_then(|s| s.recycler());
         // With several calibrated views, each frame's crops come from the hands fitted in
         // the frame before: the networks wait for that fit.
-        let guides = settings
-            .fitted_crops()
-            .then(|| crate::hands::in_first_frame(&self.cameras))
-            .filter(|c| tracking && c.len() >= 2);
+        // The crop stage alone decides whether it is guided: the fit sends guides exactly
+        // when the stage waits for them.
+        let mut stage = CropTracker::new(Arc::clone(&self.pipeline), n_views, settings);
+        stage.rectify_through(settings.lenses(&self.cameras));
+        if settings.fitted_crops() {
+            stage.guide_through(crate::hands::in_first_frame(&self.cameras));
+        }
         let (guide_tx, guide_rx) = sync_channel::<Vec<FittedGuide>>(1);
-        let guide_tx = guides.is_some().then_some(guide_tx);
+        let guide_tx = stage.is_guided().then_some(guide_tx);
         std::thread::scope(|scope| {
             let (raw_tx, raw_rx) = sync_channel::<RawFrame>(4);
             let (vis_tx, vis_rx) = sync_channel::<(VisionFrame, Extra)>(4);
@@ -424,13 +427,8 @@ impl Engine {
                     raw_tx.send(f).is_ok()
                 })
             });
-            let pipe = Arc::clone(&self.pipeline);
             let vision = scope.spawn(move || {
-                let mut stage = CropTracker::new(pipe, n_views, settings);
-                stage.rectify_through(settings.lenses(&self.cameras));
-                if let Some(cameras) = guides {
-                    stage.guide_through(cameras);
-                }
+                let mut stage = stage;
                 loop {
                     // A network alone shares its operators with the other cores only while
                     // frames are waiting: while this thread waits for the decoder, that core
