@@ -133,6 +133,24 @@ impl CropTracker {
         }
     }
 
+    /// A tracker for `views` cameras as [`CropTracker::new`], reading each view through its
+    /// camera's lens ([`crate::ResolvedSettings::lenses`]) and, with
+    /// [`crate::ResolvedSettings::fitted_crops`], seeded by the hands fitted in 3D
+    /// ([`CropTracker::guide_through`]): the crop stage of a session and of the engine.
+    pub fn for_cameras(
+        pipeline: Arc<HandPipeline>,
+        views: usize,
+        settings: &crate::ResolvedSettings,
+        cameras: &[Camera],
+    ) -> CropTracker {
+        let mut crops = CropTracker::new(pipeline, views, settings);
+        crops.rectify_through(settings.lenses(cameras));
+        if settings.fitted_crops() {
+            crops.guide_through(crate::hands::in_first_frame(cameras));
+        }
+        crops
+    }
+
     /// Seeds each view's crops with the hands fitted in 3D, projected through `cameras`
     /// (one per view, in the first camera's frame): once [`CropTracker::guide`] has given
     /// the fitted hands, a view that does not follow one of them itself looks for it where

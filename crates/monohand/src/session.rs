@@ -147,13 +147,8 @@ impl Session {
         let resolved = options.settings.resolve()?;
         resolved.check_pipeline(&pipeline, Some(options.models.detect_heads))?;
         let views = cameras.len().max(1);
-        let mut crops = CropTracker::new(pipeline, views, &resolved);
-        crops.rectify_through(resolved.lenses(&cameras));
-        if resolved.fitted_crops() {
-            crops.guide_through(crate::hands::in_first_frame(&cameras));
-        }
         Ok(Session {
-            crops,
+            crops: CropTracker::for_cameras(pipeline, views, &resolved, &cameras),
             fitter: HandsFitter::new(cameras, &resolved)?,
             views,
             next_index: 0,

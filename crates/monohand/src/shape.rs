@@ -159,7 +159,7 @@ impl HandShape {
     }
 }
 
-/// The hand seen by two views in the most kept frames (ties: the lowest id): its side,
+/// The hand seen by two views in the most kept frames (ties: the lowest key): its side,
 /// those frames' indices and, per such frame, its views. Tracked, a hand is its id; untracked
 /// (a folder of photos per camera), every frame's hands get new ids, so a hand is its side.
 fn best_seen_twice<'a, T>(

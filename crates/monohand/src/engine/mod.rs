@@ -411,11 +411,8 @@ impl Engine {
         // the frame before: the networks wait for that fit.
         // The crop stage alone decides whether it is guided: the fit sends guides exactly
         // when the stage waits for them.
-        let mut stage = CropTracker::new(Arc::clone(&self.pipeline), n_views, settings);
-        stage.rectify_through(settings.lenses(&self.cameras));
-        if settings.fitted_crops() {
-            stage.guide_through(crate::hands::in_first_frame(&self.cameras));
-        }
+        let stage =
+            CropTracker::for_cameras(Arc::clone(&self.pipeline), n_views, settings, &self.cameras);
         let (guide_tx, guide_rx) = sync_channel::<Vec<FittedGuide>>(1);
         let guide_tx = stage.is_guided().then_some(guide_tx);
         std::thread::scope(|scope| {
