@@ -159,6 +159,13 @@ pub(crate) struct EvalArgs {
     /// Also print the table for each half of each sequence (a setting should help on both).
     #[arg(long)]
     pub halves: bool,
+    /// Run three fits and print them side by side, per run and per half: the network's cues
+    /// with one fit a frame (--distance-weight 0), the paper's 2D cost (every cue, fusion
+    /// and the distance off) and the fit the other options give, with the ceiling of the
+    /// first two (each frame the better) and each fit's longest run of frames over twice
+    /// its median error (docs/absolute-depth.md).
+    #[arg(long)]
+    pub compare_fits: bool,
     /// Write a report folder: report.md, errors.csv (per-frame errors), PNG plots.
     #[arg(long, value_name = "DIR")]
     pub report: Option<PathBuf>,
@@ -216,14 +223,41 @@ pub(crate) fn run(args: &EvalArgs) -> Result<()> {
         plan::Stage::Lift { .. } => None,
     };
     let networks = networks.as_ref().map(|(p, d)| (p, d.as_str()));
-    let report = match each {
-        true => plan.run_views(&ds, networks),
-        false => plan.run(&ds, networks),
+    let run_plan = |plan: &Plan| -> Result<monohand_eval::report::Report> {
+        match each {
+            true => plan.run_views(&ds, networks),
+            false => plan.run(&ds, networks),
+        }
+        .map_err(|e| match e.refused_setting() {
+            Some(refused) => crate::refused(refused),
+            None => e.into(),
+        })
+    };
+    if args.compare_fits {
+        let fits = monohand_eval::compare::fits_compared(plan.settings.fit.options);
+        let mut runs: [Vec<monohand_eval::RunResult>; 3] = Default::default();
+        let mut mask = None;
+        for (options, out) in fits.into_iter().zip(runs.iter_mut()) {
+            let mut one = plan.clone();
+            one.settings.fit.options = options;
+            let report = run_plan(&one)?;
+            mask = Some(report.mask);
+            *out = report.runs;
+        }
+        println!(
+            "monohand {} eval --compare-fits: {} ({}), stage {}",
+            env!("CARGO_PKG_VERSION"),
+            ds.name,
+            args.dataset.display(),
+            plan.stage.as_str()
+        );
+        print!(
+            "{}",
+            monohand_eval::compare::table(&runs, &mask.unwrap_or([true; NUM_JOINTS]))
+        );
+        return Ok(());
     }
-    .map_err(|e| match e.refused_setting() {
-        Some(refused) => crate::refused(refused),
-        None => e.into(),
-    })?;
+    let report = run_plan(&plan)?;
     println!(
         "monohand {} eval: {} ({}), stage {}, root {}, {} evaluated joints",
         env!("CARGO_PKG_VERSION"),

@@ -69,6 +69,21 @@ pub(crate) struct CueArgs {
     /// One camera: then move each joint this share of the way to its keypoint's ray.
     #[arg(long, value_name = "W", default_value_t = FitOptions::default().fusion.fuse_pixels)]
     pub fuse_pixels: f64,
+    /// One camera, tracking: how hard each frame's fit holds the hand's distance gathered
+    /// over the frames from the keypoints' own fit and the cues' (docs/absolute-depth.md);
+    /// 0: off, one fit per frame with the cues' distance (the behaviour before).
+    #[arg(long, value_name = "W", default_value_t = FitOptions::default().distance.weight)]
+    pub distance_weight: f64,
+    /// One camera, tracking: the relative uncertainty of the cues' distance in one frame.
+    #[arg(long, value_name = "R", default_value_t = FitOptions::default().distance.cue_sigma)]
+    pub distance_cue_sigma: f64,
+    /// One camera, tracking: how much the distance may change from frame to frame (relative).
+    #[arg(long, value_name = "R", default_value_t = FitOptions::default().distance.drift_per_frame)]
+    pub distance_drift: f64,
+    /// One camera, tracking: the least keypoint noise (pixels) the keypoints' distance
+    /// uncertainty assumes.
+    #[arg(long, value_name = "PX", default_value_t = FitOptions::default().distance.keypoint_sigma_px)]
+    pub distance_keypoint_px: f64,
 }
 
 impl CueArgs {
@@ -81,6 +96,10 @@ impl CueArgs {
         options.fusion.fuse_world = self.fuse_world;
         options.fusion.fuse_depth = self.fuse_depth;
         options.fusion.fuse_pixels = self.fuse_pixels;
+        options.distance.weight = self.distance_weight;
+        options.distance.cue_sigma = self.distance_cue_sigma;
+        options.distance.drift_per_frame = self.distance_drift;
+        options.distance.keypoint_sigma_px = self.distance_keypoint_px;
         options
     }
 }
@@ -112,7 +131,7 @@ impl HandModelArgs {
         options.cost.confidence_power = self.confidence_power;
         let options = self.cues.apply(options);
         options.validate().context(
-            "--min-confidence / --confidence-power / --world-weight / --depth-weight / --hand-frame-weight / --temporal-weight / --fuse-world / --fuse-depth / --fuse-pixels",
+            "--min-confidence / --confidence-power / --world-weight / --depth-weight / --hand-frame-weight / --temporal-weight / --fuse-world / --fuse-depth / --fuse-pixels / --distance-*",
         )?;
         if self.hand_scale == HandScale::Auto && self.scale_frames == 0 {
             bail!("--scale-frames must be at least 1");

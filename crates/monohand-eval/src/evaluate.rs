@@ -580,8 +580,7 @@ impl Evaluator<'_> {
                         self.learnt.insert(key_sk.clone(), est.skeleton);
                         for (key, t) in self.solvers.iter_mut() {
                             if key.1 == key_sk.0 && key.2 == key_sk.1 {
-                                t.fitter_mut()
-                                    .set_skeleton(est.skeleton)
+                                t.set_skeleton(est.skeleton)
                                     .map_err(|e| EvalError::core("learnt proportions", e))?;
                             }
                         }

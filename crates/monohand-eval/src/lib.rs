@@ -20,6 +20,7 @@
 
 #![deny(missing_docs)]
 
+pub mod compare;
 pub mod dataset;
 pub mod datasets;
 pub mod error;

@@ -429,7 +429,19 @@ impl<T> HandsFitter<T> {
                 Some(View::new(cam, &d.keypoints).with_cues(d.cues.as_ref()))
             })
             .collect();
-        match fit_views(&mut track.tracker, &views) {
+        let outcome = fit_views(&mut track.tracker, &views);
+        if let Some(e) = track.tracker.distance_evidence() {
+            tracing::debug!(
+                "distance: frame {} hand {id}: keypoints {:.1} sigma {:.1} cues {:.1} fused {:.1} sigma {:.1}",
+                frame.index,
+                e.keypoints_mm.unwrap_or(f64::NAN),
+                e.keypoints_sigma_mm.unwrap_or(f64::NAN),
+                e.cues_mm.unwrap_or(f64::NAN),
+                e.fused_mm,
+                e.fused_sigma_mm
+            );
+        }
+        match outcome {
             FitOutcome::Fitted(mut fit) => {
                 // One camera only: with several the distance is seen, not guessed.
                 if let (Some(f), [cam]) = (track.depth.as_mut(), cameras) {

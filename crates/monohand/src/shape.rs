@@ -84,7 +84,7 @@ impl HandShape {
             );
             return;
         };
-        let template = *prototypes[side_index(side)].fitter_mut().skeleton();
+        let template = *prototypes[side_index(side)].fitter().skeleton();
         let (lo, hi) = SCALE_RANGE;
         match estimate_hand_scale(&template, &settings.options, &views, lo, hi) {
             Ok(est) if est.observable => {
@@ -95,9 +95,8 @@ impl HandShape {
                     template.hand_length() * est.scale
                 ));
                 for proto in prototypes.iter_mut() {
-                    let fitter = proto.fitter_mut();
-                    let scaled = fitter.skeleton().scaled(est.scale);
-                    if let Err(e) = scaled.and_then(|s| fitter.set_skeleton(s)) {
+                    let scaled = proto.fitter().skeleton().scaled(est.scale);
+                    if let Err(e) = scaled.and_then(|s| proto.set_skeleton(s)) {
                         tracing::warn!("hand scale not applied: {e}");
                     }
                 }
@@ -139,11 +138,11 @@ impl HandShape {
             if cues[i].is_empty() {
                 continue;
             }
-            let fitter = prototypes[i].fitter_mut();
-            let template = *fitter.skeleton();
+            let tracker = &mut prototypes[i];
+            let template = *tracker.fitter().skeleton();
             let (learnt, note) = learn_proportions(&template, side, &cues[i]);
             match learnt {
-                Some(est) => match fitter.set_skeleton(est.skeleton) {
+                Some(est) => match tracker.set_skeleton(est.skeleton) {
                     Err(e) => notes.push(Note::new(
                         NoteTopic::Proportions,
                         format!("{side} hand proportions not applied: {e}"),

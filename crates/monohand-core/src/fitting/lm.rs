@@ -126,6 +126,83 @@ pub struct HandFitter {
     fusion_cues: Option<NetworkCues>,
     /// The skeleton's palm in its own frame, for the hand-frame cues.
     palm: Palm,
+    /// The pull of the palm's distance from the first camera towards a target, in the
+    /// fit in progress ([`HandFitter::fit_from_at_distance`]).
+    distance: Option<DistancePull>,
+}
+
+/// A pull of the palm's centroid's depth in the first view's camera towards `target`
+/// (mm): the residual `weight (d - target)`, `d = a . (t + R centroid) + b`.
+#[derive(Debug, Clone, Copy)]
+struct DistancePull {
+    /// The camera's optical axis in the reference frame (`R_cᵀ e_z`).
+    axis: Vector3<f64>,
+    /// The camera's translation along its axis (`t_c.z`).
+    offset: f64,
+    /// The palm's centroid in the hand's frame.
+    centroid: Vector3<f64>,
+    target: f64,
+    weight: f64,
+}
+
+impl DistancePull {
+    /// The pull for `camera` and the palm of `skeleton`.
+    fn new(
+        camera: &crate::camera::Camera,
+        skeleton: &HandSkeleton,
+        target: f64,
+        weight: f64,
+    ) -> DistancePull {
+        DistancePull {
+            axis: camera.extrinsics.rotation.matrix().row(2).transpose(),
+            offset: camera.extrinsics.translation.z,
+            centroid: palm_centroid(skeleton),
+            target,
+            weight,
+        }
+    }
+
+    /// The palm's depth of `pose`.
+    #[inline]
+    fn depth(&self, pose: &HandPose) -> f64 {
+        self.axis
+            .dot(&(pose.translation + pose.rotation * self.centroid))
+            + self.offset
+    }
+
+    /// The weighted residual at `pose`.
+    #[inline]
+    fn residual(&self, pose: &HandPose) -> f64 {
+        self.weight * (self.depth(pose) - self.target)
+    }
+
+    /// The residual's Jacobian over the root's 6 degrees of freedom (translation, then
+    /// the rotation increment applied on the left: `d/dω a.(ω x v) = v x a`).
+    #[inline]
+    fn jacobian(&self, pose: &HandPose) -> SVector<f64, 6> {
+        let v = pose.rotation * self.centroid;
+        let dr = v.cross(&self.axis);
+        SVector::<f64, 6>::from_column_slice(&[
+            self.axis.x,
+            self.axis.y,
+            self.axis.z,
+            dr.x,
+            dr.y,
+            dr.z,
+        ]) * self.weight
+    }
+}
+
+/// The centroid of the rigid palm (the wrist and the five fingers' bases) in the hand's
+/// frame: the point whose depth is the hand's distance ([`HandFitter::palm_depth`]).
+fn palm_centroid(skeleton: &HandSkeleton) -> Vector3<f64> {
+    let rest = crate::kinematics::forward_kinematics_local(
+        skeleton,
+        &[0.0; crate::hand_model::NUM_ANGLES],
+    );
+    // The wrist and each finger's base (thumb CMC, MCPs), which no angle moves.
+    let bases = crate::hand_model::Finger::ALL.map(|f| rest[f.joints()[0]]);
+    (rest[0] + bases.iter().sum::<Vector3<f64>>()) / (1 + bases.len()) as f64
 }
 
 impl HandFitter {
@@ -144,6 +221,7 @@ impl HandFitter {
             prior_weight: 0.0,
             fusion_cues: None,
             palm: palm_of(&skeleton),
+            distance: None,
         })
     }
 
@@ -251,7 +329,7 @@ impl HandFitter {
     /// [`TrackingSettings::temporal_weight`]: crate::fitting::TrackingSettings::temporal_weight
     pub fn fit_from(&mut self, views: &[View], start: &HandPose) -> CoreResult<FitResult> {
         let w = self.options.tracking.temporal_weight;
-        self.fit_from_with(views, start, Towards::Start, w)
+        self.fit_from_with(views, start, Towards::Start, w, None)
     }
 
     /// Fits from `start` with every joint pulled towards `target` (reference frame, mm) at
@@ -271,7 +349,7 @@ impl HandFitter {
                 "the pull's weight {weight} must be a finite number >= 0"
             )));
         }
-        self.fit_from_with(views, start, Towards::Joints(*target), weight)
+        self.fit_from_with(views, start, Towards::Joints(*target), weight, None)
     }
 
     /// [`HandFitter::fit_from`] with the temporal term pulling towards `towards`
@@ -283,12 +361,25 @@ impl HandFitter {
         start: &HandPose,
         towards: Option<[Vector3<f64>; NUM_JOINTS]>,
     ) -> CoreResult<FitResult> {
+        self.fit_from_at_distance(views, start, towards, None)
+    }
+
+    /// [`Self::fit_from_towards`] with the palm's depth in the first view's camera
+    /// ([`Self::palm_depth`]) pulled towards `distance = (target_mm, weight)`: the
+    /// residual `weight (d - target_mm)`, beside the keypoints' milliradians.
+    pub(crate) fn fit_from_at_distance(
+        &mut self,
+        views: &[View],
+        start: &HandPose,
+        towards: Option<[Vector3<f64>; NUM_JOINTS]>,
+        distance: Option<(f64, f64)>,
+    ) -> CoreResult<FitResult> {
         let towards = match towards {
             Some(joints) => Towards::Joints(joints),
             None => Towards::Nothing,
         };
         let w = self.options.tracking.temporal_weight;
-        self.fit_from_with(views, start, towards, w)
+        self.fit_from_with(views, start, towards, w, distance)
     }
 
     fn fit_from_with(
@@ -297,6 +388,7 @@ impl HandFitter {
         start: &HandPose,
         towards: Towards,
         weight: f64,
+        distance: Option<(f64, f64)>,
     ) -> CoreResult<FitResult> {
         if !start.is_finite() {
             return Err(CoreError::InvalidOptions(
@@ -320,6 +412,9 @@ impl HandFitter {
         };
         self.prior_weight = weight;
         self.prior = towards.filter(|_| weight > 0.0);
+        self.distance = distance
+            .filter(|&(target, w)| target.is_finite() && w.is_finite() && w > 0.0)
+            .map(|(target, w)| DistancePull::new(&self.views[0].camera, &self.posed, target, w));
         let sol = self.solve(
             start,
             &observed,
@@ -336,8 +431,9 @@ impl HandFitter {
             return Err(CoreError::ViewMismatch("no views given".into()));
         }
         self.views.clear();
-        // Only a tracking fit sets a temporal target, after preparing.
+        // Only a tracking fit sets a temporal target or a distance, after preparing.
         self.prior = None;
+        self.distance = None;
         self.fusion_cues = None;
         let o = &self.options;
         let mut used = 0;
@@ -389,6 +485,54 @@ impl HandFitter {
         std::array::from_fn(|j| self.views.iter().any(|v| v.weights[j] > 0.0))
     }
 
+    /// The hand's distance from the first view's camera in the last fit's views: the depth
+    /// of the palm's centroid (the wrist and the five fingers' bases, rigid), mm.
+    /// `None` before any fit.
+    pub fn palm_depth(&self, pose: &HandPose) -> Option<f64> {
+        let camera = &self.views.first()?.camera;
+        Some(DistancePull::new(camera, &self.posed, 0.0, 1.0).depth(pose))
+    }
+
+    /// How firmly the last fit's keypoints pin [`Self::palm_depth`] at `pose` (a fit of
+    /// those views): its standard deviation in mm, from the Gauss-Newton matrix `H` of the
+    /// fit's cost without its temporal and distance pulls, for keypoints whose noise is
+    /// `sigma_px` per coordinate (at confidence weight 1), `sqrt(aᵀ (H / σ² + P⁻¹)⁻¹ a)`
+    /// with `a` the depth's gradient. `P` is the spread the joint limits allow each angle
+    /// (uniform: range² / 12), so that an angle no keypoint pins is not infinitely
+    /// uncertain. The articulation enters through `H`: a family of hands along the rays,
+    /// nearer and more flexed or farther and flatter, that the keypoints cannot tell
+    /// apart, is a large deviation. `None` before a fit or if `H` is singular.
+    pub fn palm_depth_sigma(&self, pose: &HandPose, sigma_px: f64) -> Option<f64> {
+        let camera = self.views.first()?.camera;
+        let sigma_mrad = sigma_px * 1000.0 / camera.intrinsics.fx.max(1e-9);
+        if !(sigma_mrad.is_finite() && sigma_mrad > 0.0) {
+            return None;
+        }
+        let mask = self.observed_joints();
+        let free = free_dofs(&mask);
+        let (mut h, mut g) = (Mat26::zeros(), Vec26::zeros());
+        self.linearise_data(pose, &mask, &mut h, &mut g, false)?;
+        let mut info = h / (sigma_mrad * sigma_mrad);
+        let limits = &self.posed.limits;
+        for i in 0..NUM_DOF {
+            if !free[i] {
+                for k in 0..NUM_DOF {
+                    info[(i, k)] = 0.0;
+                    info[(k, i)] = 0.0;
+                }
+                info[(i, i)] = 1.0;
+            } else if i >= 6 {
+                let range = (limits.upper[i - 6] - limits.lower[i - 6]).max(1e-3);
+                info[(i, i)] += 12.0 / (range * range);
+            }
+        }
+        let pull = DistancePull::new(&camera, &self.posed, 0.0, 1.0);
+        let mut a = Vec26::zeros();
+        a.fixed_rows_mut::<6>(0).copy_from(&pull.jacobian(pose));
+        let var = a.dot(&info.cholesky()?.solve(&a));
+        (var.is_finite() && var >= 0.0).then(|| var.sqrt())
+    }
+
     pub(crate) fn in_front(&self, pose: &HandPose) -> bool {
         let pts = forward_kinematics(&self.posed, pose);
         self.views.iter().all(|v| {
@@ -399,13 +543,13 @@ impl HandFitter {
 
     fn finish(&self, sol: Solution, used: usize) -> FitResult {
         let joints_3d = forward_kinematics(&self.posed, &sol.pose);
-        // The temporal pull is left out of the reported cost, so that a
+        // The temporal and distance pulls are left out of the reported cost, so that a
         // warm-started and a from-scratch fit of one frame compare fairly.
-        let cost = match self.prior {
-            Some(_) => self
+        let cost = match (self.prior, self.distance) {
+            (None, None) => sol.cost,
+            _ => self
                 .data_cost(&joints_3d, &sol.pose, &self.observed_joints())
                 .unwrap_or(sol.cost),
-            None => sol.cost,
         };
         let mut sum = 0.0;
         let mut n = 0usize;
@@ -467,7 +611,8 @@ impl HandFitter {
             .filter_map(|j| self.temporal_residual(j, &pts, mask))
             .map(|r| r.norm_squared())
             .sum();
-        Some(self.data_cost(&pts, pose, mask)? + temporal)
+        let distance = self.distance.map_or(0.0, |d| d.residual(pose).powi(2));
+        Some(self.data_cost(&pts, pose, mask)? + temporal + distance)
     }
 
     /// The pixel and cue terms of the cost for given joints; `None` if a joint
@@ -530,6 +675,27 @@ impl HandFitter {
         mask: &JointMask,
         h: &mut Mat26,
         g: &mut Vec26,
+    ) -> Option<f64> {
+        let mut cost = self.linearise_data(pose, mask, h, g, true)?;
+        if let Some(d) = &self.distance {
+            let r = d.residual(pose);
+            let jac = d.jacobian(pose);
+            cost += r * r;
+            h.fixed_view_mut::<6, 6>(0, 0).ger(1.0, &jac, &jac, 1.0);
+            g.fixed_rows_mut::<6>(0).axpy(r, &jac, 1.0);
+        }
+        Some(cost)
+    }
+
+    /// [`Self::linearise`] of the pixel and cue terms, with the temporal pull if
+    /// `temporal` (the distance pull is [`Self::linearise`]'s).
+    fn linearise_data(
+        &self,
+        pose: &HandPose,
+        mask: &JointMask,
+        h: &mut Mat26,
+        g: &mut Vec26,
+        temporal: bool,
     ) -> Option<f64> {
         let mut pts = [Vector3::zeros(); NUM_JOINTS];
         let mut jac = [SMatrix::<f64, 3, LOCAL_DOF>::zeros(); NUM_JOINTS];
@@ -602,10 +768,12 @@ impl HandFitter {
             }
         }
         let wt = self.prior_weight;
-        for (j, form) in forms.iter_mut().enumerate() {
-            if let Some(res) = self.temporal_residual(j, &pts, mask) {
-                cost += res.norm_squared();
-                form.add(&(Matrix3::identity() * (wt * wt)), &(res * wt));
+        if temporal {
+            for (j, form) in forms.iter_mut().enumerate() {
+                if let Some(res) = self.temporal_residual(j, &pts, mask) {
+                    cost += res.norm_squared();
+                    form.add(&(Matrix3::identity() * (wt * wt)), &(res * wt));
+                }
             }
         }
         for (j, (form, jac_j)) in forms.iter().zip(&jac).enumerate() {
@@ -1090,6 +1258,12 @@ mod tests {
             .for_each(|x| *x += Vector3::new(3.0, -2.0, 5.0));
         fitter.prior = Some(prior);
         fitter.prior_weight = fitter.options.tracking.temporal_weight;
+        fitter.distance = Some(DistancePull::new(
+            &fitter.views[0].camera,
+            &fitter.posed,
+            at.z - 30.0,
+            0.8,
+        ));
         let mask = [true; NUM_JOINTS];
         (fitter, pose, mask)
     }

@@ -28,6 +28,7 @@
 //! through a small trait that [`HandFitter`] implements, so that `init` does not
 //! depend on `lm`.
 
+mod distance;
 mod fusion;
 pub mod init;
 pub mod lm;
@@ -37,10 +38,12 @@ mod proportions;
 mod scale;
 mod tracker;
 
+pub use distance::{DistanceEvidence, DistanceFilter};
 pub use fusion::{fuse_keypoints, fuse_network_depth};
 pub use lm::{FitResult, HandFitter};
 pub use options::{
-    CostSettings, FitOptions, FusionSettings, SolverSettings, TrackingSettings, View,
+    CostSettings, DistanceSettings, FitOptions, FusionSettings, SolverSettings, TrackingSettings,
+    View,
 };
 pub use proportions::{estimate_proportions, ProportionEstimate, MIN_FRAMES, SETTLED_CHANGE};
 pub use scale::{estimate_hand_scale, ScaleEstimate, MIN_COST_CONTRAST};

@@ -45,6 +45,9 @@ pub struct FitOptions {
     /// With one view, after the fit: the output joints moved towards the network's
     /// depth and the keypoints.
     pub fusion: FusionSettings,
+    /// With one view, in tracking: the hand's distance gathered over the frames from the
+    /// keypoints' own evidence and the cues' ([`crate::fitting::DistanceFilter`]).
+    pub distance: DistanceSettings,
 }
 
 impl FitOptions {
@@ -53,7 +56,8 @@ impl FitOptions {
         self.solver.validate()?;
         self.cost.validate()?;
         self.tracking.validate()?;
-        self.fusion.validate()
+        self.fusion.validate()?;
+        self.distance.validate()
     }
 }
 
@@ -277,6 +281,72 @@ impl FusionSettings {
             return bad("fuse_pixels must be in [0, 1]");
         }
         Ok(())
+    }
+}
+
+/// Settings of the hand's distance over time with one camera ([`FitOptions::distance`],
+/// [`crate::fitting::DistanceFilter`], used by [`crate::fitting::HandTracker`]).
+///
+/// Each frame is fitted twice: with the network's cues (the fit of the other settings)
+/// and with the keypoints alone (the paper's cost, with the articulation cues in the
+/// hand's frame, which do not move the hand's distance). The keypoints' fit gives the
+/// palm's distance with its own uncertainty (how firmly the pixels pin it:
+/// [`crate::fitting::HandFitter::palm_depth_sigma`]); the cues' fit gives another, of a
+/// fixed relative uncertainty. A filter over the frames combines both, and the frame is
+/// fitted once more with the cues, its distance held at the filter's.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct DistanceSettings {
+    /// Weight of the pull of the final fit's palm distance towards the filtered one, on
+    /// the filter's own uncertainty: the residual `w σ_kp (d - d_filtered) / σ_filtered`
+    /// (`σ_kp` the keypoints' noise in milliradians), so that at 1 the filtered distance
+    /// weighs as its uncertainty says. 0 turns the whole mechanism off (one fit per
+    /// frame, the cues' distance: the behaviour before).
+    pub weight: f64,
+    /// The keypoints' noise per coordinate, pixels, at confidence weight 1: the least
+    /// noise [`crate::fitting::HandFitter::palm_depth_sigma`] assumes (the fit's own mean
+    /// reprojection error is used where larger).
+    pub keypoint_sigma_px: f64,
+    /// The relative uncertainty of the cues' distance in one frame (0.1: 10%).
+    pub cue_sigma: f64,
+    /// How much the distance may change from one frame to the next, relative (the
+    /// filter's process noise per frame).
+    pub drift_per_frame: f64,
+}
+
+impl Default for DistanceSettings {
+    fn default() -> Self {
+        // Chosen on both dev sets, both halves of each, and the rig's views one left out
+        // at a time (docs/absolute-depth.md, "One camera from any viewpoint").
+        DistanceSettings {
+            weight: 10.0,
+            keypoint_sigma_px: 2.0,
+            cue_sigma: 0.1,
+            drift_per_frame: 0.02,
+        }
+    }
+}
+
+impl DistanceSettings {
+    /// Checks the numbers.
+    pub fn validate(&self) -> CoreResult<()> {
+        check_weight("distance weight", self.weight)?;
+        for (name, v) in [
+            ("keypoint_sigma_px", self.keypoint_sigma_px),
+            ("cue_sigma", self.cue_sigma),
+            ("drift_per_frame", self.drift_per_frame),
+        ] {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(CoreError::InvalidOptions(format!(
+                    "{name} must be finite and > 0"
+                )));
+            }
+        }
+        Ok(())
+    }
+
+    /// Whether the mechanism is on.
+    pub fn enabled(&self) -> bool {
+        self.weight > 0.0
     }
 }
 
