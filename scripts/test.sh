@@ -31,7 +31,7 @@ fi
 # and named first (scripts/prerequisites.sh; without root or sudo it names them and stops).
 scripts/prerequisites.sh
 
-echo "== the tools' tests (tools/test_*.py, Python's unittest: the prerequisites script above)"
+echo "== the tools' tests (tools/test_*.py, Python's unittest: the prerequisites script above, the import loop checker)"
 python3 -m unittest discover -s tools -p 'test_*.py' -v
 
 echo "== Rust tests"
