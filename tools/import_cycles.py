@@ -488,7 +488,8 @@ def rust_graph(crate: Path, name: str, tests: bool = False, parents: bool = Fals
         for segments, alias, glob, inline_depth, line, text in f.uses:
             if not segments:
                 continue
-            target = absolute(f, segments, inline_depth, module_bindings[m] if not inline_depth else {})
+            bindings = {} if inline_depth else module_bindings[m]
+            target = absolute(f, segments, inline_depth, bindings)
             if target is None:
                 continue
             to = deepest(target)[0] if glob else resolve(target)
@@ -636,7 +637,8 @@ def report(graph: Graph, all_edges: bool) -> int:
     print(f"{graph.name}, {n_modules} modules: {len(found)} loop(s)")
     for k, component in enumerate(found, 1):
         members = set(component)
-        print(f"  loop {k}, {len(component)} modules: " + ", ".join(graph.label(m) for m in component))
+        names = ", ".join(graph.label(m) for m in component)
+        print(f"  loop {k}, {len(component)} modules: {names}")
         inside: dict = {}
         for imp in graph.imports:
             if imp.source in members and imp.target in members and graph.counts(imp):
@@ -645,7 +647,8 @@ def report(graph: Graph, all_edges: bool) -> int:
             shown = imps if all_edges else imps[:1]
             more = "" if all_edges or len(imps) == 1 else f" (and {len(imps) - 1} more)"
             for imp in shown:
-                print(f"    {graph.label(a)} -> {graph.label(b)}: {imp.file}:{imp.line}: {imp.text}{more}")
+                where = f"{imp.file}:{imp.line}: {imp.text}"
+                print(f"    {graph.label(a)} -> {graph.label(b)}: {where}{more}")
                 more = ""
     return len(found)
 
@@ -655,7 +658,9 @@ def crates(root: Path) -> list:
     out = []
     for dirpath, dirnames, filenames in os.walk(root):
         dirnames[:] = sorted(
-            d for d in dirnames if d not in ("target", "node_modules", ".git") and not d.startswith(".")
+            d
+            for d in dirnames
+            if d not in ("target", "node_modules", ".git") and not d.startswith(".")
         )
         if "Cargo.toml" in filenames and (Path(dirpath) / "src").is_dir():
             out.append(Path(dirpath))
@@ -680,11 +685,18 @@ def graphs(crate: Path, root: Path, tests: bool = False, parents: bool = False) 
 def main(argv: list | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("crates", nargs="*", help="crate folders or names (default: all)")
-    parser.add_argument("--exclude", action="append", default=[], help="a crate folder or name to skip")
     parser.add_argument(
-        "--root", type=Path, default=Path(__file__).resolve().parent.parent, help="the repository (default: this one)"
+        "--exclude", action="append", default=[], help="a crate folder or name to skip"
     )
-    parser.add_argument("--edges", action="store_true", help="every import inside each loop, not the first")
+    parser.add_argument(
+        "--root",
+        type=Path,
+        default=Path(__file__).resolve().parent.parent,
+        help="the repository (default: this one)",
+    )
+    parser.add_argument(
+        "--edges", action="store_true", help="every import inside each loop, not the first"
+    )
     parser.add_argument("--tests", action="store_true", help="read #[cfg(test)] code too")
     parser.add_argument(
         "--parents", action="store_true", help="count a module's imports of its own ancestors too"
