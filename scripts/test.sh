@@ -2,6 +2,8 @@
 # Every test of the project: the Rust workspace, then the Python package (built as a wheel
 # with maturin into a fresh venv, and tested with pytest against the command-line tool).
 # Data tests read ../shared beside the repository; missing data or models fail, never skip.
+# The system tools the tests run are installed first when missing (apt-get, as root or
+# with sudo; scripts/prerequisites.sh says which).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -15,12 +17,22 @@ rust_tests=(cargo test --workspace --release --config scripts/test-release.toml 
 cli_build=(cargo build --release -p monohand-cli --features rerun)
 
 # TEST_BUILD_ONLY=1: compile the Rust tests and the CLI, run nothing (.ci/run does that in
-# the background while it lints, then runs this script whole, which finds them built).
+# the background while it lints, then runs this script whole, which finds them built). A
+# build needs none of the system tools, so it installs nothing: no apt-get of its own, in
+# the background beside .ci/run's (which installs them before it starts its builds).
 if [ "${TEST_BUILD_ONLY:-0}" = 1 ]; then
   "${rust_tests[@]}" --no-run
   "${cli_build[@]}"
   exit 0
 fi
+
+# The system tools the tests run (ffmpeg and ffprobe, chromium, Xvfb, xwd, xdotool, npm,
+# exiftool): whichever are missing are installed with apt-get, as root or through sudo,
+# and named first (scripts/prerequisites.sh; without root or sudo it names them and stops).
+scripts/prerequisites.sh
+
+echo "== the tools' tests (tools/test_*.py, Python's unittest: the prerequisites script above, the import loop checker)"
+python3 -m unittest discover -s tools -p 'test_*.py' -v
 
 echo "== Rust tests"
 "${rust_tests[@]}"

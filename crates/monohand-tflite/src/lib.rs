@@ -43,8 +43,10 @@ mod int8;
 mod isa;
 mod ops;
 mod pointwise;
+mod pointwise_common;
 mod pool;
 mod prelu;
+mod quantize;
 mod resize;
 mod split;
 mod tensors;
@@ -52,12 +54,13 @@ mod tensors;
 pub use conv::{NhwcConv, NhwcConvInt8};
 pub use depthwise::{NhwcDepthwise, NhwcDepthwiseCodes};
 pub use int8::{
-    code_depthwise_results, int8_input_ranges, quantize_pointwise, quantize_weights,
-    ActivationQuant, MinMax, PointwiseConvInt8, ACTIVATION_QMAX, WEIGHT_QMAX,
+    quantize_weights, ActivationQuant, MinMax, PointwiseConvInt8, ACTIVATION_QMAX, WEIGHT_QMAX,
 };
-pub use pointwise::{Activation, PointwiseConv};
+pub use pointwise::PointwiseConv;
+pub use pointwise_common::Activation;
 pub use pool::NhwcMaxPool;
 pub use prelu::ChannelPrelu;
+pub use quantize::{code_depthwise_results, int8_input_ranges, quantize_pointwise};
 pub use resize::NhwcResizeBilinear;
 pub use split::{allow_split_here, shared_operators, start_team, team_size, Running};
 

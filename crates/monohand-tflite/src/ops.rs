@@ -13,7 +13,8 @@ use tract_core::ops::nn::{
 };
 use tract_tflite::tflite::{self, ActivationFunctionType, BuiltinOperator, Padding};
 
-use super::pointwise::{Activation, PointwiseConv};
+use super::pointwise::PointwiseConv;
+use super::pointwise_common::Activation;
 use super::{tensors, ImportError};
 
 /// Names of the TFLite builtin operators [`super::import`] translates.

@@ -34,6 +34,8 @@ pub mod geometry;
 pub mod heatmap;
 pub mod image_io;
 pub mod int8;
+mod int8_tables;
+mod keypoints;
 pub mod landmarks;
 pub mod models;
 pub mod network;

@@ -113,7 +113,7 @@ impl TfliteNet {
         options: tflite_import::ImportOptions,
         precision: tflite_import::Precision,
     ) -> Result<Self> {
-        let (model, int8_layers) = crate::int8::import(bytes, origin, options, precision)?;
+        let (model, int8_layers) = crate::int8_tables::import(bytes, origin, options, precision)?;
         let fact = model.input_fact(0)?.clone();
         let shape = fact
             .shape

@@ -45,18 +45,9 @@ pub trait HandDetector: Send + Sync {
     fn detect_hands(&self, img: &RgbImage) -> Result<Vec<HandRegion>>;
 }
 
-/// Keypoints of one hand from a [`KeypointEstimator`], continuous image coordinates.
-#[derive(Clone, Debug, PartialEq)]
-pub struct HandKeypoints {
-    /// `[x, y, confidence]` per joint in MediaPipe/OpenPose order.
-    pub points: [[f64; 3]; NUM_LANDMARKS],
-    /// Probability that the crop shows a hand at all.
-    pub presence: f32,
-    /// Physical side and its probability, if the network tells.
-    pub side: Option<(HandSide, f32)>,
-    /// The network's relative 3D (metric landmarks, relative depth) if it gives it.
-    pub cues: Option<NetworkCues>,
-}
+// What a [`KeypointEstimator`] gives: defined below the pipeline (keypoints.rs), where the
+// rectified views, which map keypoints back into the image, may use it too.
+pub use crate::keypoints::HandKeypoints;
 
 /// Estimates 21 keypoints for a hand region.
 pub trait KeypointEstimator: Send + Sync {

@@ -14,6 +14,7 @@
 //! Coordinates here are pixel centres (the camera's convention, [`crate::geometry`]).
 
 use crate::geometry::{from_pixel_centres, to_pixel_centres, RotatedRect};
+use crate::keypoints::HandKeypoints;
 use crate::RgbImage;
 use monohand_core::camera::Camera;
 use nalgebra::{Matrix3, Point2, Vector3};
@@ -133,7 +134,7 @@ impl RectifiedView {
     /// Keypoints read in this view (continuous coordinates, as the estimators give them)
     /// mapped into the image; a keypoint the camera does not see gets confidence 0. The
     /// network's metric 3D is turned from the view's axes into the camera's.
-    pub fn map_back(&self, camera: &Camera, kp: &mut crate::pipeline::HandKeypoints) {
+    pub fn map_back(&self, camera: &Camera, kp: &mut HandKeypoints) {
         for p in &mut kp.points {
             match self.to_image(camera, to_pixel_centres([p[0], p[1]])) {
                 Some(q) => [p[0], p[1]] = from_pixel_centres(q),

@@ -12,19 +12,45 @@
 //!
 //! The reduction lives in a buffer each thread keeps and reuses (the pipeline's two worker
 //! threads, rayon's), so a steady stream of frames allocates nothing here.
+//!
+//! The image as both the warp and the reductions read it ([`Src`]) and the footprint where
+//! the reductions start ([`PLAIN_BILINEAR_UP_TO`], re-exported by the warp) are defined
+//! here, below the warp, which samples from the reductions.
 
 use std::cell::RefCell;
 
-use crate::warp::Src;
+use image::RgbImage;
+
+/// The largest footprint (image pixels per output pixel, along a side) sampled plainly
+/// bilinearly from the image, as MediaPipe does; above it the image is box-filtered first.
+pub const PLAIN_BILINEAR_UP_TO: f64 = 2.0;
+
+/// An RGB image borrowed as bytes: `w x h` pixels, rows of `w * 3` bytes, no padding.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Src<'a> {
+    pub(crate) raw: &'a [u8],
+    pub(crate) w: usize,
+    pub(crate) h: usize,
+}
+
+impl<'a> Src<'a> {
+    pub(crate) fn of(img: &'a RgbImage) -> Src<'a> {
+        Src {
+            raw: img.as_raw(),
+            w: img.width() as usize,
+            h: img.height() as usize,
+        }
+    }
+}
 
 /// The deepest reduction (blocks of 256 x 256 pixels, whose column sums still fit in u16).
 const MAX_LEVEL: u32 = 8;
 
 /// The reduction level for a crop whose output pixel covers `footprint` image pixels along
-/// a side: `None` (sample the image itself) up to [`crate::warp::PLAIN_BILINEAR_UP_TO`],
+/// a side: `None` (sample the image itself) up to [`PLAIN_BILINEAR_UP_TO`],
 /// else the largest `k` with `2^k <= footprint` (at most [`MAX_LEVEL`]).
 pub(crate) fn level_for(footprint: f64) -> Option<u32> {
-    if footprint > crate::warp::PLAIN_BILINEAR_UP_TO {
+    if footprint > PLAIN_BILINEAR_UP_TO {
         Some((footprint.log2().floor() as u32).clamp(1, MAX_LEVEL))
     } else {
         // Also NaN: the plain warp reads nothing for a non-finite map.

@@ -19,6 +19,10 @@
 use image::RgbImage;
 
 use crate::geometry::Affine2;
+use crate::reduce::Src;
+// Where the box filter starts: defined by the reductions (reduce.rs), which the warp
+// samples from and which must not import the warp back.
+pub use crate::reduce::PLAIN_BILINEAR_UP_TO;
 
 /// How network inputs are normalised from 8-bit pixel values.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -166,28 +170,6 @@ pub fn warp_into_supersampled(
     };
     let size = (out_w, out_h);
     warp_plain(Src::of(img), &crop_to_image.0, size, n, norm, border, out)
-}
-
-/// The largest footprint (image pixels per output pixel, along a side) sampled plainly
-/// bilinearly from the image, as MediaPipe does; above it the image is box-filtered first.
-pub const PLAIN_BILINEAR_UP_TO: f64 = 2.0;
-
-/// An RGB image borrowed as bytes: `w x h` pixels, rows of `w * 3` bytes, no padding.
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct Src<'a> {
-    pub(crate) raw: &'a [u8],
-    pub(crate) w: usize,
-    pub(crate) h: usize,
-}
-
-impl<'a> Src<'a> {
-    pub(crate) fn of(img: &'a RgbImage) -> Src<'a> {
-        Src {
-            raw: img.as_raw(),
-            w: img.width() as usize,
-            h: img.height() as usize,
-        }
-    }
 }
 
 /// The axis-aligned or the general warp of `img` by `m` with `n x n` sub-samples per output

@@ -39,15 +39,17 @@
 //! length, lens, make and model) is read without ffmpeg, from the file's boxes:
 //! [`read_quicktime_metadata`].
 //!
-//! The code is in one file per concern: `tools.rs` (finding the executables and what
-//! they support), `probe.rs` (ffprobe and [`VideoInfo`]), `reader.rs` ([`VideoReader`],
-//! [`VideoInput`]), `yuv.rs` (4:2:0 YUV to RGB), `writer.rs` ([`VideoWriter`]) and
-//! `quicktime.rs` (the metadata boxes); everything public is re-exported here.
+//! The code is in one file per concern: `tools.rs` (finding the executables, what
+//! they support, what they said), `input.rs` ([`VideoInput`]), `probe.rs` (ffprobe and
+//! [`VideoInfo`]), `reader.rs` ([`VideoReader`]), `yuv.rs` (4:2:0 YUV to RGB),
+//! `writer.rs` ([`VideoWriter`]) and `quicktime.rs` (the metadata boxes); everything
+//! public is re-exported here.
 //!
 //! [`probe`]: fn@probe
 //! [`IoError::ToolMissing`]: monohand_io::IoError::ToolMissing
 //! [`IoError::Video`]: monohand_io::IoError::Video
 
+mod input;
 mod probe;
 mod quicktime;
 mod reader;
@@ -55,15 +57,14 @@ mod tools;
 mod writer;
 mod yuv;
 
+pub use input::VideoInput;
 pub use probe::{parse_probe_json, probe, probe_with, VideoInfo, DEFAULT_FPS, MAX_FRAME_PIXELS};
 pub use quicktime::{
     parse_quicktime_metadata, read_quicktime_metadata, MetadataItem, MetadataValue, QuickTimeError,
     QuickTimeMetadata, VideoCameraTags, KEY_FOCAL_35MM, KEY_LENS_MODEL, KEY_MAKE, KEY_MODEL,
     MAX_VALUE_BYTES,
 };
-pub use reader::{
-    reader_args, FrameRecycler, VideoFrame, VideoInput, VideoReader, DEFAULT_STALL_TIMEOUT,
-};
+pub use reader::{reader_args, FrameRecycler, VideoFrame, VideoReader, DEFAULT_STALL_TIMEOUT};
 pub use tools::{FfmpegFeatures, FfmpegTools};
 pub use writer::{writer_args, Encoder, VideoWriter};
 pub use yuv::{yuv420_frame_len, yuv420_to_rgb, Yuv420, YuvMatrix};

@@ -1,8 +1,8 @@
 //! `ffprobe`: what a video's first stream is ([`VideoInfo`]: size, frame rate, frame
 //! count, codec, rotation), and the parsing of ffprobe's JSON.
 
-use super::reader::VideoInput;
-use super::tools::{spawn_error, FfmpegTools};
+use super::input::VideoInput;
+use super::tools::{ffmpeg_said, spawn_error, FfmpegTools};
 use monohand_io::{IoError, IoResult};
 use serde_json::Value;
 use std::process::{Command, Stdio};
@@ -169,7 +169,7 @@ pub fn probe_with(tools: &FfmpegTools, input: &VideoInput) -> IoResult<VideoInfo
         .stdin(Stdio::null())
         .output()
         .map_err(|e| spawn_error(&tools.ffprobe, e))?;
-    let stderr = super::reader::ffmpeg_said(&String::from_utf8_lossy(&out.stderr), &name);
+    let stderr = ffmpeg_said(&String::from_utf8_lossy(&out.stderr), &name);
     if !out.status.success() {
         return Err(IoError::Video {
             input: name,

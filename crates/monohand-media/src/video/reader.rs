@@ -4,13 +4,13 @@
 //! a stall timeout ([`DEFAULT_STALL_TIMEOUT`]); ffmpeg's standard error is drained on a
 //! thread (for the writer too).
 
+use super::input::VideoInput;
 use super::probe::{probe_with, VideoInfo};
-use super::tools::{own_process_group, spawn_error, FfmpegFeatures, FfmpegTools};
+use super::tools::{ffmpeg_said, own_process_group, spawn_error, FfmpegFeatures, FfmpegTools};
 use super::yuv::{yuv420_frame_len, yuv420_to_rgb, Yuv420};
 use super::RgbImage;
 use monohand_io::{IoError, IoResult};
 use std::io::Read;
-use std::path::PathBuf;
 use std::process::{Child, ChildStdout, Command, Stdio};
 use std::sync::mpsc::{sync_channel, Receiver, RecvTimeoutError, SyncSender};
 use std::sync::Mutex;
@@ -20,69 +20,9 @@ use std::time::Duration;
 /// How many bytes of ffmpeg's standard error are kept for error messages (the tail).
 const STDERR_KEEP: usize = 4096;
 
-/// A video source: a file (or anything else ffmpeg opens) or a webcam.
-#[derive(Debug, Clone, PartialEq, Eq)]
-pub enum VideoInput {
-    /// A file, URL or image-sequence pattern, given to ffmpeg's `-i` as is.
-    File(PathBuf),
-    /// A Video4Linux device `/dev/videoN` (Linux webcams), read with `-f v4l2`.
-    Webcam(u32),
-}
-
-impl VideoInput {
-    /// `webcam:N` (N a number) is [`VideoInput::Webcam`]; anything else is a file.
-    pub fn parse(s: &str) -> VideoInput {
-        if let Some(n) = s.strip_prefix("webcam:").and_then(|n| n.parse().ok()) {
-            return VideoInput::Webcam(n);
-        }
-        VideoInput::File(PathBuf::from(s))
-    }
-
-    /// The ffmpeg/ffprobe arguments that open this input: `["-i", path]`, or
-    /// `["-f", "v4l2", "-i", "/dev/videoN"]` for a webcam.
-    pub fn input_args(&self) -> Vec<String> {
-        match self {
-            VideoInput::File(p) => vec!["-i".into(), p.display().to_string()],
-            VideoInput::Webcam(n) => vec![
-                "-f".into(),
-                "v4l2".into(),
-                "-i".into(),
-                format!("/dev/video{n}"),
-            ],
-        }
-    }
-
-    /// The name used in messages.
-    pub fn name(&self) -> String {
-        match self {
-            VideoInput::File(p) => p.display().to_string(),
-            VideoInput::Webcam(n) => format!("webcam:{n} (/dev/video{n})"),
-        }
-    }
-
-    /// Whether this is a live source (no end, no frame count).
-    pub fn is_live(&self) -> bool {
-        matches!(self, VideoInput::Webcam(_))
-    }
-}
-
 /// Reads a child's standard error on a thread, keeping the last [`STDERR_KEEP`] bytes.
 pub(super) fn drain_stderr(pipe: impl Read + Send + 'static) -> JoinHandle<String> {
     drain_stderr_with(pipe, None)
-}
-
-/// What ffmpeg or ffprobe said about `input`, for an [`IoError::Video`] (whose message
-/// already starts with the input's name): its lines joined with `; `, each without the
-/// `input: ` that ffmpeg puts before them, so that the error names the file once.
-pub(super) fn ffmpeg_said(stderr: &str, input: &str) -> String {
-    let prefix = format!("{input}: ");
-    stderr
-        .lines()
-        .map(str::trim)
-        .filter(|l| !l.is_empty())
-        .map(|l| l.strip_prefix(prefix.as_str()).unwrap_or(l))
-        .collect::<Vec<_>>()
-        .join("; ")
 }
 
 /// [`drain_stderr`] for a decoder run with `-v level+info` and the `showinfo` filter
@@ -575,30 +515,7 @@ mod tests {
     use super::*;
 
     #[test]
-    fn what_ffmpeg_said_names_the_input_once() {
-        let stderr = "[mov,mp4,m4a,3gp,3g2,mj2 @ 0x55c8bd6db4c0] moov atom not found\n\
-                      dir/bad.mp4: Invalid data found when processing input\n";
-        assert_eq!(
-            ffmpeg_said(stderr, "dir/bad.mp4"),
-            "[mov,mp4,m4a,3gp,3g2,mj2 @ 0x55c8bd6db4c0] moov atom not found; \
-             Invalid data found when processing input"
-        );
-        assert_eq!(ffmpeg_said(" \n", "x.mp4"), "");
-    }
-
-    #[test]
-    fn input_strings_map_to_ffmpeg_arguments() {
-        assert_eq!(VideoInput::parse("webcam:2"), VideoInput::Webcam(2));
-        assert_eq!(
-            VideoInput::parse("webcam:2").input_args(),
-            vec!["-f", "v4l2", "-i", "/dev/video2"]
-        );
-        assert!(VideoInput::parse("webcam:0").is_live());
-        // Not a number: a file that happens to start with "webcam:".
-        assert_eq!(
-            VideoInput::parse("webcam:x.mp4"),
-            VideoInput::File(PathBuf::from("webcam:x.mp4"))
-        );
+    fn reader_arguments_follow_the_features() {
         let old = FfmpegFeatures::default();
         let args = reader_args(&VideoInput::parse("a b.mp4"), old, "rgb24");
         let i = args.iter().position(|a| a == "-i").unwrap();

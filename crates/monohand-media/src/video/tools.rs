@@ -1,7 +1,7 @@
 //! The `ffmpeg` and `ffprobe` executables: where they are ([`FfmpegTools`]), what they
 //! support (asked once per process and executable and cached: the encoders, and the
 //! reader's [`FfmpegFeatures`]), and starting them (a process group of their own, the
-//! error for a tool that cannot be run).
+//! error for a tool that cannot be run, what a tool said on its standard error).
 
 use monohand_io::IoError;
 use std::collections::HashMap;
@@ -153,6 +153,20 @@ pub(super) fn spawn_error(tool: &Path, e: std::io::Error) -> IoError {
     }
 }
 
+/// What ffmpeg or ffprobe said about `input`, for an [`IoError::Video`] (whose message
+/// already starts with the input's name): its lines joined with `; `, each without the
+/// `input: ` that ffmpeg puts before them, so that the error names the file once.
+pub(super) fn ffmpeg_said(stderr: &str, input: &str) -> String {
+    let prefix = format!("{input}: ");
+    stderr
+        .lines()
+        .map(str::trim)
+        .filter(|l| !l.is_empty())
+        .map(|l| l.strip_prefix(prefix.as_str()).unwrap_or(l))
+        .collect::<Vec<_>>()
+        .join("; ")
+}
+
 /// Starts a command in its own process group, so that a Ctrl-C in the
 /// terminal reaches only this program, which then ends ffmpeg cleanly.
 pub(super) fn own_process_group(cmd: &mut Command) -> &mut Command {
@@ -168,6 +182,18 @@ pub(super) fn own_process_group(cmd: &mut Command) -> &mut Command {
 mod tests {
     use super::*;
     use crate::video::{probe_with, Encoder, VideoInput, VideoWriter};
+
+    #[test]
+    fn what_ffmpeg_said_names_the_input_once() {
+        let stderr = "[mov,mp4,m4a,3gp,3g2,mj2 @ 0x55c8bd6db4c0] moov atom not found\n\
+                      dir/bad.mp4: Invalid data found when processing input\n";
+        assert_eq!(
+            ffmpeg_said(stderr, "dir/bad.mp4"),
+            "[mov,mp4,m4a,3gp,3g2,mj2 @ 0x55c8bd6db4c0] moov atom not found; \
+             Invalid data found when processing input"
+        );
+        assert_eq!(ffmpeg_said(" \n", "x.mp4"), "");
+    }
 
     #[test]
     fn features_come_from_the_help_text() {

@@ -73,7 +73,7 @@ def frame_schema() -> Any:
     """The pyarrow schema of a video file's rows."""
     import pyarrow as pa
 
-    from monohand.daft import HANDS_DTYPE
+    from monohand._dtypes import HANDS_DTYPE
 
     return pa.schema(
         [

@@ -32,6 +32,9 @@ import daft
 from daft import DataType, Expression
 
 import monohand
+# The column types: defined below this module and the corpus job (monohand._corpus), which
+# both take them; monohand.daft.HAND_DTYPE and the others are these.
+from monohand._dtypes import FRAME_DTYPE, HAND_DTYPE, HANDS_DTYPE, INTRINSICS_DTYPE
 
 __all__ = [
     "CorpusOutputError",
@@ -47,55 +50,6 @@ __all__ = [
     "track_images",
     "track_videos",
 ]
-
-_POINTS = DataType.list(DataType.list(DataType.float32()))
-
-#: One hand. The first four fields are those of ``daft-physical-ai``.
-HAND_DTYPE = DataType.struct(
-    {
-        "handedness": DataType.string(),  # "left" | "right"
-        "confidence": DataType.float32(),  # detection score
-        "kp2d": _POINTS,  # [[x, y], ...] pixels, 21 joints
-        "kp3d": _POINTS,  # [[x, y, z], ...] wrist-relative, metres, camera axes; null if unfitted
-        "hand_id": DataType.int64(),  # identity over the video's frames
-        "side_score": DataType.float32(),  # the network's probability of `handedness`
-        "keypoint_confidence": DataType.list(DataType.float32()),  # per joint, [0, 1]
-        "kp3d_camera_mm": _POINTS,  # absolute, camera frame, millimetres
-        "pose": DataType.struct(
-            {
-                "translation_mm": DataType.list(DataType.float64()),
-                "quaternion_xyzw": DataType.list(DataType.float64()),
-                "angles_rad": DataType.list(DataType.float64()),
-            }
-        ),
-        "reprojection_error_px": DataType.float32(),
-    }
-)
-
-#: One frame -> its hands.
-HANDS_DTYPE = DataType.list(HAND_DTYPE)
-
-#: One frame of a tracked video (``frame`` null in the error row of an unreadable video).
-FRAME_DTYPE = DataType.struct(
-    {
-        "frame": DataType.int64(),
-        "time_s": DataType.float64(),
-        "hands": HANDS_DTYPE,
-        "error": DataType.string(),
-    }
-)
-
-#: Optional per-row intrinsics (pixels; pixel centres at integer coordinates).
-INTRINSICS_DTYPE = DataType.struct(
-    {
-        "fx": DataType.float64(),
-        "fy": DataType.float64(),
-        "cx": DataType.float64(),
-        "cy": DataType.float64(),
-        "width": DataType.int64(),
-        "height": DataType.int64(),
-    }
-)
 
 
 def hand_struct(hand: monohand.Hand) -> Dict[str, Any]:

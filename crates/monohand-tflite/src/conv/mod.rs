@@ -16,7 +16,8 @@ use tract_core::internal::*;
 
 use crate::depthwise::axis_geometry;
 use crate::int8::{ActivationQuant, PointwiseConvInt8};
-use crate::pointwise::{Activation, Kernel, PointwiseConv};
+use crate::pointwise::{Kernel, PointwiseConv};
+use crate::pointwise_common::Activation;
 
 /// Floats of im2col rows gathered per product (64 KiB: the buffer stays in L2 while the
 /// product runs over it).

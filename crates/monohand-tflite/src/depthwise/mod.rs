@@ -12,7 +12,7 @@
 use tract_core::internal::*;
 
 use crate::int8::ActivationQuant;
-use crate::pointwise::Activation;
+use crate::pointwise_common::Activation;
 
 /// Depthwise `KH x KW` convolution, depth multiplier 1, on `[1, H, W, C]` f32 tensors, with
 /// TFLite's padding rule (SAME: extra padding at the bottom/right), a bias per channel and a

@@ -2,6 +2,7 @@
 //! quantizer, the graph passes.
 
 use super::*;
+use crate::quantize::{code_depthwise_results, int8_input_ranges, quantize_pointwise};
 use crate::split::testing::{differing_bits, Lcg};
 
 const ACTS: [Activation; 3] = [Activation::None, Activation::Relu, Activation::Relu6];

@@ -30,8 +30,9 @@
 
 use tract_core::internal::*;
 
-/// Output channels per packed weight panel (two AVX2 vectors of 8 floats).
-pub const NR: usize = 16;
+use crate::pointwise_common::eval_1x1;
+use crate::pointwise_common::{Activation, NR};
+
 /// Rows (pixels) per micro-tile of the portable and AVX2 kernels.
 const MR: usize = 6;
 /// Rows per micro-tile of the AVX-512 kernel (its tiles are two panels wide: `2·MR512`
@@ -51,29 +52,6 @@ const ROW_BLOCK_BYTES: usize = 128 * 1024;
 
 /// Rows from which a product shared between the cores is cut by rows (fewer: by channels).
 const ROWS_TO_SPLIT: usize = 256;
-
-/// An activation clamped into the result of a [`PointwiseConv`] (TFLite's fused activations).
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Hash)]
-pub enum Activation {
-    /// Identity.
-    #[default]
-    None,
-    /// `max(x, 0)`.
-    Relu,
-    /// `min(max(x, 0), 6)`.
-    Relu6,
-}
-
-impl Activation {
-    /// The clamp bounds `(low, high)` the activation amounts to.
-    pub(crate) fn bounds(self) -> (f32, f32) {
-        match self {
-            Activation::None => (f32::NEG_INFINITY, f32::INFINITY),
-            Activation::Relu => (0.0, f32::INFINITY),
-            Activation::Relu6 => (0.0, 6.0),
-        }
-    }
-}
 
 /// 1x1 stride-1 convolution on f32 tensors whose last axis holds the `Cin` channels (NHWC),
 /// producing `Cout` channels, with the fused epilogue
@@ -313,58 +291,6 @@ impl EvalOp for PointwiseConv {
             |x, r, o| self.compute(x, r, o, Kernel::best(), self.split),
         )
     }
-}
-
-/// The `eval` of a 1x1 convolution over channels-last tensors (this operator's and
-/// [`crate::PointwiseConvInt8`]'s; input `X` f32, or u8 codes for a coded
-/// [`crate::PointwiseConvInt8`]; output f32): checks the inputs (`cin` channels, a residual of the
-/// output's shape when `has_residual`), makes the output (`cout` channels) and has
-/// `compute(input, residual, output)` write every one of its values.
-pub(crate) fn eval_1x1<X: Datum>(
-    inputs: &TVec<TValue>,
-    cin: usize,
-    cout: usize,
-    has_residual: bool,
-    what: &str,
-    compute: impl FnOnce(&[X], Option<&[f32]>, &mut [f32]) -> TractResult<()>,
-) -> TractResult<TVec<TValue>> {
-    ensure!(
-        inputs.len() == 1 + has_residual as usize,
-        "{what} got {} inputs",
-        inputs.len()
-    );
-    let x = &inputs[0];
-    let mut shape: TVec<usize> = x.shape().into();
-    ensure!(
-        shape.last() == Some(&cin),
-        "{what} over {cin} channels, input {shape:?}"
-    );
-    if let Some(last) = shape.last_mut() {
-        *last = cout;
-    }
-    if let Some(r) = inputs.get(1) {
-        ensure!(
-            r.shape() == &*shape,
-            "residual {:?} for an output {shape:?}",
-            r.shape()
-        );
-    }
-    // SAFETY: the tensor's values are left unwritten, and nothing reads one before it is
-    // written: `compute` (each operator's) stores every output value from its epilogue (the
-    // tiles cover all rows and channels, and only store into the output), and an error
-    // drops the tensor without reading it (f32 has no drop).
-    let mut output = unsafe { Tensor::uninitialized::<f32>(&shape)? };
-    {
-        let xr = x.try_as_plain_ram()?;
-        let rr = inputs.get(1).map(|r| r.try_as_plain_ram()).transpose()?;
-        let mut o = output.try_as_plain_ram_mut()?;
-        compute(
-            xr.as_slice::<X>()?,
-            rr.as_ref().map(|r| r.as_slice::<f32>()).transpose()?,
-            o.as_slice_mut::<f32>()?,
-        )?;
-    }
-    Ok(tvec!(output.into_tvalue()))
 }
 
 impl TypedOp for PointwiseConv {
