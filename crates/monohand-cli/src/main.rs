@@ -89,6 +89,10 @@ pub(crate) struct LiftArgs {
     /// images).
     #[arg(long)]
     pub track: bool,
+    /// Also write each fitted hand as OpenXR's 26 hand joints, with their orientations and
+    /// radii (`xr_joints`, docs/output-format.md).
+    #[arg(long)]
+    pub xr_joints: bool,
     #[command(flatten)]
     pub hand: hand_args::HandModelArgs,
 }

@@ -137,6 +137,27 @@ pub struct HandRecord {
     /// camera in the order of the frame's `cameras` (absent with one camera or no 3D).
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub views: Option<Vec<ViewFitRecord>>,
+    /// The hand as OpenXR's 26 hand joints, in the frame of `joints_3d_mm`: written when
+    /// asked ([`JsonlWriter::with_xr_joints`]), from the fit ([`HandRecord::xr_joints_of_fit`]).
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub xr_joints: Option<Vec<XrJointRecord>>,
+}
+
+/// One of a hand's OpenXR joints ([`HandRecord::xr_joints`]; `monohand_core::xr` gives
+/// their conventions: the axes, where the joints the model has not are put, the radii).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct XrJointRecord {
+    /// The joint, in `XrHandJointEXT` order ([`monohand_core::xr::XR_JOINT_NAMES`]:
+    /// `palm`, `wrist`, `thumb_metacarpal`, ..., `little_tip`).
+    pub name: String,
+    /// Position, mm.
+    pub position_mm: [f64; 3],
+    /// The rotation from the joint's axes into the record's frame, unit quaternion
+    /// `[x, y, z, w]`: the joint's −Z runs along its bone towards the finger tip, its +Y
+    /// out of the back of the hand, its +X = Y × Z.
+    pub orientation_xyzw: [f64; 4],
+    /// Distance from the joint to the skin, mm.
+    pub radius_mm: f64,
 }
 
 /// The hand size a fit used ([`HandRecord::hand_size`]).
@@ -213,6 +234,7 @@ impl HandRecord {
             depth_px: None,
             hand_size: None,
             views: None,
+            xr_joints: None,
         }
     }
 
@@ -258,6 +280,36 @@ impl HandRecord {
         self.joints_3d_mm.map(|j| j.map(Vector3::from))
     }
 
+    /// The hand's 26 OpenXR joints ([`monohand_core::xr::xr_joints`]) from its fit: at its
+    /// `joints_3d_mm`, oriented by the default hand model's axes posed with its `pose`,
+    /// with radii for its `hand_size` (the default adult hand's without one). The model's
+    /// axes are the default's because a record does not hold its skeleton; a fit's size is
+    /// its only difference from it unless the proportions were learnt (`FitSettings::
+    /// proportion_frames`), which change bone lengths and not axes. `None` without 3D or a
+    /// pose, or for joints no hand has (a bone of no length).
+    pub fn xr_joints_of_fit(&self) -> Option<Vec<XrJointRecord>> {
+        let joints = self.joints_3d()?;
+        let pose = self.pose.as_ref()?.to_pose()?;
+        let scale = self.hand_size.as_ref().map_or(1.0, |s| s.scale);
+        let skeleton = HandSkeleton::default_for(self.side).scaled(scale).ok()?;
+        let xr = monohand_core::xr::xr_joints(&skeleton, &pose, &joints)?;
+        let record = |(j, name): (&monohand_core::xr::XrJoint, &str)| {
+            let (p, q) = (j.position, j.orientation.quaternion());
+            XrJointRecord {
+                name: name.to_string(),
+                position_mm: [p.x, p.y, p.z],
+                orientation_xyzw: [q.i, q.j, q.k, q.w],
+                radius_mm: j.radius,
+            }
+        };
+        Some(
+            xr.iter()
+                .zip(monohand_core::xr::XR_JOINT_NAMES)
+                .map(record)
+                .collect(),
+        )
+    }
+
     /// The name of the first non-finite number, if any (JSON cannot hold NaN or infinity).
     fn non_finite_field(&self) -> Option<&'static str> {
         if bad(self.keypoints_2d.iter().flatten()) {
@@ -298,6 +350,16 @@ impl HandRecord {
         }
         if self.depth_px.is_some_and(|d| bad(d.iter())) {
             return Some("depth_px");
+        }
+        let xr = self.xr_joints.iter().flatten();
+        let xr_numbers = xr.flat_map(|j| {
+            j.position_mm
+                .iter()
+                .chain(&j.orientation_xyzw)
+                .chain([&j.radius_mm])
+        });
+        if bad(xr_numbers) {
+            return Some("xr_joints");
         }
         let views = self.views.iter().flatten();
         let offsets = views.clone().filter_map(|v| v.offset_px.as_ref()).flatten();
@@ -346,6 +408,19 @@ pub struct FrameRecord {
     /// The arithmetic the networks ran in when it was not f32 (`"int8"`); absent: f32.
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub precision: Option<String>,
+}
+
+impl FrameRecord {
+    /// The same frame with every fitted hand's OpenXR joints
+    /// ([`HandRecord::xr_joints_of_fit`]; hands that have them keep theirs).
+    pub fn with_xr_joints(mut self) -> FrameRecord {
+        for h in &mut self.hands {
+            if h.xr_joints.is_none() {
+                h.xr_joints = h.xr_joints_of_fit();
+            }
+        }
+        self
+    }
 }
 
 /// Where a camera came from (in JSON: `file`, `file-scaled`, `exif`, `exif+sensor-db`,
@@ -449,6 +524,7 @@ impl CameraRecord {
 pub struct JsonlWriter {
     out: RecordSink,
     lines: usize,
+    xr_joints: bool,
 }
 
 impl std::fmt::Debug for JsonlWriter {
@@ -456,6 +532,7 @@ impl std::fmt::Debug for JsonlWriter {
         f.debug_struct("JsonlWriter")
             .field("name", &self.out.name())
             .field("lines", &self.lines)
+            .field("xr_joints", &self.xr_joints)
             .finish()
     }
 }
@@ -466,6 +543,7 @@ impl JsonlWriter {
         Ok(JsonlWriter {
             out: RecordSink::create(path.as_ref())?,
             lines: 0,
+            xr_joints: false,
         })
     }
 
@@ -479,7 +557,16 @@ impl JsonlWriter {
         JsonlWriter {
             out: RecordSink::new(sink, name),
             lines: 0,
+            xr_joints: false,
         }
+    }
+
+    /// With `on`, every fitted hand is written with its OpenXR joints
+    /// ([`HandRecord::xr_joints`], made by [`HandRecord::xr_joints_of_fit`] where the
+    /// record has none). Off by default: they more than double a fitted hand's line.
+    pub fn with_xr_joints(mut self, on: bool) -> JsonlWriter {
+        self.xr_joints = on;
+        self
     }
 
     /// Number of frames written.
@@ -490,6 +577,14 @@ impl JsonlWriter {
     /// Writes one frame as one line and flushes it. Non-finite numbers are
     /// refused (JSON has no NaN) with the hand and field named.
     pub fn write_frame(&mut self, frame: &FrameRecord) -> IoResult<()> {
+        let with_xr;
+        let frame = match self.xr_joints {
+            true => {
+                with_xr = frame.clone().with_xr_joints();
+                &with_xr
+            }
+            false => frame,
+        };
         let mut line = frame_json(frame, self.out.name())?;
         line.push('\n');
         self.out.append(line.as_bytes())?;
@@ -713,6 +808,71 @@ mod tests {
             .to_string();
         assert!(e.contains("t.jsonl: line 1"), "{e}");
         assert!(read_jsonl("/nonexistent/in.jsonl").is_err());
+    }
+
+    #[test]
+    fn xr_joints_are_written_when_asked_and_read_back() {
+        let mut fit = fit_like();
+        let sk = HandSkeleton::default_for(HandSide::Left)
+            .scaled(0.93)
+            .unwrap();
+        fit.joints_3d = forward_kinematics(&sk, &fit.pose);
+        let mut hand = HandRecord::from_fit(HandSide::Left, &Keypoints2d::default(), &fit);
+        hand.hand_size = Some(HandSizeRecord {
+            length_mm: sk.hand_length(),
+            scale: 0.93,
+            source: "scale".into(),
+        });
+        let unfitted = HandRecord::from_keypoints(HandSide::Right, &Keypoints2d::default());
+        let frame = FrameRecord {
+            frame: 2,
+            hands: vec![hand, unfitted],
+            ..Default::default()
+        };
+        let mut plain = JsonlWriter::new(Box::new(Vec::new()), "mem");
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("xr.jsonl");
+        let mut xr = JsonlWriter::create(&p).unwrap().with_xr_joints(true);
+        plain.write_frame(&frame).unwrap();
+        xr.write_frame(&frame).unwrap();
+        let back = read_jsonl(&p).unwrap().remove(0);
+        let joints = back.hands[0].xr_joints.as_ref().unwrap();
+        assert_eq!(joints.len(), 26);
+        assert!(back.hands[1].xr_joints.is_none(), "no fit, no joints");
+        // The same numbers as the core gives for the fit's hand, in the same order.
+        let want = monohand_core::xr::xr_joints(&sk, &fit.pose, &fit.joints_3d).unwrap();
+        for (i, (j, w)) in joints.iter().zip(&want).enumerate() {
+            assert_eq!(j.name, monohand_core::xr::XR_JOINT_NAMES[i]);
+            assert!((Vector3::from(j.position_mm) - w.position).norm() < 1e-9);
+            let q = w.orientation.quaternion();
+            assert_eq!(j.orientation_xyzw, [q.i, q.j, q.k, q.w]);
+            assert!((j.radius_mm - w.radius).abs() < 1e-12);
+        }
+        assert_eq!(joints[10].name, "index_tip");
+        assert_eq!(Vector3::from(joints[10].position_mm), fit.joints_3d[8]);
+        // Without the field the line is the plain writer's: nothing else changes, and a
+        // reader that does not know the field reads the rest as before.
+        let text = std::fs::read_to_string(&p).unwrap();
+        let mut value: serde_json::Value = serde_json::from_str(text.trim()).unwrap();
+        let entry = &value["hands"][0]["xr_joints"][1];
+        assert_eq!(entry["name"], "wrist");
+        assert!(entry["position_mm"].is_array() && entry["radius_mm"].is_f64());
+        value["hands"][0]
+            .as_object_mut()
+            .unwrap()
+            .remove("xr_joints");
+        let expected = frame_json(&frame, "mem").unwrap();
+        assert_eq!(
+            value,
+            serde_json::from_str::<serde_json::Value>(&expected).unwrap()
+        );
+        assert!(!expected.contains("xr_joints"));
+        assert_eq!(back.with_xr_joints(), frame.clone().with_xr_joints());
+        // A NaN among them is refused like any other.
+        let mut bad = frame.with_xr_joints();
+        bad.hands[0].xr_joints.as_mut().unwrap()[3].radius_mm = f64::NAN;
+        let e = plain.write_frame(&bad).unwrap_err().to_string();
+        assert!(e.contains("hands[0].xr_joints"), "{e}");
     }
 
     #[test]

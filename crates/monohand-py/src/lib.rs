@@ -12,7 +12,7 @@ use monohand::vision::{HandPipeline, Precision};
 use monohand::{Field, SessionError, SessionOptions, SettingsError};
 use monohand_core::filtering::OneEuroParams;
 use monohand_core::prelude::*;
-use monohand_io::jsonl::{FrameRecord, HandRecord, PoseRecord};
+use monohand_io::jsonl::{FrameRecord, HandRecord, PoseRecord, XrJointRecord};
 use monohand_media::video::{VideoInput, VideoReader};
 use numpy::ndarray::{Array2, Array3};
 use numpy::{
@@ -549,6 +549,27 @@ impl PyHand {
             .as_ref()
             .map(|d| PyArray1::from_slice(py, d))
     }
+    /// `(26, 7)`: the hand as OpenXR's 26 hand joints (`XR_JOINT_NAMES`, in
+    /// `XrHandJointEXT` order), each `x, y, z` (mm, the frame of `joints_3d_mm`) and its
+    /// orientation `qx, qy, qz, qw` (from the joint's axes: -Z along its bone towards the
+    /// finger tip, +Y out of the back of the hand); `None` without 3D.
+    #[getter]
+    fn xr_joints<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray2<f64>>> {
+        let joints = self.xr()?;
+        let flat: Vec<f64> = joints
+            .iter()
+            .flat_map(|j| j.position_mm.into_iter().chain(j.orientation_xyzw))
+            .collect();
+        let arr = Array2::from_shape_vec((joints.len(), 7), flat).ok()?;
+        Some(PyArray2::from_owned_array(py, arr))
+    }
+    /// `(26,)`: each OpenXR joint's distance to the skin, mm (`xr_joints`' order); `None`
+    /// without 3D.
+    #[getter]
+    fn xr_radii<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray1<f64>>> {
+        let radii: Vec<f64> = self.xr()?.iter().map(|j| j.radius_mm).collect();
+        Some(PyArray1::from_vec(py, radii))
+    }
     /// The hand as `monohand run` writes it to JSON Lines (plain lists and numbers).
     fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         as_python(py, &self.inner)
@@ -562,6 +583,17 @@ impl PyHand {
             self.inner.id.map_or("None".to_string(), |i| i.to_string()),
             side_name(self.inner.side)
         )
+    }
+}
+
+impl PyHand {
+    /// The record's OpenXR joints, or those of its fit
+    /// ([`HandRecord::xr_joints_of_fit`]).
+    fn xr(&self) -> Option<std::borrow::Cow<'_, [XrJointRecord]>> {
+        match &self.inner.xr_joints {
+            Some(j) => Some(std::borrow::Cow::Borrowed(j.as_slice())),
+            None => self.inner.xr_joints_of_fit().map(std::borrow::Cow::Owned),
+        }
     }
 }
 
@@ -1599,5 +1631,6 @@ fn _monohand(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("NUM_JOINTS", NUM_JOINTS)?;
     let names: Vec<&str> = monohand_core::hand_model::JOINT_NAMES.to_vec();
     m.add("JOINT_NAMES", names)?;
+    m.add("XR_JOINT_NAMES", monohand_core::xr::XR_JOINT_NAMES.to_vec())?;
     Ok(())
 }

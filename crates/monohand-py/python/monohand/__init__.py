@@ -29,6 +29,7 @@ from typing import Any, Iterator, Optional
 from ._monohand import (
     JOINT_NAMES,
     NUM_JOINTS,
+    XR_JOINT_NAMES,
     Camera,
     Frame,
     FrameStream,
@@ -49,6 +50,7 @@ from ._monohand import (
 __all__ = [
     "JOINT_NAMES",
     "NUM_JOINTS",
+    "XR_JOINT_NAMES",
     "Camera",
     "Frame",
     "FrameStream",

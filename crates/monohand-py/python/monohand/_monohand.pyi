@@ -12,6 +12,8 @@ __version__: str
 NUM_JOINTS: int
 #: The 21 joints: wrist, then 4 per finger, thumb to little (MediaPipe's and OpenPose's order).
 JOINT_NAMES: List[str]
+#: OpenXR's 26 hand joints (``XrHandJointEXT`` order), the rows of ``Hand.xr_joints``.
+XR_JOINT_NAMES: List[str]
 
 class MonohandError(RuntimeError):
     """A model, file, video or fit failed (the message says which and why)."""
@@ -122,6 +124,14 @@ class Hand:
     @property
     def depth_px(self) -> Optional[npt.NDArray[np.float64]]:
         """``(21,)``: the landmark network's relative depth, pixels of its crop."""
+    @property
+    def xr_joints(self) -> Optional[npt.NDArray[np.float64]]:
+        """``(26, 7)``: OpenXR's hand joints (``XR_JOINT_NAMES``): x, y, z (mm, the frame of
+        ``joints_3d_mm``) and the orientation qx, qy, qz, qw (the joint's -Z along its bone
+        towards the finger tip, +Y out of the back of the hand)."""
+    @property
+    def xr_radii(self) -> Optional[npt.NDArray[np.float64]]:
+        """``(26,)``: each OpenXR joint's distance to the skin, mm."""
     def to_dict(self) -> Dict[str, Any]:
         """Exactly the JSON Lines entry ``monohand run`` writes for this hand."""
 

@@ -27,6 +27,12 @@ impl JsonlSink {
             false => JsonlSink::create(path),
         }
     }
+
+    /// With `on`, each fitted hand is written with its OpenXR joints (`xr_joints`,
+    /// [`JsonlWriter::with_xr_joints`]; `--xr-joints`). Off by default.
+    pub fn with_xr_joints(self, on: bool) -> JsonlSink {
+        JsonlSink(self.0.with_xr_joints(on))
+    }
 }
 
 impl Sink for JsonlSink {
