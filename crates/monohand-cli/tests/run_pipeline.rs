@@ -563,3 +563,40 @@ fn a_panicking_network_thread_fails_the_run_and_keeps_the_frames_before() {
         .iter()
         .all(|f| f.hands.len() == 1 && f.hands[0].joints_3d_mm.is_some()));
 }
+
+#[test]
+fn run_writes_the_openxr_joints_when_asked() {
+    let photo_path = hand_png();
+    assert!(networks_ready(), "the networks must be available");
+    let dir = tempfile::tempdir().unwrap();
+    let (plain, xr) = (dir.path().join("plain.jsonl"), dir.path().join("xr.jsonl"));
+    ok(&monohand(&["run", p(&photo_path), "-o", p(&plain)]));
+    ok(&monohand(&[
+        "run",
+        p(&photo_path),
+        "-o",
+        p(&xr),
+        "--xr-joints",
+    ]));
+    let (plain, xr) = (read_jsonl(&plain).unwrap(), read_jsonl(&xr).unwrap());
+    let (a, b) = (&plain[0].hands[0], &xr[0].hands[0]);
+    // Off by default; asked for, the same hand with its 26 joints.
+    assert!(a.xr_joints.is_none());
+    assert_eq!(a.joints_3d_mm, b.joints_3d_mm);
+    let joints = b.xr_joints.as_ref().expect("xr_joints");
+    assert_eq!(joints.len(), 26);
+    assert_eq!(
+        (joints[0].name.as_str(), joints[25].name.as_str()),
+        ("palm", "little_tip")
+    );
+    // The index proximal joint (7) is at the index MCP (5), its -Z along the phalanx to the PIP.
+    let mm = b.joints_3d_mm.unwrap();
+    let bone = nalgebra::Vector3::from(mm[6]) - nalgebra::Vector3::from(mm[5]);
+    let [x, y, z, w] = joints[7].orientation_xyzw;
+    let q = nalgebra::UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(w, x, y, z));
+    let minus_z = q * -nalgebra::Vector3::z();
+    assert!(
+        minus_z.dot(&bone.normalize()) > 0.999,
+        "{minus_z} against {bone}"
+    );
+}

@@ -191,6 +191,9 @@ fn each_view_alone_gathers_its_distance_over_the_frames_and_beats_the_cues_alone
     let default = monohand_core::fitting::DistanceSettings::default().weight;
     let (gathered, cues) = (per_view(default), per_view(0.0));
     assert!(median(&gathered) < 36.0, "{gathered:?}");
-    assert!(median(&gathered) < median(&cues) - 2.0, "{gathered:?} against {cues:?}");
+    assert!(
+        median(&gathered) < median(&cues) - 2.0,
+        "{gathered:?} against {cues:?}"
+    );
     assert!(gathered.iter().all(|&e| e < 46.0), "{gathered:?}");
 }

@@ -67,6 +67,10 @@ pub(crate) struct RunArgs {
     /// Write the 3D hands as an animated glTF binary (.glb).
     #[arg(long, value_name = "OUT.glb")]
     pub gltf: Option<PathBuf>,
+    /// Also write each fitted hand's 26 OpenXR (XR_EXT_hand_tracking) joints, with poses
+    /// and radii, in the JSON Lines records (`xr_joints`, docs/output-format.md).
+    #[arg(long)]
+    pub xr_joints: bool,
     /// Write a Rerun recording (.rrd; open it with `rerun FILE`): every camera's
     /// intrinsics, pose and image, the 2D keypoints, the 3D hands and each hand's distance
     /// over time (docs/visualisation.md). Needs the CLI built with `--features rerun`.

@@ -64,7 +64,9 @@ pub(crate) fn create(
     };
     let rerun = args.rerun.as_ref().map(|p| rerun(args, p)).transpose()?;
     let poses: Box<dyn Sink> = match args.format {
-        OutputFormat::Jsonl => Box::new(JsonlSink::open(&args.output)?),
+        OutputFormat::Jsonl => {
+            Box::new(JsonlSink::open(&args.output)?.with_xr_joints(args.xr_joints))
+        }
         OutputFormat::Csv => Box::new(CsvSink::open(&args.output)?),
         OutputFormat::Openpose => {
             if args.output.as_os_str() == "-" {
