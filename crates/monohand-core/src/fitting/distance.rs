@@ -67,6 +67,11 @@ impl DistanceFilter {
         self.state = None;
     }
 
+    /// Whether a distance was measured since the filter was made or reset.
+    pub fn has_seen(&self) -> bool {
+        self.state.is_some()
+    }
+
     /// The next frame: the keypoints' distance and its standard deviation (mm), and the
     /// cues' distance (mm); each `None` where that fit gave none. A measurement that is not
     /// finite and positive is left out. With neither, the distance only drifts (and a
@@ -145,7 +150,9 @@ mod tests {
         let later = f.update(None, Some(-1.0));
         assert!((later.fused_mm - 400.0).abs() < 1e-9);
         assert!(later.fused_sigma_mm > e.fused_sigma_mm);
+        assert!(f.has_seen());
         f.reset();
+        assert!(!f.has_seen());
         assert!(f.update(None, None).fused_mm.is_nan());
     }
 }

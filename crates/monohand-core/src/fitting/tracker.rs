@@ -74,7 +74,8 @@ impl DistanceTrack {
 
     /// The frame's final fit: `cue` (the fit with the cues, by `main`) fitted again with
     /// its palm's distance held at the filter's, which has taken this frame's keypoints'
-    /// distance and the cues'. `cue` itself where the keypoints' fit or the refit fails.
+    /// distance and the cues'. `cue` itself on a track's first frame, and where the
+    /// keypoints' fit or the refit fails.
     fn refine(
         &mut self,
         main: &mut HandFitter,
@@ -94,8 +95,14 @@ impl DistanceTrack {
             let d = self.keypoints.palm_depth(&k.pose)?;
             Some((d, self.keypoints.palm_depth_sigma(&k.pose, sigma_px)?))
         });
+        let first = !self.filter.has_seen();
         let evidence = self.filter.update(measured, cues_mm);
         self.evidence = Some(evidence);
+        if first {
+            // The distance gathers frames: the first of a track (and every image fitted
+            // on its own) keeps the cues' fit, and the filter starts from both.
+            return cue;
+        }
         let focal = views[0].camera.intrinsics.fx;
         let weight = settings.weight * sigma_px * 1000.0 / focal / evidence.fused_sigma_mm;
         main.fit_from_at_distance(
@@ -153,8 +160,10 @@ impl HandTracker {
     ///
     /// With one view that carries the network's cues and [`FitOptions::distance`] on, the
     /// frame is fitted with the cues, then with the keypoints alone, and once more with
-    /// the cues and the palm's distance held at the filtered one ([`DistanceSettings`](crate::fitting::DistanceSettings));
-    /// [`HandTracker::distance_evidence`] says what each gave.
+    /// the cues and the palm's distance held at the filtered one ([`DistanceSettings`](crate::fitting::DistanceSettings)),
+    /// from a track's second frame on (the first, and a frame fitted on its own after
+    /// [`HandTracker::reset`], is the cues' fit); [`HandTracker::distance_evidence`] says
+    /// what each gave.
     pub fn update(&mut self, views: &[View]) -> CoreResult<FitResult> {
         // No velocity yet after one frame: no temporal pull then.
         let predicted = match (self.last, self.history) {
