@@ -28,7 +28,7 @@
 //! through a small trait that [`HandFitter`] implements, so that `init` does not
 //! depend on `lm`.
 
-mod distance;
+pub mod distance;
 mod fusion;
 pub mod init;
 pub mod lm;
