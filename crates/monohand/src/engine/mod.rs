@@ -424,71 +424,14 @@ impl Engine {
                     raw_tx.send(f).is_ok()
                 })
             });
-            let vision = scope.spawn(move || {
-                let mut stage = stage;
-                loop {
-                    // A network alone shares its operators with the other cores only while
-                    // frames are waiting: while this thread waits for the decoder, that core
-                    // is better left to it (docs/performance.md).
-                    let raw = match raw_rx.try_recv() {
-                        Ok(raw) => {
-                            allow_split_here(true);
-                            raw
-                        }
-                        Err(TryRecvError::Empty) => {
-                            allow_split_here(false);
-                            match raw_rx.recv() {
-                                Ok(raw) => raw,
-                                Err(_) => break,
-                            }
-                        }
-                        Err(TryRecvError::Disconnected) => break,
-                    };
-                    if panic_at == Some(raw.index) {
-                        panic!(
-                            "injected fault: network thread panics at frame {}",
-                            raw.index
-                        );
-                    }
-                    let images: Vec<Result<&RgbImage, SourceError>> = raw
-                        .images
-                        .iter()
-                        .map(|i| i.as_ref().map_err(Clone::clone))
-                        .collect();
-                    let mut f = stage.process(raw.index, raw.timestamp_s, &images);
-                    f.focal = raw.focal;
-                    let mut images = raw.images.into_iter();
-                    let first = images.next().and_then(Result::ok);
-                    let others = match keep.all {
-                        true => images.map(Result::ok).collect(),
-                        false => Vec::new(),
-                    };
-                    let image = match (keep.first, first, &recycler) {
-                        (true, image, _) => image,
-                        (false, Some(image), Some(r)) => {
-                            r.recycle(image);
-                            None
-                        }
-                        _ => None,
-                    };
-                    let extra = Extra {
-                        source: raw.source,
-                        is_video: tracking,
-                        image,
-                        others,
-                        decode_ms: raw.decode_ms,
-                    };
-                    if vis_tx.send((f, extra)).is_err() {
-                        break;
-                    }
-                    if stage.is_guided() {
-                        match guide_rx.recv() {
-                            Ok(g) => stage.guide(g),
-                            Err(_) => break,
-                        }
-                    }
-                }
-            });
+            let handoff = Handoff {
+                keep,
+                recycler,
+                tracking,
+                panic_at,
+            };
+            let vision =
+                scope.spawn(move || network_loop(stage, &raw_rx, &vis_tx, &guide_rx, &handoff));
             let result = fit_all(&vis_rx, fit, out, guide_tx);
             drop(vis_rx);
             let vision_panicked = vision.join().is_err();
@@ -690,6 +633,92 @@ fn record(done: &FittedFrame, extra: &Extra) -> FrameRecord {
         extra.is_video,
         Some(extra.decode_ms),
     )
+}
+
+/// What the network thread hands on beside each frame, and how.
+struct Handoff {
+    /// Which images the sinks keep.
+    keep: Keep,
+    /// Where the first view's frames go back once the networks are done with them.
+    recycler: Option<monohand_media::video::FrameRecycler>,
+    /// Whether the frames are a video's (tracked).
+    tracking: bool,
+    /// The frame at which the network thread panics on purpose (`MONOHAND_FAULT`).
+    panic_at: Option<u64>,
+}
+
+/// The next frame from the reader, `None` once it is done. A network alone shares its
+/// operators with the other cores only while frames are waiting: while this thread waits
+/// for the decoder, that core is better left to it (docs/performance.md).
+fn receive_raw(raw_rx: &Receiver<RawFrame>) -> Option<RawFrame> {
+    match raw_rx.try_recv() {
+        Ok(raw) => {
+            allow_split_here(true);
+            Some(raw)
+        }
+        Err(TryRecvError::Empty) => {
+            allow_split_here(false);
+            raw_rx.recv().ok()
+        }
+        Err(TryRecvError::Disconnected) => None,
+    }
+}
+
+/// The network thread: each frame of the reader through the crop stage and the networks,
+/// on to the fit, with the images the sinks keep; a guided stage waits for the fit's guides
+/// after each frame. Ends when the reader or the fit is done.
+fn network_loop(
+    mut stage: CropTracker,
+    raw_rx: &Receiver<RawFrame>,
+    vis_tx: &std::sync::mpsc::SyncSender<(VisionFrame, Extra)>,
+    guide_rx: &Receiver<Vec<FittedGuide>>,
+    handoff: &Handoff,
+) {
+    while let Some(raw) = receive_raw(raw_rx) {
+        if handoff.panic_at == Some(raw.index) {
+            panic!(
+                "injected fault: network thread panics at frame {}",
+                raw.index
+            );
+        }
+        let images: Vec<Result<&RgbImage, SourceError>> = raw
+            .images
+            .iter()
+            .map(|i| i.as_ref().map_err(Clone::clone))
+            .collect();
+        let mut f = stage.process(raw.index, raw.timestamp_s, &images);
+        f.focal = raw.focal;
+        let mut images = raw.images.into_iter();
+        let first = images.next().and_then(Result::ok);
+        let others = match handoff.keep.all {
+            true => images.map(Result::ok).collect(),
+            false => Vec::new(),
+        };
+        let image = match (handoff.keep.first, first, &handoff.recycler) {
+            (true, image, _) => image,
+            (false, Some(image), Some(r)) => {
+                r.recycle(image);
+                None
+            }
+            _ => None,
+        };
+        let extra = Extra {
+            source: raw.source,
+            is_video: handoff.tracking,
+            image,
+            others,
+            decode_ms: raw.decode_ms,
+        };
+        if vis_tx.send((f, extra)).is_err() {
+            return;
+        }
+        if stage.is_guided() {
+            match guide_rx.recv() {
+                Ok(g) => stage.guide(g),
+                Err(_) => return,
+            }
+        }
+    }
 }
 
 /// Fits and writes every frame that comes out of the networks; with `guides`, sends each
