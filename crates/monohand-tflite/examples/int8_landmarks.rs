@@ -162,12 +162,10 @@ fn time(plan: &mut Plan, x: &Tensor) -> f64 {
     best
 }
 
-fn main() -> TractResult<()> {
-    let model_path = std::env::args().nth(1).context("model path")?;
-    let dir = std::env::args().nth(2).context("data directory")?;
-    let bytes = std::fs::read(&model_path)?;
-    let dev = std::fs::read(format!("{dir}/dev224.rgb"))?;
-    let hand = std::fs::read(format!("{dir}/hand224.rgb"))?;
+/// The ground truth of the dev frames: each frame's 21 keypoints in the 224-px crop, and its
+/// 21 joints in 3D.
+#[allow(clippy::type_complexity)]
+fn labels(dir: &str) -> TractResult<(Vec<Vec<[f32; 2]>>, Vec<Vec<[f64; 3]>>)> {
     let gt: Vec<Vec<[f32; 2]>> = std::fs::read_to_string(format!("{dir}/dev224_gt.txt"))?
         .lines()
         .map(|l| {
@@ -182,6 +180,88 @@ fn main() -> TractResult<()> {
             v.chunks_exact(3).map(|p| [p[0], p[1], p[2]]).collect()
         })
         .collect();
+    Ok((gt, gt3))
+}
+
+/// The mean 2D error of `outs` against the labels `gt` over the frames `r`, px.
+fn err_2d(outs: &[Output], gt: &[Vec<[f32; 2]>], r: std::ops::Range<usize>) -> f64 {
+    let n = r.len() as f64;
+    r.map(|i| {
+        outs[i]
+            .0
+            .iter()
+            .zip(&gt[i])
+            .map(|(a, b)| dist(*a, *b))
+            .sum::<f64>()
+            / 21.0
+    })
+    .sum::<f64>()
+        / n
+}
+
+/// The mean PA-MPJPE of the world landmarks of `outs` against `gt3` over the frames `r`, mm.
+fn err_pa(outs: &[Output], gt3: &[Vec<[f64; 3]>], r: std::ops::Range<usize>) -> f64 {
+    let n = r.len() as f64;
+    r.map(|i| pa_mpjpe(&outs[i].1, &gt3[i])).sum::<f64>() / n
+}
+
+/// One half `h` (frames `r`) of an int8 variant's outputs `outs` against f32's.
+fn report_half(
+    h: usize,
+    outs: &[Output],
+    f32_out: &[Output],
+    r: std::ops::Range<usize>,
+    err: &dyn Fn(&[Output], std::ops::Range<usize>) -> f64,
+    pa: &dyn Fn(&[Output], std::ops::Range<usize>) -> f64,
+) {
+    let (e32, e8) = (err(f32_out, r.clone()), err(outs, r.clone()));
+    let mut diff = Vec::new();
+    let (mut world, mut presence) = (0f64, 0f64);
+    for i in r.clone() {
+        for (a, b) in outs[i].0.iter().zip(&f32_out[i].0) {
+            diff.push(dist(*a, *b));
+        }
+        let w: f64 = outs[i]
+            .1
+            .chunks_exact(3)
+            .zip(f32_out[i].1.chunks_exact(3))
+            .map(|(a, b)| {
+                a.iter()
+                    .zip(b)
+                    .map(|(a, b)| ((a - b) as f64).powi(2))
+                    .sum::<f64>()
+                    .sqrt()
+            })
+            .sum::<f64>()
+            / 21.0;
+        world += w * 1e3 / r.len() as f64;
+        presence = presence.max((outs[i].2 - f32_out[i].2).abs() as f64);
+    }
+    println!(
+        "  half {h}: world landmarks' PA-MPJPE {:.3} mm against f32's {:.3} ({:+.3} mm)",
+        pa(outs, r.clone()),
+        pa(f32_out, r.clone()),
+        pa(outs, r.clone()) - pa(f32_out, r.clone())
+    );
+    diff.sort_by(|a, b| a.total_cmp(b));
+    let mean = diff.iter().sum::<f64>() / diff.len() as f64;
+    println!(
+        "  half {h}: 2D error {e8:.3} px against f32's {e32:.3} ({:+.2} %); int8 - f32 \
+         keypoints: mean {mean:.3} px, p95 {:.3}, max {:.3}; world landmarks {world:.2} mm \
+         apart (mean); presence logit max |diff| {presence:.3}",
+        100.0 * (e8 / e32 - 1.0),
+        diff[diff.len() * 95 / 100],
+        diff[diff.len() - 1]
+    );
+}
+
+fn main() -> TractResult<()> {
+    let model_path = std::env::args().nth(1).context("model path")?;
+    let dir = std::env::args().nth(2).context("data directory")?;
+    let bytes = std::fs::read(&model_path)?;
+    let dev = std::fs::read(format!("{dir}/dev224.rgb"))?;
+    let hand = std::fs::read(format!("{dir}/hand224.rgb"))?;
+    let (gt, gt3) = labels(&dir)?;
     let frames: Vec<Tensor> = dev.chunks_exact(FRAME).map(input).collect();
     assert_eq!(frames.len(), gt.len());
     let half = frames.len() / 2;
@@ -237,24 +317,8 @@ fn main() -> TractResult<()> {
         .iter_mut()
         .map(|p| frames.iter().map(|x| run(&mut p.1, x)).collect())
         .collect();
-    let err = |outs: &[Output], r: std::ops::Range<usize>| -> f64 {
-        let n = r.len() as f64;
-        r.map(|i| {
-            outs[i]
-                .0
-                .iter()
-                .zip(&gt[i])
-                .map(|(a, b)| dist(*a, *b))
-                .sum::<f64>()
-                / 21.0
-        })
-        .sum::<f64>()
-            / n
-    };
-    let pa = |outs: &[Output], r: std::ops::Range<usize>| -> f64 {
-        let n = r.len() as f64;
-        r.map(|i| pa_mpjpe(&outs[i].1, &gt3[i])).sum::<f64>() / n
-    };
+    let err = |outs: &[Output], r: std::ops::Range<usize>| err_2d(outs, &gt, r);
+    let pa = |outs: &[Output], r: std::ops::Range<usize>| err_pa(outs, &gt3, r);
     let halves = [0..half, half..frames.len()];
     let f32_out = &outs[0];
     println!(
@@ -276,45 +340,7 @@ fn main() -> TractResult<()> {
             times[0] / t8
         );
         for (h, r) in halves.iter().enumerate() {
-            let (e32, e8) = (err(f32_out, r.clone()), err(outs, r.clone()));
-            let mut diff = Vec::new();
-            let (mut world, mut presence) = (0f64, 0f64);
-            for i in r.clone() {
-                for (a, b) in outs[i].0.iter().zip(&f32_out[i].0) {
-                    diff.push(dist(*a, *b));
-                }
-                let w: f64 = outs[i]
-                    .1
-                    .chunks_exact(3)
-                    .zip(f32_out[i].1.chunks_exact(3))
-                    .map(|(a, b)| {
-                        a.iter()
-                            .zip(b)
-                            .map(|(a, b)| ((a - b) as f64).powi(2))
-                            .sum::<f64>()
-                            .sqrt()
-                    })
-                    .sum::<f64>()
-                    / 21.0;
-                world += w * 1e3 / r.len() as f64;
-                presence = presence.max((outs[i].2 - f32_out[i].2).abs() as f64);
-            }
-            println!(
-                "  half {h}: world landmarks' PA-MPJPE {:.3} mm against f32's {:.3} ({:+.3} mm)",
-                pa(outs, r.clone()),
-                pa(f32_out, r.clone()),
-                pa(outs, r.clone()) - pa(f32_out, r.clone())
-            );
-            diff.sort_by(|a, b| a.total_cmp(b));
-            let mean = diff.iter().sum::<f64>() / diff.len() as f64;
-            println!(
-                "  half {h}: 2D error {e8:.3} px against f32's {e32:.3} ({:+.2} %); int8 - f32 \
-                 keypoints: mean {mean:.3} px, p95 {:.3}, max {:.3}; world landmarks {world:.2} mm \
-                 apart (mean); presence logit max |diff| {presence:.3}",
-                100.0 * (e8 / e32 - 1.0),
-                diff[diff.len() * 95 / 100],
-                diff[diff.len() - 1]
-            );
+            report_half(h, outs, f32_out, r.clone(), &err, &pa);
         }
     }
     Ok(())

@@ -31,30 +31,7 @@ fn main() -> TractResult<()> {
         .map(|r| r.parse())
         .transpose()?
         .unwrap_or(50);
-    let bytes = std::fs::read(&path)?;
-    let mut model = monohand_tflite::import(&bytes).map_err(|e| format_err!("{e}"))?;
-    if let Some(table) = std::env::var_os("INT8") {
-        let ranges = read_table(&std::fs::read_to_string(table)?)?;
-        let n = if std::env::var_os("UNCODED").is_some() {
-            // Each 1x1 layer codes its own f32 input (the int8 layers alone, without
-            // `code_depthwise_results`), to compare.
-            let mut n = 0;
-            for id in 0..model.nodes().len() {
-                let node = model.node(id);
-                if let (Some(op), Some(r)) = (
-                    node.op_as::<monohand_tflite::PointwiseConv>(),
-                    ranges.get(&node.name),
-                ) {
-                    model.node_mut(id).op = Box::new(op.to_int8(r.quant())?);
-                    n += 1;
-                }
-            }
-            n
-        } else {
-            monohand_tflite::quantize_pointwise(&mut model, &ranges, |_, _| false)?
-        };
-        println!("int8: {n} of {} 1x1 layers in the table", ranges.len());
-    }
+    let model = load(&path)?;
     let model = model.into_optimized()?;
     let shape: Vec<usize> = model
         .input_fact(0)?
@@ -129,6 +106,35 @@ fn main() -> TractResult<()> {
         );
     }
     Ok(())
+}
+
+/// The model at `path`, its 1x1 layers in int8 where `INT8` names a calibration table.
+fn load(path: &str) -> TractResult<TypedModel> {
+    let bytes = std::fs::read(path)?;
+    let mut model = monohand_tflite::import(&bytes).map_err(|e| format_err!("{e}"))?;
+    if let Some(table) = std::env::var_os("INT8") {
+        let ranges = read_table(&std::fs::read_to_string(table)?)?;
+        let n = if std::env::var_os("UNCODED").is_some() {
+            // Each 1x1 layer codes its own f32 input (the int8 layers alone, without
+            // `code_depthwise_results`), to compare.
+            let mut n = 0;
+            for id in 0..model.nodes().len() {
+                let node = model.node(id);
+                if let (Some(op), Some(r)) = (
+                    node.op_as::<monohand_tflite::PointwiseConv>(),
+                    ranges.get(&node.name),
+                ) {
+                    model.node_mut(id).op = Box::new(op.to_int8(r.quant())?);
+                    n += 1;
+                }
+            }
+            n
+        } else {
+            monohand_tflite::quantize_pointwise(&mut model, &ranges, |_, _| false)?
+        };
+        println!("int8: {n} of {} 1x1 layers in the table", ranges.len());
+    }
+    Ok(model)
 }
 
 /// The ranges of a calibration table (monohand-vision's `Int8Table` format, read simply).
