@@ -49,7 +49,7 @@ fn plan_of(args: &EvalArgs, modes: Vec<ViewMode>) -> Result<Plan> {
     let (scale, _) = crate::hand_args::hand_size(
         args.hand.as_deref(),
         args.hand_length_mm,
-        monohand::HandScale::Fixed(args.hand_scale),
+        args.hand_scale.map(monohand::HandScale::Fixed),
     )?;
     let sized = args.hand.is_some() || args.hand_length_mm.is_some();
     Ok(Plan {
@@ -139,9 +139,9 @@ pub(crate) struct EvalArgs {
     /// Hand model.
     #[arg(long, value_enum, default_value_t = Skeleton::Subject)]
     pub skeleton: Skeleton,
-    /// Scale of the default hand model (with --skeleton default).
-    #[arg(long, value_name = "S", default_value_t = 1.0)]
-    pub hand_scale: f64,
+    /// Scale of the default hand model (with --skeleton default). [default: 1.0]
+    #[arg(long, value_name = "S")]
+    pub hand_scale: Option<f64>,
     /// A hand file (`run --save-hand`): the default hand model at its size (implies
     /// --skeleton default).
     #[arg(long, value_name = "FILE.json", conflicts_with_all = ["hand_scale", "hand_length_mm"])]

@@ -11,8 +11,9 @@ use std::path::PathBuf;
 pub(crate) struct HandModelArgs {
     /// Size of the hand: a factor on the default adult hand (~185 mm; the depth scales with
     /// it), or "auto" to measure it with two or more calibrated views (docs/accuracy.md).
-    #[arg(long, value_name = "S|auto", default_value = "1.0")]
-    pub hand_scale: HandScale,
+    /// [default: 1.0]
+    #[arg(long, value_name = "S|auto")]
+    pub hand_scale: Option<HandScale>,
     /// Frames used by --hand-scale auto and --save-hand.
     #[arg(long, value_name = "N", default_value_t = 30)]
     pub scale_frames: usize,
@@ -133,31 +134,33 @@ impl HandModelArgs {
         options.validate().context(
             "--min-confidence / --confidence-power / --world-weight / --depth-weight / --hand-frame-weight / --temporal-weight / --fuse-world / --fuse-depth / --fuse-pixels / --distance-*",
         )?;
-        if self.hand_scale == HandScale::Auto && self.scale_frames == 0 {
+        if self.hand_scale == Some(HandScale::Auto) && self.scale_frames == 0 {
             bail!("--scale-frames must be at least 1");
         }
         Ok(options)
     }
 }
 
-/// The hand size of `--hand FILE`, `--hand-length-mm L` or `--hand-scale S|auto` (the
-/// first given), and where it comes from.
+/// The hand size of `--hand FILE`, `--hand-length-mm L` or `--hand-scale S|auto` (one of
+/// them; none: the default hand), and where it comes from: the file is read here, the
+/// choice is the library's ([`monohand::GivenHandSize`]).
 pub(crate) fn hand_size(
     hand: Option<&std::path::Path>,
     ruler_mm: Option<f64>,
-    scale: HandScale,
+    scale: Option<HandScale>,
 ) -> Result<(HandScale, HandSizeSource)> {
-    if let Some(path) = hand {
-        let file = monohand_io::hand::read_hand(path)?;
-        return Ok((HandScale::Fixed(file.scale), HandSizeSource::File));
-    }
-    if let Some(mm) = ruler_mm {
-        let s = monohand::scale_from_ruler(mm).context("--hand-length-mm")?;
-        return Ok((HandScale::Fixed(s), HandSizeSource::Ruler));
-    }
-    Ok(match scale {
-        HandScale::Fixed(1.0) => (scale, HandSizeSource::Default),
-        HandScale::Fixed(_) => (scale, HandSizeSource::Scale),
-        HandScale::Auto => (scale, HandSizeSource::Default),
+    let file = match hand {
+        Some(path) => Some(monohand_io::hand::read_hand(path)?),
+        None => None,
+    };
+    let given = monohand::GivenHandSize {
+        file: file.as_ref(),
+        ruler_mm,
+        scale,
+    };
+    given.choose().with_context(|| match (hand, ruler_mm) {
+        (Some(path), _) => format!("--hand {}", path.display()),
+        (None, Some(_)) => "--hand-length-mm".to_string(),
+        (None, None) => "--hand-scale".to_string(),
     })
 }

@@ -99,12 +99,28 @@ fn sized_hands(
     hand: Option<&Bound<'_, PyAny>>,
     hand_scale: Option<f64>,
 ) -> PyResult<([HandSkeleton; 2], monohand::HandSizeSource)> {
-    match (hand, hand_scale) {
-        (Some(_), Some(_)) => Err(PyValueError::new_err("give hand= or hand_scale=, not both")),
-        (Some(h), None) => PyHandSize::from_arg(h)?.skeletons(),
-        (None, Some(s)) => Ok((skeletons(s)?, monohand::HandSizeSource::Scale)),
-        (None, None) => Ok((skeletons(1.0)?, monohand::HandSizeSource::Default)),
-    }
+    let hand = hand.map(PyHandSize::from_arg).transpose()?;
+    // A `HandSize.from_length` is a ruler's length; one loaded, a hand file.
+    let (file, ruler_mm) = match &hand {
+        Some(h) if h.source == monohand::HandSizeSource::Ruler => (None, h.file.ruler_mm),
+        Some(h) => (Some(&h.file), None),
+        None => (None, None),
+    };
+    let given = monohand::GivenHandSize {
+        file,
+        ruler_mm,
+        scale: hand_scale.map(monohand::HandScale::Fixed),
+    };
+    let (scale, source) = given.choose().map_err(|e| match e {
+        monohand::HandSizeError::MoreThanOne(_) => {
+            PyValueError::new_err("give hand= or hand_scale=, not both")
+        }
+        e @ monohand::HandSizeError::Scale(_) if given.file.is_none() => {
+            PyValueError::new_err(format!("hand_scale: {e}"))
+        }
+        e => PyValueError::new_err(format!("hand: {e}")),
+    })?;
+    Ok((skeletons(scale.initial())?, source))
 }
 
 /// A person's hand, measured once and reused: the hand file of `monohand run --save-hand`
@@ -132,11 +148,6 @@ impl PyHandSize {
             PyValueError::new_err("hand must be a HandSize or the path of a hand file")
         })?;
         PyHandSize::load(path)
-    }
-
-    /// Both hands' models at this size, and where the size came from.
-    fn skeletons(&self) -> PyResult<([HandSkeleton; 2], monohand::HandSizeSource)> {
-        Ok((skeletons(self.file.scale)?, self.source))
     }
 }
 

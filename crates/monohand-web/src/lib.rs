@@ -87,23 +87,26 @@ impl TrackerOptions {
     }
 }
 
-/// The hand size the options give (`hand` or `hand_length_mm`), and where it came from.
+/// The hand size the options give (`hand` or `hand_length_mm`), and where it came from
+/// (the choice is the library's, [`monohand::GivenHandSize`]); `None`: the default hand.
 fn hand_size(
     options: &TrackerOptions,
 ) -> Result<Option<(f64, monohand::HandSizeSource)>, WebError> {
-    match (&options.hand, options.hand_length_mm) {
-        (Some(_), Some(_)) => Err(WebError::Options(
+    let given = monohand::GivenHandSize {
+        file: options.hand.as_ref(),
+        ruler_mm: options.hand_length_mm,
+        scale: None,
+    };
+    match given.choose() {
+        Ok((_, monohand::HandSizeSource::Default)) => Ok(None),
+        Ok((scale, source)) => Ok(Some((scale.initial(), source))),
+        Err(monohand::HandSizeError::MoreThanOne(_)) => Err(WebError::Options(
             "give hand or hand_length_mm, not both".into(),
         )),
-        (Some(file), None) => {
-            file.validate("hand")
-                .map_err(|e| WebError::Options(e.to_string()))?;
-            Ok(Some((file.scale, monohand::HandSizeSource::File)))
+        Err(monohand::HandSizeError::Ruler(e)) => {
+            Err(WebError::Options(format!("hand_length_mm: {e}")))
         }
-        (None, Some(mm)) => monohand::scale_from_ruler(mm)
-            .map(|s| Some((s, monohand::HandSizeSource::Ruler)))
-            .map_err(|e| WebError::Options(format!("hand_length_mm: {e}"))),
-        (None, None) => Ok(None),
+        Err(e) => Err(WebError::Options(format!("hand: {e}"))),
     }
 }
 

@@ -149,6 +149,88 @@ impl HandSizeSource {
     }
 }
 
+/// The hand's size as a user may give it, in whichever face (the CLI's `--hand`,
+/// `--hand-length-mm` and `--hand-scale`; Python's `hand=` and `hand_scale=`; the
+/// browser's `hand` and `handLengthMm`): at most one of them. The faces parse their
+/// arguments into this; [`GivenHandSize::choose`] decides, the same for all.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct GivenHandSize<'a> {
+    /// A hand file (`run --save-hand`), read.
+    pub file: Option<&'a monohand_io::hand::HandFile>,
+    /// A ruler's hand length, mm ([`scale_from_ruler`]).
+    pub ruler_mm: Option<f64>,
+    /// A factor on the default hand, or `auto`.
+    pub scale: Option<HandScale>,
+}
+
+/// Why a hand size as given ([`GivenHandSize`]) cannot be used.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum HandSizeError {
+    /// More than one way was given.
+    #[error(
+        "the hand's size is given {0} ways: give one (a hand file, a ruler's length or a scale)"
+    )]
+    MoreThanOne(usize),
+    /// A ruler's length no size in [`HAND_SCALE_RANGE`] has.
+    #[error(transparent)]
+    Ruler(#[from] RulerLengthError),
+    /// A hand file's numbers are wrong.
+    #[error("{0}")]
+    File(String),
+    /// A factor outside [`HAND_SCALE_RANGE`].
+    #[error("the hand scale {0} must be between {lo} and {hi} (1: the average adult hand)", lo = HAND_SCALE_RANGE.0, hi = HAND_SCALE_RANGE.1)]
+    Scale(f64),
+}
+
+impl GivenHandSize<'_> {
+    /// The hand size to fit at and where it comes from: a hand file's size, a ruler's
+    /// length through [`scale_from_ruler`], a factor (1, or nothing given: the default hand),
+    /// or `auto` (the default hand until two or more views measure it). More than one given
+    /// is an error, not a precedence.
+    pub fn choose(&self) -> Result<(HandScale, HandSizeSource), HandSizeError> {
+        let given = [
+            self.file.is_some(),
+            self.ruler_mm.is_some(),
+            self.scale.is_some(),
+        ];
+        let n = given.iter().filter(|g| **g).count();
+        if n > 1 {
+            return Err(HandSizeError::MoreThanOne(n));
+        }
+        if let Some(file) = self.file {
+            file.validate("hand file")
+                .map_err(|e| HandSizeError::File(e.to_string()))?;
+            let (lo, hi) = HAND_SCALE_RANGE;
+            if !(file.scale > lo && file.scale < hi) {
+                return Err(HandSizeError::Scale(file.scale));
+            }
+            return Ok((HandScale::Fixed(file.scale), HandSizeSource::File));
+        }
+        if let Some(mm) = self.ruler_mm {
+            return Ok((
+                HandScale::Fixed(scale_from_ruler(mm)?),
+                HandSizeSource::Ruler,
+            ));
+        }
+        match self.scale {
+            None => Ok((HandScale::Fixed(1.0), HandSizeSource::Default)),
+            Some(HandScale::Auto) => Ok((HandScale::Auto, HandSizeSource::Default)),
+            Some(HandScale::Fixed(s)) => {
+                let (lo, hi) = HAND_SCALE_RANGE;
+                if !(s.is_finite() && s > lo && s < hi) {
+                    return Err(HandSizeError::Scale(s));
+                }
+                let source = if s == 1.0 {
+                    HandSizeSource::Default
+                } else {
+                    HandSizeSource::Scale
+                };
+                Ok((HandScale::Fixed(s), source))
+            }
+        }
+    }
+}
+
 /// A ruler's hand length (the hand flat, from the wrist crease to the end of the middle
 /// finger) minus the model's (from its wrist joint along the middle finger's bones to its
 /// tip keypoint), mm. Measured on the table rig (docs/absolute-depth.md): its reference,
@@ -214,6 +296,57 @@ pub fn hand_skeletons(
 
 #[cfg(test)]
 mod tests {
+
+    #[test]
+    fn one_hand_size_is_chosen_the_same_for_every_face() {
+        use monohand_io::hand::{HandFile, HandSource};
+        let file = HandFile::new(HandSource::Views, 0.94, 177.7);
+        let given = |file, ruler_mm, scale| GivenHandSize {
+            file,
+            ruler_mm,
+            scale,
+        };
+        assert_eq!(
+            given(None, None, None).choose(),
+            Ok((HandScale::Fixed(1.0), HandSizeSource::Default))
+        );
+        assert_eq!(
+            given(Some(&file), None, None).choose(),
+            Ok((HandScale::Fixed(0.94), HandSizeSource::File))
+        );
+        let (ruler, source) = given(None, Some(181.0), None).choose().unwrap();
+        assert_eq!(source, HandSizeSource::Ruler);
+        assert_eq!(ruler, HandScale::Fixed(scale_from_ruler(181.0).unwrap()));
+        assert_eq!(
+            given(None, None, Some(HandScale::Fixed(1.05))).choose(),
+            Ok((HandScale::Fixed(1.05), HandSizeSource::Scale))
+        );
+        assert_eq!(
+            given(None, None, Some(HandScale::Fixed(1.0))).choose(),
+            Ok((HandScale::Fixed(1.0), HandSizeSource::Default))
+        );
+        assert_eq!(
+            given(None, None, Some(HandScale::Auto)).choose(),
+            Ok((HandScale::Auto, HandSizeSource::Default))
+        );
+        assert_eq!(
+            given(Some(&file), Some(181.0), None).choose(),
+            Err(HandSizeError::MoreThanOne(2))
+        );
+        assert!(matches!(
+            given(None, Some(20.0), None).choose(),
+            Err(HandSizeError::Ruler(_))
+        ));
+        assert_eq!(
+            given(None, None, Some(HandScale::Fixed(9.0))).choose(),
+            Err(HandSizeError::Scale(9.0))
+        );
+        let bad = HandFile::new(HandSource::Views, -1.0, 177.7);
+        assert!(matches!(
+            given(Some(&bad), None, None).choose(),
+            Err(HandSizeError::File(_))
+        ));
+    }
     use super::*;
 
     #[test]

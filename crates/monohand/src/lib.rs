@@ -54,7 +54,8 @@ pub use crops::{
 pub use error::{SessionError, SessionResult};
 pub use fit::{
     fit_views, hand_skeletons, is_finite, learn_proportions, scale_from_ruler, FitOutcome,
-    HandScale, HandScaleError, HandSizeSource, RulerLengthError, HAND_SCALE_RANGE, RULER_OFFSET_MM,
+    GivenHandSize, HandScale, HandScaleError, HandSizeError, HandSizeSource, RulerLengthError,
+    HAND_SCALE_RANGE, RULER_OFFSET_MM,
 };
 pub use frame::{CameraError, CameraOrigin, FittedFrame, TrackedHand};
 pub use hands::{FitSettings, HandsFitter, DEPTH_FILTER, FORGET_AFTER_FRAMES};
