@@ -680,7 +680,8 @@ fn run_writes_the_wrist_pose_when_asked() {
     let skeleton = HandSkeleton::default_for(b.side).scaled(scale).unwrap();
     let model = forward_kinematics(&skeleton, &pose).map(|v| [v.x, v.y, v.z]);
     let on_model = degrees(dex_wrist_frame(&model, b.side));
-    // The record's joints were moved towards the network's depth after the fit, which tilts
+    // The record's joints were moved towards the network's depth and the pixels after the
+    // fit (the fusion), which tilts
     // the three joints' plane against the model's palm: 12.0 degrees on this photo.
     let on_joints = degrees(dex_wrist_frame(&mm, b.side));
     eprintln!("the wrist frame is {on_model:.2} degrees from the model's joints 0/5/9's, {on_joints:.2} from the record's");

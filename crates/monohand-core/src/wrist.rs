@@ -38,9 +38,11 @@
 //! The model's palm is rigid, so its frame and dex-retargeting's construction from the
 //! model's joints 0, 5 and 9 differ by a fixed turn: for the default hand 1.8 degrees
 //! about the palm's normal (its middle MCP sits 3 mm to the thumb's side of its +y axis).
-//! On a fitted hand whose joints were moved towards the network's depth
-//! ([`crate::fitting::FitResult::joints_3d`]) the three joints also tilt a little against
-//! the model; the model's frame is the steadier of the two.
+//! A fit's joints are moved after the fit towards the network's depth and the keypoints'
+//! pixels ([`crate::fitting::FitResult::joints_3d`]), which tilts the three joints' plane
+//! against the model's palm: on the sample photo and the dev gesture video about 12
+//! degrees (docs/robots-and-xr.md). The frame here is the model's, at the given wrist
+//! joint.
 //!
 //! ```
 //! use monohand_core::hand_model::{HandPose, HandSide, HandSkeleton};
