@@ -73,8 +73,11 @@ pub(crate) fn run(args: &LiftArgs) -> Result<()> {
     settings.fit.proportion_frames = args.hand.proportion_frames.map(|n| n as usize);
     settings.fit.depth_filter = None;
     let settings = crate::resolve(settings)?;
-    let out: Box<dyn Sink> =
-        Box::new(JsonlSink::open(&args.output)?.with_xr_joints(args.xr_joints));
+    let out: Box<dyn Sink> = Box::new(
+        JsonlSink::open(&args.output)?
+            .with_xr_joints(args.xr_joints)
+            .with_wrist_pose(args.wrist_pose),
+    );
     let report = lift_keypoints(&views, cameras, &settings, &mut [out], &Terminal)?;
     if report.nothing_readable() {
         bail!(

@@ -93,6 +93,10 @@ pub(crate) struct LiftArgs {
     /// radii (`xr_joints`, docs/output-format.md).
     #[arg(long)]
     pub xr_joints: bool,
+    /// Also write each fitted hand's wrist pose, a 4x4 in metres in MANO's wrist frame as
+    /// robot-hand retargeting reads it (`wrist_pose`, docs/output-format.md).
+    #[arg(long)]
+    pub wrist_pose: bool,
     #[command(flatten)]
     pub hand: hand_args::HandModelArgs,
 }

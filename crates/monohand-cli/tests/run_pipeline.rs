@@ -600,3 +600,91 @@ fn run_writes_the_openxr_joints_when_asked() {
         "{minus_z} against {bone}"
     );
 }
+
+/// dex-retargeting's wrist frame of a hand from its joints 0, 5 and 9 (its MediaPipe
+/// example's `estimate_frame_from_hand_points` then `OPERATOR2MANO`, re-derived): x from
+/// the middle MCP to the wrist square to the three joints' plane, y the plane's normal by
+/// an SVD, z = x × y towards the index MCP; the frame's axes are the columns of `F · O`.
+fn dex_wrist_frame(j: &[[f64; 3]; 21], side: HandSide) -> nalgebra::Matrix3<f64> {
+    use nalgebra::{Matrix3, Vector3};
+    let p = [0, 5, 9].map(|i| Vector3::from(j[i]));
+    let mean = (p[0] + p[1] + p[2]) / 3.0;
+    let centred = Matrix3::from_rows(&p.map(|q| (q - mean).transpose()));
+    let svd = nalgebra::SVD::new(centred, false, true);
+    let smallest = (0..3)
+        .min_by(|&a, &b| svd.singular_values[a].total_cmp(&svd.singular_values[b]))
+        .unwrap();
+    let mut normal: Vector3<f64> = svd.v_t.unwrap().row(smallest).transpose();
+    let to_wrist = p[0] - p[2];
+    let x = (to_wrist - normal * to_wrist.dot(&normal)).normalize();
+    let mut z = x.cross(&normal);
+    if z.dot(&(p[1] - p[2])) < 0.0 {
+        normal = -normal;
+        z = -z;
+    }
+    let operator2mano = match side {
+        HandSide::Right => Matrix3::new(0.0, 0.0, -1.0, -1.0, 0.0, 0.0, 0.0, 1.0, 0.0),
+        HandSide::Left => Matrix3::new(0.0, 0.0, -1.0, 1.0, 0.0, 0.0, 0.0, -1.0, 0.0),
+    };
+    Matrix3::from_columns(&[x, normal, z]) * operator2mano
+}
+
+#[test]
+fn run_writes_the_wrist_pose_when_asked() {
+    let photo_path = hand_png();
+    assert!(networks_ready(), "the networks must be available");
+    let dir = tempfile::tempdir().unwrap();
+    let (plain, wrist) = (
+        dir.path().join("plain.jsonl"),
+        dir.path().join("wrist.jsonl"),
+    );
+    ok(&monohand(&["run", p(&photo_path), "-o", p(&plain)]));
+    ok(&monohand(&[
+        "run",
+        p(&photo_path),
+        "-o",
+        p(&wrist),
+        "--wrist-pose",
+    ]));
+    let (plain, wrist) = (read_jsonl(&plain).unwrap(), read_jsonl(&wrist).unwrap());
+    let (a, b) = (&plain[0].hands[0], &wrist[0].hands[0]);
+    // Off by default; asked for, the same hand with its wrist pose.
+    assert!(a.wrist_pose.is_none() && a.xr_joints.is_none());
+    assert_eq!(a.joints_3d_mm, b.joints_3d_mm);
+    let w = b.wrist_pose.as_ref().expect("wrist_pose");
+    assert_eq!(w.convention, "mano");
+    let m = nalgebra::Matrix4::from_fn(|r, c| w.matrix_m[r][c]);
+    assert_eq!(m.row(3), nalgebra::RowVector4::new(0.0, 0.0, 0.0, 1.0));
+    // At the record's wrist joint, in metres.
+    let mm = b.joints_3d_mm.unwrap();
+    let t = m.fixed_view::<3, 1>(0, 3).into_owned();
+    assert!(
+        (t * 1000.0 - nalgebra::Vector3::from(mm[0])).norm() < 1e-9,
+        "{t}"
+    );
+    // A rotation, and the frame dex-retargeting builds from joints 0, 5 and 9.
+    let r = m.fixed_view::<3, 3>(0, 0).into_owned();
+    assert!((r.transpose() * r - nalgebra::Matrix3::identity()).norm() < 1e-9);
+    assert!((r.determinant() - 1.0).abs() < 1e-9);
+    let degrees = |reference: nalgebra::Matrix3<f64>| {
+        let turn = r.transpose() * reference;
+        ((turn.trace() - 1.0) / 2.0)
+            .clamp(-1.0, 1.0)
+            .acos()
+            .to_degrees()
+    };
+    // On the posed model's own joints 0, 5 and 9 (the record's pose and hand size), the
+    // construction is the model's frame but for the default palm's 1.8 degrees.
+    let pose = b.pose.as_ref().unwrap().to_pose().unwrap();
+    let scale = b.hand_size.as_ref().map_or(1.0, |s| s.scale);
+    let skeleton = HandSkeleton::default_for(b.side).scaled(scale).unwrap();
+    let model = forward_kinematics(&skeleton, &pose).map(|v| [v.x, v.y, v.z]);
+    let on_model = degrees(dex_wrist_frame(&model, b.side));
+    // The record's joints were moved towards the network's depth and the pixels after the
+    // fit (the fusion), which tilts
+    // the three joints' plane against the model's palm: 12.0 degrees on this photo.
+    let on_joints = degrees(dex_wrist_frame(&mm, b.side));
+    eprintln!("the wrist frame is {on_model:.2} degrees from the model's joints 0/5/9's, {on_joints:.2} from the record's");
+    assert!((1.7..1.9).contains(&on_model), "{on_model} degrees");
+    assert!(on_joints < 15.0, "{on_joints} degrees");
+}

@@ -40,6 +40,7 @@ pub mod hand_model;
 pub mod kinematics;
 pub mod observation;
 pub mod triangulation;
+pub mod wrist;
 pub mod xr;
 
 pub use error::{CoreError, CoreResult};

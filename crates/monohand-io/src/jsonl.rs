@@ -141,6 +141,34 @@ pub struct HandRecord {
     /// asked ([`JsonlWriter::with_xr_joints`]), from the fit ([`HandRecord::xr_joints_of_fit`]).
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub xr_joints: Option<Vec<XrJointRecord>>,
+    /// The wrist's pose in the wrist frame retargeting reads (MANO's): written when asked
+    /// ([`JsonlWriter::with_wrist_pose`]), from the fit ([`HandRecord::wrist_pose_of_fit`]).
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub wrist_pose: Option<WristPoseRecord>,
+}
+
+/// A hand's wrist pose ([`HandRecord::wrist_pose`]; `monohand_core::wrist` gives the
+/// frame's convention and how it is made from the fit).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct WristPoseRecord {
+    /// The wrist frame's convention: `"mano"` (MANO's, as dex-retargeting documents it: +z
+    /// from the wrist towards the fingers, +x out of the palm, +y = z × x).
+    pub convention: String,
+    /// The homogeneous transform from the wrist frame to the frame of `joints_3d_mm`, row
+    /// by row (`[[r00, r01, r02, tx], ..., [0, 0, 0, 1]]`): its rotation's columns are the
+    /// wrist frame's axes, its translation the wrist joint in metres.
+    pub matrix_m: [[f64; 4]; 4],
+}
+
+impl WristPoseRecord {
+    /// The record of a wrist pose.
+    pub fn new(pose: &monohand_core::wrist::WristPose) -> WristPoseRecord {
+        let m = pose.matrix_m();
+        WristPoseRecord {
+            convention: pose.convention.name().to_string(),
+            matrix_m: std::array::from_fn(|r| std::array::from_fn(|c| m[(r, c)])),
+        }
+    }
 }
 
 /// One of a hand's OpenXR joints ([`HandRecord::xr_joints`]; `monohand_core::xr` gives
@@ -235,6 +263,7 @@ impl HandRecord {
             hand_size: None,
             views: None,
             xr_joints: None,
+            wrist_pose: None,
         }
     }
 
@@ -310,6 +339,18 @@ impl HandRecord {
         )
     }
 
+    /// The hand's wrist pose in MANO's wrist frame ([`monohand_core::wrist::wrist_pose`])
+    /// from its fit: at its `joints_3d_mm`'s wrist, turned as its `pose`'s hand frame.
+    /// `None` without 3D or a pose.
+    pub fn wrist_pose_of_fit(&self) -> Option<WristPoseRecord> {
+        let joints = self.joints_3d()?;
+        let pose = self.pose.as_ref()?.to_pose()?;
+        let mano = monohand_core::wrist::WristConvention::Mano;
+        Some(WristPoseRecord::new(&monohand_core::wrist::wrist_pose(
+            &pose, &joints, mano,
+        )?))
+    }
+
     /// The name of the first non-finite number, if any (JSON cannot hold NaN or infinity).
     fn non_finite_field(&self) -> Option<&'static str> {
         if bad(self.keypoints_2d.iter().flatten()) {
@@ -360,6 +401,13 @@ impl HandRecord {
         });
         if bad(xr_numbers) {
             return Some("xr_joints");
+        }
+        if bad(self
+            .wrist_pose
+            .iter()
+            .flat_map(|w| w.matrix_m.iter().flatten()))
+        {
+            return Some("wrist_pose");
         }
         let views = self.views.iter().flatten();
         let offsets = views.clone().filter_map(|v| v.offset_px.as_ref()).flatten();
@@ -417,6 +465,17 @@ impl FrameRecord {
         for h in &mut self.hands {
             if h.xr_joints.is_none() {
                 h.xr_joints = h.xr_joints_of_fit();
+            }
+        }
+        self
+    }
+
+    /// The same frame with every fitted hand's wrist pose
+    /// ([`HandRecord::wrist_pose_of_fit`]; hands that have one keep theirs).
+    pub fn with_wrist_pose(mut self) -> FrameRecord {
+        for h in &mut self.hands {
+            if h.wrist_pose.is_none() {
+                h.wrist_pose = h.wrist_pose_of_fit();
             }
         }
         self
@@ -525,6 +584,7 @@ pub struct JsonlWriter {
     out: RecordSink,
     lines: usize,
     xr_joints: bool,
+    wrist_pose: bool,
 }
 
 impl std::fmt::Debug for JsonlWriter {
@@ -533,6 +593,7 @@ impl std::fmt::Debug for JsonlWriter {
             .field("name", &self.out.name())
             .field("lines", &self.lines)
             .field("xr_joints", &self.xr_joints)
+            .field("wrist_pose", &self.wrist_pose)
             .finish()
     }
 }
@@ -544,6 +605,7 @@ impl JsonlWriter {
             out: RecordSink::create(path.as_ref())?,
             lines: 0,
             xr_joints: false,
+            wrist_pose: false,
         })
     }
 
@@ -558,6 +620,7 @@ impl JsonlWriter {
             out: RecordSink::new(sink, name),
             lines: 0,
             xr_joints: false,
+            wrist_pose: false,
         }
     }
 
@@ -569,6 +632,14 @@ impl JsonlWriter {
         self
     }
 
+    /// With `on`, every fitted hand is written with its wrist pose
+    /// ([`HandRecord::wrist_pose`], made by [`HandRecord::wrist_pose_of_fit`] where the
+    /// record has none). Off by default.
+    pub fn with_wrist_pose(mut self, on: bool) -> JsonlWriter {
+        self.wrist_pose = on;
+        self
+    }
+
     /// Number of frames written.
     pub fn frames_written(&self) -> usize {
         self.lines
@@ -577,13 +648,20 @@ impl JsonlWriter {
     /// Writes one frame as one line and flushes it. Non-finite numbers are
     /// refused (JSON has no NaN) with the hand and field named.
     pub fn write_frame(&mut self, frame: &FrameRecord) -> IoResult<()> {
-        let with_xr;
-        let frame = match self.xr_joints {
-            true => {
-                with_xr = frame.clone().with_xr_joints();
-                &with_xr
+        let added;
+        let frame = match (self.xr_joints, self.wrist_pose) {
+            (false, false) => frame,
+            (xr, wrist) => {
+                let mut f = frame.clone();
+                if xr {
+                    f = f.with_xr_joints();
+                }
+                if wrist {
+                    f = f.with_wrist_pose();
+                }
+                added = f;
+                &added
             }
-            false => frame,
         };
         let mut line = frame_json(frame, self.out.name())?;
         line.push('\n');
@@ -808,6 +886,68 @@ mod tests {
             .to_string();
         assert!(e.contains("t.jsonl: line 1"), "{e}");
         assert!(read_jsonl("/nonexistent/in.jsonl").is_err());
+    }
+
+    #[test]
+    fn the_wrist_pose_is_written_when_asked_and_read_back() {
+        let mut fit = fit_like();
+        let sk = HandSkeleton::default_for(HandSide::Right);
+        fit.joints_3d = forward_kinematics(&sk, &fit.pose);
+        let hand = HandRecord::from_fit(HandSide::Right, &Keypoints2d::default(), &fit);
+        let unfitted = HandRecord::from_keypoints(HandSide::Left, &Keypoints2d::default());
+        let frame = FrameRecord {
+            frame: 4,
+            hands: vec![hand, unfitted],
+            ..Default::default()
+        };
+        let dir = tempfile::tempdir().unwrap();
+        let p = dir.path().join("wrist.jsonl");
+        let mut w = JsonlWriter::create(&p)
+            .unwrap()
+            .with_wrist_pose(true)
+            .with_xr_joints(true);
+        w.write_frame(&frame).unwrap();
+        let back = read_jsonl(&p).unwrap().remove(0);
+        assert!(back.hands[1].wrist_pose.is_none(), "no fit, no wrist pose");
+        assert!(
+            back.hands[0].xr_joints.is_some(),
+            "both when both are asked"
+        );
+        let rec = back.hands[0].wrist_pose.as_ref().unwrap();
+        // The core's numbers, row by row, in metres.
+        let mano = monohand_core::wrist::WristConvention::Mano;
+        let want = monohand_core::wrist::wrist_pose(&fit.pose, &fit.joints_3d, mano)
+            .unwrap()
+            .matrix_m();
+        assert_eq!(rec.convention, "mano");
+        for (r, row) in rec.matrix_m.iter().enumerate() {
+            for (c, v) in row.iter().enumerate() {
+                assert_eq!(*v, want[(r, c)], "({r}, {c})");
+            }
+        }
+        assert_eq!(rec.matrix_m[3], [0.0, 0.0, 0.0, 1.0]);
+        let t = Vector3::new(rec.matrix_m[0][3], rec.matrix_m[1][3], rec.matrix_m[2][3]);
+        assert!((t * 1000.0 - fit.joints_3d[0]).norm() < 1e-9);
+        // In JSON: an object with the convention and four rows of four.
+        let text = std::fs::read_to_string(&p).unwrap();
+        let value: serde_json::Value = serde_json::from_str(text.trim()).unwrap();
+        let entry = &value["hands"][0]["wrist_pose"];
+        assert_eq!(entry["convention"], "mano");
+        assert_eq!(entry["matrix_m"].as_array().unwrap().len(), 4);
+        assert_eq!(entry["matrix_m"][2].as_array().unwrap().len(), 4);
+        // Off by default: a plain writer's line has no such field.
+        let plain = frame_json(&frame, "mem").unwrap();
+        assert!(!plain.contains("wrist_pose"));
+        assert_eq!(
+            back,
+            frame.clone().with_xr_joints().with_wrist_pose(),
+            "read back as written"
+        );
+        // A NaN in it is refused like any other.
+        let mut bad = frame.with_wrist_pose();
+        bad.hands[0].wrist_pose.as_mut().unwrap().matrix_m[1][2] = f64::NAN;
+        let e = frame_json(&bad, "mem").unwrap_err().to_string();
+        assert!(e.contains("hands[0].wrist_pose"), "{e}");
     }
 
     #[test]

@@ -6,6 +6,8 @@
 //! decodes, so Python threads (and Daft's workers) run side by side.
 #![deny(missing_docs)]
 
+mod wrist;
+
 use monohand::engine::{Engine, EngineError, Input, Observer, Output, RunReport, Sink};
 use monohand::records::fitted_record;
 use monohand::vision::{HandPipeline, Precision};
@@ -580,6 +582,21 @@ impl PyHand {
     fn xr_radii<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray1<f64>>> {
         let radii: Vec<f64> = self.xr()?.iter().map(|j| j.radius_mm).collect();
         Some(PyArray1::from_vec(py, radii))
+    }
+    /// `(4, 4)`: the wrist's pose, metres, in the first camera's frame: the transform from
+    /// MANO's wrist frame (dex-retargeting's) to the camera's; `None` without 3D.
+    fn wrist_pose<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray2<f64>>> {
+        wrist::wrist_pose(py, &self.inner)
+    }
+    /// `(21, 3)`: the joints in the wrist frame, metres (`convention`: `"mano"`); `None`
+    /// without 3D.
+    #[pyo3(signature = (convention = "mano"))]
+    fn joints_in_wrist_frame<'py>(
+        &self,
+        py: Python<'py>,
+        convention: &str,
+    ) -> PyResult<Option<Bound<'py, PyArray2<f64>>>> {
+        wrist::joints_in_wrist_frame(py, &self.inner, convention)
     }
     /// The hand as `monohand run` writes it to JSON Lines (plain lists and numbers).
     fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {

@@ -14,6 +14,7 @@ import subprocess
 from pathlib import Path
 from typing import List
 
+import numpy as np
 import pytest
 
 REPO = Path(__file__).resolve().parents[3]
@@ -40,6 +41,40 @@ def run_cli(*args: str) -> subprocess.CompletedProcess:
 
 def read_jsonl(path: Path) -> List[dict]:
     return [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
+
+
+def rotate(q, v):
+    """``v`` turned by the unit quaternion ``q = (x, y, z, w)``."""
+    u, w = q[:3], q[3]
+    return v + 2.0 * np.cross(u, np.cross(u, v) + w * v)
+
+
+def dev_keypoints(step: int = 60):
+    """The hand-graph-cnn dev frames' real left hand: its camera and, every ``step`` frames,
+    the labels' 3D seen by it as ``(21, 3)`` keypoints (pixels and confidence 1)."""
+    import monohand
+
+    d = json.loads(shared("hand_graph_cnn_dev/labels.json").read_text())
+    k = d["camera"]
+    cam = monohand.Camera(k["fx"], k["fy"], k["cx"], k["cy"], k["width"], k["height"])
+    labels = [np.array(f["joints_3d_mm"]) for f in d["frames"][::step]]
+    return cam, [np.hstack([cam.project(j), np.ones((21, 1))]) for j in labels]
+
+
+def write_lift_input(tmp_path: Path, cam, kps, side: str = "left"):
+    """Keypoints and a camera as files for ``monohand lift --jsonl IN --camera CAM``."""
+    src = tmp_path / "kp.jsonl"
+    src.write_text(
+        "".join(
+            json.dumps({"frame": i, "hands": [{"side": side, "keypoints_2d": kp.tolist()}]}) + "\n"
+            for i, kp in enumerate(kps)
+        )
+    )
+    cam_path = tmp_path / "cam.json"
+    cam_path.write_text(
+        json.dumps({"fx": cam.fx, "fy": cam.fy, "cx": cam.cx, "cy": cam.cy, "width": cam.width, "height": cam.height})
+    )
+    return src, cam_path
 
 
 def make_video(image: Path, out: Path, frames: int = 24, phase: float = 0.0) -> Path:

@@ -4,26 +4,14 @@ from `monohand lift --xr-joints`."""
 
 from __future__ import annotations
 
-import json
-
 import numpy as np
 
 import monohand
-from conftest import read_jsonl, run_cli, shared
-
-
-def rotate(q: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """``v`` turned by the unit quaternion ``q = (x, y, z, w)``."""
-    u, w = q[:3], q[3]
-    return v + 2.0 * np.cross(u, np.cross(u, v) + w * v)
+from conftest import dev_keypoints, read_jsonl, rotate, run_cli, write_lift_input
 
 
 def test_xr_joints_are_26_poses_along_the_bones(tmp_path):
-    d = json.loads(shared("hand_graph_cnn_dev/labels.json").read_text())
-    k = d["camera"]
-    cam = monohand.Camera(k["fx"], k["fy"], k["cx"], k["cy"], k["width"], k["height"])
-    labels = [np.array(f["joints_3d_mm"]) for f in d["frames"][::60]]
-    kps = [np.hstack([cam.project(j), np.ones((21, 1))]) for j in labels]
+    cam, kps = dev_keypoints()
     hands = [monohand.lift(kp, cam, side="left") for kp in kps]
 
     names = monohand.XR_JOINT_NAMES
@@ -55,15 +43,7 @@ def test_xr_joints_are_26_poses_along_the_bones(tmp_path):
         assert "xr_joints" not in h.to_dict()
 
     # `monohand lift --xr-joints` writes the same joints.
-    src = tmp_path / "kp.jsonl"
-    src.write_text(
-        "".join(
-            json.dumps({"frame": i, "hands": [{"side": "left", "keypoints_2d": kp.tolist()}]}) + "\n"
-            for i, kp in enumerate(kps)
-        )
-    )
-    cam_path = tmp_path / "cam.json"
-    cam_path.write_text(json.dumps({"fx": cam.fx, "fy": cam.fy, "cx": cam.cx, "cy": cam.cy, "width": cam.width, "height": cam.height}))
+    src, cam_path = write_lift_input(tmp_path, cam, kps)
     out = tmp_path / "xr.jsonl"
     run_cli("lift", "--jsonl", str(src), "--camera", str(cam_path), "-o", str(out), "--xr-joints")
     for h, rec in zip(hands, read_jsonl(out)):

@@ -71,6 +71,11 @@ pub(crate) struct RunArgs {
     /// and radii, in the JSON Lines records (`xr_joints`, docs/output-format.md).
     #[arg(long)]
     pub xr_joints: bool,
+    /// Also write each fitted hand's wrist pose, a 4x4 in metres in MANO's wrist frame as
+    /// robot-hand retargeting reads it, in the JSON Lines records (`wrist_pose`,
+    /// docs/output-format.md).
+    #[arg(long)]
+    pub wrist_pose: bool,
     /// Write a Rerun recording (.rrd; open it with `rerun FILE`): every camera's
     /// intrinsics, pose and image, the 2D keypoints, the 3D hands and each hand's distance
     /// over time (docs/visualisation.md). Needs the CLI built with `--features rerun`.

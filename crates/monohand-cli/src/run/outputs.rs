@@ -65,7 +65,10 @@ pub(crate) fn create(
     let rerun = args.rerun.as_ref().map(|p| rerun(args, p)).transpose()?;
     let poses: Box<dyn Sink> = match args.format {
         OutputFormat::Jsonl => {
-            Box::new(JsonlSink::open(&args.output)?.with_xr_joints(args.xr_joints))
+            let sink = JsonlSink::open(&args.output)?
+                .with_xr_joints(args.xr_joints)
+                .with_wrist_pose(args.wrist_pose);
+            Box::new(sink)
         }
         OutputFormat::Csv => Box::new(CsvSink::open(&args.output)?),
         OutputFormat::Openpose => {

@@ -132,6 +132,13 @@ class Hand:
     @property
     def xr_radii(self) -> Optional[npt.NDArray[np.float64]]:
         """``(26,)``: each OpenXR joint's distance to the skin, mm."""
+    def wrist_pose(self) -> Optional[npt.NDArray[np.float64]]:
+        """``(4, 4)``: the wrist's pose, metres, first camera's frame: the transform from MANO's
+        wrist frame (dex-retargeting's: +z towards the fingers, +x out of the palm, +y = z x x)
+        to the camera's; ``None`` without 3D."""
+    def joints_in_wrist_frame(self, convention: str = "mano") -> Optional[npt.NDArray[np.float64]]:
+        """``(21, 3)``: the joints in the wrist frame of ``wrist_pose``, metres; ``convention``
+        ``"mano"`` (another is a ``ValueError``); ``None`` without 3D."""
     def to_dict(self) -> Dict[str, Any]:
         """Exactly the JSON Lines entry ``monohand run`` writes for this hand."""
 

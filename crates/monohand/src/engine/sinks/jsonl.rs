@@ -33,6 +33,12 @@ impl JsonlSink {
     pub fn with_xr_joints(self, on: bool) -> JsonlSink {
         JsonlSink(self.0.with_xr_joints(on))
     }
+
+    /// With `on`, each fitted hand is written with its wrist pose in MANO's wrist frame
+    /// (`wrist_pose`, [`JsonlWriter::with_wrist_pose`]; `--wrist-pose`). Off by default.
+    pub fn with_wrist_pose(self, on: bool) -> JsonlSink {
+        JsonlSink(self.0.with_wrist_pose(on))
+    }
 }
 
 impl Sink for JsonlSink {
