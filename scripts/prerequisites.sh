@@ -10,6 +10,8 @@
 #   npm              npm                     three.js, the benchmark's packages, the glTF validator
 #   exiftool         libimage-exiftool-perl  the independent reader of the video metadata tests
 #                                            (crates/monohand-media/tests/quicktime.rs)
+#   python3's venv   python3-venv            the wheel's fresh venv (Debian's python3 has venv
+#                                            only with it: `python3 -c 'import ensurepip'`)
 # Installs as root, or through sudo; says what it installs. Without root or sudo (or apt-get)
 # it names the missing packages and exits 1, as it does when an install leaves one missing.
 # `--check`: only says what is missing (exit 1 if anything is), installs nothing.
@@ -30,14 +32,19 @@ Xvfb xvfb
 xwd x11-apps
 xdotool xdotool
 npm npm
-exiftool libimage-exiftool-perl"
+exiftool libimage-exiftool-perl
+python3:ensurepip python3-venv"
 
 # missing: sets $missing_tools and $missing_packages (each package once, in the list's order).
 missing() {
   missing_tools="" missing_packages=""
   local tool package
   while read -r tool package; do
-    command -v "$tool" >/dev/null 2>&1 && continue
+    case "$tool" in
+      # python3:MODULE: python3 imports MODULE.
+      python3:*) python3 -c "import ${tool#python3:}" >/dev/null 2>&1 && continue ;;
+      *) command -v "$tool" >/dev/null 2>&1 && continue ;;
+    esac
     missing_tools="$missing_tools $tool"
     case " $missing_packages " in *" $package "*) ;; *) missing_packages="$missing_packages $package" ;; esac
   done <<< "$tools"
@@ -46,7 +53,7 @@ missing() {
 
 missing
 if [ -z "$missing_packages" ]; then
-  echo "prerequisites: all present (ffmpeg, ffprobe, chromium, Xvfb, xwd, xdotool, npm, exiftool)"
+  echo "prerequisites: all present (ffmpeg, ffprobe, chromium, Xvfb, xwd, xdotool, npm, exiftool, python3's venv)"
   exit 0
 fi
 echo "prerequisites: missing $missing_tools (apt packages: $missing_packages)"

@@ -24,7 +24,16 @@ TOOLS = {
     "xdotool": "xdotool",
     "npm": "npm",
     "exiftool": "libimage-exiftool-perl",
+    # Not a command: python3 importing ensurepip (stubbed as python3 exiting 0 or 1).
+    "python3:ensurepip": "python3-venv",
 }
+
+
+def stub_name(tool: str) -> str:
+    """The stub that makes `tool` present: its command, or python3 for a module."""
+    return "python3" if tool.startswith("python3:") else tool
+
+
 BASH = shutil.which("bash") or "/bin/bash"
 ENV = shutil.which("env") or "/usr/bin/env"
 CHMOD = shutil.which("chmod") or "/bin/chmod"
@@ -51,7 +60,9 @@ class Prerequisites(unittest.TestCase):
         ("fails"), doing nothing ("noop") or installing what it is asked ("installs")."""
         for tool in TOOLS:
             if tool not in missing:
-                self.stub(tool)
+                self.stub(stub_name(tool))
+            elif tool.startswith("python3:"):
+                self.stub("python3", "exit 1")
         self.stub("id", f'[ "$1" = -u ] && echo {uid}')
         if sudo:
             self.stub("sudo", f'echo "sudo $*" >> {self.log}; exec "$@"')
@@ -60,7 +71,8 @@ class Prerequisites(unittest.TestCase):
         installs = ""
         for package in dict.fromkeys(TOOLS.values()):
             made = "".join(
-                f'printf "#!{BASH}\\n" > {self.bin}/{t}; {CHMOD} +x {self.bin}/{t}; '
+                f'printf "#!{BASH}\\n" > {self.bin}/{stub_name(t)}; '
+                f"{CHMOD} +x {self.bin}/{stub_name(t)}; "
                 for t, p in TOOLS.items()
                 if p == package
             )
@@ -98,6 +110,15 @@ class Prerequisites(unittest.TestCase):
         self.assertEqual(calls[0], "apt-get update -qq")
         self.assertRegex(calls[1], r"^apt-get install -y -qq --no-install-recommends libimage-exiftool-perl$")
         self.assertTrue((self.bin / "exiftool").exists())
+
+    def test_a_python_without_venv_gets_python3_venv(self) -> None:
+        self.machine(missing=("python3:ensurepip",))
+        out = self.run_script()
+        self.assertEqual(out.returncode, 0, out.stderr)
+        self.assertIn("missing python3:ensurepip (apt packages: python3-venv)", out.stdout)
+        self.assertIn(
+            "apt-get install -y -qq --no-install-recommends python3-venv", self.apt_calls()
+        )
 
     def test_each_package_once_in_order(self) -> None:
         self.machine(missing=["ffmpeg", "ffprobe", "npm", "Xvfb"])
