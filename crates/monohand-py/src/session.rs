@@ -1,0 +1,546 @@
+//! `Session`, `TrackedFrame` and `FrameStream`: frames in, tracked absolute 3D hands out,
+//! frame by frame or a whole video on the engine's threads.
+
+use crate::camera::*;
+use crate::convert::*;
+use crate::errors::*;
+use crate::hand::*;
+use crate::hand_size::*;
+use crate::models::*;
+use monohand::engine::{Engine, Input, Observer, Output, RunReport, Sink};
+use monohand::records::fitted_record;
+use monohand::SessionOptions;
+use monohand_core::filtering::OneEuroParams;
+use monohand_io::jsonl::FrameRecord;
+use pyo3::exceptions::{PyStopIteration, PyValueError};
+use pyo3::prelude::*;
+use pyo3::types::PyList;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::mpsc::{sync_channel, Receiver, SyncSender};
+use std::sync::{Arc, Mutex};
+
+/// Frames in, tracked absolute 3D hands out.
+///
+/// `Session(cameras=None, hands=2, tracking=True, ...)`: `cameras` is a `Camera`, a list
+/// of them (a calibrated rig, the first the reference), or `None` (a generic camera for the
+/// image size; the 3D is then only as absolute as that guess). `hand_scale` sizes the
+/// average adult hand (0.9 for a small hand; the absolute depth scales with it). Use it as
+/// a context manager,
+/// and call `process(image, time_s)` once per frame in order. `rerun="hands.rrd"` writes
+/// every frame of the session (`process`'s and `track`'s) into a Rerun recording, as
+/// `monohand run --rerun` does (images scaled by `rerun_image_scale`); it is complete once
+/// the session is closed.
+#[pyclass(module = "monohand._monohand", name = "Session")]
+pub(crate) struct PySession {
+    pub(crate) inner: Option<monohand::Session>,
+    pub(crate) next_time: f64,
+    /// The same pipeline, cameras and settings as the engine `track` runs.
+    pub(crate) engine: Arc<Engine>,
+    /// The Rerun recording every frame also goes to.
+    pub(crate) rerun: Option<SharedSink>,
+}
+
+/// A sink that several runs of the session write to in turn (its Rerun recording).
+#[derive(Clone)]
+pub(crate) struct SharedSink(pub(crate) Arc<Mutex<Box<dyn Sink + Send>>>);
+
+impl SharedSink {
+    pub(crate) fn lock(
+        &self,
+    ) -> Result<std::sync::MutexGuard<'_, Box<dyn Sink + Send>>, monohand::engine::SinkError> {
+        self.0
+            .lock()
+            .map_err(|_| "the recording failed in another thread".into())
+    }
+}
+
+impl Sink for SharedSink {
+    fn wants_images(&self) -> bool {
+        true
+    }
+
+    fn wants_every_view(&self) -> bool {
+        true
+    }
+
+    fn write(&mut self, frame: &Output<'_>) -> Result<(), monohand::engine::SinkError> {
+        self.lock()?.write(frame)
+    }
+}
+
+/// The Rerun recording of `Session(rerun=...)`.
+#[cfg(feature = "rerun")]
+pub(crate) fn rerun_sink(path: &std::path::Path, views: usize, scale: f64) -> PyResult<SharedSink> {
+    let names = (1..=views.max(1)).map(|v| format!("view{v}")).collect();
+    let sink = monohand::engine::RerunSink::create(path, names, scale)
+        .map_err(|e| PyValueError::new_err(format!("rerun: {}: {e}", path.display())))?;
+    Ok(SharedSink(Arc::new(Mutex::new(Box::new(sink)))))
+}
+
+/// Without the `rerun` feature: refused, saying why.
+#[cfg(not(feature = "rerun"))]
+pub(crate) fn rerun_sink(
+    path: &std::path::Path,
+    _views: usize,
+    _scale: f64,
+) -> PyResult<SharedSink> {
+    Err(PyValueError::new_err(format!(
+        "rerun: {}: this build of monohand has no Rerun recordings (the crate's `rerun` feature)",
+        path.display()
+    )))
+}
+
+impl PySession {
+    pub(crate) fn session(&mut self) -> PyResult<&mut monohand::Session> {
+        self.inner
+            .as_mut()
+            .ok_or_else(|| PyValueError::new_err("the session is closed"))
+    }
+}
+
+#[pymethods]
+impl PySession {
+    #[new]
+    #[pyo3(signature = (cameras=None, hands=2, tracking=true, model_dir=None, smoothing=false, heads=false, detect_every=10, models=None, hand_scale=None, mirror_pass=true, rectify_crops="off", precision="f32", hand=None, rerun=None, rerun_image_scale=1.0, fitted_crops=true))]
+    #[allow(clippy::too_many_arguments)]
+    fn new(
+        py: Python<'_>,
+        cameras: Option<&Bound<'_, PyAny>>,
+        hands: usize,
+        tracking: bool,
+        model_dir: Option<std::path::PathBuf>,
+        smoothing: bool,
+        heads: bool,
+        detect_every: usize,
+        models: Option<PyRef<'_, PyModels>>,
+        hand_scale: Option<f64>,
+        mirror_pass: bool,
+        rectify_crops: &str,
+        precision: &str,
+        hand: Option<&Bound<'_, PyAny>>,
+        rerun: Option<std::path::PathBuf>,
+        rerun_image_scale: f64,
+        fitted_crops: bool,
+    ) -> PyResult<PySession> {
+        let (skeletons, hand_size) = sized_hands(hand, hand_scale)?;
+        let cameras = to_cameras(cameras)?;
+        let rerun = rerun
+            .map(|p| rerun_sink(&p, cameras.len(), rerun_image_scale))
+            .transpose()?;
+        let precision = precision_arg(precision)?;
+        let rectify = rectify_crops
+            .parse()
+            .map_err(|e| PyValueError::new_err(format!("rectify_crops: {e}")))?;
+        let mut options = SessionOptions::default()
+            .hands(hands)
+            .tracking(tracking)
+            .heads(heads)
+            .mirror_pass(mirror_pass)
+            .precision(precision)
+            .skeletons(skeletons)
+            .smoothing(smoothing.then(OneEuroParams::default))
+            .detect_every(detect_every);
+        options.settings.rectify = rectify;
+        options.settings.fitted_crops = fitted_crops;
+        options.settings.fit.hand_size = hand_size;
+        let resolved = options
+            .settings
+            .clone()
+            .resolve()
+            .map_err(|e| settings_err(&e))?;
+        if let Some(dir) = model_dir {
+            options = options.model_dir(dir);
+        }
+        let pipeline = match models {
+            Some(m) => {
+                if (m.hands, m.tracking, m.heads, m.mirror_pass, m.precision)
+                    != (hands, tracking, heads, mirror_pass, precision)
+                {
+                    return Err(PyValueError::new_err(format!(
+                        "the session asks for hands={hands}, tracking={}, heads={}, \
+                         mirror_pass={}, precision={:?} but the models were loaded with {}",
+                        py_bool(tracking),
+                        py_bool(heads),
+                        py_bool(mirror_pass),
+                        precision.name(),
+                        m.__repr__()
+                    )));
+                }
+                Arc::clone(&m.pipeline)
+            }
+            // Loading (and on first use fetching) the networks takes a while: let Python run.
+            None => Arc::new(
+                py.detach(|| monohand::Session::load_pipeline(&options))
+                    .map_err(session_err)?,
+            ),
+        };
+        let engine =
+            Engine::new(Arc::clone(&pipeline), cameras.clone(), resolved).map_err(engine_err)?;
+        let inner =
+            monohand::Session::with_pipeline(cameras, pipeline, options).map_err(session_err)?;
+        Ok(PySession {
+            inner: Some(inner),
+            next_time: 0.0,
+            engine: Arc::new(engine),
+            rerun,
+        })
+    }
+
+    /// Tracks a whole input, `monohand run`'s way: `path` is a video file (anything ffmpeg
+    /// reads), an image, a folder of images or `webcam:N`. Decoding, the networks and the
+    /// fit run on threads of their own, without the GIL, as in `monohand run` (the same
+    /// engine). Returns an iterator over the frames, in order, each a `TrackedFrame`; at
+    /// most a few frames wait in memory. Each call starts from a fresh state (its own
+    /// tracks and ids), apart from `process`'s. An input that ends on an error raises
+    /// `MonohandError` after its good frames. `offline=True` is `monohand run --offline`:
+    /// each frame is refitted with the frames after it too (needs a tracking session).
+    #[pyo3(signature = (path, max_frames=None, offline=false))]
+    fn track(
+        &mut self,
+        py: Python<'_>,
+        path: String,
+        max_frames: Option<u64>,
+        offline: bool,
+    ) -> PyResult<PyFrameStream> {
+        self.session()?;
+        let engine = (*self.engine)
+            .clone()
+            .with_max_frames(max_frames)
+            .with_offline(offline)
+            .map_err(engine_err)?;
+        let source = py
+            .detach(|| {
+                Input::parse(&path).and_then(|i| i.open(monohand::engine::DEFAULT_STALL_TIMEOUT))
+            })
+            .map_err(|e| MonohandError::new_err(e.to_string()))?;
+        let (tx, rx) = sync_channel::<FrameRecord>(8);
+        let watch = Arc::new(Watch::default());
+        let observer = Arc::clone(&watch);
+        let rerun = self.rerun.clone();
+        let worker = std::thread::Builder::new()
+            .name("monohand-track".into())
+            .spawn(move || {
+                let mut sinks: Vec<Box<dyn Sink>> = vec![Box::new(ChannelSink(tx))];
+                sinks.extend(rerun.map(|r| Box::new(r) as Box<dyn Sink>));
+                engine.run(vec![source], &mut sinks, &*observer)
+            })
+            .map_err(|e| MonohandError::new_err(format!("could not start a thread: {e}")))?;
+        Ok(PyFrameStream {
+            rx: Some(Mutex::new(rx)),
+            worker: Some(worker),
+            watch,
+            report: None,
+        })
+    }
+
+    /// Processes one frame: `image` is an `(H, W, 3)` uint8 RGB array, or a list of them,
+    /// one per camera. `time_s` is the frame's time in seconds (default: 30 fps). Returns
+    /// the frame's hands.
+    #[pyo3(signature = (image, time_s=None))]
+    fn process(
+        &mut self,
+        py: Python<'_>,
+        image: &Bound<'_, PyAny>,
+        time_s: Option<f64>,
+    ) -> PyResult<Vec<PyHand>> {
+        Ok(self
+            .process_record(py, image, time_s)?
+            .hands
+            .into_iter()
+            .map(|inner| PyHand { inner })
+            .collect())
+    }
+
+    /// Like `process`, but returns the whole frame record (as `monohand run` writes it) as
+    /// a dict, with the heads and any per-frame error.
+    #[pyo3(signature = (image, time_s=None))]
+    fn process_dict<'py>(
+        &mut self,
+        py: Python<'py>,
+        image: &Bound<'py, PyAny>,
+        time_s: Option<f64>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let record = self.process_record(py, image, time_s)?;
+        as_python(py, &record)
+    }
+
+    /// Messages for the user since the last call (assumptions made, hand size found).
+    fn notes(&mut self) -> PyResult<Vec<String>> {
+        Ok(self.session()?.take_notes())
+    }
+
+    /// The cameras in use (a generic one once the first image told its size, if none
+    /// was given).
+    #[getter]
+    fn cameras(&mut self) -> PyResult<Vec<PyCamera>> {
+        Ok(self
+            .session()?
+            .cameras()
+            .iter()
+            .map(|&inner| PyCamera { inner })
+            .collect())
+    }
+
+    /// Frees the networks and completes the Rerun recording; later calls raise.
+    fn close(&mut self) -> PyResult<()> {
+        self.inner = None;
+        if let Some(r) = self.rerun.take() {
+            r.lock()
+                .and_then(|mut s| s.finish())
+                .map_err(|e| MonohandError::new_err(format!("rerun: {e}")))?;
+        }
+        Ok(())
+    }
+
+    fn __enter__(slf: Py<Self>) -> Py<Self> {
+        slf
+    }
+
+    #[pyo3(signature = (*_args))]
+    fn __exit__(&mut self, _args: &Bound<'_, pyo3::types::PyTuple>) -> PyResult<bool> {
+        self.close()?;
+        Ok(false)
+    }
+}
+
+impl PySession {
+    pub(crate) fn process_record(
+        &mut self,
+        py: Python<'_>,
+        image: &Bound<'_, PyAny>,
+        time_s: Option<f64>,
+    ) -> PyResult<FrameRecord> {
+        let images: Vec<monohand::RgbImage> = if let Ok(list) = image.cast::<PyList>() {
+            list.iter().map(|i| to_image(&i)).collect::<PyResult<_>>()?
+        } else {
+            vec![to_image(image)?]
+        };
+        let t = time_s.unwrap_or(self.next_time);
+        self.next_time = t + 1.0 / 30.0;
+        let session = self.session()?;
+        let mut done = py
+            .detach(|| {
+                let refs: Vec<&monohand::RgbImage> = images.iter().collect();
+                session.process(&refs, t)
+            })
+            .map_err(session_err)?;
+        // Without the stereo hand-size measurement (not offered here) every frame comes
+        // back at once.
+        let Some(frame) = done.pop() else {
+            return Err(MonohandError::new_err("the session kept the frame back"));
+        };
+        let mut record = fitted_record(&frame, None);
+        record.time_s = Some(t);
+        if let Some(e) = record.error.take() {
+            return Err(MonohandError::new_err(e));
+        }
+        if let Some(rerun) = &self.rerun {
+            let mut views = images.into_iter().map(Some);
+            let first = views.next().flatten();
+            let others: Vec<Option<monohand::RgbImage>> = views.collect();
+            let output = Output {
+                record: &record,
+                image: first.as_ref(),
+                cameras: &frame.cameras,
+                other_images: &others,
+                fitted: Some(&frame),
+            };
+            rerun
+                .lock()
+                .and_then(|mut s| s.write(&output))
+                .map_err(|e| MonohandError::new_err(format!("rerun: {e}")))?;
+        }
+        Ok(record)
+    }
+}
+
+/// The engine's side of a `track` call: Python's wish to stop, and the notes for the user.
+#[derive(Default)]
+pub(crate) struct Watch {
+    pub(crate) stop: AtomicBool,
+    pub(crate) notes: Mutex<Vec<String>>,
+}
+
+impl Observer for Watch {
+    fn cancelled(&self) -> bool {
+        self.stop.load(Ordering::Relaxed)
+    }
+
+    fn note(&self, note: &monohand::Note) {
+        if let Ok(mut n) = self.notes.lock() {
+            n.push(note.message.clone());
+        }
+    }
+}
+
+/// Hands each record to Python's iterator; a full queue makes the engine wait.
+pub(crate) struct ChannelSink(pub(crate) SyncSender<FrameRecord>);
+
+impl Sink for ChannelSink {
+    fn write(&mut self, frame: &Output<'_>) -> Result<(), monohand::engine::SinkError> {
+        self.0
+            .send(frame.record.clone())
+            .map_err(|_| "the iterator over the frames was closed".into())
+    }
+}
+
+/// One frame of `Session.track`: `index`, `time_s` (for videos), `hands`, `error` (why
+/// the frame could not be read, else `None`), `cameras` (the camera of each view the
+/// hands were fitted with, as dicts) and `to_dict()`, the whole record as `monohand run`
+/// writes it.
+#[pyclass(module = "monohand._monohand", name = "TrackedFrame", frozen)]
+pub(crate) struct PyTrackedFrame {
+    pub(crate) record: FrameRecord,
+}
+
+#[pymethods]
+impl PyTrackedFrame {
+    /// Frame index, from 0.
+    #[getter]
+    fn index(&self) -> u64 {
+        self.record.frame
+    }
+    /// Time of the frame in the video, seconds (`None` for independent images).
+    #[getter]
+    fn time_s(&self) -> Option<f64> {
+        self.record.time_s
+    }
+    /// The frame's hands.
+    #[getter]
+    fn hands(&self) -> Vec<PyHand> {
+        self.record
+            .hands
+            .iter()
+            .map(|h| PyHand { inner: h.clone() })
+            .collect()
+    }
+    /// Why the frame has no result, else `None`.
+    #[getter]
+    fn error(&self) -> Option<String> {
+        self.record.error.clone()
+    }
+    /// The camera of each view the frame was fitted with (`fx, fy, cx, cy, width, height,
+    /// source`), as dicts.
+    #[getter]
+    fn cameras<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        as_python(py, &self.record.cameras)
+    }
+    /// The whole record, as `monohand run` writes it (docs/output-format.md).
+    fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        as_python(py, &self.record)
+    }
+    fn __repr__(&self) -> String {
+        format!(
+            "TrackedFrame(index={}, hands={})",
+            self.record.frame,
+            self.record.hands.len()
+        )
+    }
+}
+
+/// The frames of a `Session.track` call, in order, as they are done.
+#[pyclass(module = "monohand._monohand", name = "FrameStream")]
+pub(crate) struct PyFrameStream {
+    /// In a mutex only because Python objects must be shareable between threads.
+    pub(crate) rx: Option<Mutex<Receiver<FrameRecord>>>,
+    pub(crate) worker: Option<std::thread::JoinHandle<monohand::engine::EngineResult<RunReport>>>,
+    pub(crate) watch: Arc<Watch>,
+    pub(crate) report: Option<RunReport>,
+}
+
+impl PyFrameStream {
+    /// Waits for the engine to end and keeps its report; its error, if any.
+    pub(crate) fn join(&mut self, py: Python<'_>) -> PyResult<()> {
+        self.rx = None;
+        let Some(worker) = self.worker.take() else {
+            return Ok(());
+        };
+        let result = py
+            .detach(|| worker.join())
+            .map_err(|_| MonohandError::new_err("the engine's thread failed"))?;
+        let report = result.map_err(|e| MonohandError::new_err(monohand::engine::chain(&e)))?;
+        let input_error = report.input_error.clone();
+        self.report = Some(report);
+        match input_error {
+            Some(e) => Err(MonohandError::new_err(e.to_string())),
+            None => Ok(()),
+        }
+    }
+}
+
+#[pymethods]
+impl PyFrameStream {
+    fn __iter__(slf: Py<Self>) -> Py<Self> {
+        slf
+    }
+
+    fn __next__(&mut self, py: Python<'_>) -> PyResult<PyTrackedFrame> {
+        let Some(rx) = self.rx.as_ref() else {
+            return Err(PyStopIteration::new_err(()));
+        };
+        let next = py.detach(|| match rx.lock() {
+            Ok(rx) => rx.recv().ok(),
+            Err(_) => None,
+        });
+        match next {
+            Some(record) => Ok(PyTrackedFrame { record }),
+            None => {
+                self.join(py)?;
+                Err(PyStopIteration::new_err(()))
+            }
+        }
+    }
+
+    /// Messages for the user so far (assumptions made, hand size found).
+    fn notes(&self) -> Vec<String> {
+        self.watch
+            .notes
+            .lock()
+            .map(|n| n.clone())
+            .unwrap_or_default()
+    }
+
+    /// Totals once the stream has ended (`frames`, `frames_with_hands`, `hands`,
+    /// `hands_3d`, `mean_reprojection_px`, `unreadable`, `seconds`, `fps`), else `None`.
+    #[getter]
+    fn summary<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyAny>>> {
+        let Some(r) = &self.report else {
+            return Ok(None);
+        };
+        let json = serde_json::json!({
+            "frames": r.frames,
+            "frames_with_hands": r.frames_with_hands,
+            "hands": r.hands,
+            "hands_3d": r.hands_3d,
+            "mean_reprojection_px": r.mean_reprojection_px(),
+            "unreadable": r.unreadable,
+            "seconds": r.seconds,
+            "fps": r.frames as f64 / r.seconds.max(1e-9),
+        });
+        as_python(py, &json).map(Some)
+    }
+
+    /// Stops the engine (the frame in flight is finished) and waits for it.
+    fn close(&mut self, py: Python<'_>) {
+        self.watch.stop.store(true, Ordering::Relaxed);
+        self.rx = None;
+        let _ = self.join(py);
+    }
+
+    fn __enter__(slf: Py<Self>) -> Py<Self> {
+        slf
+    }
+
+    #[pyo3(signature = (*_args))]
+    fn __exit__(&mut self, py: Python<'_>, _args: &Bound<'_, pyo3::types::PyTuple>) -> bool {
+        self.close(py);
+        false
+    }
+}
+
+impl Drop for PyFrameStream {
+    fn drop(&mut self) {
+        // The engine stops at its next frame: its sink fails once the queue is gone.
+        self.watch.stop.store(true, Ordering::Relaxed);
+    }
+}
