@@ -13,6 +13,15 @@ use nalgebra::{Matrix3, Rotation3, Vector3};
 /// Number of degrees of freedom a joint position can depend on: 6 root + 4 finger angles.
 pub const LOCAL_DOF: usize = 10;
 
+// The skeleton's own rest pose is the kinematics' (here, so that the skeleton's module
+// does not import the kinematics that take it).
+impl HandSkeleton {
+    /// Rest-pose joint positions in the hand frame.
+    pub fn rest_joints(&self) -> [Vector3<f64>; NUM_JOINTS] {
+        forward_kinematics_local(self, &[0.0; 20])
+    }
+}
+
 /// Joint positions in the hand frame (wrist at the origin) for the given angles.
 pub fn forward_kinematics_local(
     sk: &HandSkeleton,

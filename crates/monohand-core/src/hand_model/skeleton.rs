@@ -14,7 +14,7 @@
 //! away from the palm plane).
 
 use crate::error::{CoreError, CoreResult};
-use crate::hand_model::joints::{Finger, HandSide, BONES, NUM_FINGERS, NUM_JOINTS};
+use crate::hand_model::joints::{Finger, HandSide, BONES, NUM_FINGERS};
 use crate::hand_model::limits::JointLimits;
 use nalgebra::{Rotation3, Unit, Vector3};
 
@@ -273,16 +273,12 @@ impl HandSkeleton {
         }
         self.limits.validate()
     }
-
-    /// Rest-pose joint positions in the hand frame.
-    pub fn rest_joints(&self) -> [Vector3<f64>; NUM_JOINTS] {
-        crate::kinematics::forward_kinematics_local(self, &[0.0; 20])
-    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::hand_model::joints::NUM_JOINTS;
 
     #[test]
     fn planar_thumb_undoes_the_default_roll_on_both_sides() {
