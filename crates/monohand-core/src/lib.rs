@@ -39,6 +39,7 @@ pub mod fitting;
 pub mod hand_model;
 pub mod kinematics;
 pub mod observation;
+pub mod sync;
 pub mod triangulation;
 pub mod wrist;
 pub mod xr;
