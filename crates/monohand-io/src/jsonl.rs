@@ -554,6 +554,10 @@ pub struct CameraRecord {
     /// degrees that the user's calibration gives): absent when there is nothing to say.
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub reason: Option<String>,
+    /// How late this view's video started against the first view's, seconds, when the
+    /// views were matched by time (`run --sync`); absent: matched by frame index.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub time_offset_s: Option<f64>,
 }
 
 impl CameraRecord {
@@ -566,6 +570,7 @@ impl CameraRecord {
             dist: lens.map(|d| d.listed().to_vec()),
             source,
             reason: None,
+            time_offset_s: None,
         }
     }
 

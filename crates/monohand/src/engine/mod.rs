@@ -22,6 +22,7 @@ pub mod detect;
 pub mod lift;
 mod sinks;
 mod source;
+pub mod sync;
 
 pub use sinks::{
     CsvSink, GltfSink, JsonlSink, OpenPoseSink, Output, OverlaySink, Sink, SinkError, WindowSink,
@@ -227,6 +228,9 @@ pub struct Engine {
     pipeline: Arc<HandPipeline>,
     cameras: Vec<Camera>,
     settings: ResolvedSettings,
+    /// How late each view started against the first, seconds; empty: the views' frames
+    /// are matched by index ([`Engine::with_view_offsets`]).
+    offsets_s: Vec<f64>,
 }
 
 impl std::fmt::Debug for Engine {
@@ -284,6 +288,7 @@ impl Engine {
             pipeline,
             cameras,
             settings,
+            offsets_s: Vec::new(),
         })
     }
 
@@ -292,9 +297,23 @@ impl Engine {
         &self.pipeline
     }
 
+    /// The cameras, one per view (empty: a camera per image).
+    pub fn cameras(&self) -> &[Camera] {
+        &self.cameras
+    }
+
     /// The settings.
     pub fn settings(&self) -> &ResolvedSettings {
         &self.settings
+    }
+
+    /// The same engine with each later view's frames matched to the first view's by time,
+    /// `offsets_s[v]` being how late view `v` started, seconds ([`sync::align`]; found by
+    /// [`sync::find_offsets`]); each record's cameras say it (`time_offset_s`). Empty: the
+    /// frames are matched by index, as without.
+    pub fn with_view_offsets(mut self, offsets_s: Vec<f64>) -> Engine {
+        self.offsets_s = offsets_s;
+        self
     }
 
     /// The same engine, stopping after `max_frames` frames (`None`: at the input's end).
@@ -378,6 +397,10 @@ impl Engine {
             all,
         };
         let mut out = Writer::new(sinks, observer);
+        out.offsets_s.clone_from(&self.offsets_s);
+        if !self.offsets_s.is_empty() {
+            sources = sync::align(sources, &self.offsets_s);
+        }
         let result = if tracking || sources.len() > 1 {
             self.run_threaded(sources, &mut fit, &mut out, keep)
         } else {
@@ -533,6 +556,8 @@ struct Writer<'s, 'o> {
     report: RunReport,
     observer: &'o dyn Observer,
     start: Instant,
+    /// Each view's offset, for the records' cameras ([`Engine::with_view_offsets`]).
+    offsets_s: Vec<f64>,
 }
 
 impl<'s, 'o> Writer<'s, 'o> {
@@ -543,6 +568,7 @@ impl<'s, 'o> Writer<'s, 'o> {
             report: RunReport::default(),
             observer,
             start: Instant::now(),
+            offsets_s: Vec::new(),
         }
     }
 
@@ -585,7 +611,10 @@ impl<'s, 'o> Writer<'s, 'o> {
             self.observer.note(&note);
         }
         for (f, extra) in done {
-            let record = record(&f, &extra);
+            let mut record = record(&f, &extra);
+            for (c, off) in record.cameras.iter_mut().zip(&self.offsets_s) {
+                c.time_offset_s = Some(*off);
+            }
             self.write(&Output {
                 record: &record,
                 image: extra.image.as_ref(),
@@ -775,7 +804,7 @@ fn next_raw(sources: &mut [Box<dyn FrameSource>]) -> Result<Option<RawFrame>, So
     images.push(f.image);
     for (k, s) in others.iter_mut().enumerate() {
         let view = k + 2;
-        images.push(match s.next_frame() {
+        images.push(match s.frame_at(f.index, f.timestamp_s) {
             Ok(Some(g)) => {
                 decode_ms += g.decode_ms;
                 g.image

@@ -168,6 +168,13 @@ pub trait FrameSource: Send {
     /// The next frame; `Ok(None)` at the end; `Err` when the input stops on an error (the
     /// frames before it were good).
     fn next_frame(&mut self) -> Result<Option<SourceFrame>, SourceError>;
+    /// The frame for the first view's frame `index` taken at `time_s` (its clock): a later
+    /// view's frames are matched to the first's by index unless the source matches them by
+    /// time ([`crate::engine::sync::align`]).
+    fn frame_at(&mut self, index: u64, time_s: f64) -> Result<Option<SourceFrame>, SourceError> {
+        let _ = (index, time_s);
+        self.next_frame()
+    }
     /// Whether consecutive frames show one scene (a video), so that tracking makes sense.
     fn is_video(&self) -> bool;
     /// Number of frames, when known up front.
