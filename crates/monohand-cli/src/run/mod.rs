@@ -4,6 +4,7 @@
 
 mod each;
 mod outputs;
+mod sync;
 
 use crate::hand_args::HandModelArgs;
 use crate::progress::Terminal;
@@ -29,6 +30,13 @@ pub(crate) struct RunArgs {
     /// same order); frames are matched by index across views.
     #[arg(long = "view", value_name = "INPUT", conflicts_with = "input")]
     pub views: Vec<String>,
+    /// With several --view, how their frames are matched: `index` (frame i of every view
+    /// together), `auto` (each view's start is found from the hands, then frames are
+    /// matched by time: also for different frame rates), or how many seconds each later
+    /// view started after the first, `S2,S3,...` (negative: before; what `auto` prints).
+    /// docs/calibration.md#videos-that-did-not-start-together.
+    #[arg(long, value_name = "index|auto|S2,..", default_value = "index")]
+    pub sync: sync::Sync,
     /// A folder of videos and images, each run into --output-dir as `<file name>.jsonl`,
     /// complete or absent; a rerun skips the complete ones (docs/pipeline.md).
     #[arg(long, value_name = "DIR", requires = "output_dir", conflicts_with_all = ["input", "views", "overlay", "gltf", "rerun", "show", "format", "output"])]
@@ -193,8 +201,11 @@ pub(crate) fn run(args: &RunArgs) -> Result<Outcome> {
         .len_hint()
         .map(|n| args.max_frames.map_or(n, |m| n.min(m)));
     let pipeline = Arc::new(args.models.pipeline(settings.pipeline())?);
-    let engine = Engine::new(pipeline, cameras, settings)?;
+    let engine = Engine::new(pipeline, cameras.clone(), settings)?;
     engine.check_sources(&sources)?;
+    let engine = sync::apply(
+        &args.sync, engine, &specs, &inputs, &cameras, &sources, stall,
+    )?;
     let single_image = matches!(inputs.as_slice(), [i] if i.is_single_image());
     let mut sinks = outputs::create(args, fps, single_image)?;
     let terminal = Terminal {
