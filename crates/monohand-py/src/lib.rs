@@ -14,6 +14,7 @@ mod hand_size;
 mod lifter;
 mod models;
 mod session;
+mod sync;
 mod video;
 mod wrist;
 

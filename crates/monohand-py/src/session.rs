@@ -7,7 +7,7 @@ use crate::errors::*;
 use crate::hand::*;
 use crate::hand_size::*;
 use crate::models::*;
-use monohand::engine::{Engine, Input, Observer, Output, RunReport, Sink};
+use monohand::engine::{Engine, Observer, Output, RunReport, Sink};
 use monohand::records::fitted_record;
 use monohand::SessionOptions;
 use monohand_core::filtering::OneEuroParams;
@@ -194,25 +194,35 @@ impl PySession {
     /// tracks and ids), apart from `process`'s. An input that ends on an error raises
     /// `MonohandError` after its good frames. `offline=True` is `monohand run --offline`:
     /// each frame is refitted with the frames after it too (needs a tracking session).
-    #[pyo3(signature = (path, max_frames=None, offline=false))]
+    /// A calibrated rig's session takes a list of paths, one per camera; `sync` is how
+    /// their frames are matched: `"index"` (the default), `"auto"` (each view's start found
+    /// from the hands, then frames matched by time; a view whose start cannot be found
+    /// raises `MonohandError`) or how many seconds each later view started after the first
+    /// (a list), as `monohand run --sync`. Each frame's `cameras` say each view's
+    /// `time_offset_s`.
+    #[pyo3(signature = (path, max_frames=None, offline=false, sync=None))]
     fn track(
         &mut self,
         py: Python<'_>,
-        path: String,
+        path: &Bound<'_, PyAny>,
         max_frames: Option<u64>,
         offline: bool,
+        sync: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<PyFrameStream> {
         self.session()?;
-        let engine = (*self.engine)
+        let views = crate::sync::views_of(path)?;
+        let mut engine = (*self.engine)
             .clone()
             .with_max_frames(max_frames)
             .with_offline(offline)
             .map_err(engine_err)?;
-        let source = py
-            .detach(|| {
-                Input::parse(&path).and_then(|i| i.open(monohand::engine::DEFAULT_STALL_TIMEOUT))
-            })
-            .map_err(|e| MonohandError::new_err(e.to_string()))?;
+        if let Some(offsets) = crate::sync::offsets(py, sync, &engine, &views)? {
+            engine = engine.with_view_offsets(offsets);
+        }
+        let sources = py
+            .detach(|| crate::sync::open(&views))
+            .map_err(MonohandError::new_err)?;
+        engine.check_sources(&sources).map_err(engine_err)?;
         let (tx, rx) = sync_channel::<FrameRecord>(8);
         let watch = Arc::new(Watch::default());
         let observer = Arc::clone(&watch);
@@ -222,7 +232,7 @@ impl PySession {
             .spawn(move || {
                 let mut sinks: Vec<Box<dyn Sink>> = vec![Box::new(ChannelSink(tx))];
                 sinks.extend(rerun.map(|r| Box::new(r) as Box<dyn Sink>));
-                engine.run(vec![source], &mut sinks, &*observer)
+                engine.run(sources, &mut sinks, &*observer)
             })
             .map_err(|e| MonohandError::new_err(format!("could not start a thread: {e}")))?;
         Ok(PyFrameStream {

@@ -1,0 +1,107 @@
+//! `Session.track`'s views of a rig and how they are matched in time (`sync`): the same
+//! as `monohand run --view ... --sync` (docs/calibration.md, "Videos that did not start
+//! together").
+
+use crate::errors::*;
+use monohand::core::sync::{SyncSettings, ViewOffset};
+use monohand::engine::sync::{find_offsets, SYNC_FRAMES};
+use monohand::engine::{Engine, FrameSource, Input, DEFAULT_STALL_TIMEOUT};
+use pyo3::exceptions::PyValueError;
+use pyo3::prelude::*;
+
+/// The inputs `path` names: a path (one view) or a list of paths (one per camera).
+pub(crate) fn views_of(path: &Bound<'_, PyAny>) -> PyResult<Vec<String>> {
+    if let Ok(one) = path.extract::<std::path::PathBuf>() {
+        return Ok(vec![one.to_string_lossy().into_owned()]);
+    }
+    let many: Vec<std::path::PathBuf> = path.extract().map_err(|_| {
+        PyValueError::new_err("path must be a path, or a list of paths (one per camera)")
+    })?;
+    if many.is_empty() {
+        return Err(PyValueError::new_err("path: an empty list of views"));
+    }
+    Ok(many
+        .iter()
+        .map(|p| p.to_string_lossy().into_owned())
+        .collect())
+}
+
+/// Opens every view.
+pub(crate) fn open(views: &[String]) -> Result<Vec<Box<dyn FrameSource>>, String> {
+    views
+        .iter()
+        .enumerate()
+        .map(|(v, s)| {
+            Input::parse(s)
+                .and_then(|i| i.open(DEFAULT_STALL_TIMEOUT))
+                .map_err(|e| format!("view {}: {e}", v + 1))
+        })
+        .collect()
+}
+
+/// Each view's offset (seconds, the first view's 0) that `sync` asks for: `None` or
+/// `"index"`: none (frames matched by index); `"auto"`: found from the hands (the views
+/// read once more); a list: how late each later view started. Without the GIL for `auto`.
+pub(crate) fn offsets(
+    py: Python<'_>,
+    sync: Option<&Bound<'_, PyAny>>,
+    engine: &Engine,
+    views: &[String],
+) -> PyResult<Option<Vec<f64>>> {
+    let Some(sync) = sync.filter(|s| !s.is_none()) else {
+        return Ok(None);
+    };
+    let word = sync.extract::<String>().ok();
+    if word.as_deref() == Some("index") {
+        return Ok(None);
+    }
+    if views.len() < 2 || engine.cameras().len() != views.len() {
+        return Err(PyValueError::new_err(
+            "sync matches the views of a calibrated rig in time: it needs a list of two or more \
+             paths and a Session with one camera per path",
+        ));
+    }
+    if word.as_deref() == Some("auto") {
+        let found = py
+            .detach(|| {
+                let sources = open(views)?;
+                find_offsets(
+                    engine.pipeline(),
+                    engine.settings(),
+                    engine.cameras(),
+                    sources,
+                    SYNC_FRAMES,
+                    &SyncSettings::default(),
+                )
+                .map_err(|e| e.to_string())
+            })
+            .map_err(MonohandError::new_err)?;
+        let mut out = Vec::with_capacity(found.len());
+        for (v, o) in found.iter().enumerate() {
+            match o {
+                ViewOffset::Found(f) => out.push(f.offset_s),
+                ViewOffset::Open(why) => {
+                    return Err(MonohandError::new_err(format!(
+                        "sync=\"auto\": view {}'s start could not be found ({why}); give the \
+                         offsets (sync=[seconds for each view after the first])",
+                        v + 1
+                    )))
+                }
+            }
+        }
+        return Ok(Some(out));
+    }
+    let later: Vec<f64> = sync.extract().map_err(|_| {
+        PyValueError::new_err(
+            "sync must be \"index\", \"auto\" or a list of seconds, one per view after the first",
+        )
+    })?;
+    if later.len() + 1 != views.len() || later.iter().any(|x| !x.is_finite()) {
+        return Err(PyValueError::new_err(format!(
+            "sync gives {} offset(s) for {} later view(s): one finite number of seconds each",
+            later.len(),
+            views.len() - 1
+        )));
+    }
+    Ok(Some(std::iter::once(0.0).chain(later).collect()))
+}
