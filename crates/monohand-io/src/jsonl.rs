@@ -218,6 +218,11 @@ pub struct ViewFitRecord {
     /// turned camera or a late video shifts every joint alike).
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub offset_px: Option<[f64; 2]>,
+    /// Where in the view's image the same joints of the fitted hand project, their mean
+    /// `[u, v]`, pixels: from one frame to the next, the hand's motion in the view, which a
+    /// late video's offset follows.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub centre_px: Option<[f64; 2]>,
 }
 
 /// A rotated rectangle in pixels.
