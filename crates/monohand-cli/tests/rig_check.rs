@@ -233,7 +233,7 @@ fn a_view_held_to_the_truth_is_not_named_for_the_networks_own_error() {
     let cameras: Vec<_> = SERIALS
         .iter()
         .map(|s| {
-            monohand_io::calibration::read_camera(&rig.join("cameras").join(format!("{s}.json")))
+            monohand_io::calibration::read_camera(rig.join("cameras").join(format!("{s}.json")))
                 .unwrap()
         })
         .collect();

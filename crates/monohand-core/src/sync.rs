@@ -590,7 +590,7 @@ mod tests {
         let a = Camera::pinhole(600.0, 600.0, 320.0, 240.0, 640, 480).unwrap();
         let rotation = Rotation3::from_euler_angles(0.0, -0.6, 0.0);
         let centre = Vector3::new(400.0, 0.0, 100.0);
-        let b = a.clone().with_extrinsics(Extrinsics {
+        let b = a.with_extrinsics(Extrinsics {
             rotation,
             translation: -(rotation * centre),
         });
@@ -601,14 +601,19 @@ mod tests {
     /// the run, its fingers flexing.
     fn pose(t: f64) -> HandPose {
         let t = 3.0 * t;
-        let mut p = HandPose::default();
-        p.translation = Vector3::new(
-            60.0 * (1.3 * t).sin(),
-            40.0 * (0.7 * t).cos(),
-            600.0 + 50.0 * t.sin(),
-        );
-        p.rotation =
-            UnitQuaternion::from_euler_angles(0.4 * (0.9 * t).sin(), 0.3 * t.cos(), 0.2 * t);
+        let mut p = HandPose {
+            translation: Vector3::new(
+                60.0 * (1.3 * t).sin(),
+                40.0 * (0.7 * t).cos(),
+                600.0 + 50.0 * t.sin(),
+            ),
+            rotation: UnitQuaternion::from_euler_angles(
+                0.4 * (0.9 * t).sin(),
+                0.3 * t.cos(),
+                0.2 * t,
+            ),
+            ..HandPose::default()
+        };
         for (k, a) in p.angles.iter_mut().enumerate() {
             *a = 0.3 * (0.5 * (1.0 + (1.1 * t + k as f64).sin()));
         }
@@ -723,7 +728,7 @@ mod tests {
         // A third camera above the first, looking down at the hand.
         let rotation = Rotation3::from_euler_angles(0.5, 0.0, 0.0);
         let centre = Vector3::new(0.0, -300.0, 150.0);
-        let c = a.clone().with_extrinsics(Extrinsics {
+        let c = a.with_extrinsics(Extrinsics {
             rotation,
             translation: -(rotation * centre),
         });

@@ -129,6 +129,10 @@ fn agreement(
     })
 }
 
+/// A view's offset in one hand-frame and the hand's motion in the view since the frame
+/// before (`None`: not seen by it then), pixels.
+type Move = ([f64; 2], Option<[f64; 2]>);
+
 /// Each view's errors over a run, gathered from the records as they are written.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct RigCheck {
@@ -141,7 +145,7 @@ pub struct RigCheck {
     ratios: Vec<Vec<f32>>,
     /// Per view, each hand-frame's offset vector and the hand's motion in the view since
     /// the frame before (when the hand was fitted there with this view then too).
-    moves: Vec<Vec<([f64; 2], Option<[f64; 2]>)>>,
+    moves: Vec<Vec<Move>>,
     /// The last frame's hands: `(frame, hand id, view)` and where the hand projected.
     last: Vec<(u64, u64, usize, [f64; 2])>,
 }
@@ -339,7 +343,7 @@ impl std::fmt::Display for RigVerdict {
 /// The least-squares fit `o = c + s m` of a view's offsets `o` to the hand's motion `m`:
 /// `(|c|, s)`. With fewer than [`MIN_SAMPLES`] offsets with a motion, or a hand that
 /// hardly moved (under 1 px a frame on average), `c` is the mean offset and `s` is `None`.
-fn steady_and_lag(moves: &[([f64; 2], Option<[f64; 2]>)]) -> (Option<f64>, Option<f64>) {
+fn steady_and_lag(moves: &[Move]) -> (Option<f64>, Option<f64>) {
     if moves.is_empty() {
         return (None, None);
     }
