@@ -7,26 +7,9 @@
 
 mod common;
 
-use common::{monohand, networks_ready, ok, p};
+use common::{monohand, networks_ready, ok, p, table_rig as rig, RIG_SERIALS as SERIALS};
 use monohand_io::jsonl::read_jsonl;
 use std::path::{Path, PathBuf};
-
-const SERIALS: [&str; 4] = [
-    "141122079464",
-    "141722072294",
-    "141722075121",
-    "141722076181",
-];
-
-fn rig() -> PathBuf {
-    let d = monohand_testkit::shared_data().join("table_rig_dev");
-    assert!(
-        d.join("cameras").is_dir() && d.join("images").is_dir(),
-        "the table rig is missing at {} (../shared/data beside the repository)",
-        d.display()
-    );
-    d
-}
 
 /// Runs the rig with these views' image folders and camera files; its records and stderr.
 fn run(dir: &Path, views: &[PathBuf], cameras: &[PathBuf]) -> (Vec<serde_json::Value>, String) {

@@ -7,26 +7,10 @@
 
 mod common;
 
-use common::{monohand, networks_ready, ok, p};
+use common::{monohand, networks_ready, ok, p, table_rig as rig, RIG_SERIALS as SERIALS};
 use std::path::{Path, PathBuf};
 
-const SERIALS: [&str; 4] = [
-    "141122079464",
-    "141722072294",
-    "141722075121",
-    "141722076181",
-];
 const FRAMES: usize = 148;
-
-fn rig() -> PathBuf {
-    let d = monohand_testkit::shared_data().join("table_rig_dev");
-    assert!(
-        d.join("cameras").is_dir() && d.join("images").is_dir(),
-        "the table rig is missing at {} (../shared/data beside the repository)",
-        d.display()
-    );
-    d
-}
 
 /// Runs the rig on these views with `extra` arguments: the records and stderr.
 fn run(out: &Path, views: &[PathBuf], extra: &[&str]) -> (Vec<serde_json::Value>, String) {

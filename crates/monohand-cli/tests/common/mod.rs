@@ -114,3 +114,22 @@ pub fn networks_ready() -> bool {
     }
     panic!("monohand models fetch failed: {err}");
 }
+
+/// The serials of the table rig's 4 views (`../shared/data/table_rig_dev`), the master first.
+pub const RIG_SERIALS: [&str; 4] = [
+    "141122079464",
+    "141722072294",
+    "141722075121",
+    "141722076181",
+];
+
+/// The table rig's folder; a clear failure when it is missing.
+pub fn table_rig() -> std::path::PathBuf {
+    let d = monohand_testkit::shared_data().join("table_rig_dev");
+    assert!(
+        d.join("cameras").is_dir() && d.join("images").is_dir(),
+        "the table rig is missing at {} (../shared/data beside the repository)",
+        d.display()
+    );
+    d
+}
