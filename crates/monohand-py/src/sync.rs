@@ -26,7 +26,7 @@ pub(crate) fn views_of(path: &Bound<'_, PyAny>) -> PyResult<Vec<String>> {
         .collect())
 }
 
-/// Opens every view.
+/// Opens every view; an error names the view when there are several.
 pub(crate) fn open(views: &[String]) -> Result<Vec<Box<dyn FrameSource>>, String> {
     views
         .iter()
@@ -34,7 +34,10 @@ pub(crate) fn open(views: &[String]) -> Result<Vec<Box<dyn FrameSource>>, String
         .map(|(v, s)| {
             Input::parse(s)
                 .and_then(|i| i.open(DEFAULT_STALL_TIMEOUT))
-                .map_err(|e| format!("view {}: {e}", v + 1))
+                .map_err(|e| match views.len() {
+                    1 => e.to_string(),
+                    _ => format!("view {}: {e}", v + 1),
+                })
         })
         .collect()
 }
