@@ -6,10 +6,13 @@ module that imports it back, directly or around a loop").
     python3 tools/import_cycles.py crates/monohand-media monohand-vision    # only these
     python3 tools/import_cycles.py --exclude crates/monohand                # all but these
     python3 tools/import_cycles.py --edges crates/monohand   # every import inside each loop
+    python3 tools/import_cycles.py --layers crates/monohand=base,stages   # and no import up
 
 Prints, for each crate, its loops: each strongly connected component of more than one
 module, with the imports inside it (the first place each is written, and how many more).
-Exits 1 if there is a loop, 0 if none, 2 on a bad argument. Python 3 standard library only;
+With `--layers CRATE=BOTTOM,MIDDLE,...` (the crate's top-level modules, bottom first; every
+other module is the top) it also prints each import from a layer to one above it, loop or
+not. Exits 1 if there is a loop or such an import, 0 if none, 2 on a bad argument. Python 3 standard library only;
 its tests: tools/test_import_cycles.py.
 
 What is read (a crate is a folder with a Cargo.toml and a src/ under the repository; a
@@ -653,6 +656,38 @@ def report(graph: Graph, all_edges: bool) -> int:
     return len(found)
 
 
+def layer_of(module: Module, layers: list) -> int:
+    """A module's layer: the index in `layers` (bottom first) of its top-level module, or
+    `len(layers)` (the top) for every other module and the crate's root."""
+    if module and module[0] in layers:
+        return layers.index(module[0])
+    return len(layers)
+
+
+def breaches(graph: Graph, layers: list) -> list:
+    """The imports of a module from a layer above its own (`layers`: top-level module
+    names, bottom first; the rest of the crate is the top)."""
+    return [
+        imp
+        for imp in graph.imports
+        if graph.counts(imp) and layer_of(imp.source, layers) < layer_of(imp.target, layers)
+    ]
+
+
+def report_layers(graph: Graph, layers: list) -> int:
+    """Prints the imports that reach up a layer; returns how many."""
+    found = breaches(graph, layers)
+    names = " < ".join(layers + ["the rest"])
+    if not found:
+        print(f"{graph.name}: layers {names}: no import reaches up")
+        return 0
+    print(f"{graph.name}: layers {names}: {len(found)} import(s) reach up")
+    for imp in found:
+        a, b = graph.label(imp.source), graph.label(imp.target)
+        print(f"    {a} -> {b}: {imp.file}:{imp.line}: {imp.text}")
+    return len(found)
+
+
 def crates(root: Path) -> list:
     """The crate folders of the repository (a Cargo.toml and a src/), sorted."""
     out = []
@@ -701,6 +736,14 @@ def main(argv: list | None = None) -> int:
     parser.add_argument(
         "--parents", action="store_true", help="count a module's imports of its own ancestors too"
     )
+    parser.add_argument(
+        "--layers",
+        action="append",
+        default=[],
+        metavar="CRATE=BOTTOM,MIDDLE,...",
+        help="also refuse an import from a layer to one above it: the crate's top-level "
+        "modules, bottom first, the rest of the crate being the top",
+    )
     args = parser.parse_args(argv)
     root = args.root.resolve()
     every = crates(root)
@@ -715,19 +758,32 @@ def main(argv: list | None = None) -> int:
             return named[0]
         parser.error(f"no crate {given!r} under {root}")
 
+    layered = {}
+    for spec in args.layers:
+        given, _, names = spec.partition("=")
+        if not names:
+            parser.error(f"--layers {spec!r}: give CRATE=BOTTOM,MIDDLE,...")
+        layered[find(given)] = [n for n in names.split(",") if n]
     chosen = [find(c) for c in args.crates] if args.crates else every
     skipped = {find(c) for c in args.exclude}
     chosen = [c for c in chosen if c not in skipped]
     total = 0
     units = 0
+    reaching_up = 0
     for crate in chosen:
         for g in graphs(crate, root, args.tests, args.parents):
             units += 1
             total += report(g, args.edges)
+            if crate in layered and g.name.endswith("(Rust)"):
+                reaching_up += report_layers(g, layered[crate])
     if skipped:
         print("not checked: " + ", ".join(str(c.relative_to(root)) for c in sorted(skipped)))
+    if reaching_up:
+        print(f"imports reaching up a layer: {reaching_up}")
     if total:
         print(f"import loops: {total} in {units} crates and packages checked")
+        return 1
+    if reaching_up:
         return 1
     print(f"import loops: none in {units} crates and packages checked")
     return 0

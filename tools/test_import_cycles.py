@@ -294,5 +294,51 @@ class CommandLine(unittest.TestCase):
         self.assertEqual(e.exception.code, 2)
 
 
+class Layers(unittest.TestCase):
+    """--layers: an import from a layer to one above it is refused, even without a loop."""
+
+    def setUp(self) -> None:
+        self.repo = Repo()
+        self.repo.crate(
+            "layered",
+            {
+                "src/lib.rs": "mod base;\nmod stages;\nmod engine;\npub use base::data::Data;\n",
+                "src/base/mod.rs": "pub mod data;\n",
+                "src/base/data.rs": "pub struct Data;\n",
+                "src/stages/mod.rs": "pub mod crop;\n",
+                # through the root's re-export: the edge goes to base::data
+                "src/stages/crop.rs": "use crate::Data;\npub fn crop(_: Data) {}\n",
+                "src/engine.rs": "use crate::stages::crop::crop;\n",
+            },
+        )
+
+    def tearDown(self) -> None:
+        self.repo.close()
+
+    def test_imports_downwards_pass(self) -> None:
+        code, out = self.repo.run("--layers", "layered=base,stages", "layered")
+        self.assertEqual(code, 0, out)
+        self.assertIn("layers base < stages < the rest: no import reaches up", out)
+
+    def test_an_import_up_is_refused_without_a_loop(self) -> None:
+        data = self.repo.root / "crates" / "layered" / "src" / "base" / "data.rs"
+        data.write_text("pub struct Data;\npub fn make() { crate::engine::go() }\n")
+        (self.repo.root / "crates" / "layered" / "src" / "engine.rs").write_text("pub fn go() {}\n")
+        code, out = self.repo.run("--layers", "layered=base,stages", "layered")
+        self.assertEqual(code, 1, out)
+        self.assertIn("no loops", out)
+        self.assertIn("1 import(s) reach up", out)
+        self.assertIn("    base::data -> engine: src/base/data.rs:2: crate::engine::go", out)
+        # the same layers in the other order: the middle now imports the bottom's top
+        code, out = self.repo.run("--layers", "layered=stages,base", "layered")
+        self.assertEqual(code, 1, out)
+        self.assertIn("    stages::crop -> base::data:", out)
+
+    def test_a_layers_argument_without_layers_is_refused(self) -> None:
+        with contextlib.redirect_stderr(io.StringIO()), self.assertRaises(SystemExit) as e:
+            self.repo.run("--layers", "layered")
+        self.assertEqual(e.exception.code, 2)
+
+
 if __name__ == "__main__":
     unittest.main()

@@ -24,46 +24,47 @@
 //!   ([`Settings::resolve`]).
 //!
 //! A video file to 3D joints is `examples/video_to_3d.rs`.
+//!
+//! The modules stand in three layers, each importing only the ones below it:
+//! - **bottom**, `base/`: the frame's data every stage passes on ([`VisionFrame`],
+//!   [`FittedFrame`], the hand ids and guides, the cameras as stated) and each stage's
+//!   errors;
+//! - **middle**, `stages/`: the cameras, the crops ([`CropTracker`]), the views'
+//!   [`association`], the [`offline`] smoother, the hands' fitter ([`HandsFitter`]: the fit,
+//!   the hands followed, the shape learnt), the [`rig_check`] and the [`records`]. Each takes
+//!   options of its own ([`CropSettings`], [`FitSettings`], [`OfflineSettings`]) and never
+//!   the settings, the session or the engine;
+//! - **top**: the [`settings`], resolved once into those options, the [`Session`], the
+//!   [`Lifter`], the [`engine`] (sources, threads, sinks) and the [`calibration`].
 #![deny(missing_docs)]
 
-pub mod association;
+mod base;
 pub mod calibration;
-mod cameras;
-mod clock;
-mod crops;
 pub mod engine;
-mod error;
-mod fit;
-mod frame;
-mod hands;
 mod lifter;
-mod notes;
-pub mod offline;
-pub mod records;
-pub mod rig_check;
 mod session;
 pub mod settings;
-mod shape;
-mod tracks;
+mod stages;
 
-pub use cameras::StatedCamera;
-pub use crops::{
-    CropTracker, FittedGuide, HandId, ViewError, ViewHands, VisionFrame, GUIDE_MIN_INSIDE,
-    SEED_GRID_PX,
+pub use base::camera::{CameraError, CameraOrigin, StatedCamera};
+pub use base::errors::{SessionError, SessionResult};
+pub use base::frame::{
+    FittedFrame, FittedGuide, HandId, TrackedHand, ViewError, ViewHands, VisionFrame,
 };
-pub use error::{SessionError, SessionResult};
-pub use fit::{
+pub use base::notes::{Note, NoteTopic};
+pub use lifter::{LiftedHand, Lifter};
+pub use session::{Session, SessionOptions};
+pub use settings::{Field, RectifyCrops, ResolvedSettings, Settings, SettingsError};
+pub use stages::crops::{CropSettings, CropTracker, GUIDE_MIN_INSIDE, SEED_GRID_PX};
+pub use stages::fitter::fit::{
     fit_views, hand_skeletons, is_finite, learn_proportions, scale_from_ruler, FitOutcome,
     GivenHandSize, HandScale, HandScaleError, HandSizeError, HandSizeSource, RulerLengthError,
     HAND_SCALE_RANGE, RULER_OFFSET_MM,
 };
-pub use frame::{CameraError, CameraOrigin, FittedFrame, TrackedHand};
-pub use hands::{FitSettings, HandsFitter, DEPTH_FILTER, FORGET_AFTER_FRAMES};
-pub use lifter::{LiftedHand, Lifter};
-pub use notes::{Note, NoteTopic};
-pub use offline::OfflineSettings;
-pub use session::{Session, SessionOptions};
-pub use settings::{Field, RectifyCrops, ResolvedSettings, Settings, SettingsError};
+pub use stages::fitter::options::{FitSettings, DEPTH_FILTER, FORGET_AFTER_FRAMES};
+pub use stages::fitter::HandsFitter;
+pub use stages::offline::OfflineSettings;
+pub use stages::{association, offline, records, rig_check};
 
 /// The geometry core (usable without networks).
 pub use monohand_core as core;

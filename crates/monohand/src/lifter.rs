@@ -1,8 +1,8 @@
 //! 2D keypoints in, 3D hands out: the session's sibling for keypoints made elsewhere
 //! (OpenPose, MediaPipe, the project's own JSON Lines).
 
-use crate::association::{associate, Candidate};
-use crate::fit::{fit_views, FitOutcome};
+use crate::stages::association::{associate, Candidate};
+use crate::stages::fitter::fit::{fit_views, FitOutcome};
 use monohand_core::prelude::*;
 
 /// One hand of a frame after lifting.

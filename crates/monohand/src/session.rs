@@ -1,10 +1,10 @@
 //! The session: frames of one or several cameras in, tracked absolute 3D hands out.
 
-use crate::cameras::StatedCamera;
-use crate::crops::CropTracker;
-use crate::frame::FittedFrame;
-use crate::hands::HandsFitter;
+use crate::base::camera::StatedCamera;
+use crate::base::frame::FittedFrame;
 use crate::settings::Settings;
+use crate::stages::crops::CropTracker;
+use crate::stages::fitter::HandsFitter;
 use crate::{SessionError, SessionResult};
 use monohand_core::filtering::OneEuroParams;
 use monohand_core::prelude::*;
@@ -148,8 +148,8 @@ impl Session {
         resolved.check_pipeline(&pipeline, Some(options.models.detect_heads))?;
         let views = cameras.len().max(1);
         Ok(Session {
-            crops: CropTracker::for_cameras(pipeline, views, &resolved, &cameras),
-            fitter: HandsFitter::new(cameras, &resolved)?,
+            crops: CropTracker::new(pipeline, views, resolved.crops(&cameras)),
+            fitter: HandsFitter::new(cameras, *resolved.fit())?,
             views,
             next_index: 0,
         })
@@ -193,7 +193,7 @@ impl Session {
         if !time_s.is_finite() {
             return Err(SessionError::FrameTime(time_s));
         }
-        let images: Vec<Result<&RgbImage, crate::engine::SourceError>> =
+        let images: Vec<Result<&RgbImage, crate::base::errors::SourceError>> =
             images.iter().map(|&i| Ok(i)).collect();
         let mut frame = self.crops.process(self.next_index, time_s, &images);
         frame.focal = focal;

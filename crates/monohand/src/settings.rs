@@ -15,92 +15,12 @@
 //! ([`ResolvedSettings::check_pipeline`]). A refusal is a [`SettingsError`] naming the
 //! [`Field`]; each face says it with its own flag or argument name.
 
-use crate::hands::FitSettings;
-use crate::offline::OfflineSettings;
+pub use crate::base::errors::{Field, SettingsError};
+use crate::stages::cameras::in_first_frame;
+use crate::stages::crops::CropSettings;
+use crate::stages::fitter::options::FitSettings;
+use crate::stages::offline::OfflineSettings;
 use monohand_vision::{HandPipeline, PipelineOptions};
-
-/// A setting a face fills in, as [`SettingsError`] names it (each face maps it to its own
-/// flag or argument name: `--detect-every`, `detect_every=`).
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Field {
-    /// Whether frames are tracked ([`FitSettings::tracking`]).
-    Tracking,
-    /// [`Settings::detect_every`].
-    DetectEvery,
-    /// [`Settings::threads`].
-    Threads,
-    /// The most hands per image ([`PipelineOptions::max_hands`]).
-    MaxHands,
-    /// The presence threshold ([`PipelineOptions::min_presence`]).
-    MinPresence,
-    /// The landmark network's mirror pass ([`monohand_vision::landmarks::LandmarkOptions`]).
-    MirrorPass,
-    /// Whether heads are detected (a pipeline's face detector).
-    Heads,
-    /// The networks' arithmetic ([`PipelineOptions::precision`]).
-    Precision,
-    /// The networks' other options ([`PipelineOptions`]).
-    Pipeline,
-    /// The fitter's options ([`FitSettings::options`]).
-    FitOptions,
-    /// The hand's size ([`crate::HandScale`], [`crate::hand_skeletons`]).
-    HandScale,
-    /// The One Euro filter of [`FitSettings::smoothing`] (asked for at all).
-    Smoothing,
-    /// Its minimum cutoff frequency.
-    SmoothMinCutoff,
-    /// Its speed coefficient.
-    SmoothBeta,
-    /// The offline smoother ([`FitSettings::offline`]).
-    Offline,
-    /// The depth filter ([`FitSettings::depth_filter`]).
-    DepthFilter,
-}
-
-impl Field {
-    /// The setting's name in the library (a face says its own).
-    pub fn name(self) -> &'static str {
-        match self {
-            Field::Tracking => "tracking",
-            Field::DetectEvery => "detect_every",
-            Field::Threads => "threads",
-            Field::MaxHands => "max_hands",
-            Field::MinPresence => "min_presence",
-            Field::MirrorPass => "mirror_pass",
-            Field::Heads => "heads",
-            Field::Precision => "precision",
-            Field::Pipeline => "pipeline",
-            Field::FitOptions => "fit_options",
-            Field::HandScale => "hand_scale",
-            Field::Smoothing => "smoothing",
-            Field::SmoothMinCutoff => "smoothing.min_cutoff",
-            Field::SmoothBeta => "smoothing.beta",
-            Field::Offline => "offline",
-            Field::DepthFilter => "depth_filter",
-        }
-    }
-}
-
-/// A setting refused: which one, and why (`why` reads after the setting's name: "must be
-/// at least 1").
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-#[error("{} {why}", field.name())]
-pub struct SettingsError {
-    /// The setting.
-    pub field: Field,
-    /// Why it was refused, to follow the setting's name.
-    pub why: String,
-}
-
-impl SettingsError {
-    /// `field` refused because `why`.
-    pub fn new(field: Field, why: impl Into<String>) -> SettingsError {
-        SettingsError {
-            field,
-            why: why.into(),
-        }
-    }
-}
 
 /// The plain settings of a run, as a face fills them in; nothing here is derived from
 /// anything else ([`Settings::resolve`] does that).
@@ -331,6 +251,22 @@ impl ResolvedSettings {
                 RectifyCrops::All => Some(*c),
             })
             .collect()
+    }
+
+    /// The crop stage's settings for views through these calibrated `cameras` (none: the
+    /// images as they are, unguided): tracking, the detection cadence, each view's lens
+    /// ([`ResolvedSettings::lenses`]) and, with [`ResolvedSettings::fitted_crops`], the
+    /// cameras in the first one's frame through which the fitted hands seed the crops.
+    pub fn crops(&self, cameras: &[monohand_core::camera::Camera]) -> CropSettings {
+        CropSettings {
+            tracking: self.tracking(),
+            detect_every: self.detect_every(),
+            lenses: self.lenses(cameras),
+            guide_cameras: match self.fitted_crops() {
+                true => in_first_frame(cameras),
+                false => Vec::new(),
+            },
+        }
     }
 
     /// Whether frames are tracked.

@@ -6,7 +6,7 @@
 use super::{
     thread_pool, EngineResult, Input, InputError, Observer, Output, RunReport, Sink, Writer,
 };
-use crate::records::detections_record;
+use crate::stages::records::detections_record;
 use monohand_io::jsonl::FrameRecord;
 use monohand_vision::HandPipeline;
 use rayon::prelude::*;

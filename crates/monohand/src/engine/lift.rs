@@ -2,8 +2,8 @@
 //! Lines) of one or several calibrated views in, 3D hands out to the engine's sinks.
 
 use super::{EngineResult, InputError, Observer, Output, RunReport, Sink, Writer};
-use crate::fit::{learn_proportions, FitOutcome};
 use crate::lifter::Lifter;
+use crate::stages::fitter::fit::{learn_proportions, FitOutcome};
 use monohand_core::observation::NetworkCues;
 use monohand_core::prelude::*;
 use monohand_io::jsonl::{read_jsonl, FrameRecord, HandRecord};
@@ -162,7 +162,7 @@ pub fn lift_keypoints(
         .into());
     }
     let settings = settings.lifting()?;
-    for note in crate::cameras::calibration_notes(&cameras) {
+    for note in crate::stages::cameras::calibration_notes(&cameras) {
         observer.note(&note);
     }
     let mut skeletons = settings.skeletons;

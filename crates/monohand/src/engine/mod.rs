@@ -24,14 +24,15 @@ mod sinks;
 mod source;
 pub mod sync;
 
+pub use crate::base::errors::SourceError;
 pub use sinks::{
     CsvSink, GltfSink, JsonlSink, OpenPoseSink, Output, OverlaySink, Sink, SinkError, WindowSink,
 };
 #[cfg(feature = "rerun")]
 pub use sinks::{RerunError, RerunSink};
 pub use source::{
-    chain, stated_camera, CallerFrames, FrameSource, ImageFiles, Input, InputError, SourceError,
-    SourceFrame, VideoSource,
+    chain, stated_camera, CallerFrames, FrameSource, ImageFiles, Input, InputError, SourceFrame,
+    VideoSource,
 };
 
 /// Overlay file-name conventions (which names are videos, which one image).
@@ -39,11 +40,11 @@ pub mod overlay_paths {
     pub use super::sinks::{has_extension, IMAGE_EXTENSIONS, VIDEO_EXTENSIONS};
 }
 
-use crate::crops::{CropTracker, FittedGuide, ViewError, VisionFrame};
-use crate::frame::FittedFrame;
-use crate::hands::HandsFitter;
-use crate::notes::{Note, NoteTopic};
+use crate::base::frame::{FittedFrame, FittedGuide, ViewError, VisionFrame};
+use crate::base::notes::{Note, NoteTopic};
 use crate::settings::ResolvedSettings;
+use crate::stages::crops::CropTracker;
+use crate::stages::fitter::HandsFitter;
 use monohand_core::camera::Camera;
 use monohand_io::jsonl::FrameRecord;
 use monohand_vision::tflite_import::allow_split_here;
@@ -61,7 +62,7 @@ pub enum EngineError {
     /// A setting was refused ([`crate::settings`]), or the networks do not run as the
     /// settings ask.
     #[error(transparent)]
-    Settings(#[from] crate::settings::SettingsError),
+    Settings(#[from] crate::base::errors::SettingsError),
     /// The settings are inconsistent.
     #[error(transparent)]
     Session(#[from] crate::SessionError),
@@ -140,7 +141,7 @@ pub struct RunReport {
     pub hand_size: Option<monohand_io::jsonl::HandSizeRecord>,
     /// With several cameras: each view's agreement with the fitted hands
     /// ([`crate::rig_check`]; [`RunReport::rig_summary`]).
-    pub rig: crate::rig_check::RigCheck,
+    pub rig: crate::stages::rig_check::RigCheck,
 }
 
 impl RunReport {
@@ -168,7 +169,7 @@ impl RunReport {
     }
 
     /// With several cameras, each view's median reprojection error and the views whose
-    /// error stays far above the others' ([`crate::rig_check::RigCheck::verdict`]);
+    /// error stays far above the others' ([`crate::stages::rig_check::RigCheck::verdict`]);
     /// `None` when no hand was fitted from several views.
     pub fn rig_summary(&self) -> Option<String> {
         self.rig.verdict().map(|v| v.to_string())
@@ -283,7 +284,8 @@ impl Engine {
     ) -> EngineResult<Engine> {
         settings.check_pipeline(&pipeline, None)?;
         // The fitter checks the cameras.
-        HandsFitter::<()>::new(cameras.clone(), &settings).map_err(crate::SessionError::from)?;
+        HandsFitter::<()>::new(cameras.clone(), *settings.fit())
+            .map_err(crate::SessionError::from)?;
         Ok(Engine {
             pipeline,
             cameras,
@@ -389,7 +391,7 @@ impl Engine {
             return Err(InputError::Nothing.into());
         }
         let tracking = self.settings.tracking();
-        let mut fit = HandsFitter::new(self.cameras.clone(), &self.settings)
+        let mut fit = HandsFitter::new(self.cameras.clone(), *self.settings.fit())
             .map_err(crate::SessionError::from)?;
         let all = sinks.iter().any(|s| s.wants_every_view());
         let keep = Keep {
@@ -434,8 +436,11 @@ impl Engine {
         // the frame before: the networks wait for that fit.
         // The crop stage alone decides whether it is guided: the fit sends guides exactly
         // when the stage waits for them.
-        let stage =
-            CropTracker::for_cameras(Arc::clone(&self.pipeline), n_views, settings, &self.cameras);
+        let stage = CropTracker::new(
+            Arc::clone(&self.pipeline),
+            n_views,
+            settings.crops(&self.cameras),
+        );
         let (guide_tx, guide_rx) = sync_channel::<Vec<FittedGuide>>(1);
         let guide_tx = stage.is_guided().then_some(guide_tx);
         std::thread::scope(|scope| {
@@ -484,7 +489,7 @@ impl Engine {
         let pool = thread_pool(self.settings.threads())?;
         let chunk = 2 * pool.current_num_threads();
         // Not tracking here: every image is detected on its own.
-        let mut stage = CropTracker::new(Arc::clone(&self.pipeline), 1, &self.settings);
+        let mut stage = CropTracker::new(Arc::clone(&self.pipeline), 1, self.settings.crops(&[]));
         stage.rectify_through(self.settings.lenses(&self.cameras));
         let mut batch: Vec<RawFrame> = Vec::with_capacity(chunk);
         let mut done = false;
@@ -656,7 +661,7 @@ impl<'s, 'o> Writer<'s, 'o> {
 
 /// The output record of a fitted frame, with its time (video) and stage timings.
 fn record(done: &FittedFrame, extra: &Extra) -> FrameRecord {
-    crate::records::timed_record(
+    crate::stages::records::timed_record(
         done,
         extra.source.clone(),
         extra.is_video,

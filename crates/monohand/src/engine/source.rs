@@ -2,7 +2,8 @@
 //! (through [`monohand_media::video`]), or a caller's own frames.
 
 use super::EngineResult;
-use crate::cameras::StatedCamera;
+use crate::base::camera::StatedCamera;
+use crate::base::errors::SourceError;
 use monohand_media::video::{
     read_quicktime_metadata, FrameRecycler, QuickTimeError, VideoInput, VideoReader,
 };
@@ -113,36 +114,6 @@ pub enum InputError {
     /// The worker threads could not be started.
     #[error("could not start worker threads: {0}")]
     Threads(String),
-}
-
-/// Why a frame, or the rest of an input, could not be read. Cloned into each view's frame
-/// and said in its record (`error`).
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-pub enum SourceError {
-    /// An image file that could not be read or decoded (the run goes on with the next).
-    #[error("{0}")]
-    Image(String),
-    /// A video or webcam stopped on an error (ffmpeg failed or was killed, a stall); the
-    /// frames before it were good.
-    #[error("{0}")]
-    Video(String),
-    /// A later view ended before the first one.
-    #[error("view {view} has no more frames")]
-    ViewEnded {
-        /// The view, from 1.
-        view: usize,
-    },
-    /// A later view stopped on an error.
-    #[error("view {view}: {source}")]
-    View {
-        /// The view, from 1.
-        view: usize,
-        /// Its error.
-        source: Box<SourceError>,
-    },
-    /// A source of the caller's own could not deliver (its message).
-    #[error("{0}")]
-    Other(String),
 }
 
 /// One frame of one view, as a source delivers it.

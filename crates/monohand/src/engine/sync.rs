@@ -8,9 +8,10 @@
 //! same frame again for a slower view, frames skipped for a faster one), and a frame from
 //! before the view started or after it ended is said in the record, not made up.
 
-use super::source::{FrameSource, InputError, SourceError, SourceFrame};
-use crate::crops::CropTracker;
+use super::source::{FrameSource, InputError, SourceFrame};
+use crate::base::errors::SourceError;
 use crate::settings::ResolvedSettings;
+use crate::stages::crops::CropTracker;
 use monohand_core::camera::Camera;
 use monohand_core::sync::{rig_offsets, SyncSettings, ViewFrames, ViewOffset};
 use monohand_vision::HandPipeline;
@@ -58,7 +59,7 @@ fn hands_of(
     max_frames: u64,
     camera: Option<&Camera>,
 ) -> Result<(Camera, Vec<ViewFrames>), InputError> {
-    let mut crops = CropTracker::new(Arc::clone(pipeline), 1, settings);
+    let mut crops = CropTracker::new(Arc::clone(pipeline), 1, settings.crops(&[]));
     crops.rectify_through(vec![lens]);
     let mut camera = camera.copied();
     let mut frames = Vec::new();

@@ -19,7 +19,7 @@ pub use overlay::{has_extension, OverlaySink, IMAGE_EXTENSIONS, VIDEO_EXTENSIONS
 pub use rerun::{RerunError, RerunSink};
 pub use window::WindowSink;
 
-use crate::frame::FittedFrame;
+use crate::base::frame::FittedFrame;
 use monohand_core::camera::Camera;
 use monohand_io::jsonl::FrameRecord;
 use monohand_vision::RgbImage;

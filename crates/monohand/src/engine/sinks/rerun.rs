@@ -19,7 +19,7 @@
 //! the view sees no hand), so every frame is a time point.
 
 use super::{Output, Sink, SinkError};
-use crate::frame::FittedFrame;
+use crate::base::frame::FittedFrame;
 use monohand_core::camera::Camera;
 use monohand_core::hand_model::{HandSide, NUM_JOINTS};
 use monohand_io::jsonl::{FrameRecord, HandRecord};

@@ -1,11 +1,11 @@
 //! The hands followed over the frames: each identity's voted side, its 3D tracker and its
 //! filters, forgotten after [`FORGET_AFTER_FRAMES`] frames unseen.
 
-use crate::association::{
+use crate::base::frame::{FittedGuide, HandId, VisionFrame};
+use crate::stages::association::{
     agreement_px, associate, associate_by, Candidate, SAME_HAND_PX, SIDE_PENALTY_PX,
 };
-use crate::crops::{FittedGuide, HandId, VisionFrame};
-use crate::hands::{FitSettings, FORGET_AFTER_FRAMES};
+use crate::stages::fitter::options::{FitSettings, FORGET_AFTER_FRAMES};
 use monohand_core::filtering::{DepthFilter, OneEuroFilter, OneEuroParams};
 use monohand_core::prelude::*;
 use monohand_vision::DetectedHand;

@@ -3,18 +3,17 @@
 //! 3D ([`FitSettings::proportion_frames`]), applied to the skeletons every new hand starts
 //! from.
 
-use crate::crops::VisionFrame;
-use crate::fit::learn_proportions;
-use crate::hands::FitSettings;
-use crate::notes::{Note, NoteTopic};
-use crate::tracks::{side_index, Anchored};
+use crate::base::frame::{detected, HandId, VisionFrame};
+use crate::base::notes::{Note, NoteTopic};
+use crate::stages::fitter::fit::learn_proportions;
+use crate::stages::fitter::options::FitSettings;
+use crate::stages::fitter::tracks::{side_index, Anchored};
 use monohand_core::fitting::{estimate_hand_scale, ProportionEstimate, ScaleEstimate};
 use monohand_core::hand_model::BONES;
 use monohand_core::observation::NetworkCues;
 use monohand_core::prelude::*;
 use monohand_core::triangulation::triangulate;
 use monohand_io::hand::{HandFile, HandSource};
-use monohand_vision::DetectedHand;
 use nalgebra::{Point2, Vector3};
 use std::collections::HashMap;
 
@@ -167,14 +166,14 @@ fn best_seen_twice<'a, T>(
     cameras: &'a [Camera],
     tracking: bool,
 ) -> Option<(HandSide, Vec<u64>, Vec<Vec<View<'a>>>)> {
-    let key = |id: crate::HandId, side: HandSide| {
+    let key = |id: HandId, side: HandSide| {
         if tracking {
             id
         } else {
-            side_index(side) as crate::HandId
+            side_index(side) as HandId
         }
     };
-    let mut counts: HashMap<crate::HandId, usize> = HashMap::new();
+    let mut counts: HashMap<HandId, usize> = HashMap::new();
     for hands in anchored {
         for (id, side, views) in hands {
             if views.len() >= 2 {
@@ -305,9 +304,4 @@ fn median(x: &mut [f64]) -> f64 {
         n if n % 2 == 1 => x[n / 2],
         n => (x[n / 2 - 1] + x[n / 2]) / 2.0,
     }
-}
-
-/// Hand `k` of view `v` of a frame.
-pub(crate) fn detected(frame: &VisionFrame, v: usize, k: usize) -> Option<&DetectedHand> {
-    frame.views.get(v)?.as_ref().ok()?.detections.hands.get(k)
 }

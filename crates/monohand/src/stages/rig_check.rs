@@ -9,8 +9,7 @@
 //! single frame says little; over a run, the faulty view's median stays high while the
 //! others' stay low ([`RigCheck::verdict`]).
 
-use crate::frame::{FittedFrame, TrackedHand};
-use crate::shape::detected;
+use crate::base::frame::{detected, FittedFrame, TrackedHand};
 use monohand_core::camera::Camera;
 use monohand_core::prelude::*;
 use monohand_io::jsonl::{FrameRecord, ViewFitRecord};

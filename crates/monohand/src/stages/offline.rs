@@ -20,9 +20,8 @@
 //! depth filter ([`monohand_core::filtering::DepthFilter`]) does without seeing ahead: every
 //! joint stays on its viewing ray, so the pixels and the shape are the refit's.
 
-use crate::crops::HandId;
-use crate::frame::FittedFrame;
-use crate::settings::{Field, SettingsError};
+use crate::base::errors::{Field, SettingsError};
+use crate::base::frame::{FittedFrame, HandId};
 use nalgebra::Vector3;
 use std::collections::{HashMap, VecDeque};
 

@@ -3,39 +3,12 @@
 //! from the focal length its file states (a photo's EXIF, a video's QuickTime metadata),
 //! else the generic 60 degree guess; each kind said once.
 
-use std::sync::Arc;
-
-use crate::frame::{CameraError, CameraOrigin};
-use crate::notes::{Note, NoteTopic};
-use monohand_core::camera::Camera;
+use crate::base::camera::{CameraError, CameraOrigin, StatedCamera};
+use crate::base::notes::{Note, NoteTopic};
+use monohand_core::camera::{Camera, Extrinsics};
 use monohand_io::jsonl::CameraSource;
 use monohand_media::video::VideoCameraTags;
 use monohand_vision::image_io::{focal_from_35mm, ExifFocal};
-
-/// What the file a frame came from states about its camera, for frames without a
-/// calibration: a photo's EXIF focal length (already read for its image), or a video's
-/// QuickTime metadata (the same for all its frames, read for each frame's size).
-#[derive(Clone, Debug, Default, PartialEq)]
-pub enum StatedCamera {
-    /// Nothing stated (a video without camera metadata, a caller's frames, a photo without
-    /// a focal length in its EXIF).
-    #[default]
-    None,
-    /// What a photo's EXIF gave ([`ExifFocal`]).
-    Exif(ExifFocal),
-    /// A video's QuickTime metadata that states a focal length
-    /// ([`monohand_media::video::read_quicktime_metadata`]).
-    QuickTime(Arc<VideoCameraTags>),
-}
-
-impl From<ExifFocal> for StatedCamera {
-    fn from(f: ExifFocal) -> StatedCamera {
-        match f {
-            ExifFocal::None => StatedCamera::None,
-            f => StatedCamera::Exif(f),
-        }
-    }
-}
 
 /// `reason` and `more` joined, either possibly absent.
 fn join_reasons(reason: Option<String>, more: Option<&String>) -> Option<String> {
@@ -308,6 +281,26 @@ fn horizontal_fov_deg(px: f64, w: u32) -> f64 {
     2.0 * (0.5 * f64::from(w) / px).atan().to_degrees()
 }
 
+/// The cameras re-expressed in the first one's frame: the first without extrinsics, each
+/// other mapping the first's frame into its own. A fit with them is in the first camera's
+/// frame whatever the cameras' world frame is.
+pub(crate) fn in_first_frame(cameras: &[Camera]) -> Vec<Camera> {
+    let Some(first) = cameras.first() else {
+        return Vec::new();
+    };
+    let from_first = first.extrinsics.inverse();
+    cameras
+        .iter()
+        .enumerate()
+        .map(|(v, c)| {
+            c.with_extrinsics(match v {
+                0 => Extrinsics::default(),
+                _ => c.extrinsics.after(&from_first),
+            })
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     #![allow(clippy::unwrap_used)]
@@ -414,7 +407,7 @@ mod tests {
     }
 
     fn iphone(focal: MetadataValue) -> StatedCamera {
-        StatedCamera::QuickTime(Arc::new(VideoCameraTags {
+        StatedCamera::QuickTime(std::sync::Arc::new(VideoCameraTags {
             focal_35mm: Some(focal),
             lens_model: Some("iPhone 15 Pro back camera 6.765mm f/1.78".into()),
             make: Some("Apple".into()),

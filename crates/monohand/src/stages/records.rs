@@ -2,8 +2,8 @@
 //! definition for `monohand run`, `monohand detect` and the Python package, so that they
 //! write the same numbers.
 
-use crate::frame::FittedFrame;
-use crate::rig_check::view_fits;
+use crate::base::frame::FittedFrame;
+use crate::stages::rig_check::view_fits;
 use monohand_core::observation::Keypoints2d;
 use monohand_io::jsonl::{
     CameraRecord, FrameRecord, HandRecord, HeadRecord, OrientedBox, PoseRecord,

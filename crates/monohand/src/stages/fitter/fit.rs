@@ -1,6 +1,7 @@
 //! One hand's fit over its views, shared by the video session and the 2D-only lifter.
 
-use crate::notes::{Note, NoteTopic};
+use crate::base::errors::{Field, SessionResult, SettingsError};
+use crate::base::notes::{Note, NoteTopic};
 use monohand_core::fitting::{estimate_proportions, ProportionEstimate};
 use monohand_core::observation::NetworkCues;
 use monohand_core::prelude::*;
@@ -275,16 +276,16 @@ pub fn scale_from_ruler(length_mm: f64) -> Result<f64, RulerLengthError> {
 pub fn hand_skeletons(
     scale: f64,
     bone_lengths_mm: Option<&[f64; 20]>,
-) -> crate::SessionResult<[HandSkeleton; 2]> {
+) -> SessionResult<[HandSkeleton; 2]> {
     let (lo, hi) = HAND_SCALE_RANGE;
     if !(scale.is_finite() && scale > lo && scale < hi) {
-        return Err(crate::settings::SettingsError::new(
-            crate::settings::Field::HandScale,
+        return Err(SettingsError::new(
+            Field::HandScale,
             format!("{scale} must be between {lo} and {hi} (1: the average adult hand)"),
         )
         .into());
     }
-    let side = |side| -> crate::SessionResult<HandSkeleton> {
+    let side = |side| -> SessionResult<HandSkeleton> {
         let mut sk = HandSkeleton::default_for(side).scaled(scale)?;
         if let Some(lengths) = bone_lengths_mm {
             sk = sk.with_bone_lengths(&lengths.map(|l| l * scale))?;

@@ -2,90 +2,32 @@
 //! camera choice ([`CameraChoice`]), the hands followed with their side vote and the views'
 //! association ([`Tracks`]), the shape learnt from the first frames ([`HandShape`]) and the
 //! offline smoother ([`crate::offline`]); it fits each hand and keeps the notes.
+//!
+//! Its parts, each importing only the ones listed before it: [`options`] (how it fits),
+//! [`fit`] (one hand's fit over its views, and the hand's size), [`tracks`] (the hands
+//! followed) and [`shape`] (the size and proportions learnt from the first frames).
 
-use crate::cameras::CameraChoice;
-use crate::clock::Instant;
-use crate::crops::{HandId, VisionFrame};
-use crate::fit::{fit_views, FitOutcome};
-use crate::frame::{FittedFrame, TrackedHand};
-use crate::notes::Note;
-use crate::offline::{
+pub(crate) mod fit;
+pub(crate) mod options;
+pub(crate) mod shape;
+pub(crate) mod tracks;
+
+use crate::base::clock::Instant;
+use crate::base::frame::{detected, FittedFrame, HandId, TrackedHand, VisionFrame};
+use crate::base::notes::Note;
+use crate::stages::cameras::{in_first_frame, CameraChoice};
+use crate::stages::offline::{
     causal, depth_target, neighbours, CausalFrame, DepthFrame, Held, OfflineSettings,
 };
-use crate::shape::{detected, HandShape};
-use crate::tracks::{Anchored, Tracks};
-use monohand_core::filtering::{mean_depth, scale_to_depth, OneEuroParams};
+use fit::{fit_views, FitOutcome, HandSizeSource};
+use monohand_core::filtering::{mean_depth, scale_to_depth};
 use monohand_core::fitting::{ProportionEstimate, ScaleEstimate};
 use monohand_core::prelude::*;
 use monohand_io::jsonl::HandSizeRecord;
 use nalgebra::Vector3;
-
-/// A hand is forgotten (its tracker, side vote and filter dropped) after this many frames
-/// unseen.
-pub const FORGET_AFTER_FRAMES: u64 = 30;
-
-/// How the 3D stage fits.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct FitSettings {
-    /// The hand models, left then right.
-    pub skeletons: [HandSkeleton; 2],
-    /// Where their size came from, for the records (measured once `auto_scale_frames` has
-    /// measured it).
-    pub hand_size: crate::HandSizeSource,
-    /// The fitter's settings.
-    pub options: FitOptions,
-    /// Each fit starts from the hand's previous one (video).
-    pub tracking: bool,
-    /// With two or more cameras, keep this many first frames back to measure the hand's
-    /// size before fitting them (`None`: keep the skeletons' size).
-    pub auto_scale_frames: Option<usize>,
-    /// Keep this many first frames back to learn each side's hand proportions from the
-    /// network's metric 3D ([`crate::learn_proportions`]; the size stays the skeleton's), then
-    /// fit every frame with them (`None`: keep the skeletons' proportions). Off by
-    /// default: on the development set it makes the 3D worse, because the network marks
-    /// the joints in another convention than anatomical labels (docs/accuracy.md).
-    pub proportion_frames: Option<usize>,
-    /// Smooth each hand's 3D joints over time with a One Euro filter.
-    pub smoothing: Option<OneEuroParams>,
-    /// Tracking with one camera: each hand's distance from the camera through a One Euro
-    /// filter, the joints scaled about the camera's centre to it ([`monohand_core::filtering::DepthFilter`]: the
-    /// pixels and the shape stay the fit's; the pose stays the fit's too). Default
-    /// [`DEPTH_FILTER`]; `None` turns it off. Not used offline, where the refit with the
-    /// frames around each frame steadies the hand itself.
-    pub depth_filter: Option<OneEuroParams>,
-    /// Refit each frame with the frames after it too, writing it `lag` frames later (`2 lag`
-    /// with one camera and [`OfflineSettings::depth_pass`]; [`crate::offline`]; needs
-    /// tracking, and replaces `smoothing`).
-    pub offline: Option<OfflineSettings>,
-}
-
-impl Default for FitSettings {
-    fn default() -> FitSettings {
-        FitSettings {
-            skeletons: [
-                HandSkeleton::default_for(HandSide::Left),
-                HandSkeleton::default_for(HandSide::Right),
-            ],
-            hand_size: crate::HandSizeSource::Default,
-            options: FitOptions::default(),
-            tracking: true,
-            auto_scale_frames: None,
-            proportion_frames: None,
-            smoothing: None,
-            depth_filter: Some(DEPTH_FILTER),
-            offline: None,
-        }
-    }
-}
-
-/// Default of [`FitSettings::depth_filter`]: minimum cutoff 2 Hz, 0.005 Hz per mm/s.
-/// Chosen on the development set, both halves (docs/accuracy.md, "The depth filter"):
-/// 18% less jitter, 0.5 mm less absolute error, the same PA.
-pub const DEPTH_FILTER: OneEuroParams = OneEuroParams {
-    min_cutoff: 2.0,
-    beta: 0.005,
-    d_cutoff: 1.0,
-};
+use options::FitSettings;
+use shape::HandShape;
+use tracks::{Anchored, Tracks};
 
 /// The 3D stage of a session: takes the networks' frames in order and fits every hand.
 ///
@@ -124,11 +66,7 @@ impl<T> HandsFitter<T> {
     /// from the focal length its file states ([`VisionFrame::focal`]: a photo's EXIF, a
     /// video's QuickTime metadata), else the generic guess ([`Camera::generic`]); each kind
     /// is said once in [`Self::take_notes`].
-    pub fn new(
-        cameras: Vec<Camera>,
-        settings: &crate::ResolvedSettings,
-    ) -> Result<HandsFitter<T>, CoreError> {
-        let settings = *settings.fit();
+    pub fn new(cameras: Vec<Camera>, settings: FitSettings) -> Result<HandsFitter<T>, CoreError> {
         for c in &cameras {
             c.validate()?;
         }
@@ -166,7 +104,7 @@ impl<T> HandsFitter<T> {
     /// The hands fitted in the last frame fitted, predicted to the next frame, in the first
     /// camera's frame: for the next frame's crops ([`crate::CropTracker::guide`]). Empty
     /// while frames are kept back to measure the hand.
-    pub fn guides(&self) -> Vec<crate::crops::FittedGuide> {
+    pub fn guides(&self) -> Vec<crate::base::frame::FittedGuide> {
         match self.last_fitted {
             Some(index) => self.tracks.guides(index),
             None => Vec::new(),
@@ -178,12 +116,12 @@ impl<T> HandsFitter<T> {
     pub fn hand_size(&self) -> HandSizeRecord {
         let sk = self.prototypes[1].fitter().skeleton();
         let source = match self.shape.scale {
-            Some(_) => crate::HandSizeSource::Measured,
+            Some(_) => HandSizeSource::Measured,
             None => self.settings.hand_size,
         };
         HandSizeRecord {
             length_mm: sk.hand_length(),
-            scale: crate::shape::template_scale(sk, HandSide::Right),
+            scale: shape::template_scale(sk, HandSide::Right),
             source: source.as_str().to_string(),
         }
     }
@@ -469,26 +407,6 @@ impl<T> HandsFitter<T> {
     }
 }
 
-/// The cameras re-expressed in the first one's frame: the first without extrinsics, each
-/// other mapping the first's frame into its own. A fit with them is in the first camera's
-/// frame whatever the cameras' world frame is.
-pub(crate) fn in_first_frame(cameras: &[Camera]) -> Vec<Camera> {
-    let Some(first) = cameras.first() else {
-        return Vec::new();
-    };
-    let from_first = first.extrinsics.inverse();
-    cameras
-        .iter()
-        .enumerate()
-        .map(|(v, c)| {
-            c.with_extrinsics(match v {
-                0 => Extrinsics::default(),
-                _ => c.extrinsics.after(&from_first),
-            })
-        })
-        .collect()
-}
-
 /// Refits `hand` of a frame towards its neighbours' joints, with its track's fitter; its
 /// output joints get the neighbours' mean fusion offsets, its own refitted offset in its
 /// own share.
@@ -497,7 +415,7 @@ fn refit_hand(
     vision: &VisionFrame,
     cameras: &[Camera],
     hand: &mut TrackedHand,
-    n: &crate::offline::Neighbours,
+    n: &crate::stages::offline::Neighbours,
     own_offset: &[Vector3<f64>; NUM_JOINTS],
     settings: &OfflineSettings,
 ) {
@@ -516,7 +434,7 @@ fn refit_hand(
     let Ok(mut refit) = fitter.refit_towards(&views, &fit.pose, &n.target, settings.weight) else {
         return;
     };
-    if !crate::fit::is_finite(&refit) {
+    if !fit::is_finite(&refit) {
         return;
     }
     let model = refit.model_joints_3d;

@@ -1,73 +1,16 @@
 //! Stages 1 and 2 over every view, with MediaPipe's crop tracking and hand identities, and,
 //! with several calibrated views, crops from the hands fitted in 3D.
 
-use crate::cameras::StatedCamera;
-use crate::clock::Instant;
+use crate::base::camera::StatedCamera;
+use crate::base::clock::Instant;
+use crate::base::errors::SourceError;
+use crate::base::frame::{FittedGuide, HandId, ViewError, ViewHands, VisionFrame};
 use monohand_core::bbox::BBox;
 use monohand_core::camera::Camera;
 use monohand_core::hand_model::NUM_JOINTS;
 use monohand_vision::{CropSeed, Detections, HandPipeline, RgbImage};
 use nalgebra::Vector3;
 use std::sync::Arc;
-
-/// Identity of a tracked hand, unique within a session.
-pub type HandId = u64;
-
-/// Why a view gave no hands in a frame.
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-pub enum ViewError {
-    /// Its image could not be read.
-    #[error(transparent)]
-    Unreadable(#[from] crate::engine::SourceError),
-    /// The networks failed on it (their message).
-    #[error("{0}")]
-    Networks(String),
-}
-
-impl From<monohand_vision::VisionError> for ViewError {
-    fn from(e: monohand_vision::VisionError) -> ViewError {
-        ViewError::Networks(e.to_string())
-    }
-}
-
-/// One view's hands in one frame: the networks' detections and each one's identity.
-#[derive(Debug, Clone)]
-pub struct ViewHands {
-    /// What the networks found.
-    pub detections: Detections,
-    /// The identity of each of `detections.hands`, in order.
-    pub ids: Vec<HandId>,
-}
-
-/// What the networks found in one frame of every view.
-#[derive(Debug, Clone)]
-pub struct VisionFrame {
-    /// Frame number, from 0.
-    pub index: u64,
-    /// Time of the frame, seconds.
-    pub time_s: f64,
-    /// Per view: its hands, or why the view gave none this frame (an unreadable image, a
-    /// network failure).
-    pub views: Vec<Result<ViewHands, ViewError>>,
-    /// Time the networks took, ms.
-    pub vision_ms: f64,
-    /// What the first view's file states about its camera (a photo's EXIF focal length, a
-    /// video's QuickTime metadata), set by whoever read the file. Without calibrated
-    /// cameras, the 3D stage builds that view's camera from it instead of the generic guess
-    /// ([`crate::HandsFitter::new`]).
-    pub focal: StatedCamera,
-}
-
-/// A hand fitted in 3D, for the next frame's crops in every view: its identity and its
-/// joints predicted for that frame, mm, in the first camera's frame
-/// ([`crate::HandsFitter::guides`]).
-#[derive(Debug, Clone, PartialEq)]
-pub struct FittedGuide {
-    /// The hand's identity.
-    pub id: HandId,
-    /// Its 21 joints, predicted for the next frame.
-    pub joints: [Vector3<f64>; NUM_JOINTS],
-}
 
 /// A projected hand whose box has less than this fraction inside the view is not looked
 /// for there.
@@ -113,41 +56,41 @@ pub struct CropTracker {
     guides: Vec<FittedGuide>,
 }
 
+/// How the crop stage works, as the resolved settings say
+/// ([`crate::ResolvedSettings::crops`]).
+#[derive(Debug, Clone, PartialEq)]
+pub struct CropSettings {
+    /// Each hand of a frame is looked for again in the next frame's crop its keypoints
+    /// predict (video); otherwise every frame is detected on its own.
+    pub tracking: bool,
+    /// While tracking, the palm detector looks for new hands every this many frames (at
+    /// least 1) while fewer than the most hands are followed.
+    pub detect_every: usize,
+    /// Per view, the camera whose rectified views its hands are read in
+    /// ([`CropTracker::rectify_through`]); empty: every view as it is.
+    pub lenses: Vec<Option<Camera>>,
+    /// Each view's camera in the first camera's frame, through which the hands fitted in
+    /// 3D seed the next crops ([`CropTracker::guide_through`]); empty: not seeded.
+    pub guide_cameras: Vec<Camera>,
+}
+
 impl CropTracker {
-    /// A tracker for `views` cameras, tracking or not and looking for new hands as the
-    /// resolved settings say.
-    pub fn new(
-        pipeline: Arc<HandPipeline>,
-        views: usize,
-        settings: &crate::ResolvedSettings,
-    ) -> CropTracker {
-        CropTracker {
+    /// A tracker for `views` cameras, tracking or not, looking for new hands, reading each
+    /// view through its lens and seeded by the hands fitted in 3D as `settings` say: the
+    /// crop stage of a session and of the engine.
+    pub fn new(pipeline: Arc<HandPipeline>, views: usize, settings: CropSettings) -> CropTracker {
+        let mut crops = CropTracker {
             pipeline,
             views: (0..views).map(|_| ViewTracks::default()).collect(),
             lenses: Vec::new(),
-            tracking: settings.tracking(),
-            detect_every: settings.detect_every(),
+            tracking: settings.tracking,
+            detect_every: settings.detect_every,
             next_id: 0,
             guide_cameras: Vec::new(),
             guides: Vec::new(),
-        }
-    }
-
-    /// A tracker for `views` cameras as [`CropTracker::new`], reading each view through its
-    /// camera's lens ([`crate::ResolvedSettings::lenses`]) and, with
-    /// [`crate::ResolvedSettings::fitted_crops`], seeded by the hands fitted in 3D
-    /// ([`CropTracker::guide_through`]): the crop stage of a session and of the engine.
-    pub fn for_cameras(
-        pipeline: Arc<HandPipeline>,
-        views: usize,
-        settings: &crate::ResolvedSettings,
-        cameras: &[Camera],
-    ) -> CropTracker {
-        let mut crops = CropTracker::new(pipeline, views, settings);
-        crops.rectify_through(settings.lenses(cameras));
-        if settings.fitted_crops() {
-            crops.guide_through(crate::hands::in_first_frame(cameras));
-        }
+        };
+        crops.rectify_through(settings.lenses);
+        crops.guide_through(settings.guide_cameras);
         crops
     }
 
@@ -223,7 +166,7 @@ impl CropTracker {
         &mut self,
         index: u64,
         time_s: f64,
-        images: &[Result<&RgbImage, crate::engine::SourceError>],
+        images: &[Result<&RgbImage, SourceError>],
     ) -> VisionFrame {
         let t = Instant::now();
         if self.views.len() < images.len() {
