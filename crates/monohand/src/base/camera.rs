@@ -34,7 +34,7 @@ impl From<ExifFocal> for StatedCamera {
     }
 }
 
-/// Why a frame's cameras could not be made: it gets no 3D ([`FittedFrame::error`]).
+/// Why a frame's cameras could not be made: it gets no 3D ([`crate::FittedFrame::error`]).
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum CameraError {
     /// A view's calibration does not fit its image size.

@@ -69,6 +69,14 @@ pub fn learn_proportions(
 /// interval): outside it the 3D would be a child's doll or a giant's.
 pub const HAND_SCALE_RANGE: (f64, f64) = (0.3, 3.0);
 
+/// Whether `scale` is a hand size a user may ask for: finite and inside
+/// [`HAND_SCALE_RANGE`]. The one check of every form it is given in (a factor, a hand
+/// file's scale, a ruler's length, the skeletons' scale).
+fn is_hand_scale(scale: f64) -> bool {
+    let (lo, hi) = HAND_SCALE_RANGE;
+    scale.is_finite() && scale > lo && scale < hi
+}
+
 /// The hand's size: a fixed factor on the default adult hand, or measured from the input
 /// (with two or more calibrated views, [`FitSettings::auto_scale_frames`]). Parsed from
 /// `"auto"` or a factor in [`HAND_SCALE_RANGE`].
@@ -107,12 +115,11 @@ pub struct HandScaleError {
 impl std::str::FromStr for HandScale {
     type Err = HandScaleError;
     fn from_str(s: &str) -> Result<HandScale, HandScaleError> {
-        let (lo, hi) = HAND_SCALE_RANGE;
         if s.eq_ignore_ascii_case("auto") {
             return Ok(HandScale::Auto);
         }
         match s.parse::<f64>() {
-            Ok(v) if v.is_finite() && v > lo && v < hi => Ok(HandScale::Fixed(v)),
+            Ok(v) if is_hand_scale(v) => Ok(HandScale::Fixed(v)),
             _ => Err(HandScaleError { text: s.into() }),
         }
     }
@@ -201,8 +208,7 @@ impl GivenHandSize<'_> {
         if let Some(file) = self.file {
             file.validate("hand file")
                 .map_err(|e| HandSizeError::File(e.to_string()))?;
-            let (lo, hi) = HAND_SCALE_RANGE;
-            if !(file.scale > lo && file.scale < hi) {
+            if !is_hand_scale(file.scale) {
                 return Err(HandSizeError::Scale(file.scale));
             }
             return Ok((HandScale::Fixed(file.scale), HandSizeSource::File));
@@ -217,8 +223,7 @@ impl GivenHandSize<'_> {
             None => Ok((HandScale::Fixed(1.0), HandSizeSource::Default)),
             Some(HandScale::Auto) => Ok((HandScale::Auto, HandSizeSource::Default)),
             Some(HandScale::Fixed(s)) => {
-                let (lo, hi) = HAND_SCALE_RANGE;
-                if !(s.is_finite() && s > lo && s < hi) {
+                if !is_hand_scale(s) {
                     return Err(HandSizeError::Scale(s));
                 }
                 let source = if s == 1.0 {
@@ -259,7 +264,7 @@ pub fn scale_from_ruler(length_mm: f64) -> Result<f64, RulerLengthError> {
     let default = HandSkeleton::default_for(HandSide::Right).hand_length();
     let scale = (length_mm - RULER_OFFSET_MM) / default;
     let (lo, hi) = HAND_SCALE_RANGE;
-    if scale.is_finite() && scale > lo && scale < hi {
+    if is_hand_scale(scale) {
         Ok(scale)
     } else {
         Err(RulerLengthError {
@@ -277,8 +282,8 @@ pub fn hand_skeletons(
     scale: f64,
     bone_lengths_mm: Option<&[f64; 20]>,
 ) -> SessionResult<[HandSkeleton; 2]> {
-    let (lo, hi) = HAND_SCALE_RANGE;
-    if !(scale.is_finite() && scale > lo && scale < hi) {
+    if !is_hand_scale(scale) {
+        let (lo, hi) = HAND_SCALE_RANGE;
         return Err(SettingsError::new(
             Field::HandScale,
             format!("{scale} must be between {lo} and {hi} (1: the average adult hand)"),
@@ -297,6 +302,30 @@ pub fn hand_skeletons(
 
 #[cfg(test)]
 mod tests {
+
+    #[test]
+    fn the_hand_scale_range_is_open_and_refuses_what_is_not_finite() {
+        use super::{hand_skeletons, is_hand_scale, HandScale, HAND_SCALE_RANGE};
+        let (lo, hi) = HAND_SCALE_RANGE;
+        for (s, ok) in [
+            (1.0, true),
+            (0.939, true),
+            (lo, false),
+            (hi, false),
+            (lo + 1e-9, true),
+            (f64::NAN, false),
+            (f64::INFINITY, false),
+        ] {
+            assert_eq!(is_hand_scale(s), ok, "{s}");
+            // every form of the hand's size checks it the same way
+            assert_eq!(
+                format!("{s}").parse::<HandScale>().is_ok(),
+                ok,
+                "parsed {s}"
+            );
+            assert_eq!(hand_skeletons(s, None).is_ok(), ok, "skeletons of {s}");
+        }
+    }
 
     #[test]
     fn one_hand_size_is_chosen_the_same_for_every_face() {
