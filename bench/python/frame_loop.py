@@ -1,8 +1,9 @@
-"""A Python frame loop against `monohand run` on the same clip, side by side (issue 43).
+"""Python frame loops against `monohand run` on the same clip, side by side (issues 43, 66).
 
-The loop is the one docs/python.md shows: `Session.process` over `monohand.read_video(...)`,
-one frame after the other on the calling thread (the reader decodes ahead on a thread of
-its own). `run` reads, runs the networks and fits on three threads. Both with the same
+Two loops: `Session.process` over `monohand.read_video(...)`, one frame after the other on
+the calling thread (the reader decodes ahead on a thread of its own), and `Session.track`
+over the same reader's frames, which takes them on the engine's threads as `run` does.
+`run` reads, runs the networks and fits on three threads. Both with the same
 settings (`--hands 2 --no-heads`, the session's defaults), taking turns for `--rounds`
 rounds; the networks are loaded before the timing starts on both sides (`run`'s own fps,
 from its summary, counts the frames only; the loop's clock starts when the video is opened).
@@ -62,11 +63,31 @@ def loop_fps(clip: Path, models: "monohand.Models") -> float:
         return n / (time.perf_counter() - start)
 
 
+def frames_fps(clip: Path, models: "monohand.Models") -> float:
+    """Frames per second of `Session.track` over the frames of `read_video(clip)`: the
+    caller's own frames on the engine's threads."""
+    with monohand.Session(None, hands=2, models=models) as s:
+        start = time.perf_counter()
+        n = 0
+        with monohand.read_video(str(clip)) as video:
+            for f in s.track(video):
+                f.hands  # each frame's hands made into Python objects, as a caller would
+                n += 1
+        return n / (time.perf_counter() - start)
+
+
 LOOP_SCRIPT = """
 import sys, monohand
 with monohand.Session(None, hands=2) as s, monohand.read_video(sys.argv[1]) as video:
     for f in video:
         s.process(f.image, f.time_s)
+"""
+
+FRAMES_SCRIPT = """
+import sys, monohand
+with monohand.Session(None, hands=2) as s, monohand.read_video(sys.argv[1]) as video:
+    for f in s.track(video):
+        f.hands
 """
 
 
@@ -89,40 +110,41 @@ def main() -> None:
     tmp = Path(tempfile.mkdtemp(prefix="monohand-loop-"))
     clip = args.clip or make_video(shared("images/pinto/hand.png"), tmp / "clip.mkv", frames=args.frames)
     if args.whole:
-        run_argv = [str(cli), "run", str(clip), "--hands", "2", "--no-heads", "-o", str(tmp / "run.jsonl")]
-        loop_argv = [sys.executable, "-c", LOOP_SCRIPT, str(clip)]
-        whole_fps(loop_argv, args.frames)  # warm up the page cache
-        runs, loops = [], []
-        for i in range(args.rounds):
-            order = (run_argv, loop_argv) if i % 2 == 0 else (loop_argv, run_argv)
-            for argv in order:
-                (runs if argv is run_argv else loops).append(whole_fps(argv, args.frames))
-            print(f"round {i + 1}: run {runs[-1]:.1f} fps, Python {loops[-1]:.1f} fps "
-                  f"({loops[-1] / runs[-1]:.3f}x)", file=sys.stderr)
-        r, p = statistics.median(runs), statistics.median(loops)
-        print(f"whole processes, {args.frames} frames: run {r:.1f} fps, Python {p:.1f} fps, "
-              f"{p / r:.3f}x (medians of {args.rounds}); {cpu_name()}, {os.cpu_count()} cores, "
-              f"load {os.getloadavg()[0]:.1f}, {time.strftime('%Y-%m-%d')}")
-        return
-    models = monohand.Models(hands=2)
-    loop_fps(clip, models)  # warm up: the page cache, the networks' first runs
-    runs, loops = [], []
+        sides = {
+            "run": [str(cli), "run", str(clip), "--hands", "2", "--no-heads", "-o", str(tmp / "run.jsonl")],
+            "process": [sys.executable, "-c", LOOP_SCRIPT, str(clip)],
+            "track(frames)": [sys.executable, "-c", FRAMES_SCRIPT, str(clip)],
+        }
+        whole_fps(sides["process"], args.frames)  # warm up the page cache
+        timed = {k: (lambda argv=v: whole_fps(argv, args.frames)) for k, v in sides.items()}
+        what = f"whole processes, {args.frames} frames"
+    else:
+        models = monohand.Models(hands=2)
+        loop_fps(clip, models)  # warm up: the page cache, the networks' first runs
+        timed = {
+            "run": lambda: run_fps(cli, clip, tmp / "run.jsonl"),
+            "process": lambda: loop_fps(clip, models),
+            "track(frames)": lambda: frames_fps(clip, models),
+        }
+        what = f"networks loaded, {clip.name}"
+    got = {k: [] for k in timed}
+    names = list(timed)
     for i in range(args.rounds):
-        # Alternating which goes first, so that neither always follows the other.
-        order = ("run", "loop") if i % 2 == 0 else ("loop", "run")
-        for which in order:
-            if which == "run":
-                runs.append(run_fps(cli, clip, tmp / "run.jsonl"))
-            else:
-                loops.append(loop_fps(clip, models))
-        print(f"round {i + 1}: run {runs[-1]:.1f} fps, Python loop {loops[-1]:.1f} fps "
-              f"({loops[-1] / runs[-1]:.3f}x)", file=sys.stderr)
-    r, p = statistics.median(runs), statistics.median(loops)
-    print(f"| `monohand run --hands 2 --no-heads` | {r:.1f} | {', '.join(f'{x:.1f}' for x in runs)} |")
-    print(f"| Python `Session.process` over `read_video` | {p:.1f} | {', '.join(f'{x:.1f}' for x in loops)} |")
-    print(f"loop / run: {p / r:.3f}x (medians of {args.rounds} alternating rounds, {clip.name}); "
-          f"{cpu_name()}, {os.cpu_count()} cores, load {os.getloadavg()[0]:.1f}, {time.strftime('%Y-%m-%d')}")
-
+        # Each round starts with another side, so that none always follows the same one.
+        for k in names[i % len(names):] + names[:i % len(names)]:
+            got[k].append(timed[k]())
+        print(f"round {i + 1}: " + ", ".join(f"{k} {v[-1]:.1f} fps" for k, v in got.items()), file=sys.stderr)
+    med = {k: statistics.median(v) for k, v in got.items()}
+    label = {
+        "run": "`monohand run --hands 2 --no-heads`",
+        "process": "Python `Session.process` over `read_video`",
+        "track(frames)": "Python `Session.track` over `read_video`'s frames",
+    }
+    for k, v in got.items():
+        ratio = med[k] / med["run"]
+        print(f"| {label[k]} | {med[k]:.1f} | {', '.join(f'{x:.1f}' for x in v)} | {ratio:.3f}x |")
+    print(f"{what}; medians of {args.rounds} rounds, taking turns; {cpu_name()}, "
+          f"{os.cpu_count()} cores, load {os.getloadavg()[0]:.1f}, {time.strftime('%Y-%m-%d')}")
 
 if __name__ == "__main__":
     main()

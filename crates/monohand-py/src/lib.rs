@@ -9,6 +9,7 @@
 mod camera;
 mod convert;
 mod errors;
+mod frames;
 mod hand;
 mod hand_size;
 mod lifter;

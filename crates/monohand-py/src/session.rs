@@ -4,6 +4,7 @@
 use crate::camera::*;
 use crate::convert::*;
 use crate::errors::*;
+use crate::frames::FramesError;
 use crate::hand::*;
 use crate::hand_size::*;
 use crate::models::*;
@@ -192,7 +193,13 @@ impl PySession {
     /// engine). Returns an iterator over the frames, in order, each a `TrackedFrame`; at
     /// most a few frames wait in memory. Each call starts from a fresh state (its own
     /// tracks and ids), apart from `process`'s. An input that ends on an error raises
-    /// `MonohandError` after its good frames. `offline=True` is `monohand run --offline`:
+    /// `MonohandError` after its good frames. `path` may also be the caller's own frames:
+    /// any iterable of images (an `(H, W, 3)` uint8 array, or a list of them, one per
+    /// camera), `(image, time_s)` pairs or `read_video` frames (without a time: 30 frames a
+    /// second), taken on the engine's reader thread, so that a frame loop over them runs
+    /// at `run`'s speed where `process` waits for the fit after the networks; an exception
+    /// the iterable raises, or a frame that is not an image, is raised after the frames
+    /// before it. `offline=True` is `monohand run --offline`:
     /// each frame is refitted with the frames after it too (needs a tracking session).
     /// A calibrated rig's session takes a list of paths, one per camera; `sync` is how
     /// their frames are matched: `"index"` (the default), `"auto"` (each view's start found
@@ -210,18 +217,26 @@ impl PySession {
         sync: Option<&Bound<'_, PyAny>>,
     ) -> PyResult<PyFrameStream> {
         self.session()?;
-        let views = crate::sync::views_of(path)?;
         let mut engine = (*self.engine)
             .clone()
             .with_max_frames(max_frames)
             .with_offline(offline)
             .map_err(engine_err)?;
-        if let Some(offsets) = crate::sync::offsets(py, sync, &engine, &views)? {
-            engine = engine.with_view_offsets(offsets);
-        }
-        let sources = py
-            .detach(|| crate::sync::open(&views))
-            .map_err(MonohandError::new_err)?;
+        let (sources, frames_error) = match crate::sync::paths_of(path)? {
+            Some(views) => {
+                if let Some(offsets) = crate::sync::offsets(py, sync, &engine, &views)? {
+                    engine = engine.with_view_offsets(offsets);
+                }
+                let sources = py
+                    .detach(|| crate::sync::open(&views))
+                    .map_err(MonohandError::new_err)?;
+                (sources, FramesError::default())
+            }
+            None => {
+                crate::sync::no_sync_for_frames(sync)?;
+                crate::frames::sources(path, engine.cameras().len())?
+            }
+        };
         engine.check_sources(&sources).map_err(engine_err)?;
         let (tx, rx) = sync_channel::<FrameRecord>(8);
         let watch = Arc::new(Watch::default());
@@ -240,6 +255,7 @@ impl PySession {
             worker: Some(worker),
             watch,
             report: None,
+            frames_error,
         })
     }
 
@@ -456,6 +472,8 @@ pub(crate) struct PyFrameStream {
     pub(crate) worker: Option<std::thread::JoinHandle<monohand::engine::EngineResult<RunReport>>>,
     pub(crate) watch: Arc<Watch>,
     pub(crate) report: Option<RunReport>,
+    /// The exception that ended the caller's own frames, raised as it was.
+    pub(crate) frames_error: FramesError,
 }
 
 impl PyFrameStream {
@@ -471,6 +489,9 @@ impl PyFrameStream {
         let report = result.map_err(|e| MonohandError::new_err(monohand::engine::chain(&e)))?;
         let input_error = report.input_error.clone();
         self.report = Some(report);
+        if let Some(e) = self.frames_error.take() {
+            return Err(e);
+        }
         match input_error {
             Some(e) => Err(MonohandError::new_err(e.to_string())),
             None => Ok(()),

@@ -9,21 +9,37 @@ use monohand::engine::{Engine, FrameSource, Input, DEFAULT_STALL_TIMEOUT};
 use pyo3::exceptions::PyValueError;
 use pyo3::prelude::*;
 
-/// The inputs `path` names: a path (one view) or a list of paths (one per camera).
-pub(crate) fn views_of(path: &Bound<'_, PyAny>) -> PyResult<Vec<String>> {
+/// The inputs `path` names when it is a path (one view) or a list of paths (one per
+/// camera); `None` when it is neither (the caller's own frames).
+pub(crate) fn paths_of(path: &Bound<'_, PyAny>) -> PyResult<Option<Vec<String>>> {
     if let Ok(one) = path.extract::<std::path::PathBuf>() {
-        return Ok(vec![one.to_string_lossy().into_owned()]);
+        return Ok(Some(vec![one.to_string_lossy().into_owned()]));
     }
-    let many: Vec<std::path::PathBuf> = path.extract().map_err(|_| {
-        PyValueError::new_err("path must be a path, or a list of paths (one per camera)")
-    })?;
+    let Ok(many) = path.extract::<Vec<std::path::PathBuf>>() else {
+        return Ok(None);
+    };
     if many.is_empty() {
         return Err(PyValueError::new_err("path: an empty list of views"));
     }
-    Ok(many
-        .iter()
-        .map(|p| p.to_string_lossy().into_owned())
-        .collect())
+    Ok(Some(
+        many.iter()
+            .map(|p| p.to_string_lossy().into_owned())
+            .collect(),
+    ))
+}
+
+/// The caller's own frames come in the order given: refuses any `sync` but `"index"`.
+pub(crate) fn no_sync_for_frames(sync: Option<&Bound<'_, PyAny>>) -> PyResult<()> {
+    let Some(sync) = sync.filter(|s| !s.is_none()) else {
+        return Ok(());
+    };
+    match sync.extract::<String>().ok().as_deref() {
+        Some("index") => Ok(()),
+        _ => Err(PyValueError::new_err(
+            "sync matches the videos of a rig in time; frames given by the caller hold one \
+             image per camera already (each item a list of images)",
+        )),
+    }
 }
 
 /// Opens every view; an error names the view when there are several.

@@ -6,6 +6,8 @@ as a list give the same frames."""
 
 from __future__ import annotations
 
+import shutil
+import subprocess
 from pathlib import Path
 from typing import List
 
@@ -73,3 +75,43 @@ def test_sync_is_refused_without_a_rig_or_with_the_wrong_offsets():
     with monohand.Session() as s:
         with pytest.raises(ValueError, match="two or more"):
             s.track(views[0], sync="auto")
+
+
+def test_a_rigs_frames_from_the_caller_are_its_videos(tmp_path):
+    """A rig's frames given by the caller (each item a list of one image per camera, from
+    `read_video` of each view) give the records of `track` over the same videos."""
+    assert shutil.which("ffmpeg"), "ffmpeg is not installed (apt-get install ffmpeg)"
+    videos = []
+    for s in SERIALS:
+        out = tmp_path / f"{s}.mkv"
+        subprocess.run(
+            ["ffmpeg", "-v", "error", "-y", "-framerate", "30", "-i",
+             str(rig() / "images" / s / "color_%06d.jpg"), "-frames:v", "24",
+             "-c:v", "ffv1", str(out)],
+            check=True,
+        )
+        videos.append(str(out))
+
+    def strip(frames):
+        out = []
+        for f in frames:
+            d = f.to_dict()
+            d.pop("timings_ms")
+            out.append(d)
+        return out
+
+    readers = [monohand.read_video(v) for v in videos]
+    with session() as s:
+        by_paths = strip(s.track(videos))
+        by_frames = strip(s.track([f.image for f in views] for views in zip(*readers)))
+    for r in readers:
+        r.close()
+    assert len(by_paths) == 24
+    fitted = sum(1 for d in by_paths for h in d["hands"] if h.get("joints_3d_mm"))
+    assert fitted >= 12, fitted
+    # Bare images carry no time: 1/30 s apart, as the videos' own clock here.
+    for d in by_paths:
+        d["time_s"] = None
+    for d in by_frames:
+        d["time_s"] = None
+    assert by_frames == by_paths

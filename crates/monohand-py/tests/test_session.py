@@ -124,6 +124,63 @@ def test_offline_track_equals_the_cli_offline(tmp_path, moving_video, models):
     assert moved >= 20, f"{moved} hands refitted"
 
 
+def test_track_takes_the_callers_own_frames_on_the_engines_path(tmp_path, moving_video, models):
+    """`track` over frames the caller's code makes (read_video's frames, (image, time_s)
+    pairs, bare arrays) is `run`'s engine too: the same records as `track(path)`, timings
+    aside; an exception of the caller's iterable, or a frame that is not an image, is raised
+    as it was after the frames before it."""
+    def strip(frames):
+        out = []
+        for f in frames:
+            d = f.to_dict()
+            d.pop("timings_ms")
+            out.append(d)
+        return out
+
+    with monohand.Session(None, hands=2, models=models) as s:
+        by_path = strip(s.track(str(moving_video)))
+        with monohand.read_video(str(moving_video)) as video:
+            by_frames = strip(s.track(video))
+        with monohand.read_video(str(moving_video)) as video:
+            decoded = [(f.image, f.time_s) for f in video]
+        images = [im for im, _ in decoded]
+        by_pairs = strip(s.track(iter(decoded)))
+        by_arrays = strip(s.track(iter(images)))
+        at_30 = strip(s.track((im, i / 30.0) for i, im in enumerate(images)))
+        few = strip(s.track(images, max_frames=3))
+    assert len(by_path) == 40 and sum(len(d["hands"]) for d in by_path) >= 38
+    assert by_frames == by_path
+    assert by_pairs == by_path
+    assert [d["time_s"] for d in by_path[:3]] == [0.0, 0.033, 0.067], "the file's clock (ms)"
+    assert by_arrays == at_30, "without a time: 30 frames a second"
+    assert [d["time_s"] for d in by_arrays[:3]] == [0.0, 1 / 30, 2 / 30]
+    assert few == at_30[:3]
+
+    def broken():
+        yield from images[:5]
+        raise KeyError("the camera went away")
+
+    got = []
+    with monohand.Session(None, hands=2, models=models) as s:
+        with pytest.raises(KeyError, match="the camera went away"):
+            for f in s.track(broken()):
+                got.append(f.index)
+        assert got == [0, 1, 2, 3, 4]
+        got = []
+        with pytest.raises(ValueError, match=r"uint8 array of shape \(H, W, 3\)"):
+            for f in s.track(images[:2] + [images[2].astype(np.float32)] + images[3:]):
+                got.append(f.index)
+        assert got == [0, 1]
+        with pytest.raises(ValueError, match="time_s must be finite"):
+            list(s.track([(images[0], float("nan"))]))
+        with pytest.raises(ValueError, match="one per camera"):
+            list(s.track([[images[0], images[1]]]))
+        with pytest.raises(ValueError, match="frames given by the caller"):
+            s.track(images, sync="auto")
+        with pytest.raises(ValueError, match="iterable of frames"):
+            s.track(42)
+
+
 def test_track_raises_on_a_missing_input_and_after_a_broken_video(tmp_path, moving_video, models):
     with monohand.Session(None, hands=2, models=models) as s:
         with pytest.raises(monohand.MonohandError, match="no such file"):

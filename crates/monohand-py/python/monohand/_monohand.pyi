@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from os import PathLike
-from typing import Any, Dict, Iterator, List, Literal, Optional, Sequence, Tuple, Union
+from typing import Any, Dict, Iterable, Iterator, List, Literal, Optional, Sequence, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -226,7 +226,12 @@ class Session:
     def cameras(self) -> List[Camera]: ...
     def track(
         self,
-        path: Union[str, PathLike[str], Sequence[Union[str, PathLike[str]]]],
+        path: Union[
+            str,
+            PathLike[str],
+            Sequence[Union[str, PathLike[str]]],
+            Iterable[Union[Image, List[Image], Tuple[Union[Image, List[Image]], float], Frame]],
+        ],
         max_frames: Optional[int] = None,
         offline: bool = False,
         sync: Union[None, str, Sequence[float]] = None,
