@@ -5,7 +5,7 @@
 
 use crate::convert::to_image;
 use monohand::engine::{FrameSource, SourceError, SourceFrame};
-use monohand::{RgbImage, StatedCamera};
+use monohand::RgbImage;
 use pyo3::exceptions::{PyStopIteration, PyValueError};
 use pyo3::prelude::*;
 use pyo3::types::{PyList, PyTuple};
@@ -144,17 +144,6 @@ impl Shared {
     }
 }
 
-fn frame(index: u64, timestamp_s: f64, image: RgbImage) -> SourceFrame {
-    SourceFrame {
-        index,
-        source: None,
-        timestamp_s,
-        image: Ok(image),
-        decode_ms: 0.0,
-        focal: StatedCamera::None,
-    }
-}
-
 impl PythonFrames {
     fn shared(&self) -> Result<std::sync::MutexGuard<'_, Shared>, SourceError> {
         self.shared
@@ -173,7 +162,7 @@ impl FrameSource for PythonFrames {
         }
         let mut shared = self.shared()?;
         match Python::attach(|py| shared.next_first(py)) {
-            Ok(f) => Ok(f.map(|(index, t, image)| frame(index, t, image))),
+            Ok(f) => Ok(f.map(|(index, t, image)| SourceFrame::given(index, t, image))),
             Err(e) => {
                 let message = e.to_string();
                 if let Ok(mut slot) = self.error.0.lock() {
@@ -194,7 +183,7 @@ impl FrameSource for PythonFrames {
             .later
             .get_mut(view - 1)
             .and_then(Option::take);
-        Ok(image.map(|i| frame(index, time_s, i)))
+        Ok(image.map(|i| SourceFrame::given(index, time_s, i)))
     }
 
     fn is_video(&self) -> bool {

@@ -39,6 +39,17 @@ def run_cli(*args: str) -> subprocess.CompletedProcess:
     return out
 
 
+def records_without_timings(frames) -> List[dict]:
+    """The records of `Session.track`'s frames, their timings taken out (the rest is
+    deterministic)."""
+    out = []
+    for f in frames:
+        d = f.to_dict()
+        d.pop("timings_ms")
+        out.append(d)
+    return out
+
+
 def read_jsonl(path: Path) -> List[dict]:
     return [json.loads(line) for line in path.read_text().splitlines() if line.strip()]
 

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 import monohand
-from conftest import shared
+from conftest import records_without_timings, shared
 
 SERIALS = ["141122079464", "141722072294", "141722075121", "141722076181"]
 FRAMES = 60
@@ -92,18 +92,10 @@ def test_a_rigs_frames_from_the_caller_are_its_videos(tmp_path):
         )
         videos.append(str(out))
 
-    def strip(frames):
-        out = []
-        for f in frames:
-            d = f.to_dict()
-            d.pop("timings_ms")
-            out.append(d)
-        return out
-
     readers = [monohand.read_video(v) for v in videos]
     with session() as s:
-        by_paths = strip(s.track(videos))
-        by_frames = strip(s.track([f.image for f in views] for views in zip(*readers)))
+        by_paths = records_without_timings(s.track(videos))
+        by_frames = records_without_timings(s.track([f.image for f in views] for views in zip(*readers)))
     for r in readers:
         r.close()
     assert len(by_paths) == 24

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 import monohand
-from conftest import read_jsonl, run_cli
+from conftest import read_jsonl, records_without_timings, run_cli
 
 
 def test_session_equals_the_cli_on_the_same_video(tmp_path, moving_video):
@@ -129,25 +129,17 @@ def test_track_takes_the_callers_own_frames_on_the_engines_path(tmp_path, moving
     pairs, bare arrays) is `run`'s engine too: the same records as `track(path)`, timings
     aside; an exception of the caller's iterable, or a frame that is not an image, is raised
     as it was after the frames before it."""
-    def strip(frames):
-        out = []
-        for f in frames:
-            d = f.to_dict()
-            d.pop("timings_ms")
-            out.append(d)
-        return out
-
     with monohand.Session(None, hands=2, models=models) as s:
-        by_path = strip(s.track(str(moving_video)))
+        by_path = records_without_timings(s.track(str(moving_video)))
         with monohand.read_video(str(moving_video)) as video:
-            by_frames = strip(s.track(video))
+            by_frames = records_without_timings(s.track(video))
         with monohand.read_video(str(moving_video)) as video:
             decoded = [(f.image, f.time_s) for f in video]
         images = [im for im, _ in decoded]
-        by_pairs = strip(s.track(iter(decoded)))
-        by_arrays = strip(s.track(iter(images)))
-        at_30 = strip(s.track((im, i / 30.0) for i, im in enumerate(images)))
-        few = strip(s.track(images, max_frames=3))
+        by_pairs = records_without_timings(s.track(iter(decoded)))
+        by_arrays = records_without_timings(s.track(iter(images)))
+        at_30 = records_without_timings(s.track((im, i / 30.0) for i, im in enumerate(images)))
+        few = records_without_timings(s.track(images, max_frames=3))
     assert len(by_path) == 40 and sum(len(d["hands"]) for d in by_path) >= 38
     assert by_frames == by_path
     assert by_pairs == by_path

@@ -134,6 +134,20 @@ pub struct SourceFrame {
     pub focal: StatedCamera,
 }
 
+impl SourceFrame {
+    /// A frame of the caller's own: its pixels and time, nothing stated of its camera.
+    pub fn given(index: u64, timestamp_s: f64, image: RgbImage) -> SourceFrame {
+        SourceFrame {
+            index,
+            source: None,
+            timestamp_s,
+            image: Ok(image),
+            decode_ms: 0.0,
+            focal: StatedCamera::None,
+        }
+    }
+}
+
 /// Frames of one view, in order.
 pub trait FrameSource: Send {
     /// The next frame; `Ok(None)` at the end; `Err` when the input stops on an error (the
@@ -429,14 +443,7 @@ where
         };
         let index = self.next;
         self.next += 1;
-        Ok(Some(SourceFrame {
-            index,
-            source: None,
-            timestamp_s,
-            image: Ok(image),
-            decode_ms: 0.0,
-            focal: StatedCamera::None,
-        }))
+        Ok(Some(SourceFrame::given(index, timestamp_s, image)))
     }
 
     fn is_video(&self) -> bool {
