@@ -26,6 +26,8 @@ pub mod export;
 pub mod hand;
 pub mod hand_mesh;
 pub mod jsonl;
+#[cfg(feature = "lerobot")]
+pub mod lerobot;
 pub mod openpose;
 pub mod palette;
 pub mod sink;

@@ -39,7 +39,7 @@ pub(crate) struct RunArgs {
     pub sync: sync::Sync,
     /// A folder of videos and images, each run into --output-dir as `<file name>.jsonl`,
     /// complete or absent; a rerun skips the complete ones (docs/pipeline.md).
-    #[arg(long, value_name = "DIR", requires = "output_dir", conflicts_with_all = ["input", "views", "overlay", "gltf", "rerun", "show", "format", "output"])]
+    #[arg(long, value_name = "DIR", requires = "output_dir", conflicts_with_all = ["input", "views", "overlay", "gltf", "rerun", "lerobot", "show", "format", "output"])]
     pub each: Option<PathBuf>,
     /// Where --each writes.
     #[arg(long, value_name = "OUT", requires = "each")]
@@ -89,6 +89,21 @@ pub(crate) struct RunArgs {
     /// over time (docs/visualisation.md). Needs the CLI built with `--features rerun`.
     #[arg(long, value_name = "OUT.rrd")]
     pub rerun: Option<PathBuf>,
+    /// Write the run as a LeRobot v3 dataset in this new folder: one episode, each frame's
+    /// both hands (21 joints in metres in the first camera's frame, a validity flag, the
+    /// wrist pose) as `observation.state`, the next frame's as `action`, each view's frames
+    /// as a video (docs/robots-and-xr.md). Complete or absent: a stopped run leaves the
+    /// frames written so far.
+    #[arg(long, value_name = "DIR")]
+    pub lerobot: Option<PathBuf>,
+    /// The episode's task text in --lerobot's dataset.
+    #[arg(
+        long,
+        value_name = "TEXT",
+        default_value = "human hand",
+        requires = "lerobot"
+    )]
+    pub lerobot_task: String,
     /// Scale the images stored in --rerun by this factor in (0, 1] (0.5: a quarter of the
     /// pixels).
     #[arg(long, value_name = "S", default_value_t = 1.0, requires = "rerun")]

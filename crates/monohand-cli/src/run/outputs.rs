@@ -1,10 +1,13 @@
 //! Which sinks `monohand run` writes to, from its arguments: the poses (JSON Lines, CSV or
-//! OpenPose JSON), the overlay, the glTF and the live window.
+//! OpenPose JSON), the overlay, the glTF, the Rerun recording, the LeRobot dataset and the
+//! live window.
 
 use super::RunArgs;
 use anyhow::{anyhow, Result};
 use clap::ValueEnum;
-use monohand::engine::{CsvSink, GltfSink, JsonlSink, OpenPoseSink, OverlaySink, Sink, WindowSink};
+use monohand::engine::{
+    CsvSink, GltfSink, JsonlSink, LeRobotSink, OpenPoseSink, OverlaySink, Sink, WindowSink,
+};
 use monohand_io::export::GltfHand;
 use monohand_media::scene::Layers;
 use std::path::Path;
@@ -100,6 +103,12 @@ pub(crate) fn create(
     }
     if let Some(r) = rerun {
         sinks.push(r);
+    }
+    if let Some(dir) = &args.lerobot {
+        let views = args.input.iter().chain(&args.views).count().max(1);
+        let sink = LeRobotSink::create(dir, views, fps.unwrap_or(30.0), &args.lerobot_task)
+            .map_err(|e| anyhow!("--lerobot {e}"))?;
+        sinks.push(Box::new(sink));
     }
     if let Some(show) = show {
         sinks.push(Box::new(show));

@@ -25,6 +25,8 @@ mod source;
 pub mod sync;
 
 pub use crate::base::errors::SourceError;
+#[cfg(feature = "lerobot")]
+pub use sinks::LeRobotSink;
 pub use sinks::{
     CsvSink, GltfSink, JsonlSink, OpenPoseSink, Output, OverlaySink, Sink, SinkError, WindowSink,
 };

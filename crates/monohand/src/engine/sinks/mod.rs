@@ -4,6 +4,8 @@
 mod csv;
 mod gltf;
 mod jsonl;
+#[cfg(feature = "lerobot")]
+mod lerobot;
 mod openpose;
 mod overlay;
 #[cfg(feature = "rerun")]
@@ -13,6 +15,8 @@ mod window;
 pub use self::csv::CsvSink;
 pub use gltf::GltfSink;
 pub use jsonl::JsonlSink;
+#[cfg(feature = "lerobot")]
+pub use lerobot::LeRobotSink;
 pub use openpose::OpenPoseSink;
 pub use overlay::{has_extension, OverlaySink, IMAGE_EXTENSIONS, VIDEO_EXTENSIONS};
 #[cfg(feature = "rerun")]
