@@ -42,6 +42,8 @@ def check(root: Path, every: int) -> bool:
     table = pq.read_table(root / "data" / "chunk-000" / "file-000.parquet")
     state = np.array(table.column("observation.state").to_pylist(), dtype=np.float32)
     action = np.array(table.column("action").to_pylist(), dtype=np.float32)
+    stamps = table.column("timestamp").to_numpy()
+    episode = table.column("episode_index").to_numpy()
     cams = ds.meta.camera_keys
     print(f"{root}: {ds.num_episodes} episode(s), {ds.num_frames} frames at {ds.fps} fps, "
           f"cameras {cams}, opened in {opened:.2f} s")
@@ -53,7 +55,8 @@ def check(root: Path, every: int) -> bool:
         n += 1
         ok &= np.array_equal(item["observation.state"].numpy(), state[i])
         ok &= np.array_equal(item["action"].numpy(), action[i])
-        ok &= abs(float(item["timestamp"]) - i / ds.fps) < 1e-4
+        ok &= float(item["timestamp"]) == float(stamps[i])
+        ok &= int(item["episode_index"]) == int(episode[i])
         for key in cams:
             h, w, _ = ds.meta.features[key]["shape"]
             ok &= tuple(item[key].shape) == (3, h, w)

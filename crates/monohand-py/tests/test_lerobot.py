@@ -95,8 +95,9 @@ def test_run_writes_a_lerobot_v3_dataset_of_its_records(tmp_path, moving_video):
     info, state = got["info"], got["state"]
     assert info["total_frames"] == len(records) == 40 and info["fps"] == 30
     assert got["episode"]["tasks"] == ["wave at the camera"]
-    assert info["monohand"]["cameras"] == records[-1]["cameras"]
-    assert info["monohand"]["hand_size"]["source"] == "default"
+    episode = info["monohand"]["episodes"][0]
+    assert episode["cameras"] == records[-1]["cameras"] and episode["source"] == moving_video.name
+    assert episode["hand_size"]["source"] == "default" and episode["task"] == "wave at the camera"
     valid = 0
     for row, rec in zip(state, records):
         for slot, side in enumerate(("left", "right")):
@@ -129,7 +130,7 @@ def test_a_rig_gives_a_video_per_view(tmp_path):
         args += ["--view", str(rig / "images" / s), "--camera", str(rig / "cameras" / f"{s}.json")]
     run_cli(*args, "--max-frames", "12", "-o", str(tmp_path / "rig.jsonl"), "--lerobot", str(ds))
     got = read_dataset(ds, views=2)
-    assert got["info"]["total_frames"] == 12 and len(got["info"]["monohand"]["cameras"]) == 2
+    assert got["info"]["total_frames"] == 12 and len(got["info"]["monohand"]["episodes"][0]["cameras"]) == 2
     assert got["state"][:, [0, HAND]].max() == 1.0, "a hand fitted in some frame"
 
 
@@ -159,3 +160,47 @@ def test_a_failed_run_leaves_the_frames_before_and_a_used_folder_is_refused(tmp_
             "--lerobot", str(tmp_path / "fresh"))
     assert read_dataset(tmp_path / "fresh")["info"]["total_frames"] == 5
     assert not stale.exists()
+
+
+def test_each_makes_one_dataset_of_every_inputs_episode(tmp_path, moving_video):
+    """`run --each DIR --output-dir OUT --lerobot DS`: each input's episode kept beside its
+    records, one dataset of them all (an input of another frame size left out, and said);
+    a rerun skips what is done and makes the same dataset again."""
+    src = tmp_path / "in"
+    src.mkdir()
+    (src / "a.mkv").write_bytes(moving_video.read_bytes())
+    subprocess.run(["ffmpeg", "-v", "error", "-i", str(moving_video), "-frames:v", "15",
+                    "-c:v", "mpeg4", str(src / "b.mp4")], check=True)
+    (src / "c.jpg").write_bytes(shared("images/hamer/test1.jpg").read_bytes())
+    out, ds = tmp_path / "out", tmp_path / "ds"
+    args = ["run", "--each", str(src), "--output-dir", str(out), "--lerobot", str(ds),
+            "--lerobot-task", "wave"]
+    first = run_cli(*args)
+    assert "c.jpg.lerobot left out" in first.stderr and "2 episodes, 55 frames" in first.stderr, first.stderr
+    assert sorted(p.name for p in out.iterdir()) == [
+        "a.mkv.jsonl", "a.mkv.lerobot", "b.mp4.jsonl", "b.mp4.lerobot", "c.jpg.jsonl", "c.jpg.lerobot"]
+    info = json.loads((ds / "meta" / "info.json").read_text())
+    assert (info["total_episodes"], info["total_frames"], info["total_tasks"]) == (2, 55, 1)
+    assert [e["source"] for e in info["monohand"]["episodes"]] == ["a.mkv", "b.mp4"]
+    data = pq.read_table(ds / "data" / "chunk-000" / "file-000.parquet")
+    assert data.column("index").to_pylist() == list(range(55))
+    assert data.column("episode_index").to_pylist() == [0] * 40 + [1] * 15
+    assert data.column("frame_index").to_pylist() == list(range(40)) + list(range(15))
+    state = np.array(data.column("observation.state").to_pylist(), dtype=np.float32)
+    action = np.array(data.column("action").to_pylist(), dtype=np.float32)
+    assert np.array_equal(action[39], state[39]) and np.array_equal(action[40:54], state[41:55])
+    # Each episode's rows are its own run's, and its video a file of its own.
+    for k, (name, n) in enumerate([("a.mkv", 40), ("b.mp4", 15)]):
+        part = pq.read_table(out / f"{name}.lerobot" / "data" / "chunk-000" / "file-000.parquet")
+        rows = data.column("episode_index").to_numpy() == k
+        assert np.array_equal(np.array(part.column("observation.state").to_pylist(), dtype=np.float32), state[rows])
+        video = ds / "videos" / "observation.images.view1" / "chunk-000" / f"file-{k:03d}.mp4"
+        assert video_frames(video)[:3] == (n, 640, 480)
+    episodes = pq.read_table(ds / "meta" / "episodes" / "chunk-000" / "file-000.parquet").to_pylist()
+    assert [(e["dataset_from_index"], e["dataset_to_index"]) for e in episodes] == [(0, 40), (40, 55)]
+    assert [e["videos/observation.images.view1/file_index"] for e in episodes] == [0, 1]
+    assert list(pd.read_parquet(ds / "meta" / "tasks.parquet").index) == ["wave"]
+    again = run_cli(*args)
+    assert again.stderr.count("already done, skipped") == 3, again.stderr
+    assert json.loads((ds / "meta" / "info.json").read_text()) == info
+    assert pq.read_table(ds / "data" / "chunk-000" / "file-000.parquet").equals(data)

@@ -17,7 +17,13 @@ pub(super) fn run(args: &RunArgs, dir: &Path, out: &Path) -> Result<Outcome> {
     }
     let cameras = crate::read_cameras(&args.cameras)?;
     let stall = stall_timeout(args)?;
-    let items = corpus(dir, out)?;
+    let mut items = corpus(dir, out)?;
+    if args.lerobot.is_some() {
+        items = items
+            .into_iter()
+            .map(|i| i.with_episode(&args.lerobot_task))
+            .collect();
+    }
     // The networks, loaded once per kind of input (tracked videos, independent images).
     let mut pipelines: HashMap<bool, Arc<HandPipeline>> = HashMap::new();
     let (mut done, mut skipped, mut failed) = (0, 0, 0);
@@ -53,6 +59,7 @@ pub(super) fn run(args: &RunArgs, dir: &Path, out: &Path) -> Result<Outcome> {
             }
             Ended::Cancelled => {
                 crate::say(&format!("{name}: interrupted; a rerun redoes it"));
+                dataset(args, &items)?;
                 return Ok(Outcome::Interrupted);
             }
         }
@@ -61,11 +68,44 @@ pub(super) fn run(args: &RunArgs, dir: &Path, out: &Path) -> Result<Outcome> {
         "{} inputs: {done} done, {skipped} already done, {failed} failed",
         items.len()
     ));
+    dataset(args, &items)?;
     Ok(if failed > 0 {
         Outcome::InputEndedEarly
     } else {
         Outcome::Complete
     })
+}
+
+/// With `--lerobot DS`: the episodes of the inputs done so far, as one dataset at `DS`
+/// (made again from all of them at each end of the job, a rerun's included).
+fn dataset(args: &RunArgs, items: &[CorpusItem]) -> Result<()> {
+    let Some(ds) = &args.lerobot else {
+        return Ok(());
+    };
+    let parts: Vec<std::path::PathBuf> = items
+        .iter()
+        .filter(|i| i.is_done())
+        .filter_map(|i| i.episode.as_ref().map(|e| e.dir.clone()))
+        .collect();
+    if parts.is_empty() {
+        crate::say(&format!(
+            "--lerobot {}: no input done, no dataset",
+            ds.display()
+        ));
+        return Ok(());
+    }
+    let made = monohand_io::lerobot::assemble(&parts, ds)
+        .map_err(|e| anyhow::anyhow!("--lerobot {}: {e}", ds.display()))?;
+    for (part, why) in &made.left_out {
+        crate::say(&format!("--lerobot: {} left out: {why}", part.display()));
+    }
+    crate::say(&format!(
+        "--lerobot {}: {} episodes, {} frames",
+        ds.display(),
+        made.episodes,
+        made.frames
+    ));
+    Ok(())
 }
 
 /// Runs one input into its partial file and, if it ended well, renames it. Errors that

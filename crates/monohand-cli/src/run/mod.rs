@@ -39,7 +39,7 @@ pub(crate) struct RunArgs {
     pub sync: sync::Sync,
     /// A folder of videos and images, each run into --output-dir as `<file name>.jsonl`,
     /// complete or absent; a rerun skips the complete ones (docs/pipeline.md).
-    #[arg(long, value_name = "DIR", requires = "output_dir", conflicts_with_all = ["input", "views", "overlay", "gltf", "rerun", "lerobot", "show", "format", "output"])]
+    #[arg(long, value_name = "DIR", requires = "output_dir", conflicts_with_all = ["input", "views", "overlay", "gltf", "rerun", "show", "format", "output"])]
     pub each: Option<PathBuf>,
     /// Where --each writes.
     #[arg(long, value_name = "OUT", requires = "each")]
@@ -93,7 +93,8 @@ pub(crate) struct RunArgs {
     /// both hands (21 joints in metres in the first camera's frame, a validity flag, the
     /// wrist pose) as `observation.state`, the next frame's as `action`, each view's frames
     /// as a video (docs/robots-and-xr.md). Complete or absent: a stopped run leaves the
-    /// frames written so far.
+    /// frames written so far. With --each: one dataset of every input's episode (each kept
+    /// as `<file name>.lerobot` in --output-dir), made again at each end of the job.
     #[arg(long, value_name = "DIR")]
     pub lerobot: Option<PathBuf>,
     /// The episode's task text in --lerobot's dataset.

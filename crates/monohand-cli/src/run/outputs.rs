@@ -106,8 +106,15 @@ pub(crate) fn create(
     }
     if let Some(dir) = &args.lerobot {
         let views = args.input.iter().chain(&args.views).count().max(1);
+        let source = args
+            .input
+            .as_deref()
+            .or(args.views.first().map(String::as_str))
+            .and_then(|i| Path::new(i).file_name())
+            .map(|s| s.to_string_lossy().into_owned());
         let sink = LeRobotSink::create(dir, views, fps.unwrap_or(30.0), &args.lerobot_task)
-            .map_err(|e| anyhow!("--lerobot {e}"))?;
+            .map_err(|e| anyhow!("--lerobot {e}"))?
+            .with_source(source);
         sinks.push(Box::new(sink));
     }
     if let Some(show) = show {

@@ -15,12 +15,40 @@ pub struct CorpusItem {
     pub input: PathBuf,
     /// `OUT/<file name>.jsonl`: present only when complete.
     pub output: PathBuf,
+    /// Where the input's LeRobot episode goes, when the job makes a dataset.
+    pub episode: Option<EpisodeOutput>,
+}
+
+/// An input's LeRobot episode: a one-episode dataset `OUT/<file name>.lerobot`, whole or
+/// absent, which [`monohand_io::lerobot::assemble`] joins with the others'.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct EpisodeOutput {
+    /// The episode's folder.
+    pub dir: PathBuf,
+    /// Its task's text.
+    pub task: String,
 }
 
 impl CorpusItem {
-    /// Whether the records of this input are complete (a rerun skips it).
+    /// Whether the records of this input are complete (a rerun skips it), its episode
+    /// too when one is asked for.
     pub fn is_done(&self) -> bool {
         self.output.is_file()
+            && self
+                .episode
+                .as_ref()
+                .is_none_or(|e| e.dir.join("meta/info.json").is_file())
+    }
+
+    /// The same, with a LeRobot episode of task `task` beside its records.
+    pub fn with_episode(mut self, task: &str) -> CorpusItem {
+        let mut name = self.input.file_name().unwrap_or_default().to_os_string();
+        name.push(".lerobot");
+        self.episode = Some(EpisodeOutput {
+            dir: self.output.with_file_name(name),
+            task: task.to_string(),
+        });
+        self
     }
 
     /// Where the records are written while the input runs (and stay if it fails half-way).
@@ -56,9 +84,16 @@ impl CorpusItem {
             frames: 0,
             source: format!("{what}: {e}").into(),
         };
+        let fps = sources[0].fps();
         let sink =
             JsonlSink::create(&partial).map_err(|e| output(partial.display().to_string(), &e))?;
         let mut sinks: Vec<Box<dyn Sink>> = vec![Box::new(sink)];
+        if let Some(episode) = &self.episode {
+            sinks.push(
+                self.episode_sink(episode, fps)
+                    .map_err(|e| output(format!("--lerobot {}", episode.dir.display()), &e))?,
+            );
+        }
         let report = engine.run(sources, &mut sinks, observer)?;
         drop(sinks);
         if report.cancelled {
@@ -83,6 +118,37 @@ impl CorpusItem {
             output(what, &e)
         })?;
         Ok(Ended::Done)
+    }
+}
+
+impl CorpusItem {
+    /// The sink of the input's episode (an earlier, unfinished one removed first).
+    #[cfg(feature = "lerobot")]
+    fn episode_sink(
+        &self,
+        episode: &EpisodeOutput,
+        fps: Option<f64>,
+    ) -> Result<Box<dyn Sink>, super::SinkError> {
+        if episode.dir.exists() {
+            std::fs::remove_dir_all(&episode.dir)?;
+        }
+        let source = self
+            .input
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned());
+        let sink = super::LeRobotSink::create(&episode.dir, 1, fps.unwrap_or(30.0), &episode.task)?
+            .with_source(source);
+        Ok(Box::new(sink))
+    }
+
+    /// Without the `lerobot` feature: refused.
+    #[cfg(not(feature = "lerobot"))]
+    fn episode_sink(
+        &self,
+        _episode: &EpisodeOutput,
+        _fps: Option<f64>,
+    ) -> Result<Box<dyn Sink>, super::SinkError> {
+        Err("this build of monohand has no LeRobot datasets (the `lerobot` feature)".into())
     }
 }
 
@@ -131,7 +197,11 @@ pub fn corpus(dir: &Path, out_dir: &Path) -> EngineResult<Vec<CorpusItem>> {
             let mut name = input.file_name()?.to_os_string();
             name.push(".jsonl");
             let output = out_dir.join(name);
-            Some(CorpusItem { input, output })
+            Some(CorpusItem {
+                input,
+                output,
+                episode: None,
+            })
         })
         .collect())
 }

@@ -40,6 +40,7 @@ pub struct LeRobotSink {
     states: Vec<Vec<f32>>,
     cameras: Vec<CameraRecord>,
     hand_size: Option<HandSizeRecord>,
+    source: Option<String>,
 }
 
 impl std::fmt::Debug for LeRobotSink {
@@ -112,7 +113,14 @@ impl LeRobotSink {
             states: Vec::new(),
             cameras: Vec::new(),
             hand_size: None,
+            source: None,
         })
+    }
+
+    /// Names what the episode is made from (the input's file name) in `info.json`.
+    pub fn with_source(mut self, source: Option<String>) -> LeRobotSink {
+        self.source = source;
+        self
     }
 
     /// The frame's state: the first fitted hand of each side.
@@ -172,7 +180,7 @@ impl LeRobotSink {
     fn encode(&mut self, v: usize, image: &RgbImage) -> Result<(), SinkError> {
         let view = &mut self.views[v];
         if view.writer.is_none() {
-            let path = self.staging.join(video_file(v + 1));
+            let path = self.staging.join(video_file(v + 1, 0));
             if let Some(parent) = path.parent() {
                 std::fs::create_dir_all(parent)
                     .map_err(|e| format!("{}: {e}", parent.display()))?;
@@ -238,6 +246,7 @@ impl Sink for LeRobotSink {
     }
 
     fn finish(&mut self) -> Result<(), SinkError> {
+        let frames = self.states.len() as u64;
         let mut videos = Vec::new();
         for view in &mut self.views {
             if let Some(w) = view.writer.take() {
@@ -250,7 +259,7 @@ impl Sink for LeRobotSink {
                         Encoder::Mpeg4 => "mpeg4",
                     }
                     .into(),
-                    stats: view.stats,
+                    stats: view.stats.map(|m| m.summary(frames)),
                 });
             }
         }
@@ -273,6 +282,7 @@ impl Sink for LeRobotSink {
             videos,
             cameras: std::mem::take(&mut self.cameras),
             hand_size: self.hand_size.take(),
+            source: self.source.clone(),
         };
         write_episode(&self.staging, &episode)?;
         if self.dir.is_dir() {
