@@ -12,8 +12,10 @@ mod errors;
 mod frames;
 mod hand;
 mod hand_size;
+mod lerobot;
 mod lifter;
 mod models;
+mod recording;
 mod session;
 mod sync;
 mod video;
@@ -147,6 +149,7 @@ fn _monohand(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<PyVideoReader>()?;
     m.add_function(wrap_pyfunction!(fetch_models, m)?)?;
     m.add_function(wrap_pyfunction!(calibrate, m)?)?;
+    m.add_function(wrap_pyfunction!(lerobot::lerobot_dataset, m)?)?;
     m.add("MonohandError", m.py().get_type::<MonohandError>())?;
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     m.add("NUM_JOINTS", NUM_JOINTS)?;

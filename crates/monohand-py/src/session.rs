@@ -8,6 +8,7 @@ use crate::frames::FramesError;
 use crate::hand::*;
 use crate::hand_size::*;
 use crate::models::*;
+use crate::recording::{rerun_sink, SharedSink};
 use monohand::engine::{Engine, Observer, Output, RunReport, Sink};
 use monohand::records::fitted_record;
 use monohand::SessionOptions;
@@ -39,56 +40,6 @@ pub(crate) struct PySession {
     pub(crate) engine: Arc<Engine>,
     /// The Rerun recording every frame also goes to.
     pub(crate) rerun: Option<SharedSink>,
-}
-
-/// A sink that several runs of the session write to in turn (its Rerun recording).
-#[derive(Clone)]
-pub(crate) struct SharedSink(pub(crate) Arc<Mutex<Box<dyn Sink + Send>>>);
-
-impl SharedSink {
-    pub(crate) fn lock(
-        &self,
-    ) -> Result<std::sync::MutexGuard<'_, Box<dyn Sink + Send>>, monohand::engine::SinkError> {
-        self.0
-            .lock()
-            .map_err(|_| "the recording failed in another thread".into())
-    }
-}
-
-impl Sink for SharedSink {
-    fn wants_images(&self) -> bool {
-        true
-    }
-
-    fn wants_every_view(&self) -> bool {
-        true
-    }
-
-    fn write(&mut self, frame: &Output<'_>) -> Result<(), monohand::engine::SinkError> {
-        self.lock()?.write(frame)
-    }
-}
-
-/// The Rerun recording of `Session(rerun=...)`.
-#[cfg(feature = "rerun")]
-pub(crate) fn rerun_sink(path: &std::path::Path, views: usize, scale: f64) -> PyResult<SharedSink> {
-    let names = (1..=views.max(1)).map(|v| format!("view{v}")).collect();
-    let sink = monohand::engine::RerunSink::create(path, names, scale)
-        .map_err(|e| PyValueError::new_err(format!("rerun: {}: {e}", path.display())))?;
-    Ok(SharedSink(Arc::new(Mutex::new(Box::new(sink)))))
-}
-
-/// Without the `rerun` feature: refused, saying why.
-#[cfg(not(feature = "rerun"))]
-pub(crate) fn rerun_sink(
-    path: &std::path::Path,
-    _views: usize,
-    _scale: f64,
-) -> PyResult<SharedSink> {
-    Err(PyValueError::new_err(format!(
-        "rerun: {}: this build of monohand has no Rerun recordings (the crate's `rerun` feature)",
-        path.display()
-    )))
 }
 
 impl PySession {
@@ -206,8 +157,11 @@ impl PySession {
     /// from the hands, then frames matched by time; a view whose start cannot be found
     /// raises `MonohandError`) or how many seconds each later view started after the first
     /// (a list), as `monohand run --sync`. Each frame's `cameras` say each view's
-    /// `time_offset_s`.
-    #[pyo3(signature = (path, max_frames=None, offline=false, sync=None))]
+    /// `time_offset_s`. `lerobot="DIR"` also writes the input as a LeRobot v3 dataset of one
+    /// episode (`monohand run --lerobot`, its task `lerobot_task`; `DIR` must be new), whole
+    /// once the stream has ended, also when it is closed early or fails.
+    #[pyo3(signature = (path, max_frames=None, offline=false, sync=None, lerobot=None, lerobot_task="human hand"))]
+    #[allow(clippy::too_many_arguments)]
     fn track(
         &mut self,
         py: Python<'_>,
@@ -215,6 +169,8 @@ impl PySession {
         max_frames: Option<u64>,
         offline: bool,
         sync: Option<&Bound<'_, PyAny>>,
+        lerobot: Option<std::path::PathBuf>,
+        lerobot_task: &str,
     ) -> PyResult<PyFrameStream> {
         self.session()?;
         let mut engine = (*self.engine)
@@ -242,11 +198,30 @@ impl PySession {
         let watch = Arc::new(Watch::default());
         let observer = Arc::clone(&watch);
         let rerun = self.rerun.clone();
+        let source = crate::sync::paths_of(path)?
+            .and_then(|v| v.first().cloned())
+            .and_then(|p| {
+                std::path::Path::new(&p)
+                    .file_name()
+                    .map(|n| n.to_string_lossy().into_owned())
+            });
+        let lerobot = lerobot
+            .map(|d| {
+                crate::lerobot::sink(
+                    &d,
+                    sources.len(),
+                    sources.first().and_then(|s| s.fps()),
+                    lerobot_task,
+                    source,
+                )
+            })
+            .transpose()?;
         let worker = std::thread::Builder::new()
             .name("monohand-track".into())
             .spawn(move || {
                 let mut sinks: Vec<Box<dyn Sink>> = vec![Box::new(ChannelSink(tx))];
                 sinks.extend(rerun.map(|r| Box::new(r) as Box<dyn Sink>));
+                sinks.extend(lerobot.map(|l| l as Box<dyn Sink>));
                 engine.run(sources, &mut sinks, &*observer)
             })
             .map_err(|e| MonohandError::new_err(format!("could not start a thread: {e}")))?;

@@ -8,11 +8,13 @@ from __future__ import annotations
 import json
 import os
 import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import pyarrow.parquet as pq
+import pytest
 
 import monohand
 
@@ -202,5 +204,50 @@ def test_each_makes_one_dataset_of_every_inputs_episode(tmp_path, moving_video):
     assert list(pd.read_parquet(ds / "meta" / "tasks.parquet").index) == ["wave"]
     again = run_cli(*args)
     assert again.stderr.count("already done, skipped") == 3, again.stderr
+    assert json.loads((ds / "meta" / "info.json").read_text()) == info
+    assert pq.read_table(ds / "data" / "chunk-000" / "file-000.parquet").equals(data)
+
+
+CORPUS_JOB = """
+import sys, daft
+daft.set_runner_native()
+import monohand.daft as mhd
+mhd.track_corpus(sys.argv[3:], sys.argv[1], workers=1, lerobot=sys.argv[2], lerobot_task="grasp")
+"""
+
+
+def test_python_writes_the_same_datasets(tmp_path, moving_video, models, corpus):
+    """`Session.track(lerobot=DIR)` writes `run --lerobot`'s dataset (the same state bit for
+    bit, the same one path), and `monohand.daft.track_corpus(lerobot=DS)` one dataset of
+    every finished video, made again by a rerun."""
+    cli = tmp_path / "cli"
+    run_cli("run", str(moving_video), "--hands", "2", "-o", str(tmp_path / "r.jsonl"), "--lerobot", str(cli))
+    py = tmp_path / "py"
+    with monohand.Session(None, hands=2, models=models) as s:
+        frames = list(s.track(str(moving_video), lerobot=py))
+        assert len(frames) == 40
+    a, b = read_dataset(cli), read_dataset(py)
+    assert np.array_equal(a["state"], b["state"])
+    assert b["info"]["monohand"]["episodes"][0]["source"] == moving_video.name
+    with monohand.Session(None, hands=2, models=models) as s:
+        with pytest.raises(monohand.MonohandError, match="already holds files"):
+            s.track(str(moving_video), lerobot=py)
+
+    out, ds = tmp_path / "corpus", tmp_path / "ds"
+    videos = [str(v) for v in corpus[:3]]
+    job = [sys.executable, "-c", CORPUS_JOB, str(out), str(ds), *videos]
+    first = subprocess.run(job, capture_output=True, text=True)
+    assert first.returncode == 0, first.stderr
+    assert "lerobot " + str(ds) + ": 3 episodes, 48 frames" in first.stderr, first.stderr
+    info = json.loads((ds / "meta" / "info.json").read_text())
+    assert [e["source"] for e in info["monohand"]["episodes"]] == [Path(v).name for v in videos]
+    assert [e["task"] for e in info["monohand"]["episodes"]] == ["grasp"] * 3
+    data = pq.read_table(ds / "data" / "chunk-000" / "file-000.parquet")
+    assert data.column("episode_index").to_pylist() == [0] * 16 + [1] * 16 + [2] * 16
+    for k in range(3):
+        video = ds / "videos" / "observation.images.view1" / "chunk-000" / f"file-{k:03d}.mp4"
+        assert video_frames(video)[:3] == (16, 640, 480)
+    again = subprocess.run(job, capture_output=True, text=True)
+    assert again.returncode == 0 and "3 already done" in again.stderr, again.stderr
     assert json.loads((ds / "meta" / "info.json").read_text()) == info
     assert pq.read_table(ds / "data" / "chunk-000" / "file-000.parquet").equals(data)

@@ -14,6 +14,7 @@ video, in real time on a CPU.
   ``Session(hand=...)``: the absolute depth scales with it.
 - `read_video`: the frames of a video file, decoded by ffmpeg.
 - `calibrate`: a camera's (or a rig's) calibration from photos or a video of a chessboard.
+- `lerobot_dataset`: one LeRobot v3 dataset of the episodes `Session.track(lerobot=...)` wrote.
 - `track_video`: a whole video to a table, one row per frame per hand.
 - `monohand.daft`: the same over a corpus of videos with Daft (native or on Ray).
 
@@ -44,6 +45,7 @@ from ._monohand import (
     VideoReader,
     __version__,
     calibrate,
+    lerobot_dataset,
     fetch_models,
 )
 
@@ -65,6 +67,7 @@ __all__ = [
     "VideoReader",
     "__version__",
     "calibrate",
+    "lerobot_dataset",
     "fetch_models",
     "lift",
     "read_video",

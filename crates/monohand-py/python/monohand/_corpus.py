@@ -17,6 +17,7 @@ from __future__ import annotations
 import hashlib
 import json
 import os
+import shutil
 from typing import Any, Callable, Dict, List, Optional
 
 import monohand
@@ -54,6 +55,11 @@ def video_id(path: str) -> str:
 
 def output_path(out_dir: str, vid: str) -> str:
     return os.path.join(out_dir, f"{vid}.parquet")
+
+
+def episode_path(out_dir: str, vid: str) -> str:
+    """Where a video's LeRobot episode goes (a one-episode dataset, whole or absent)."""
+    return os.path.join(out_dir, f"{vid}.lerobot")
 
 
 def summary_of_done(out_dir: str, vid: str) -> Optional[Dict[str, Any]]:
@@ -94,8 +100,10 @@ def track_one(
     offline: bool,
     settings: Dict[str, Any],
     hand_struct: Callable[[Any], Dict[str, Any]],
+    lerobot_task: Optional[str] = None,
 ) -> Dict[str, Any]:
-    """Tracks the video at `path` into `out_dir` and returns its summary row."""
+    """Tracks the video at `path` into `out_dir` and returns its summary row; with
+    `lerobot_task`, also its LeRobot episode (`episode_path`)."""
     import pyarrow as pa
     import pyarrow.parquet as pq
 
@@ -154,7 +162,12 @@ def track_one(
         except OSError as e:
             raise _WriteFailed(tmp) from e
         try:
-            with session() as s, s.track(path, offline=offline) as video:
+            episode = None
+            if lerobot_task is not None:
+                episode = episode_path(out_dir, vid)
+                # An earlier attempt's: never part of the dataset, made again.
+                shutil.rmtree(episode, ignore_errors=True)
+            with session() as s, s.track(path, offline=offline, lerobot=episode, lerobot_task=lerobot_task or "") as video:
                 for frame in video:
                     hands = [hand_struct(h) for h in frame.hands]
                     if row["camera"] is None and frame.cameras:

@@ -235,6 +235,8 @@ class Session:
         max_frames: Optional[int] = None,
         offline: bool = False,
         sync: Union[None, str, Sequence[float]] = None,
+        lerobot: Union[None, str, PathLike[str]] = None,
+        lerobot_task: str = "human hand",
     ) -> FrameStream: ...
     def close(self) -> None: ...
     def __enter__(self) -> Session: ...
@@ -299,6 +301,12 @@ class VideoReader:
 
 def fetch_models(model_dir: Optional[Union[str, PathLike[str]]] = None) -> str:
     """Makes sure the weights are cached (pip on first use); returns the cache folder."""
+
+def lerobot_dataset(
+    parts: Sequence[Union[str, PathLike[str]]], out: Union[str, PathLike[str]]
+) -> Dict[str, Any]:
+    """One LeRobot v3 dataset of one-episode datasets (``Session.track(lerobot=...)``'s):
+    ``episodes``, ``frames``, ``left_out`` (``(part, reason)`` pairs)."""
 
 def calibrate(
     input: Optional[Union[str, PathLike[str], List[Union[str, PathLike[str]]]]] = None,

@@ -199,9 +199,13 @@ def track_videos(
 class _CorpusTracker:
     """Tracks each video of a corpus into its own Parquet file (`monohand._corpus`)."""
 
-    def __init__(self, out_dir: str, hands: int, model_dir: Optional[str], smoothing: bool, offline: bool):
+    def __init__(
+        self, out_dir: str, hands: int, model_dir: Optional[str], smoothing: bool, offline: bool,
+        lerobot_task: Optional[str] = None,
+    ):
         self.models = monohand.Models(hands=hands, tracking=True, model_dir=model_dir)
         self.out_dir, self.hands, self.smoothing, self.offline = out_dir, hands, smoothing, offline
+        self.lerobot_task = lerobot_task
         self.settings = {"hands": hands, "smoothing": smoothing, "offline": offline}
 
     @daft.method(return_dtype=DataType.string())
@@ -217,7 +221,11 @@ class _CorpusTracker:
         def session() -> monohand.Session:
             return monohand.Session(camera, hands=self.hands, smoothing=self.smoothing, models=self.models)
 
-        return json.dumps(_corpus.track_one(path, self.out_dir, session, self.offline, self.settings, hand_struct))
+        return json.dumps(
+            _corpus.track_one(
+                path, self.out_dir, session, self.offline, self.settings, hand_struct, self.lerobot_task
+            )
+        )
 
 
 #: `track_corpus`'s default for ``max_retries``: a video whose tracker dies (on Ray) is
@@ -244,9 +252,17 @@ def track_corpus(
     workers: Optional[int] = None,
     progress: bool = True,
     max_retries: int = MAX_RETRIES,
+    lerobot: Optional[str] = None,
+    lerobot_task: str = "human hand",
 ) -> Any:
     """Tracks every video of a corpus into ``out_dir``, one Parquet file per video, and
     returns the summary (a pyarrow Table, also written as ``out_dir/_videos.parquet``).
+
+    - ``lerobot="DS"`` also makes one LeRobot v3 dataset of every finished video at ``DS``
+      (`monohand run --each ... --lerobot`; docs/robots-and-xr.md): each video's episode
+      is kept as ``out_dir/<video_id>.lerobot``, and ``DS`` is made again from all of them,
+      in the order of the videos, at the end of each run of the job (a rerun's included); a
+      video whose frame size or rate is not the first's is left out, and said.
 
     - ``out_dir/<video_id>.parquet`` holds `track_videos`' rows (``frame, time_s, hands,
       error``) with ``path`` and ``video_id``, streamed in row groups of a few thousand
@@ -293,6 +309,10 @@ def track_corpus(
             done = _corpus.summary_of_done(out_dir, _corpus.video_id(v[path_column]))
         except OSError:
             done = None
+        if done is not None and lerobot is not None:
+            episode = _corpus.episode_path(out_dir, done["video_id"])
+            if not os.path.isfile(os.path.join(episode, "meta", "info.json")):
+                done = None
         if done is None:
             todo.append(v)
         else:
@@ -306,7 +326,8 @@ def track_corpus(
         # On Ray, Ray's own fault tolerance for the trackers' actors (see the docstring).
         ray_options = {"max_restarts": max_retries, "max_task_retries": max_retries} if on_ray else None
         tracker_cls = daft.cls(max_concurrency=workers, use_process=False, ray_options=ray_options)(_CorpusTracker)
-        tracker = tracker_cls(out_dir, hands, model_dir, smoothing, offline)
+        task = lerobot_task if lerobot is not None else None
+        tracker = tracker_cls(out_dir, hands, model_dir, smoothing, offline, task)
         df = daft.from_pylist(todo).into_batches(1)
         args = [df[path_column]] + ([df[intrinsics_column]] if intrinsics_column else [])
         results = df.select(tracker.track(*args).alias("_summary"))
@@ -344,7 +365,25 @@ def track_corpus(
             os.remove(tmp)
         _stop_on_output(f"{tmp}: {e}", e.errno, out_dir, summary)
     os.replace(tmp, os.path.join(out_dir, _corpus.SUMMARY_FILE))
+    if lerobot is not None:
+        _lerobot_dataset(summary, out_dir, lerobot, progress)
     return table
+
+
+def _lerobot_dataset(summary: List[Dict[str, Any]], out_dir: str, lerobot: str, progress: bool) -> None:
+    """`track_corpus(lerobot=...)`'s dataset of the finished videos' episodes."""
+    from monohand import _corpus
+
+    parts = [_corpus.episode_path(out_dir, r["video_id"]) for r in summary if r.get("status") == "done"]
+    if not parts:
+        if progress:
+            print(f"monohand: lerobot {lerobot}: no video done, no dataset", file=sys.stderr)
+        return
+    made = monohand.lerobot_dataset(parts, lerobot)
+    if progress:
+        for part, why in made["left_out"]:
+            print(f"monohand: lerobot: {part} left out: {why}", file=sys.stderr)
+        print(f"monohand: lerobot {lerobot}: {made['episodes']} episodes, {made['frames']} frames", file=sys.stderr)
 
 
 def _stop_on_output(reason: str, code: Optional[int], out_dir: str, summary: List[Dict[str, Any]]) -> None:
