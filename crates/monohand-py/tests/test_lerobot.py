@@ -134,6 +134,13 @@ def test_a_rig_gives_a_video_per_view(tmp_path):
     got = read_dataset(ds, views=2)
     assert got["info"]["total_frames"] == 12 and len(got["info"]["monohand"]["episodes"][0]["cameras"]) == 2
     assert got["state"][:, [0, HAND]].max() == 1.0, "a hand fitted in some frame"
+    # A view that started 5 frames late: black frames until its first, a frame per row.
+    late = tmp_path / "late"
+    said = run_cli(*args, "--sync", str(5 / 30), "--max-frames", "12", "-o", str(tmp_path / "late.jsonl"),
+                   "--lerobot", str(late)).stderr
+    assert "view 2 has not started yet" in said, said
+    got = read_dataset(late, views=2)
+    assert got["info"]["total_frames"] == 12
 
 
 def test_a_failed_run_leaves_the_frames_before_and_a_used_folder_is_refused(tmp_path, moving_video):

@@ -26,6 +26,9 @@ struct View {
     stats: [Moments; 3],
     /// The last frame written (repeated where a frame could not be read).
     last: Option<RgbImage>,
+    /// Frames before the view's first image (a view that started late): written black
+    /// once its first image gives the size, so that the video has a frame per row.
+    before_first: usize,
 }
 
 /// Writes the run as a LeRobot v3 dataset.
@@ -108,6 +111,7 @@ impl LeRobotSink {
                     size: (0, 0),
                     stats: [Moments::default(); 3],
                     last: None,
+                    before_first: 0,
                 })
                 .collect(),
             states: Vec::new(),
@@ -152,10 +156,17 @@ impl LeRobotSink {
     }
 
     /// View `v`'s next frame: `image`, or its last frame again where this one could not
-    /// be read (nothing before its first frame).
+    /// be read (black before its first frame).
     fn write_view(&mut self, v: usize, image: Option<&RgbImage>) -> Result<(), SinkError> {
         match image {
             Some(i) => {
+                let before = std::mem::take(&mut self.views[v].before_first);
+                if before > 0 {
+                    let black = RgbImage::new(i.width(), i.height());
+                    for _ in 0..before {
+                        self.encode(v, &black)?;
+                    }
+                }
                 self.encode(v, i)?;
                 let view = &mut self.views[v];
                 match &mut view.last {
@@ -170,7 +181,10 @@ impl LeRobotSink {
                     self.views[v].last = Some(last);
                     done
                 }
-                None => Ok(()),
+                None => {
+                    self.views[v].before_first += 1;
+                    Ok(())
+                }
             },
         }
     }
