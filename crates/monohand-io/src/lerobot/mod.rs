@@ -530,6 +530,20 @@ pub fn read_episode(dir: &Path) -> Result<Episode, IoError> {
     })
 }
 
+/// A hidden folder beside `dir`: `.NAME.SUFFIX`.
+fn beside(dir: &Path, suffix: &str) -> PathBuf {
+    let name = dir
+        .file_name()
+        .map_or("dataset".into(), |n| n.to_string_lossy());
+    dir.with_file_name(format!(".{name}.{suffix}"))
+}
+
+/// Where a dataset for `dir` is made before it is renamed to `dir`: `.NAME.monohand-partial`
+/// beside it (what a killed process leaves is never a dataset).
+pub fn staging_dir(dir: &Path) -> PathBuf {
+    beside(dir, "monohand-partial")
+}
+
 /// What [`assemble`] made.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Assembled {
@@ -574,13 +588,7 @@ pub fn assemble(parts: &[PathBuf], out: &Path) -> Result<Assembled, IoError> {
     if taken.is_empty() {
         return Err(format_error(out, "no episodes to make a dataset of"));
     }
-    let beside = |suffix: &str| {
-        let name = out
-            .file_name()
-            .map_or("dataset".into(), |n| n.to_string_lossy());
-        out.with_file_name(format!(".{name}.{suffix}"))
-    };
-    let (staging, old) = (beside("monohand-partial"), beside("monohand-old"));
+    let (staging, old) = (staging_dir(out), beside(out, "monohand-old"));
     let write = |path: &Path, error| IoError::Write {
         path: path.to_path_buf(),
         error,

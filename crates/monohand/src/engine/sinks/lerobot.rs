@@ -9,7 +9,8 @@ use super::{Output, Sink, SinkError};
 use monohand_core::wrist::{wrist_pose, WristConvention};
 use monohand_io::jsonl::{CameraRecord, HandSizeRecord};
 use monohand_io::lerobot::{
-    frame_state, side_slot, video_file, write_episode, Episode, HandState, Moments, VideoInfo,
+    frame_state, side_slot, staging_dir, video_file, write_episode, Episode, HandState, Moments,
+    VideoInfo,
 };
 use monohand_media::video::{Encoder, FfmpegTools, VideoWriter};
 use monohand_vision::RgbImage;
@@ -54,15 +55,6 @@ impl std::fmt::Debug for LeRobotSink {
     }
 }
 
-/// The folder a dataset for `dir` is made in: beside it, hidden.
-fn staging_for(dir: &Path) -> PathBuf {
-    let name = dir
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_else(|| "dataset".into());
-    dir.with_file_name(format!(".{name}.monohand-partial"))
-}
-
 impl LeRobotSink {
     /// A dataset at `dir` (which must not hold anything yet) of `views` views at `fps`
     /// (LeRobot's are whole numbers: rounded), its one task described by `task`.
@@ -86,7 +78,7 @@ impl LeRobotSink {
             )
             .into());
         }
-        let staging = staging_for(dir);
+        let staging = staging_dir(dir);
         if staging.exists() {
             // What a killed run left: never a dataset.
             std::fs::remove_dir_all(&staging).map_err(|e| format!("{}: {e}", staging.display()))?;
