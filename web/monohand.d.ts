@@ -76,9 +76,41 @@ export interface HandRecord {
   world_mm?: Joints<Vec3>;
   /** The network's depth of each joint relative to the wrist, image pixels, negative towards the camera. */
   depth_px?: Joints<number>;
+  /** The hand's 26 OpenXR joints (with the tracker's `xrJoints` option; fitted hands only), in `XrHandJointEXT` order: `palm`, `wrist`, `thumb_metacarpal`, ..., `little_tip`. {@link webxrJoints} gives them as WebXR's. */
+  xr_joints?: XrJointRecord[];
   /** The hand size the fit used (with the 3D): the model's wrist-to-middle-fingertip length, the factor on the default adult hand, and where it came from ('default', 'file' for the `hand` option, 'ruler' for `handLengthMm`). */
   hand_size?: { length_mm: number; scale: number; source: 'default' | 'scale' | 'measured' | 'file' | 'ruler' };
 }
+
+/** One OpenXR joint of a hand (docs/output-format.md, "XR joint object"), in the camera's frame. */
+export interface XrJointRecord {
+  name: string;
+  position_mm: Vec3;
+  /** The rotation from the joint's axes (-Z along its bone towards the finger tip, +Y out of the back of the hand) into the camera's frame, `[x, y, z, w]`. */
+  orientation_xyzw: [number, number, number, number];
+  /** The joint's distance to the skin, mm. */
+  radius_mm: number;
+}
+
+/** A joint's pose shaped as WebXR's `XRJointPose` (metres, in the camera as WebXR's `viewer` space: x right, y up, z towards the viewer). */
+export interface WebXRJointPose {
+  transform: {
+    position: { x: number; y: number; z: number; w: number };
+    orientation: { x: number; y: number; z: number; w: number };
+    /** Column-major 4x4, as `XRRigidTransform.matrix`. */
+    matrix: Float32Array;
+  };
+  radius: number;
+}
+
+/** WebXR's 25 hand joint names (`XRHandJoint`), in the spec's order. */
+export declare const WEBXR_JOINT_NAMES: readonly string[];
+
+/** The WebXR name of an OpenXR joint's record name, or `null` for the palm. */
+export declare function webxrJointName(openxrName: string): string | null;
+
+/** A hand's 25 WebXR joint poses by name, in WebXR's order, or `null` when the hand has no `xr_joints`. */
+export declare function webxrJoints(hand: HandRecord): Map<string, WebXRJointPose> | null;
 
 /** One frame's record (docs/output-format.md, "Frame object"). */
 export interface FrameRecord {
@@ -136,6 +168,8 @@ export interface TrackerOptions {
   hand?: HandFile;
   /** A ruler's hand length in mm, the hand flat, from the wrist crease to the end of the middle finger (not with `hand`). */
   handLengthMm?: number;
+  /** Each fitted hand's record carries its 26 OpenXR joints, `xr_joints` (default false; as `monohand run --xr-joints`), which {@link webxrJoints} turns into WebXR's. */
+  xrJoints?: boolean;
   /** The threads to track on (default 2, or 1 on a one-core machine). More than one needs a cross-origin isolated page (COOP/COEP headers) and a browser with WebAssembly relaxed SIMD (Chrome and Edge 114 or newer); else the tracker runs on one and its notes say why. */
   threads?: number;
 }

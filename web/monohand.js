@@ -12,6 +12,8 @@
 // from `monohand models fetch`'s cache) are served beside this file; no other network is
 // used.
 
+export { WEBXR_JOINT_NAMES, webxrJoints, webxrJointName } from './webxr.js';
+
 /** The weights files the tracker loads by default (MediaPipe 0.10.14's full networks). */
 export const DEFAULT_WEIGHTS = {
   palm: 'palm_detection_full.tflite',
@@ -149,7 +151,9 @@ export class Tracker {
  * more than one needs a cross-origin isolated page and WebAssembly relaxed SIMD, else it
  * runs on one and a note says why), `precision` ('f32', the default, or 'int8': fast where
  * it runs threaded), `hand` (a hand file's object, from `monohand run --save-hand`: both
- * hands at the person's size) or `handLengthMm` (a ruler's hand length). Rejects with a message that says what is wrong for an unsupported browser
+ * hands at the person's size) or `handLengthMm` (a ruler's hand length), `xrJoints` (default
+ * false; true: each fitted hand's record carries its 26 OpenXR joints, `xr_joints`, as
+ * `monohand run --xr-joints`, which {@link webxrJoints} turns into WebXR's 25). Rejects with a message that says what is wrong for an unsupported browser
  * ({@link unsupportedReason}), weights missing, cut short or of another network, and bad
  * options.
  */
@@ -180,6 +184,7 @@ export async function createTracker(options = {}) {
   if (options.camera !== undefined) settings.camera = options.camera;
   if (options.hand !== undefined) settings.hand = options.hand;
   if (options.handLengthMm !== undefined) settings.hand_length_mm = options.handLengthMm;
+  if (options.xrJoints !== undefined) settings.xr_joints = options.xrJoints;
   const threads = options.threads ?? Math.min(navigator.hardwareConcurrency || 1, 2);
   const worker = new Worker(new URL('./worker.js', import.meta.url), { type: 'module' });
   const tracker = new Tracker(worker, 1, []);

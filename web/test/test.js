@@ -31,6 +31,8 @@ async function main() {
   const tracker = await createTracker({
     weights: params.get('weights') ?? '../weights/',
     precision: params.get('precision') ?? 'f32',
+    // The records with their OpenXR joints, compared with native `run --xr-joints`'s.
+    xrJoints: true,
   });
   const loadMs = performance.now() - t0;
   say('networks loaded; reading the clip...');

@@ -4,8 +4,8 @@
 // scripts/web-test.sh (`tsc -p web/tsconfig.json`); never executed.
 
 import {
-  createTracker, DEFAULT_WEIGHTS, unsupportedReason,
-  type FrameRecord, type HandRecord, type TrackerOptions,
+  createTracker, DEFAULT_WEIGHTS, unsupportedReason, webxrJoints, WEBXR_JOINT_NAMES,
+  type FrameRecord, type HandRecord, type TrackerOptions, type WebXRJointPose,
 } from '../monohand.js';
 
 export async function example(ctx: CanvasRenderingContext2D, video: HTMLVideoElement): Promise<number[]> {
@@ -13,7 +13,7 @@ export async function example(ctx: CanvasRenderingContext2D, video: HTMLVideoEle
   if (why !== null) throw new Error(why);
   const options: TrackerOptions = {
     weights: './weights/', palm: DEFAULT_WEIGHTS.palm, landmark: new Uint8Array(0), hands: 1,
-    detectEvery: 10, mirrorPass: false, threads: 2, camera: { fx: 500, fy: 500, cx: 319.5, cy: 239.5, width: 640, height: 480 },
+    detectEvery: 10, mirrorPass: false, threads: 2, xrJoints: true, camera: { fx: 500, fy: 500, cx: 319.5, cy: 239.5, width: 640, height: 480 },
   };
   const tracker = await createTracker(options);
   const frames: FrameRecord[] = await tracker.track(ctx.getImageData(0, 0, 640, 480), video.currentTime);
@@ -34,6 +34,10 @@ export async function example(ctx: CanvasRenderingContext2D, video: HTMLVideoEle
       depths.push(h.id ?? -1, h.score ?? 0, h.side_score ?? 0, h.depth_px?.[20] ?? 0);
       if (h.side === 'left' || h.side === 'right') depths.push(h.box?.[0] ?? 0);
       if (h.oriented_box) depths.push(h.oriented_box.angle_deg);
+      if (h.xr_joints) depths.push(h.xr_joints[1].position_mm[2], h.xr_joints[0].orientation_xyzw[3], h.xr_joints[25].radius_mm);
+      const xr: Map<string, WebXRJointPose> | null = webxrJoints(h);
+      const tip = xr?.get(WEBXR_JOINT_NAMES[24]);
+      if (tip) depths.push(tip.transform.position.z, tip.transform.matrix[14], tip.radius);
       // @ts-expect-error: a hand has 21 joints.
       depths.push(h.keypoints_2d[21][0]);
     }

@@ -53,7 +53,7 @@ use std::sync::Arc;
 /// What a page may set, as JSON (every field optional):
 /// `{"hands": 2, "detect_every": 10, "mirror_pass": true, "precision": "f32", "camera":
 /// {"fx": .., "fy": .., "cx": .., "cy": .., "width": .., "height": ..}, "hand": {..a hand
-/// file..}, "hand_length_mm": 180}`.
+/// file..}, "hand_length_mm": 180, "xr_joints": true}`.
 #[derive(Debug, Clone, Default, serde::Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct TrackerOptions {
@@ -75,6 +75,10 @@ pub struct TrackerOptions {
     pub hand: Option<monohand_io::hand::HandFile>,
     /// A ruler's hand length, mm (`run --hand-length-mm`; not with `hand`).
     pub hand_length_mm: Option<f64>,
+    /// Whether each fitted hand's record carries its 26 OpenXR joints (`xr_joints`, as
+    /// `run --xr-joints` writes them; default off). `web/monohand.js`'s `webxrJoints`
+    /// turns them into WebXR's 25.
+    pub xr_joints: Option<bool>,
 }
 
 impl TrackerOptions {
@@ -137,6 +141,8 @@ fn identify(
 /// worker).
 pub struct Tracker {
     session: Session,
+    /// Records with their OpenXR joints ([`TrackerOptions::xr_joints`]).
+    xr_joints: bool,
 }
 
 impl Tracker {
@@ -196,7 +202,10 @@ impl Tracker {
             None => Vec::new(),
         };
         let session = Session::with_pipeline(cameras, Arc::new(pipeline), session_options)?;
-        Ok(Tracker { session })
+        Ok(Tracker {
+            session,
+            xr_joints: options.xr_joints.unwrap_or(false),
+        })
     }
 
     /// Tracks the hands in one frame of `width` x `height` RGBA pixels (row by row, 4 bytes a
@@ -211,12 +220,14 @@ impl Tracker {
     ) -> Result<Vec<FrameRecord>, WebError> {
         let image = rgb_from_rgba(rgba, width, height)?;
         let done = self.session.process(&[&image], time_s)?;
-        Ok(done.iter().map(record).collect())
+        Ok(done.iter().map(|d| record(d, self.xr_joints)).collect())
     }
 
     /// The records of the frames still kept back, at the end of the input.
     pub fn finish(&mut self) -> Vec<FrameRecord> {
-        self.session.finish().iter().map(record).collect()
+        let xr_joints = self.xr_joints;
+        let done = self.session.finish();
+        done.iter().map(|d| record(d, xr_joints)).collect()
     }
 
     /// Messages for the user since the last call (the camera assumed, for one).
@@ -235,9 +246,15 @@ fn settings_error(e: &monohand::SettingsError) -> WebError {
 }
 
 /// A frame's record as `monohand run` writes it for a video (its time, the `vision` and
-/// `fit` timings; the page decoded the frame, so no `decode`).
-fn record(done: &FittedFrame) -> FrameRecord {
-    monohand::records::timed_record(done, None, true, None)
+/// `fit` timings; the page decoded the frame, so no `decode`), with the hands' OpenXR
+/// joints when `xr_joints` (as `run --xr-joints`).
+fn record(done: &FittedFrame, xr_joints: bool) -> FrameRecord {
+    let r = monohand::records::timed_record(done, None, true, None);
+    if xr_joints {
+        r.with_xr_joints()
+    } else {
+        r
+    }
 }
 
 /// The records as one JSON array, each written as `monohand run` writes its lines.
@@ -311,6 +328,9 @@ mod tests {
         assert_eq!(o.hands, Some(1));
         assert_eq!(o.mirror_pass, Some(false));
         assert_eq!(o.camera.unwrap().width, 640);
+        assert_eq!(o.xr_joints, None);
+        let o = TrackerOptions::from_json(r#"{"xr_joints": true}"#).unwrap();
+        assert_eq!(o.xr_joints, Some(true));
         assert!(TrackerOptions::from_json("").unwrap().hands.is_none());
         assert!(TrackerOptions::from_json(r#"{"hand": 1}"#).is_err());
     }
