@@ -7,10 +7,11 @@
 #                 have relaxed SIMD (web/worker.js probes it)
 #   web/weights/  MediaPipe's palm detector and hand landmark networks, copied from
 #                 `monohand models fetch`'s cache (served beside the page; no CDN)
+#   web/webxr-hand/  the WebXR generic hand mesh for the demo page's WebXR view
 # and installs what that needs, pinned, when it is missing: the wasm32-unknown-unknown
 # target and the standard library's source (rustup: the threaded module rebuilds std with
 # atomics) and wasm-bindgen-cli at the exact version of the wasm-bindgen crate
-# (crates.io). Both folders are build outputs (not committed).
+# (crates.io). These folders are build outputs (not committed).
 #
 #   scripts/web-build.sh                  build (Cargo profile `web`, 4.3 MB), copy the weights
 #   WEB_PROFILE=web-fast scripts/...      everything at opt-level 3 (8.3 MB; to compare)
@@ -107,4 +108,8 @@ if [ "${WEB_WEIGHTS:-1}" != 0 ]; then
 else
   weights_note="no weights (WEB_WEIGHTS=0)"
 fi
+# The WebXR generic hand (its two .glb files and licence), which the demo page's WebXR view
+# (web/webxr-hand.js: three.js' XRHandMeshModel) loads from web/webxr-hand/ instead of a CDN.
+mkdir -p web/webxr-hand
+cp crates/monohand-io/assets/webxr-generic-hand/{left.glb,right.glb,LICENSE.md} web/webxr-hand/
 echo "web-build: web/pkg ($(du -b web/pkg/monohand_web_bg.wasm | cut -f1) bytes of wasm), $threads_note and $weights_note ready"

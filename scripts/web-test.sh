@@ -17,8 +17,10 @@
 # delegate (MediaPipe's XNNPACK in WebAssembly) on the same two networks as monohand; G is
 # @mediapipe/hands, whose graph runs on WebGL, which a machine without a GPU renders in
 # software (the renderer is named in the details). The fps are printed, never asserted. It
-# exits 1 if the records differ from native, or if Tasks' 2D keypoints disagree with
-# monohand's (below). Then the demo page (web/index.html) tracks the same clip
+# exits 1 if the records differ from native (their OpenXR joints included: both ask for
+# them), or if Tasks' 2D keypoints disagree with monohand's (below). web/webxr.js' WebXR
+# joint poses are checked on native's records (web/test/webxr.mjs), and the demo page's
+# WebXR view (three.js' XRHandModelFactory mesh) must draw the hand on its joints. Then the demo page (web/index.html) tracks the same clip
 # from Chromium's fake camera (a .y4m file behind getUserMedia) and must find a hand in 3D in
 # every camera frame it tracked, keep its own timer ticking while it tracks, give its records as JSON Lines with its download button, and say what
 # is wrong when the camera is denied or absent, the weights are cut short or missing, or the
@@ -112,9 +114,10 @@ ffmpeg -v error -y -loop 1 -framerate 30 -i "$photo" -vf "$motion" -frames:v "$f
 # The same pixels, raw RGBA, one frame after the other: what the page reads into ImageData.
 ffmpeg -v error -y -framerate 30 -i "$out/frames/%04d.png" -f rawvideo -pix_fmt rgba "$out/clip.rgba"
 
-"$bin" run "$out/frames" --track --hands 2 --no-heads -o "$out/native.jsonl" 2> "$out/native.log"
-"$bin" run "$out/frames" --track --hands 2 --no-heads --precision int8 -o "$out/native-int8.jsonl" \
-  2>> "$out/native.log"
+# With their OpenXR joints (the test page asks for them too: `xrJoints: true`).
+"$bin" run "$out/frames" --track --hands 2 --no-heads --xr-joints -o "$out/native.jsonl" 2> "$out/native.log"
+"$bin" run "$out/frames" --track --hands 2 --no-heads --xr-joints --precision int8 \
+  -o "$out/native-int8.jsonl" 2>> "$out/native.log"
 
 # The glTF export (issue 43): 150 frames of the same moving camera as a video (lossless
 # FFV1), tracked by native run into the skinned hand (`--gltf`'s default) and into joints and
@@ -177,6 +180,10 @@ if (one.threads !== 1 || !(want < 2 || one.notes.some((n) => n.includes("not cro
 ffmpeg -v error -y -framerate 30 -i "$out/frames/%04d.png" -pix_fmt yuv420p "$out/clip.y4m"
 # The demo's three.js (its 3D view) and TypeScript (below), pinned in web/package-lock.json.
 npm ci --prefix web --no-audit --no-fund --loglevel=error > /dev/null
+# WebXR's joint poses (web/webxr.js) from native's OpenXR joints: WebXR's 25 names in order
+# (three.js' list among them), positions, rotations along the bones, radii.
+node web/test/webxr.mjs "$out/native.jsonl" web/node_modules/three/examples/jsm/webxr/XRHandMeshModel.js \
+  > "$out/webxr.json" || { echo "web-test: WebXR's joint poses are wrong (web/test/webxr.mjs, above)" >&2; exit 1; }
 camera() {
   node --experimental-websocket web/test/camera.mjs --web web ${CHROMIUM:+--chromium "$CHROMIUM"} "$@" \
     2>> "$out/chromium.log" | tail -n 1
@@ -189,6 +196,20 @@ camera --y4m "$out/clip.y4m" --frames "$frames" --screenshot "$out/camera.png" -
 # above; its time a frame is printed, never asserted).
 camera --y4m "$out/clip.y4m" --frames "$frames" --query "&mirror=0" > "$out/camera-one-pass.json" ||
   { echo "web-test: with one landmark pass the demo page did not find the hand (see $out/camera-one-pass.json, $out/chromium.log)" >&2; exit 1; }
+# The demo's other 3D view (`view3d=webxr`): three.js' own WebXR hand (XRHandModelFactory,
+# the mesh profile) driven by the tracker's WebXR joint poses. It must draw the hand, its
+# mesh must find all 25 bones by WebXR's names, and each bone must sit on its joint.
+camera --y4m "$out/clip.y4m" --frames 20 --query "&view3d=webxr" --screenshot "$out/camera-webxr.png" \
+  > "$out/camera-webxr.json" ||
+  { echo "web-test: the demo page's WebXR view did not track the hand (see $out/camera-webxr.json, $out/chromium.log)" >&2; exit 1; }
+node -e '
+const r = JSON.parse(require("fs").readFileSync(process.argv[1], "utf8"));
+const bones = Object.values(r.webxr_bones ?? {});
+if (r.view3d !== "webxr" || !(r.hand3d_view_frames > 0) || !bones.length || bones.some((n) => n !== 25)
+  || !(r.webxr_max_bone_offset_mm < 0.01)) {
+  console.error(`web-test: the WebXR view: ${JSON.stringify(r)}`);
+  process.exit(1);
+}' "$out/camera-webxr.json"
 node -e '
 const r = JSON.parse(require("fs").readFileSync(process.argv[1], "utf8"));
 if (r.mirror_pass !== false) {
@@ -255,6 +276,10 @@ const t1 = JSON.parse(require("fs").readFileSync(process.argv[9], "utf8"));
 console.log(`  vs native: max ${c.max_px.toFixed(4)} px, ${c.max_mm.toFixed(4)} mm on ${t.threads} threads (cross-origin isolated; ${t.shared_operators} operator runs shared between them), ${c1.max_px.toFixed(4)} px, ${c1.max_mm.toFixed(4)} mm on ${t1.threads} (not isolated, frames as ImageBitmaps: the page says so); ${c.failures + c1.failures} differences beyond 0.02 px / 0.05 mm`);
 const c8 = JSON.parse(require("fs").readFileSync(process.argv[10], "utf8"));
 const t8 = JSON.parse(require("fs").readFileSync(process.argv[11], "utf8"));
+const xw = JSON.parse(require("fs").readFileSync(process.argv[12], "utf8"));
+const xu = JSON.parse(require("fs").readFileSync(process.argv[13], "utf8"));
+console.log(`  OpenXR joints (xrJoints: true) vs native --xr-joints: ${c.xr_hands} of ${c.hands_3d} hands, max ${c.max_xr_mm.toFixed(4)} mm, orientations ${c.max_xr_quat.toExponential(1)}; WebXR poses (web/webxr.js, ${xu.hands} hands): -Z along the bone within ${xu.max_bone_angle_rad.toExponential(1)} rad; the demo\x27s WebXR view (three.js XRHandModelFactory mesh): drawn in ${xw.hand3d_view_frames} of ${xw.frames} frames, ${JSON.stringify(xw.webxr_bones)} bones found, each within ${xw.webxr_max_bone_offset_mm.toFixed(4)} mm of its joint`);
+if (c.xr_hands !== c.hands_3d || c1.xr_hands !== c1.hands_3d) { console.error("web-test: not every fitted hand was compared with its OpenXR joints"); process.exitCode = 1; }
 console.log(`  int8 (precision: "int8") vs native --precision int8: max ${c8.max_px.toFixed(4)} px, ${c8.max_mm.toFixed(4)} mm on ${t8.threads} threads, ${c8.failures} differences beyond 0.02 px / 0.05 mm; test page ${(1000 / t8.mean_ms_after_first).toFixed(1)} fps`);
 console.log(`  weights cut short or missing, no WebAssembly: the demo page says so (${process.argv[3]})`);
 const cam = JSON.parse(require("fs").readFileSync(process.argv[4], "utf8"));
@@ -268,7 +293,8 @@ const wasm = (files) => files.filter((f) => f.endsWith(".wasm")).join(", ");
 console.log(`  side by side (web/bench, one hand, ${b.rounds > 1 ? `${b.rounds} rounds alternating` : "one round each"}; fps of each round): monohand ${r(b.monohand.per_round_fps)} fps like for like (median ${b.monohand.median_ms.toFixed(1)} ms a frame; one landmark pass a crop), ${r(b.monohand_defaults.per_round_fps)} fps with its mirror pass (median ${b.monohand_defaults.median_ms.toFixed(1)} ms), MediaPipe Tasks HandLandmarker CPU ${r(b.tasks.per_round_fps)} fps (median ${b.tasks.median_ms.toFixed(1)} ms; ${wasm(b.tasks.files)}), @mediapipe/hands (legacy, WebGL; the first ${b.mediapipe.frames} frames) ${r(b.mediapipe.per_round_fps)} fps (median ${b.mediapipe.median_ms.toFixed(1)} ms; ${wasm(b.mediapipe.files)}; its WebGL on ${b.webgl_renderer})`);
 console.log(`  test page: ${(1000 / t.mean_ms_after_first).toFixed(1)} fps; load ${t.load_ms.toFixed(0)} ms, first frame done ${t.first_frame_ms.toFixed(0)} ms after the page started loading the networks, median ${t.median_ms_after_first.toFixed(1)} ms a frame`);
 ' "$out/timings.json" "$out/compare.json" "$out/bad-cut.json, $out/bad-missing.json, $out/no-wasm.json" "$out/camera.json" "$out/bench.json" "$out/video.json" "$out/camera-one-pass.json" \
-  "$out/compare-one-thread.json" "$out/timings-one-thread.json" "$out/compare-int8.json" "$out/timings-int8.json"
+  "$out/compare-one-thread.json" "$out/timings-one-thread.json" "$out/compare-int8.json" "$out/timings-int8.json" \
+  "$out/camera-webxr.json" "$out/webxr.json" || status=1
 node -e '
 const [s, j] = process.argv.slice(1).map((f) => JSON.parse(require("fs").readFileSync(f, "utf8")));
 console.log(`  glTF (native run --gltf, ${s.keys} frames; Khronos validator ${s.validator}): skinned ${s.errors} errors, ${s.warnings} warnings, ${s.infos} infos; joints ${j.errors}, ${j.warnings}, ${j.infos}`);

@@ -6,14 +6,19 @@
 //
 // URL parameters: `weights` (the weights' folder, default ./weights/), `start=camera`
 // (start the camera at once, without the button; the browser test uses it), `mirror=0`
-// (the "mirror pass" box unticked: one landmark pass a hand, about twice the frame rate).
+// (the "mirror pass" box unticked: one landmark pass a hand, about twice the frame rate),
+// `view3d=webxr` (the 3D view's choice: three.js' own WebXR hand, driven through WebXR's
+// joint poses, web/webxr-hand.js, instead of monohand's skinned mesh, web/hand3d.js).
 //
 // The page's state is in `window.monohandDemo` (read by the browser test,
 // web/test/camera.mjs): `state` ('loading', 'ready', 'running', 'stopped' or 'error'),
 // `message`, `frames` (frames tracked), `framesWithHand3d`, `hands3d`, `frameMs`,
 // `hand3dFrames` (frames the three.js view drew a hand in), `hand3d` (why there is no such
 // view, if there is none), `mirrorPass` (the tracker's setting), `threads` (the threads it
-// runs on), `framesTicked` (frames during whose tracking the page's own timer ticked).
+// runs on), `framesTicked` (frames during whose tracking the page's own timer ticked),
+// `view3d` (the 3D view shown, 'mesh' or 'webxr'), and with the WebXR view `webxrBones`
+// (per side, the bones three.js' hand mesh found by WebXR's joint names) and
+// `webxrMaxBoneOffsetMm` (the farthest any of them was drawn from its WebXR joint).
 
 import { createTracker, unsupportedReason } from './monohand.js';
 import { drawOverlay } from './overlay.js';
@@ -21,9 +26,11 @@ import { drawOverlay } from './overlay.js';
 const $ = (id) => document.getElementById(id);
 const params = new URLSearchParams(location.search);
 if (params.get('mirror') === '0') $('mirror').checked = false;
+if (params.get('view3d') === 'webxr') $('view3d').value = 'webxr';
 const demo = {
   state: 'loading', message: '', frames: 0, framesWithHand3d: 0, hands3d: 0, frameMs: [],
-  framesTicked: 0, hand3dFrames: 0, hand3d: '', mirrorPass: null, threads: null,
+  framesTicked: 0, hand3dFrames: 0, hand3d: '', mirrorPass: null, threads: null, view3d: null,
+  webxrBones: null, webxrMaxBoneOffsetMm: null,
 };
 window.monohandDemo = demo;
 
@@ -147,6 +154,10 @@ function trackVideo(video, { live, label }) {
         if (done.length) {
           drawOverlay(ctx, done[done.length - 1]);
           if (handView && handView.update(done[done.length - 1]) > 0) demo.hand3dFrames += 1;
+          if (handView?.bones) {
+            demo.webxrBones = { ...handView.bones };
+            demo.webxrMaxBoneOffsetMm = handView.maxBoneOffsetMm;
+          }
         }
         recent.push(performance.now());
         while (recent.length > 30) recent.shift();
@@ -208,12 +219,40 @@ async function startTracker() {
   // A new session for each source: identities and the fit's warm start begin afresh.
   tracker?.close();
   tracker = null;
+  const view3d = $('view3d').value;
   tracker = await createTracker({
     weights: params.get('weights') ?? './weights/',
     mirrorPass: $('mirror').checked,
+    // The WebXR view poses its hand from the records' OpenXR joints.
+    xrJoints: view3d === 'webxr',
   });
   demo.mirrorPass = $('mirror').checked;
+  await showHandView(view3d);
   demo.threads = tracker.threads;
+}
+
+// The 3D view, `kind` 'mesh' (monohand's skinned hand) or 'webxr' (three.js' WebXR hand),
+// made anew when the kind changes (on the same canvas). It is an extra: without three.js
+// or WebGL the page says why and goes on.
+async function showHandView(kind) {
+  if (handView && demo.view3d === kind) return;
+  handView?.renderer.dispose();
+  handView = null;
+  demo.view3d = kind;
+  try {
+    if (kind === 'webxr') {
+      const { WebXRHandView } = await import('./webxr-hand.js');
+      handView = new WebXRHandView($('hand3d'));
+    } else {
+      const { HandView } = await import('./hand3d.js');
+      handView = new HandView($('hand3d'));
+    }
+  } catch (e) {
+    $('hand3d').hidden = true;
+    demo.hand3d = `No 3D view: ${e.message}. It needs WebGL and three.js in web/node_modules `
+      + '(npm ci in web/; scripts/web-serve.sh does it).';
+    $('hand3d-note').textContent = demo.hand3d;
+  }
 }
 
 async function startCamera() {
@@ -275,16 +314,6 @@ async function main() {
   } catch (e) {
     say(`The tracker could not start: ${e.message}`, { error: true });
     return;
-  }
-  // The 3D view is an extra: without three.js or WebGL the page says why and goes on.
-  try {
-    const { HandView } = await import('./hand3d.js');
-    handView = new HandView($('hand3d'));
-  } catch (e) {
-    $('hand3d').hidden = true;
-    demo.hand3d = `No 3D view: ${e.message}. It needs WebGL and three.js in web/node_modules `
-      + '(npm ci in web/; scripts/web-serve.sh does it).';
-    $('hand3d-note').textContent = demo.hand3d;
   }
   demo.state = 'ready';
   say('Ready: start the camera or open a video file.');

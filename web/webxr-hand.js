@@ -1,0 +1,140 @@
+// The demo page's other 3D view: three.js' own WebXR hand (XRHandModelFactory's 'mesh'
+// profile, the WebXR generic hand), written for a headset's hand input, driven by the
+// webcam. Each record's hand goes through webxrJoints (web/webxr.js: WebXR's 25 joint
+// poses) into a hand space shaped as three.js' `renderer.xr.getHand(i)`, posed the way
+// three.js' WebXRController poses it from an XRFrame; three.js' hand model then follows
+// it unchanged. The mesh's two .glb files are the project's copy
+// (crates/monohand-io/assets/webxr-generic-hand, copied to web/webxr-hand/ by
+// scripts/web-build.sh), so nothing is fetched from a CDN.
+
+import * as THREE from 'three';
+import { XRHandModelFactory } from 'three/addons/webxr/XRHandModelFactory.js';
+import { WEBXR_JOINT_NAMES, webxrJoints } from './webxr.js';
+
+/**
+ * A hand space as three.js gives one in an XR session (`renderer.xr.getHand(i)`): a group
+ * with a `joints` object of 25 groups named as WebXR's joints, that says `connected` with
+ * an XRInputSource-shaped `data` (its `hand` a Map of joint spaces) when the hand first
+ * appears. {@link WebXRHandSpace#update} poses it from a record's hand.
+ */
+export class WebXRHandSpace extends THREE.Group {
+  constructor(handedness) {
+    super();
+    this.visible = false;
+    this.joints = {};
+    this.inputState = { pinching: false };
+    this.inputSource = {
+      handedness,
+      hand: new Map(WEBXR_JOINT_NAMES.map((jointName) => [jointName, { jointName }])),
+      targetRayMode: 'tracked-pointer',
+      profiles: ['generic-hand'],
+    };
+    for (const name of WEBXR_JOINT_NAMES) {
+      const joint = new THREE.Group();
+      joint.matrixAutoUpdate = false;
+      joint.visible = false;
+      this.joints[name] = joint;
+      this.add(joint);
+    }
+    this.connected = false;
+  }
+
+  /** Poses the joints from a record's hand (with `xr_joints`); hides them without. */
+  update(hand) {
+    const poses = hand ? webxrJoints(hand) : null;
+    if (!poses) {
+      this.visible = false;
+      return false;
+    }
+    if (!this.connected) {
+      this.connected = true;
+      this.dispatchEvent({ type: 'connected', data: this.inputSource });
+    }
+    // As three.js' WebXRController.update does with each XRJointPose.
+    for (const [name, pose] of poses) {
+      const joint = this.joints[name];
+      joint.matrix.fromArray(pose.transform.matrix);
+      joint.matrix.decompose(joint.position, joint.rotation, joint.scale);
+      joint.matrixWorldNeedsUpdate = true;
+      joint.jointRadius = pose.radius;
+      joint.visible = true;
+    }
+    this.visible = true;
+    return true;
+  }
+}
+
+export class WebXRHandView {
+  /** Draws into `canvas`; throws if the browser gives no WebGL. */
+  constructor(canvas) {
+    this.renderer = new THREE.WebGLRenderer({ canvas, antialias: true });
+    this.renderer.setSize(canvas.width, canvas.height, false);
+    this.scene = new THREE.Scene();
+    this.scene.background = new THREE.Color(0x1a1a20);
+    this.scene.add(new THREE.HemisphereLight(0xffffff, 0x445566, 2.0));
+    const sun = new THREE.DirectionalLight(0xffffff, 2.0);
+    sun.position.set(0.5, 1, 0.6);
+    this.scene.add(sun);
+    this.view = new THREE.PerspectiveCamera(35, canvas.width / canvas.height, 0.01, 20);
+    this.frustum = null;
+    const factory = new XRHandModelFactory().setPath(new URL('./webxr-hand/', import.meta.url).href);
+    /** Per side: the hand space and three.js' hand model in it. */
+    this.hands = {};
+    for (const side of ['left', 'right']) {
+      const space = new WebXRHandSpace(side);
+      const model = factory.createHandModel(space, 'mesh');
+      space.add(model);
+      this.scene.add(space);
+      this.hands[side] = { space, model };
+    }
+    /** The largest distance, mm, between a bone of three.js' hand mesh and its WebXR joint. */
+    this.maxBoneOffsetMm = 0;
+    /** The bones three.js' mesh found by WebXR's names, per side (once loaded). */
+    this.bones = {};
+  }
+
+  /** The video camera's field of view at the origin (WebXR's viewer space: looking down -z). */
+  showCamera(cam) {
+    if (this.frustum || !cam) return;
+    const fov = (2 * Math.atan(cam.height / 2 / cam.fy) * 180) / Math.PI;
+    const c = new THREE.PerspectiveCamera(fov, cam.width / cam.height, 0.005, 0.08);
+    this.frustum = new THREE.CameraHelper(c);
+    this.scene.add(this.frustum);
+  }
+
+  /** Poses and draws the first fitted hand of each side of `frame` (a record). */
+  update(frame) {
+    this.showCamera(frame.cameras?.[0]);
+    const centre = new THREE.Vector3();
+    const drawn = [];
+    for (const side of ['left', 'right']) {
+      const hand = frame.hands.find((h) => h.side === side && h.xr_joints);
+      const { space, model } = this.hands[side];
+      if (!space.update(hand)) continue;
+      centre.add(space.joints.wrist.position);
+      const bones = model.motionController?.bones ?? [];
+      if (bones.length) drawn.push({ side, space, bones });
+    }
+    if (drawn.length) {
+      // Seen from the right side and a little above, the camera's origin in view.
+      centre.divideScalar(drawn.length);
+      const look = centre.clone().multiplyScalar(0.5);
+      const d = Math.max(0.5, centre.length() * 1.7);
+      this.view.position.set(look.x + d, look.y + 0.35 * d, look.z);
+      this.view.lookAt(look);
+    }
+    this.renderer.render(this.scene, this.view);
+    // three.js moved its mesh's bones while rendering (XRHandModel.updateMatrixWorld).
+    const p = new THREE.Vector3();
+    const q = new THREE.Vector3();
+    for (const { side, space, bones } of drawn) {
+      this.bones[side] = bones.filter(Boolean).length;
+      for (const bone of bones.filter(Boolean)) {
+        bone.getWorldPosition(p);
+        space.joints[bone.jointName].getWorldPosition(q);
+        this.maxBoneOffsetMm = Math.max(this.maxBoneOffsetMm, 1000 * p.distanceTo(q));
+      }
+    }
+    return drawn.length;
+  }
+}
