@@ -6,6 +6,7 @@
 // only moves its 25 joints.
 
 import * as THREE from 'three';
+import { cameraFrustum, lookFromSide, makeScene } from './scene3d.js';
 import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
 import init, { WebHandMesh } from './pkg/monohand_web.js';
 
@@ -19,15 +20,7 @@ const STRIDE = 8;
 export class HandView {
   /** Draws into `canvas`; throws if the browser gives no WebGL. */
   constructor(canvas) {
-    this.renderer = new THREE.WebGLRenderer({ canvas, antialias: true });
-    this.renderer.setSize(canvas.width, canvas.height, false);
-    this.scene = new THREE.Scene();
-    this.scene.background = new THREE.Color(0x1a1a20);
-    this.scene.add(new THREE.HemisphereLight(0xffffff, 0x445566, 2.0));
-    const sun = new THREE.DirectionalLight(0xffffff, 2.0);
-    sun.position.set(0.5, 1, 0.6);
-    this.scene.add(sun);
-    this.view = new THREE.PerspectiveCamera(35, canvas.width / canvas.height, 0.01, 20);
+    ({ renderer: this.renderer, scene: this.scene, view: this.view } = makeScene(canvas));
     this.frustum = null;
     this.mesh = new WebHandMesh();
     this.loader = new GLTFLoader();
@@ -52,9 +45,7 @@ export class HandView {
   /** The video camera's field of view, from the record's camera, at the origin. */
   showCamera(cam) {
     if (this.frustum || !cam) return;
-    const fov = (2 * Math.atan(cam.height / 2 / cam.fy) * 180) / Math.PI;
-    const c = new THREE.PerspectiveCamera(fov, cam.width / cam.height, 0.005, 0.08);
-    this.frustum = new THREE.CameraHelper(c);
+    this.frustum = cameraFrustum(cam);
     this.scene.add(this.frustum);
   }
 
@@ -87,12 +78,8 @@ export class HandView {
       shown += 1;
     }
     if (shown) {
-      // Seen from the right side and a little above, the camera's origin in view.
       centre.divideScalar(shown);
-      const look = centre.clone().multiplyScalar(0.5);
-      const d = Math.max(0.5, centre.length() * 1.7);
-      this.view.position.set(look.x + d, look.y + 0.35 * d, look.z);
-      this.view.lookAt(look);
+      lookFromSide(this.view, centre);
     }
     this.renderer.render(this.scene, this.view);
     return shown;

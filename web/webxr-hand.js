@@ -8,6 +8,7 @@
 // scripts/web-build.sh), so nothing is fetched from a CDN.
 
 import * as THREE from 'three';
+import { cameraFrustum, lookFromSide, makeScene } from './scene3d.js';
 import { XRHandModelFactory } from 'three/addons/webxr/XRHandModelFactory.js';
 import { WEBXR_JOINT_NAMES, webxrJoints } from './webxr.js';
 
@@ -67,15 +68,7 @@ export class WebXRHandSpace extends THREE.Group {
 export class WebXRHandView {
   /** Draws into `canvas`; throws if the browser gives no WebGL. */
   constructor(canvas) {
-    this.renderer = new THREE.WebGLRenderer({ canvas, antialias: true });
-    this.renderer.setSize(canvas.width, canvas.height, false);
-    this.scene = new THREE.Scene();
-    this.scene.background = new THREE.Color(0x1a1a20);
-    this.scene.add(new THREE.HemisphereLight(0xffffff, 0x445566, 2.0));
-    const sun = new THREE.DirectionalLight(0xffffff, 2.0);
-    sun.position.set(0.5, 1, 0.6);
-    this.scene.add(sun);
-    this.view = new THREE.PerspectiveCamera(35, canvas.width / canvas.height, 0.01, 20);
+    ({ renderer: this.renderer, scene: this.scene, view: this.view } = makeScene(canvas));
     this.frustum = null;
     const factory = new XRHandModelFactory().setPath(new URL('./webxr-hand/', import.meta.url).href);
     /** Per side: the hand space and three.js' hand model in it. */
@@ -96,9 +89,7 @@ export class WebXRHandView {
   /** The video camera's field of view at the origin (WebXR's viewer space: looking down -z). */
   showCamera(cam) {
     if (this.frustum || !cam) return;
-    const fov = (2 * Math.atan(cam.height / 2 / cam.fy) * 180) / Math.PI;
-    const c = new THREE.PerspectiveCamera(fov, cam.width / cam.height, 0.005, 0.08);
-    this.frustum = new THREE.CameraHelper(c);
+    this.frustum = cameraFrustum(cam);
     this.scene.add(this.frustum);
   }
 
@@ -107,21 +98,19 @@ export class WebXRHandView {
     this.showCamera(frame.cameras?.[0]);
     const centre = new THREE.Vector3();
     const drawn = [];
+    let posed = 0;
     for (const side of ['left', 'right']) {
       const hand = frame.hands.find((h) => h.side === side && h.xr_joints);
       const { space, model } = this.hands[side];
       if (!space.update(hand)) continue;
       centre.add(space.joints.wrist.position);
+      posed += 1;
       const bones = model.motionController?.bones ?? [];
       if (bones.length) drawn.push({ side, space, bones });
     }
-    if (drawn.length) {
-      // Seen from the right side and a little above, the camera's origin in view.
-      centre.divideScalar(drawn.length);
-      const look = centre.clone().multiplyScalar(0.5);
-      const d = Math.max(0.5, centre.length() * 1.7);
-      this.view.position.set(look.x + d, look.y + 0.35 * d, look.z);
-      this.view.lookAt(look);
+    if (posed) {
+      centre.divideScalar(posed);
+      lookFromSide(this.view, centre);
     }
     this.renderer.render(this.scene, this.view);
     // three.js moved its mesh's bones while rendering (XRHandModel.updateMatrixWorld).
