@@ -6,7 +6,7 @@
 // only moves its 25 joints.
 
 import * as THREE from 'three';
-import { cameraFrustum, lookFromSide, makeScene } from './scene3d.js';
+import { SideView } from './scene3d.js';
 import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
 import init, { WebHandMesh } from './pkg/monohand_web.js';
 
@@ -17,11 +17,10 @@ await init();
 /** Numbers per mesh joint in WebHandMesh.pose: translation (3), rotation (4), scale. */
 const STRIDE = 8;
 
-export class HandView {
+export class HandView extends SideView {
   /** Draws into `canvas`; throws if the browser gives no WebGL. */
   constructor(canvas) {
-    ({ renderer: this.renderer, scene: this.scene, view: this.view } = makeScene(canvas));
-    this.frustum = null;
+    super(canvas);
     this.mesh = new WebHandMesh();
     this.loader = new GLTFLoader();
     /** Per side: a promise while loading, then { root, bones }. */
@@ -40,13 +39,6 @@ export class HandView {
     if (!skinned) throw new Error('the glTF has no skinned hand');
     this.scene.add(gltf.scene);
     return { root: gltf.scene, bones: skinned.skeleton.bones };
-  }
-
-  /** The video camera's field of view, from the record's camera, at the origin. */
-  showCamera(cam) {
-    if (this.frustum || !cam) return;
-    this.frustum = cameraFrustum(cam);
-    this.scene.add(this.frustum);
   }
 
   /** Poses and draws the first fitted hand of each side of `frame` (a record). */
@@ -77,11 +69,7 @@ export class HandView {
       centre.add(new THREE.Vector3(p[0], p[1], p[2]));
       shown += 1;
     }
-    if (shown) {
-      centre.divideScalar(shown);
-      lookFromSide(this.view, centre);
-    }
-    this.renderer.render(this.scene, this.view);
+    this.render(centre, shown);
     return shown;
   }
 }

@@ -31,3 +31,28 @@ export function lookFromSide(view, centre) {
   view.position.set(look.x + d, look.y + 0.35 * d, look.z);
   view.lookAt(look);
 }
+
+/**
+ * A 3D view of hands seen from the side: the scene, the video camera's field of view at the
+ * origin (from the first record that has a camera), and a render centred on the hands.
+ */
+export class SideView {
+  /** Draws into `canvas`; throws if the browser gives no WebGL. */
+  constructor(canvas) {
+    ({ renderer: this.renderer, scene: this.scene, view: this.view } = makeScene(canvas));
+    this.frustum = null;
+  }
+
+  /** Shows the video camera's field of view at the origin, once, from a record's camera. */
+  showCamera(cam) {
+    if (this.frustum || !cam) return;
+    this.frustum = cameraFrustum(cam);
+    this.scene.add(this.frustum);
+  }
+
+  /** Renders, seen from the side of the mean of `n` hands' points summed in `sum`. */
+  render(sum, n) {
+    if (n) lookFromSide(this.view, sum.clone().divideScalar(n));
+    this.renderer.render(this.scene, this.view);
+  }
+}

@@ -8,7 +8,7 @@
 // scripts/web-build.sh), so nothing is fetched from a CDN.
 
 import * as THREE from 'three';
-import { cameraFrustum, lookFromSide, makeScene } from './scene3d.js';
+import { SideView } from './scene3d.js';
 import { XRHandModelFactory } from 'three/addons/webxr/XRHandModelFactory.js';
 import { WEBXR_JOINT_NAMES, webxrJoints } from './webxr.js';
 
@@ -65,11 +65,10 @@ export class WebXRHandSpace extends THREE.Group {
   }
 }
 
-export class WebXRHandView {
+export class WebXRHandView extends SideView {
   /** Draws into `canvas`; throws if the browser gives no WebGL. */
   constructor(canvas) {
-    ({ renderer: this.renderer, scene: this.scene, view: this.view } = makeScene(canvas));
-    this.frustum = null;
+    super(canvas);
     const factory = new XRHandModelFactory().setPath(new URL('./webxr-hand/', import.meta.url).href);
     /** Per side: the hand space and three.js' hand model in it. */
     this.hands = {};
@@ -84,13 +83,6 @@ export class WebXRHandView {
     this.maxBoneOffsetMm = 0;
     /** The bones three.js' mesh found by WebXR's names, per side (once loaded). */
     this.bones = {};
-  }
-
-  /** The video camera's field of view at the origin (WebXR's viewer space: looking down -z). */
-  showCamera(cam) {
-    if (this.frustum || !cam) return;
-    this.frustum = cameraFrustum(cam);
-    this.scene.add(this.frustum);
   }
 
   /** Poses and draws the first fitted hand of each side of `frame` (a record). */
@@ -108,11 +100,7 @@ export class WebXRHandView {
       const bones = model.motionController?.bones ?? [];
       if (bones.length) drawn.push({ side, space, bones });
     }
-    if (posed) {
-      centre.divideScalar(posed);
-      lookFromSide(this.view, centre);
-    }
-    this.renderer.render(this.scene, this.view);
+    this.render(centre, posed);
     // three.js moved its mesh's bones while rendering (XRHandModel.updateMatrixWorld).
     const p = new THREE.Vector3();
     const q = new THREE.Vector3();
