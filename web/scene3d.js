@@ -5,7 +5,7 @@
 import * as THREE from 'three';
 
 /** A renderer on `canvas` (throws if the browser gives no WebGL), a lit scene and a view. */
-export function makeScene(canvas) {
+function makeScene(canvas) {
   const renderer = new THREE.WebGLRenderer({ canvas, antialias: true });
   renderer.setSize(canvas.width, canvas.height, false);
   const scene = new THREE.Scene();
@@ -19,13 +19,13 @@ export function makeScene(canvas) {
 }
 
 /** The video camera's field of view, from a record's camera, at the origin (looking down -z). */
-export function cameraFrustum(cam) {
+function cameraFrustum(cam) {
   const fov = (2 * Math.atan(cam.height / 2 / cam.fy) * 180) / Math.PI;
   return new THREE.CameraHelper(new THREE.PerspectiveCamera(fov, cam.width / cam.height, 0.005, 0.08));
 }
 
 /** Points `view` at the hands around `centre` from the right side and a little above, the camera's origin in view. */
-export function lookFromSide(view, centre) {
+function lookFromSide(view, centre) {
   const look = centre.clone().multiplyScalar(0.5);
   const d = Math.max(0.5, centre.length() * 1.7);
   view.position.set(look.x + d, look.y + 0.35 * d, look.z);

@@ -42,7 +42,7 @@ export class WebXRHandSpace extends THREE.Group {
 
   /** Poses the joints from a record's hand (with `xr_joints`); hides them without. */
   update(hand) {
-    const poses = hand ? webxrJoints(hand) : null;
+    const poses = webxrJoints(hand);
     if (!poses) {
       this.visible = false;
       return false;
