@@ -14,7 +14,7 @@ pub(crate) fn sink(
     views: usize,
     fps: Option<f64>,
     task: &str,
-    source: Option<String>,
+    source: Option<&Path>,
 ) -> PyResult<Box<dyn Sink + Send>> {
     let sink = LeRobotSink::create(dir, views, fps.unwrap_or(30.0), task)
         .map_err(|e| MonohandError::new_err(format!("lerobot: {e}")))?

@@ -198,13 +198,7 @@ impl PySession {
         let watch = Arc::new(Watch::default());
         let observer = Arc::clone(&watch);
         let rerun = self.rerun.clone();
-        let source = crate::sync::paths_of(path)?
-            .and_then(|v| v.first().cloned())
-            .and_then(|p| {
-                std::path::Path::new(&p)
-                    .file_name()
-                    .map(|n| n.to_string_lossy().into_owned())
-            });
+        let source = crate::sync::paths_of(path)?.and_then(|v| v.first().cloned());
         let lerobot = lerobot
             .map(|d| {
                 crate::lerobot::sink(
@@ -212,7 +206,7 @@ impl PySession {
                     sources.len(),
                     sources.first().and_then(|s| s.fps()),
                     lerobot_task,
-                    source,
+                    source.as_deref().map(std::path::Path::new),
                 )
             })
             .transpose()?;

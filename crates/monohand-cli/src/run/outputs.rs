@@ -110,8 +110,7 @@ pub(crate) fn create(
             .input
             .as_deref()
             .or(args.views.first().map(String::as_str))
-            .and_then(|i| Path::new(i).file_name())
-            .map(|s| s.to_string_lossy().into_owned());
+            .map(Path::new);
         let sink = LeRobotSink::create(dir, views, fps.unwrap_or(30.0), &args.lerobot_task)
             .map_err(|e| anyhow!("--lerobot {e}"))?
             .with_source(source);

@@ -132,12 +132,8 @@ impl CorpusItem {
         if episode.dir.exists() {
             std::fs::remove_dir_all(&episode.dir)?;
         }
-        let source = self
-            .input
-            .file_name()
-            .map(|n| n.to_string_lossy().into_owned());
         let sink = super::LeRobotSink::create(&episode.dir, 1, fps.unwrap_or(30.0), &episode.task)?
-            .with_source(source);
+            .with_source(Some(&self.input));
         Ok(Box::new(sink))
     }
 

@@ -113,9 +113,12 @@ impl LeRobotSink {
         })
     }
 
-    /// Names what the episode is made from (the input's file name) in `info.json`.
-    pub fn with_source(mut self, source: Option<String>) -> LeRobotSink {
-        self.source = source;
+    /// Names what the episode is made from in `info.json`: the file name of `input` (the
+    /// path of a video, or of the first view's), if it has one.
+    pub fn with_source(mut self, input: Option<&std::path::Path>) -> LeRobotSink {
+        self.source = input
+            .and_then(std::path::Path::file_name)
+            .map(|n| n.to_string_lossy().into_owned());
         self
     }
 
