@@ -219,6 +219,27 @@ fn sync_auto_finds_a_late_and_an_early_view_exactly_and_gives_the_synced_3d() {
     assert!(index[0]["cameras"][0].get("time_offset_s").is_none());
     let (worst, _) = largest_difference(&joints(&synced), &joints(&index), 5..FRAMES);
     assert!(worst > 5.0, "{worst}");
+    // There, a view's hand that its crop took from the fitted hand but that disagrees with
+    // the other views is fitted as a hand of its own: with an identity of its own, never
+    // the other's (which would also share its track).
+    let mut split = 0;
+    for r in &index {
+        let ids: Vec<u64> = r["hands"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|h| h["id"].as_u64().unwrap())
+            .collect();
+        let mut unique = ids.clone();
+        unique.sort_unstable();
+        unique.dedup();
+        assert_eq!(unique.len(), ids.len(), "frame {}: ids {ids:?}", r["frame"]);
+        split += usize::from(ids.len() > 1);
+    }
+    assert!(
+        split > 0,
+        "no frame fitted a disagreeing view's hand on its own"
+    );
 }
 
 #[test]

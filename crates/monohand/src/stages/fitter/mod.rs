@@ -58,6 +58,9 @@ pub struct HandsFitter<T = ()> {
     refitted: Held<(FittedFrame, T), DepthFrame>,
     /// The number of the last frame fitted.
     last_fitted: Option<u64>,
+    /// Per view after the first: the frame from which it has been unreadable, if it is now
+    /// (said once when it starts and once when it ends, not on every frame).
+    unreadable_since: Vec<Option<u64>>,
 }
 
 impl<T> HandsFitter<T> {
@@ -93,6 +96,7 @@ impl<T> HandsFitter<T> {
             fitted: Held::default(),
             refitted: Held::default(),
             last_fitted: None,
+            unreadable_since: Vec::new(),
         })
     }
 
@@ -293,11 +297,11 @@ impl<T> HandsFitter<T> {
             camera_origins: Vec::new(),
             min_confidence: self.settings.options.cost.min_confidence,
         };
-        for (v, view) in out.vision.views.iter().enumerate().skip(1) {
-            if let Err(e) = view {
-                tracing::warn!("frame {}: view {} unreadable: {e}", out.vision.index, v + 1);
-            }
-        }
+        say_unreadable(
+            &mut self.unreadable_since,
+            out.vision.index,
+            &out.vision.views,
+        );
         match out.vision.views.first() {
             Some(Ok(_)) => {}
             Some(Err(e)) => {
@@ -329,10 +333,15 @@ impl<T> HandsFitter<T> {
             }
         }
         let min_confidence = self.settings.options.cost.min_confidence;
-        for (id, side, views) in self
+        let mut hands = self
             .tracks
-            .associate(&out.vision, &out.cameras, min_confidence)
-        {
+            .associate(&out.vision, &out.cameras, min_confidence);
+        let vision = &out.vision;
+        self.tracks
+            .separate(&mut hands, index, &self.prototypes, |v, k| {
+                detected(vision, v, k)
+            });
+        for (id, side, views) in hands {
             let fit = self.fit_hand(id, &out.vision, &out.cameras, &views);
             out.hands.push(TrackedHand {
                 id,
@@ -407,6 +416,39 @@ impl<T> HandsFitter<T> {
     }
 }
 
+/// Says in the log when a view after the first becomes unreadable (its first error) and
+/// when it is readable again (how many frames it missed), not on every frame between: a view
+/// that started late or a camera unplugged for a while gives two lines, not one a frame.
+fn say_unreadable<V>(
+    since: &mut Vec<Option<u64>>,
+    index: u64,
+    views: &[Result<V, crate::base::frame::ViewError>],
+) {
+    if since.len() < views.len() {
+        since.resize(views.len(), None);
+    }
+    for (v, view) in views.iter().enumerate().skip(1) {
+        match (view, since[v]) {
+            (Err(e), None) => {
+                tracing::warn!(
+                    "frame {index}: view {} unreadable: {e} (said once: fitted without it until it is readable again)",
+                    v + 1
+                );
+                since[v] = Some(index);
+            }
+            (Ok(_), Some(from)) => {
+                tracing::info!(
+                    "frame {index}: view {} readable again, after {} frames without it",
+                    v + 1,
+                    index.saturating_sub(from)
+                );
+                since[v] = None;
+            }
+            _ => {}
+        }
+    }
+}
+
 /// Refits `hand` of a frame towards its neighbours' joints, with its track's fitter; its
 /// output joints get the neighbours' mean fusion offsets, its own refitted offset in its
 /// own share.
@@ -450,4 +492,27 @@ fn refit_hand(
         *out = m + mean + (own - causal) * n.own_share;
     }
     *fit = refit;
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::base::errors::SourceError;
+    use crate::base::frame::ViewError;
+
+    #[test]
+    fn an_unreadable_view_is_said_when_it_starts_and_when_it_ends() {
+        let bad = || Err(ViewError::Unreadable(SourceError::Other("late".into())));
+        let mut since = Vec::new();
+        // View 2 has no frame for frames 0-4, view 3 always has; the first view is never said.
+        for index in 0..5 {
+            say_unreadable(&mut since, index, &[bad(), bad(), Ok(())]);
+            assert_eq!(since, [None, Some(0), None], "frame {index}");
+        }
+        say_unreadable(&mut since, 5, &[Ok(()), Ok(()), Ok(())]);
+        assert_eq!(since, [None, None, None]);
+        // Unplugged again later: a new episode from its own first frame.
+        say_unreadable(&mut since, 9, &[Ok(()), bad(), Ok(())]);
+        assert_eq!(since, [None, Some(9), None]);
+    }
 }

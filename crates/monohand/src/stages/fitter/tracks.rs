@@ -44,11 +44,18 @@ pub(crate) fn side_index(side: HandSide) -> usize {
     }
 }
 
+/// The identities [`Tracks::separate`] gives hands split off another's: from here up, beyond
+/// any the crop stage gives (one per new hand, from 0), and exact in JSON's numbers.
+pub(crate) const SPLIT_IDS: HandId = 1 << 32;
+
 /// Every hand followed, by identity, with the filters each new one gets.
 pub(crate) struct Tracks {
     by_id: HashMap<HandId, Track>,
     smoothing: Option<OneEuroParams>,
     depth_filter: Option<OneEuroParams>,
+    /// The identity of the `n`-th hand of a frame that the crops gave identity `id` too
+    /// (`(id, n)`, `n` from 1): kept, so that it stays the same hand over the frames.
+    split: HashMap<(HandId, usize), HandId>,
 }
 
 impl Tracks {
@@ -59,6 +66,47 @@ impl Tracks {
             by_id: HashMap::new(),
             smoothing: settings.smoothing,
             depth_filter: settings.depth_filter,
+            split: HashMap::new(),
+        }
+    }
+
+    /// Gives each of a frame's associated `hands` its own identity. The crops give a view's
+    /// hand the identity of the fitted hand that projects onto it; when its keypoints then
+    /// do not agree with that hand's other views (a view out of sync, a camera moved), it is
+    /// fitted as a hand of its own, and would share the identity and the track of the
+    /// other. The first hand keeps the identity; each later one gets one of its own
+    /// ([`SPLIT_IDS`]; the same one while the split lasts) and a track voted from its views'
+    /// hands (`detected`).
+    pub(crate) fn separate<'f>(
+        &mut self,
+        hands: &mut [Anchored],
+        index: u64,
+        prototypes: &[HandTracker; 2],
+        detected: impl Fn(usize, usize) -> Option<&'f DetectedHand>,
+    ) {
+        // No hand takes an identity another hand of the frame has or comes with.
+        let given: std::collections::HashSet<HandId> = hands.iter().map(|h| h.0).collect();
+        let mut used = std::collections::HashSet::new();
+        for (id, _, views) in hands.iter_mut() {
+            if used.insert(*id) {
+                continue;
+            }
+            let mut n = 1;
+            let own = loop {
+                let next = SPLIT_IDS + self.split.len() as HandId;
+                let own = *self.split.entry((*id, n)).or_insert(next);
+                if !used.contains(&own) && !given.contains(&own) {
+                    break own;
+                }
+                n += 1;
+            };
+            used.insert(own);
+            *id = own;
+            for &(v, k) in views.iter() {
+                if let Some(hand) = detected(v, k) {
+                    self.vote(own, hand, index, prototypes);
+                }
+            }
         }
     }
 
@@ -207,5 +255,34 @@ impl Tracks {
                 Some((id, candidates[v][k].side, views))
             })
             .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn each_hand_of_a_frame_gets_an_identity_of_its_own() {
+        let settings = FitSettings::default();
+        let prototype = |k: usize| {
+            HandTracker::new(settings.skeletons[k], settings.options).expect("a tracker")
+        };
+        let prototypes = [prototype(0), prototype(1)];
+        let mut tracks = Tracks::new(&settings);
+        let right = |id| (id, HandSide::Right, Vec::new());
+        let ids = |hands: &[Anchored]| hands.iter().map(|h| h.0).collect::<Vec<_>>();
+        // A view's hand fitted on its own under hand 0's identity: a new one.
+        let mut hands = vec![right(0), right(0), right(7)];
+        tracks.separate(&mut hands, 0, &prototypes, |_, _| None);
+        assert_eq!(ids(&hands), [0, SPLIT_IDS, 7]);
+        // The same split next frame keeps it; a third hand under 0 gets another, and so
+        // does a hand under 0 when one comes with the split's identity from its crop.
+        let mut hands = vec![right(0), right(0), right(0)];
+        tracks.separate(&mut hands, 1, &prototypes, |_, _| None);
+        assert_eq!(ids(&hands), [0, SPLIT_IDS, SPLIT_IDS + 1]);
+        let mut hands = vec![right(0), right(SPLIT_IDS), right(0)];
+        tracks.separate(&mut hands, 2, &prototypes, |_, _| None);
+        assert_eq!(ids(&hands), [0, SPLIT_IDS, SPLIT_IDS + 1]);
     }
 }
