@@ -82,6 +82,10 @@ pub struct TrackedHand {
     pub views: Vec<(usize, usize)>,
     /// The fitted hand, `None` when it could not be fitted this frame.
     pub fit: Option<FitResult>,
+    /// With one camera, tracking and [`DistanceSettings`](monohand_core::fitting::DistanceSettings)
+    /// on: what this frame's fits said of the hand's distance and what the filter over the
+    /// track made of it (`None` otherwise).
+    pub distance: Option<monohand_core::fitting::DistanceEvidence>,
 }
 
 /// One frame after the 3D stage.

@@ -1,6 +1,6 @@
 //! The offline smoother for files and corpora: frame `t` is refitted with what the frames
 //! before and after it say once frame `t + lag` has been fitted, and with one camera written
-//! once frame `t + 2 lag` has (the distance's second pass, below).
+//! once frame `t + lag + max(lag, distance_lag)` has (the distance's second pass, below).
 //!
 //! Each hand of frame `t` is fitted again from its causal pose with the paper's pixel
 //! cost, the network's cues and a pull of every joint towards the Gaussian-weighted mean of
@@ -18,7 +18,12 @@
 //! pass ([`OfflineSettings::depth_pass`]) scales each refitted hand about the camera's centre
 //! to the Gaussian mean of its refitted distances over the frames around it, as the causal
 //! depth filter ([`monohand_core::filtering::DepthFilter`]) does without seeing ahead: every
-//! joint stays on its viewing ray, so the pixels and the shape are the refit's.
+//! joint stays on its viewing ray, so the pixels and the shape are the refit's. Where the
+//! track's distance was filtered over the frames (the causal
+//! [`monohand_core::fitting::DistanceFilter`]), that mean is moved by what the frames ahead
+//! say of the distance: the filter's estimates smoothed back over the next
+//! [`OfflineSettings::distance_lag`] frames ([`distance_correction`]), so a distance the
+//! keypoints of later frames contradict is mended before it is written.
 
 use crate::base::errors::{Field, SettingsError};
 use crate::base::frame::{FittedFrame, HandId};
@@ -43,6 +48,12 @@ pub struct OfflineSettings {
     /// distances, so frame `t` is written once frame `t + 2 lag` is fitted. Every joint
     /// stays on its viewing ray: the pixels and the shape stay the refit's.
     pub depth_pass: bool,
+    /// With the distance's pass and a distance filtered over the track (one camera,
+    /// [`monohand_core::fitting::DistanceSettings`] on): how many frames ahead the filter's
+    /// estimates are smoothed back over ([`smoothed_ratio`]), each hand's distance target
+    /// then multiplied by what they move it; frame `t` is written once frame
+    /// `t + lag + distance_lag` is fitted. 0 turns it off.
+    pub distance_lag: usize,
 }
 
 impl Default for OfflineSettings {
@@ -58,6 +69,10 @@ impl Default for OfflineSettings {
             // mm, jitter 11.14 → 10.73 and 11.81 → 11.56 (docs/accuracy.md, "Offline: the
             // distance smoothed after the refit").
             depth_pass: true,
+            // Not a tuned value: the smoother has converged by 15 frames on both dev sets
+            // (15, 30 and 60 give the same errors to 0.1 mm; docs/absolute-depth.md,
+            // "With `--offline`").
+            distance_lag: 30,
         }
     }
 }
@@ -217,9 +232,19 @@ pub(crate) fn neighbours(
     })
 }
 
-/// The mean distance from the camera of every refitted hand of a frame, by id
-/// ([`monohand_core::filtering::mean_depth`], mm).
-pub(crate) type DepthFrame = HashMap<HandId, f64>;
+/// What the distance's pass keeps of each refitted hand of a frame, by id.
+pub(crate) type DepthFrame = HashMap<HandId, Depth>;
+
+/// One refitted hand's distance, and what the causal filter of its track made of it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Depth {
+    /// The mean distance of its joints from the camera
+    /// ([`monohand_core::filtering::mean_depth`], mm).
+    pub mean_mm: f64,
+    /// The causal distance filter's estimate of its palm's distance and its standard
+    /// deviation (mm; [`monohand_core::fitting::DistanceEvidence`]), `None` without one.
+    pub filtered: Option<(f64, f64)>,
+}
 
 /// The Gaussian-weighted mean of hand `id`'s refitted distance over the window, its own
 /// `depth` included: the distance it is scaled to. `None` without any neighbour.
@@ -233,12 +258,70 @@ pub(crate) fn depth_target(
     let (mut sum, mut total, mut seen) = (depth * g0, g0, false);
     for (g, frame) in window.weighted(settings) {
         if let Some(d) = frame.get(&id) {
-            sum += d * g;
+            sum += d.mean_mm * g;
             total += g;
             seen = true;
         }
     }
     seen.then(|| sum / total)
+}
+
+/// How much the frames ahead move hand `id`'s distance target ([`depth_target`]): the
+/// ratio of its smoothed palm distance to the Gaussian mean (the same weights) of the causal
+/// filter's estimates over the window; 1 without a filtered distance of its own (`own`).
+///
+/// The causal filter ([`monohand_core::fitting::DistanceFilter`]) is a Kalman filter of the
+/// log distance with a random walk of `drift` a frame; its estimates (`(mm, σ mm)`) over the
+/// frames ahead are all a Rauch-Tung-Striebel smoother needs: from the last frame ahead back
+/// to this one, `x_s(k) = x_f(k) + C (x_s(k+1) - x_f(k))` with `C = P_f(k) / (P_f(k) +
+/// drift²)`. It goes as far ahead as the frames have the hand with a filtered distance (at
+/// most `distance_lag` frames of the window), so a gap or a track's end stops it. The target
+/// is a mean over neighbouring frames, so the smoothed distance is set against the same mean
+/// of the filtered ones, not this frame's own: the filter's own frame-to-frame shake is not
+/// put back.
+pub(crate) fn distance_correction(
+    settings: &OfflineSettings,
+    window: &Window<'_, DepthFrame>,
+    id: HandId,
+    own: (f64, f64),
+    drift: f64,
+) -> f64 {
+    let valid =
+        |&(mm, sigma): &(f64, f64)| mm.is_finite() && mm > 0.0 && sigma.is_finite() && sigma > 0.0;
+    let filtered = |frame: &DepthFrame| frame.get(&id).and_then(|d| d.filtered).filter(valid);
+    if !valid(&own) || settings.distance_lag == 0 {
+        return 1.0;
+    }
+    // The smoothed log distance of this frame.
+    let mut chain = vec![own];
+    chain.extend(
+        window
+            .ahead
+            .iter()
+            .take(settings.distance_lag)
+            .map_while(|frame| filtered(frame)),
+    );
+    let q = drift * drift;
+    let mut smoothed = chain[chain.len() - 1].0.ln();
+    for &(mm, sigma) in chain.iter().rev().skip(1) {
+        let (x, p) = (mm.ln(), (sigma / mm).powi(2));
+        smoothed = x + p / (p + q) * (smoothed - x);
+    }
+    // The Gaussian mean of the filtered log distances, as depth_target's.
+    let g0 = settings.gauss(0);
+    let (mut sum, mut total) = (own.0.ln() * g0, g0);
+    for (g, frame) in window.weighted(settings) {
+        if let Some((mm, _)) = filtered(frame) {
+            sum += mm.ln() * g;
+            total += g;
+        }
+    }
+    let ratio = (smoothed - sum / total).exp();
+    if ratio.is_finite() {
+        ratio
+    } else {
+        1.0
+    }
 }
 
 /// The neighbours' verdict on one hand of the frame being refitted.
@@ -273,6 +356,7 @@ mod tests {
             sigma_frames: 1.0,
             weight: 1.0,
             depth_pass: true,
+            distance_lag: 0,
         };
         // Frames t-2, t-1 behind (oldest first) and t+1, t+2, t+3 ahead; hand 7 at x = the
         // frame's offset from t, except in t+2 (hand 8 only); t+3 is beyond the lag.
@@ -306,7 +390,14 @@ mod tests {
             lag: 2,
             ..OfflineSettings::default()
         };
-        let depths = |d: &[(HandId, f64)]| d.iter().copied().collect::<DepthFrame>();
+        let depths = |d: &[(HandId, f64)]| {
+            d.iter()
+                .map(|&(id, mean_mm)| {
+                    let filtered = None;
+                    (id, Depth { mean_mm, filtered })
+                })
+                .collect::<DepthFrame>()
+        };
         // t-3 (beyond the lag), t-2, t-1 behind; t+1 (hand 4 only), t+2, t+3 ahead.
         let behind = VecDeque::from([
             depths(&[(3, 0.0)]),
@@ -328,6 +419,123 @@ mod tests {
         assert!((target - want).abs() < 1e-9, "{target} vs {want}");
         // A hand no neighbour sees keeps its distance.
         assert!(depth_target(&settings, &window, 5, 420.0).is_none());
+    }
+
+    /// The frames' evidence of one hand's distance, run through the causal filter: each
+    /// frame's keypoints' distance (with its σ) and cues' distance, and the filter's
+    /// estimate after it.
+    fn filtered_track(
+        distance: &monohand_core::fitting::DistanceSettings,
+        measured: &[(f64, f64, f64)],
+    ) -> Vec<(f64, f64)> {
+        let mut filter = monohand_core::fitting::DistanceFilter::new(*distance);
+        measured
+            .iter()
+            .map(|&(d, s, cue)| {
+                let e = filter.update(Some((d, s)), Some(cue));
+                (e.fused_mm, e.fused_sigma_mm)
+            })
+            .collect()
+    }
+
+    #[test]
+    fn the_distance_is_smoothed_as_the_whole_tracks_least_squares_would_have_it() {
+        // A hand whose keypoints say 500 mm, then 600 from frame 4 on (the cues lag behind):
+        // the causal filter at frame 2 has seen none of it, the smoother all of it.
+        let distance = monohand_core::fitting::DistanceSettings::default();
+        let measured: Vec<(f64, f64, f64)> = (0..10)
+            .map(|k| {
+                let d = if k < 4 { 500.0 } else { 600.0 };
+                (
+                    d * (1.0 + 0.01 * (k % 3) as f64),
+                    0.05 * d,
+                    520.0 + 5.0 * k as f64,
+                )
+            })
+            .collect();
+        let track = filtered_track(&distance, &measured);
+        // The reference: the log distances x_0..x_9 that minimise the measurements' and the
+        // random walk's squared residuals, each over its variance (a linear least squares).
+        let n = measured.len();
+        let mut a = nalgebra::DMatrix::<f64>::zeros(n, n);
+        let mut b = nalgebra::DVector::<f64>::zeros(n);
+        for (k, &(d, s, cue)) in measured.iter().enumerate() {
+            for (z, r) in [
+                (d.ln(), (s / d).powi(2)),
+                (cue.ln(), distance.cue_sigma.powi(2)),
+            ] {
+                a[(k, k)] += 1.0 / r;
+                b[k] += z / r;
+            }
+        }
+        let q = distance.drift_per_frame.powi(2);
+        for k in 0..n - 1 {
+            a[(k, k)] += 1.0 / q;
+            a[(k + 1, k + 1)] += 1.0 / q;
+            a[(k, k + 1)] -= 1.0 / q;
+            a[(k + 1, k)] -= 1.0 / q;
+        }
+        let best = a.lu().solve(&b).expect("solvable");
+        // Frame 2 with every later frame ahead, and a Gaussian window of 1 frame each side.
+        let settings = OfflineSettings {
+            lag: 1,
+            distance_lag: n,
+            ..OfflineSettings::default()
+        };
+        let frame = |&(mm, sigma): &(f64, f64)| {
+            let depth = Depth {
+                mean_mm: 0.0,
+                filtered: Some((mm, sigma)),
+            };
+            DepthFrame::from([(7, depth)])
+        };
+        let behind = VecDeque::from([frame(&track[1])]);
+        let ahead: Vec<DepthFrame> = track[3..].iter().map(frame).collect();
+        let window = Window {
+            behind: &behind,
+            ahead: ahead.iter().collect(),
+        };
+        let ratio = distance_correction(&settings, &window, 7, track[2], distance.drift_per_frame);
+        // The ratio is the smoothed distance over the Gaussian mean of the filtered ones.
+        let g1 = (-0.5f64).exp();
+        let mean = (track[2].0.ln() + g1 * (track[1].0.ln() + track[3].0.ln())) / (1.0 + 2.0 * g1);
+        let smoothed = ratio.ln() + mean;
+        assert!(
+            (smoothed - best[2]).abs() < 1e-9,
+            "{smoothed} against {}",
+            best[2]
+        );
+        // The later frames pull frame 2 towards 600 mm, past its causal estimate.
+        assert!(
+            smoothed.exp() > track[2].0 + 5.0,
+            "{} against {:?}",
+            smoothed.exp(),
+            track[2]
+        );
+        // A gap stops the smoother; off, nothing ahead, or a hand not filtered: 1.
+        let gap = [frame(&track[3]), DepthFrame::new(), frame(&track[5])];
+        let short = [frame(&track[3])];
+        let cut = |ahead: &[DepthFrame]| {
+            let window = Window {
+                behind: &behind,
+                ahead: ahead.iter().collect(),
+            };
+            distance_correction(&settings, &window, 7, track[2], distance.drift_per_frame)
+        };
+        assert_eq!(cut(&gap), cut(&short));
+        let off = OfflineSettings {
+            distance_lag: 0,
+            ..settings
+        };
+        assert_eq!(distance_correction(&off, &window, 7, track[2], 0.02), 1.0);
+        assert_eq!(
+            distance_correction(&settings, &window, 8, track[2], 0.02),
+            1.0
+        );
+        assert_eq!(
+            distance_correction(&settings, &window, 7, (f64::NAN, 1.0), 0.02),
+            1.0
+        );
     }
 
     #[test]

@@ -17,7 +17,8 @@ use crate::base::frame::{detected, FittedFrame, HandId, TrackedHand, VisionFrame
 use crate::base::notes::Note;
 use crate::stages::cameras::{in_first_frame, CameraChoice};
 use crate::stages::offline::{
-    causal, depth_target, neighbours, CausalFrame, DepthFrame, Held, OfflineSettings,
+    causal, depth_target, distance_correction, neighbours, CausalFrame, Depth, DepthFrame, Held,
+    OfflineSettings,
 };
 use fit::{fit_views, FitOutcome, HandSizeSource};
 use monohand_core::filtering::{mean_depth, scale_to_depth};
@@ -194,9 +195,10 @@ impl<T> HandsFitter<T> {
     }
 
     /// With [`FitSettings::offline`]: takes the newly fitted frames and gives back,
-    /// smoothed, those whose `lag` following frames are fitted (`2 lag` with one camera and
-    /// [`OfflineSettings::depth_pass`]; all of them at the end): refitted towards their
-    /// neighbours ([`neighbours`]), then their distance averaged ([`depth_target`]).
+    /// smoothed, those whose `lag` following frames are fitted (`lag + max(lag,
+    /// distance_lag)` with one camera and [`OfflineSettings::depth_pass`]; all of them at
+    /// the end): refitted towards their neighbours ([`neighbours`]), then their distance
+    /// averaged ([`depth_target`]) and moved by the smoothed distance ([`distance_correction`]).
     fn smooth(&mut self, fitted: Vec<(FittedFrame, T)>, end: bool) -> Vec<(FittedFrame, T)> {
         let Some(settings) = self.settings.offline else {
             return fitted;
@@ -237,24 +239,35 @@ impl<T> HandsFitter<T> {
                 [cam] => {
                     f.0.hands
                         .iter()
-                        .filter_map(|h| Some((h.id, mean_depth(cam, &h.fit.as_ref()?.joints_3d)?)))
+                        .filter_map(|h| {
+                            let mean_mm = mean_depth(cam, &h.fit.as_ref()?.joints_3d)?;
+                            let filtered = h.distance.map(|e| (e.fused_mm, e.fused_sigma_mm));
+                            Some((h.id, Depth { mean_mm, filtered }))
+                        })
                         .collect()
                 }
                 _ => DepthFrame::new(),
             };
             (f, depths)
         });
+        let drift = self.settings.options.distance.drift_per_frame;
+        let lag = settings.lag.max(settings.distance_lag);
         self.refitted
-            .release(refitted, settings.lag, end, |(frame, _), own, window| {
+            .release(refitted, lag, end, |(frame, _), own, window| {
                 let [cam] = frame.cameras.as_slice() else {
                     return;
                 };
                 for hand in &mut frame.hands {
-                    let (Some(fit), Some(&depth)) = (hand.fit.as_mut(), own.get(&hand.id)) else {
+                    let (Some(fit), Some(depth)) = (hand.fit.as_mut(), own.get(&hand.id)) else {
                         continue;
                     };
-                    if let Some(target) = depth_target(&settings, window, hand.id, depth) {
-                        scale_to_depth(cam, &mut fit.joints_3d, depth, target);
+                    let target = depth_target(&settings, window, hand.id, depth.mean_mm);
+                    let ratio = depth.filtered.map_or(1.0, |own| {
+                        distance_correction(&settings, window, hand.id, own, drift)
+                    });
+                    let target = target.unwrap_or(depth.mean_mm) * ratio;
+                    if target != depth.mean_mm {
+                        scale_to_depth(cam, &mut fit.joints_3d, depth.mean_mm, target);
                     }
                 }
             })
@@ -343,11 +356,16 @@ impl<T> HandsFitter<T> {
             });
         for (id, side, views) in hands {
             let fit = self.fit_hand(id, &out.vision, &out.cameras, &views);
+            let distance = fit.as_ref().and_then(|_| {
+                let track = self.tracks.get_mut(&id)?;
+                track.tracker.distance_evidence().copied()
+            });
             out.hands.push(TrackedHand {
                 id,
                 side,
                 views,
                 fit,
+                distance,
             });
         }
         self.tracks.forget_unseen(index);
