@@ -80,6 +80,8 @@ export interface HandRecord {
   xr_joints?: XrJointRecord[];
   /** The hand size the fit used (with the 3D): the model's wrist-to-middle-fingertip length, the factor on the default adult hand, and where it came from ('default', 'file' for the `hand` option, 'ruler' for `handLengthMm`). */
   hand_size?: { length_mm: number; scale: number; source: 'default' | 'scale' | 'measured' | 'file' | 'ruler' };
+  /** With one camera and a tracked hand: the palm's distance from the camera, mm, as the keypoints alone, the network's cues and the filter over the track gave it (docs/output-format.md, "distance object"). */
+  distance?: { keypoints_mm?: number; keypoints_sigma_mm?: number; cues_mm?: number; fused_mm: number; fused_sigma_mm: number };
 }
 
 /** One OpenXR joint of a hand (docs/output-format.md, "XR joint object"), in the camera's frame. */

@@ -145,6 +145,47 @@ pub struct HandRecord {
     /// ([`JsonlWriter::with_wrist_pose`]), from the fit ([`HandRecord::wrist_pose_of_fit`]).
     #[serde(skip_serializing_if = "Option::is_none", default)]
     pub wrist_pose: Option<WristPoseRecord>,
+    /// With one camera and a tracked hand: how firmly this frame's keypoints pinned the
+    /// hand's distance, what the network's cues said of it, and what the filter over the
+    /// track made of both ([`DistanceRecord`]).
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub distance: Option<DistanceRecord>,
+}
+
+/// A hand's distance from one camera in one frame ([`HandRecord::distance`]), as
+/// `monohand_core::fitting::DistanceEvidence` gives it: the depth in the camera of the
+/// model's palm (the centroid of the wrist and the five fingers' bases), mm. The keypoints
+/// leave the distance open along the viewing rays; the filter takes each frame's keypoints'
+/// distance with its uncertainty and the cues' with a fixed one (docs/absolute-depth.md).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct DistanceRecord {
+    /// The distance of the fit with the keypoints alone (absent: that fit failed).
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub keypoints_mm: Option<f64>,
+    /// Its standard deviation, from that fit's own Gauss-Newton matrix: large where the
+    /// keypoints cannot tell a nearer, more flexed hand from a farther, flatter one.
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub keypoints_sigma_mm: Option<f64>,
+    /// The distance of the fit with the network's 3D cues (absent: no cues this frame).
+    #[serde(skip_serializing_if = "Option::is_none", default)]
+    pub cues_mm: Option<f64>,
+    /// The filtered distance the frame's fit was held at (from a track's second frame on;
+    /// `--offline` moves the written joints by what later frames say).
+    pub fused_mm: f64,
+    /// Its standard deviation.
+    pub fused_sigma_mm: f64,
+}
+
+impl From<&monohand_core::fitting::DistanceEvidence> for DistanceRecord {
+    fn from(e: &monohand_core::fitting::DistanceEvidence) -> DistanceRecord {
+        DistanceRecord {
+            keypoints_mm: e.keypoints_mm,
+            keypoints_sigma_mm: e.keypoints_sigma_mm,
+            cues_mm: e.cues_mm,
+            fused_mm: e.fused_mm,
+            fused_sigma_mm: e.fused_sigma_mm,
+        }
+    }
 }
 
 /// A hand's wrist pose ([`HandRecord::wrist_pose`]; `monohand_core::wrist` gives the
@@ -269,6 +310,7 @@ impl HandRecord {
             views: None,
             xr_joints: None,
             wrist_pose: None,
+            distance: None,
         }
     }
 

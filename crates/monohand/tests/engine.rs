@@ -281,6 +281,70 @@ fn the_offline_depth_pass_steadies_the_distance_and_keeps_every_joint_on_its_ray
     assert!(smoothed < 0.8 * refitted, "{smoothed} against {refitted}");
 }
 
+#[test]
+fn a_tracked_hand_seen_by_one_camera_carries_its_distance_and_the_fit_is_held_at_it() {
+    let (on, off) = runs_with_and_without(|settings, on| {
+        // The depth filter moves the written joints after the fit: off in both runs.
+        settings.fit.depth_filter = None;
+        if !on {
+            settings.fit.options.distance.weight = 0.0;
+        }
+    });
+    let (mut held, mut worst) = (0, 0.0f64);
+    for (k, record) in on.iter().enumerate() {
+        for hand in record.hands.iter().filter(|h| h.joints_3d_mm.is_some()) {
+            let d = hand.distance.expect("a fitted hand's distance");
+            assert!(
+                d.fused_mm > 100.0 && d.fused_mm < 2000.0,
+                "frame {k}: {d:?}"
+            );
+            assert!(
+                d.fused_sigma_mm > 0.0 && d.fused_sigma_mm < d.fused_mm,
+                "{d:?}"
+            );
+            let (kp, sigma) = (
+                d.keypoints_mm.expect("keypoints"),
+                d.keypoints_sigma_mm.expect("σ"),
+            );
+            assert!(
+                sigma > 0.0 && kp > 0.0 && d.cues_mm.expect("cues") > 0.0,
+                "{d:?}"
+            );
+            // The filter is no less sure than one frame's keypoints.
+            assert!(d.fused_sigma_mm <= sigma, "frame {k}: {d:?}");
+            if k == 0 {
+                continue;
+            }
+            // From the second frame on the fit is held at the filtered distance (a pull
+            // weighed by its certainty, against the pixels'): its palm (the wrist and the
+            // fingers' bases) is there, within the fusion's small moves of the joints
+            // (at most 0.98 σ on these frames).
+            let joints = hand.joints_3d_mm.unwrap();
+            let palm = [0, 1, 5, 9, 13, 17]
+                .map(|j| joints[j][2])
+                .iter()
+                .sum::<f64>()
+                / 6.0;
+            let off_by = (palm - d.fused_mm).abs() / d.fused_sigma_mm;
+            worst = worst.max(off_by);
+            assert!(
+                off_by < 1.5,
+                "frame {k}: palm at {palm:.1} mm, held at {:.1} ± {:.1}",
+                d.fused_mm,
+                d.fused_sigma_mm
+            );
+            held += 1;
+        }
+    }
+    println!("{held} frames held, the palm at most {worst:.2} σ from the distance");
+    assert!(held >= 20, "{held} frames held");
+    // Without the mechanism nothing is said of it.
+    assert!(off
+        .iter()
+        .flat_map(|r| &r.hands)
+        .all(|h| h.distance.is_none()));
+}
+
 /// The records of 30 frames run with the default settings changed by `set(settings, true)`
 /// and by `set(settings, false)`.
 fn runs_with_and_without(

@@ -6,7 +6,7 @@ use crate::base::frame::FittedFrame;
 use crate::stages::rig_check::view_fits;
 use monohand_core::observation::Keypoints2d;
 use monohand_io::jsonl::{
-    CameraRecord, FrameRecord, HandRecord, HeadRecord, OrientedBox, PoseRecord,
+    CameraRecord, DistanceRecord, FrameRecord, HandRecord, HeadRecord, OrientedBox, PoseRecord,
 };
 use monohand_vision::{DetectedHand, Detections};
 
@@ -94,6 +94,11 @@ pub fn fitted_record(done: &FittedFrame, source: Option<String>) -> FrameRecord 
                     rec.converged = Some(fit.converged);
                     rec.iterations = Some(fit.iterations);
                     rec.views = view_fits(done, hand);
+                    rec.distance = hand
+                        .distance
+                        .as_ref()
+                        .filter(|e| e.fused_mm.is_finite() && e.fused_sigma_mm.is_finite())
+                        .map(DistanceRecord::from);
                 }
             }
             // Only other views see it: no keypoints in the first view, the 3D in its frame.
