@@ -181,6 +181,10 @@ impl Tracks {
         let mut out: Vec<FittedGuide> = self
             .by_id
             .iter()
+            // A hand split off from another's identity ([`Tracks::separate`]) was fitted
+            // from a view that disagrees with the others (out of sync, moved): put into
+            // the other views it would find the hand they already see a second time.
+            .filter(|(&id, _)| id < SPLIT_IDS)
             .filter_map(|(&id, t)| {
                 let (i, joints) = t.fitted[0].filter(|(i, _)| *i == index)?;
                 let motion = match t.fitted[1] {
