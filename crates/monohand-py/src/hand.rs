@@ -163,6 +163,18 @@ impl PyHand {
     ) -> PyResult<Option<Bound<'py, PyArray2<f64>>>> {
         crate::wrist::joints_in_wrist_frame(py, &self.inner, convention)
     }
+    /// With one camera and a tracked hand: the palm's distance from the camera, mm, as this
+    /// frame's fits and the filter over the track gave it, a dict (`keypoints_mm`,
+    /// `keypoints_sigma_mm`, `cues_mm`, `fused_mm`, `fused_sigma_mm`: docs/output-format.md,
+    /// "distance object"); `None` otherwise.
+    #[getter]
+    fn distance<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyAny>>> {
+        self.inner
+            .distance
+            .as_ref()
+            .map(|d| as_python(py, d))
+            .transpose()
+    }
     /// The hand as `monohand run` writes it to JSON Lines (plain lists and numbers).
     fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         as_python(py, &self.inner)

@@ -30,11 +30,16 @@ def test_session_equals_the_cli_on_the_same_video(tmp_path, moving_video):
         for h, r in zip(hands, rec["hands"]):
             d = h.to_dict()
             # Bit for bit: the same code path, the same numbers.
-            for key in ("id", "side", "keypoints_2d", "joints_3d_mm", "pose", "reprojection_error_px", "score", "side_score"):
+            for key in ("id", "side", "keypoints_2d", "joints_3d_mm", "pose", "reprojection_error_px", "score", "side_score", "distance"):
                 assert d.get(key) == r.get(key), (index, key)
             assert np.array_equal(h.keypoints_2d, np.array(r["keypoints_2d"]))
+            assert h.distance == r.get("distance"), index
             if h.joints_3d_mm is not None:
                 fitted += 1
+                # One camera, tracked: the palm's distance, the keypoints' and the filter's.
+                dist = h.distance
+                assert 100.0 < dist["fused_mm"] < 2000.0 and 0.0 < dist["fused_sigma_mm"] < dist["fused_mm"], dist
+                assert dist["keypoints_sigma_mm"] > 0.0 and dist["cues_mm"] > 0.0, dist
                 assert np.array_equal(h.joints_3d_mm, np.array(r["joints_3d_mm"]))
                 assert h.joints_3d_mm.shape == (21, 3) and h.joints_3d_mm[0, 2] > 100.0
     assert fitted >= 38, f"the photo's hand is fitted in nearly every frame ({fitted}/40)"

@@ -132,6 +132,12 @@ class Hand:
     @property
     def xr_radii(self) -> Optional[npt.NDArray[np.float64]]:
         """``(26,)``: each OpenXR joint's distance to the skin, mm."""
+    @property
+    def distance(self) -> Optional[Dict[str, float]]:
+        """With one camera and a tracked hand: the palm's distance from the camera, mm:
+        ``keypoints_mm`` and ``keypoints_sigma_mm`` (the keypoints alone, how firmly they pin
+        it), ``cues_mm`` (the network's cues), ``fused_mm`` and ``fused_sigma_mm`` (the filter
+        over the track); ``None`` otherwise."""
     def wrist_pose(self) -> Optional[npt.NDArray[np.float64]]:
         """``(4, 4)``: the wrist's pose, metres, first camera's frame: the transform from MANO's
         wrist frame (dex-retargeting's: +z towards the fingers, +x out of the palm, +y = z x x)
