@@ -22,7 +22,7 @@
 //! track's distance was filtered over the frames (the causal
 //! [`monohand_core::fitting::DistanceFilter`]), that mean is moved by what the frames ahead
 //! say of the distance: the filter's estimates smoothed back over the next
-//! [`OfflineSettings::distance_lag`] frames ([`distance_correction`]), so a distance the
+//! [`OfflineSettings::distance_lag`] frames (a Rauch-Tung-Striebel smoother), so a distance the
 //! keypoints of later frames contradict is mended before it is written.
 
 use crate::base::errors::{Field, SettingsError};
@@ -50,7 +50,7 @@ pub struct OfflineSettings {
     pub depth_pass: bool,
     /// With the distance's pass and a distance filtered over the track (one camera,
     /// [`monohand_core::fitting::DistanceSettings`] on): how many frames ahead the filter's
-    /// estimates are smoothed back over ([`smoothed_ratio`]), each hand's distance target
+    /// estimates are smoothed back over (Rauch-Tung-Striebel), each hand's distance target
     /// then multiplied by what they move it; frame `t` is written once frame
     /// `t + lag + distance_lag` is fitted. 0 turns it off.
     pub distance_lag: usize,
