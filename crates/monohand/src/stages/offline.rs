@@ -52,7 +52,8 @@ pub struct OfflineSettings {
     /// [`monohand_core::fitting::DistanceSettings`] on): how many frames ahead the filter's
     /// estimates are smoothed back over (Rauch-Tung-Striebel), each hand's distance target
     /// then multiplied by what they move it; frame `t` is written once frame
-    /// `t + lag + distance_lag` is fitted. 0 turns it off.
+    /// `t + lag + max(lag, distance_lag)` is fitted (`t + 2 lag` without the distance
+    /// filter, [`monohand_core::fitting::DistanceSettings::weight`] 0). 0 turns it off.
     pub distance_lag: usize,
 }
 

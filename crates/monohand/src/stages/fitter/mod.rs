@@ -250,8 +250,13 @@ impl<T> HandsFitter<T> {
             };
             (f, depths)
         });
-        let drift = self.settings.options.distance.drift_per_frame;
-        let lag = settings.lag.max(settings.distance_lag);
+        let distance = self.settings.options.distance;
+        let drift = distance.drift_per_frame;
+        // Without the distance filter there is nothing to smooth ahead: no frames held for it.
+        let lag = match distance.enabled() {
+            true => settings.lag.max(settings.distance_lag),
+            false => settings.lag,
+        };
         self.refitted
             .release(refitted, lag, end, |(frame, _), own, window| {
                 let [cam] = frame.cameras.as_slice() else {
