@@ -29,6 +29,9 @@ impl From<Variant> for ModelVariant {
 /// The arithmetic of the networks' quantizable layers.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub(crate) enum PrecisionArg {
+    /// f32 with fewer than 5 views, int8 with 5 or more (where the views pin the hand and
+    /// int8 makes 8 views run at video rate: docs/performance.md).
+    Auto,
     /// f32 throughout, MediaPipe's own arithmetic.
     F32,
     /// The 1x1 and first convolutions of the palm and landmark networks in int8, with the
@@ -36,11 +39,13 @@ pub(crate) enum PrecisionArg {
     Int8,
 }
 
-impl From<PrecisionArg> for monohand_vision::Precision {
+impl From<PrecisionArg> for monohand::PrecisionChoice {
     fn from(p: PrecisionArg) -> Self {
+        use monohand::PrecisionChoice::{Auto, Fixed};
         match p {
-            PrecisionArg::F32 => monohand_vision::Precision::F32,
-            PrecisionArg::Int8 => monohand_vision::Precision::Int8,
+            PrecisionArg::Auto => Auto,
+            PrecisionArg::F32 => Fixed(monohand_vision::Precision::F32),
+            PrecisionArg::Int8 => Fixed(monohand_vision::Precision::Int8),
         }
     }
 }
@@ -68,8 +73,9 @@ pub(crate) struct ModelArgs {
     pub landmark_model: Variant,
     /// The arithmetic of the palm and landmark networks: f32, or int8 (faster, with the
     /// shipped calibration; as accurate on tracked video, about 0.6 mm less on photos and
-    /// untracked frames: docs/accuracy.md; the records say which ran).
-    #[arg(long, value_enum, default_value = "f32", value_name = "PRECISION")]
+    /// untracked frames: docs/accuracy.md; the records say which ran); auto: int8 with 5
+    /// views or more, else f32.
+    #[arg(long, value_enum, default_value = "auto", value_name = "PRECISION")]
     pub precision: PrecisionArg,
     /// Do not detect heads (the paper's context for left/right; they cost ~3 ms per image).
     #[arg(long)]
@@ -109,9 +115,14 @@ impl ModelArgs {
         Ok(ModelStore::new(self.model_dir.clone())?)
     }
 
-    /// Which networks, and their options as given (the refine passes are derived:
-    /// [`crate::resolve`]).
+    /// Which networks, and their options as given for one view (the refine passes are
+    /// derived: [`crate::resolve`]).
     pub fn options(&self) -> (ModelOptions, PipelineOptions) {
+        self.options_for(1)
+    }
+
+    /// The same for a run of `views` views (they choose the precision `auto` means).
+    pub fn options_for(&self, views: usize) -> (ModelOptions, PipelineOptions) {
         let models = ModelOptions {
             model_dir: self.model_dir.clone(),
             palm: self.palm_model.into(),
@@ -122,7 +133,7 @@ impl ModelArgs {
             max_hands: self.max_hands,
             min_presence: self.min_presence,
             mirrored_input: self.mirrored,
-            precision: self.precision.into(),
+            precision: monohand::PrecisionChoice::from(self.precision).for_views(views),
             landmarks: monohand_vision::landmarks::LandmarkOptions {
                 mirror_pass: !self.no_mirror_pass,
                 ..Default::default()

@@ -40,14 +40,17 @@ fn named(stderr: &str) -> Vec<&str> {
         .collect()
 }
 
-/// The summary names view 4, whose files include `file`, and no other view.
-fn named_only_view_4(stderr: &str, file: &Path) {
+/// The summary names view `view`, whose files include `file`, and no other view.
+fn named_only(stderr: &str, view: usize, file: &Path) {
     let lines = named(stderr);
     assert_eq!(lines.len(), 2, "{stderr}");
-    assert!(lines[0].contains("view 4 stays far off"), "{stderr}");
+    assert!(
+        lines[0].contains(&format!("view {view} stays far off")),
+        "{stderr}"
+    );
     assert!(lines[0].matches("stays far off").count() == 1, "{stderr}");
     assert!(
-        lines[1].starts_with("view 4: ") && lines[1].contains(p(file)),
+        lines[1].starts_with(&format!("view {view}: ")) && lines[1].contains(p(file)),
         "{stderr}"
     );
 }
@@ -123,7 +126,7 @@ fn the_rig_names_a_turned_camera_and_a_late_video_and_nothing_when_unchanged() {
     let mut bumped = cameras.clone();
     bumped[3] = turned_file.clone();
     let (_, stderr) = run(tmp.path(), &views, &bumped);
-    named_only_view_4(&stderr, &turned_file);
+    named_only(&stderr, 4, &turned_file);
 
     // The 4th video 3 frames ahead (its frame i is the others' i + 3): it is named.
     let late = tmp.path().join("late");
@@ -136,7 +139,58 @@ fn the_rig_names_a_turned_camera_and_a_late_video_and_nothing_when_unchanged() {
     shifted[3] = late.clone();
     let (records, stderr) = run(tmp.path(), &shifted, &cameras);
     assert_eq!(records.len(), 148);
-    named_only_view_4(&stderr, &late);
+    named_only(&stderr, 4, &late);
+}
+
+/// Eight views (the rig's 4, each given twice: the networks' work of eight views) run in
+/// int8 by default (`--precision auto` from `monohand::INT8_FROM_VIEWS` views), say so, and
+/// the rig check still names nothing on the unchanged rig and the one turned camera file.
+#[test]
+fn eight_views_run_in_int8_and_the_rig_check_still_holds() {
+    let rig = rig();
+    assert!(networks_ready(), "the networks are needed");
+    let tmp = tempfile::tempdir().unwrap();
+    let views: Vec<PathBuf> = SERIALS
+        .iter()
+        .chain(SERIALS.iter())
+        .map(|s| rig.join("images").join(s))
+        .collect();
+    let cameras: Vec<PathBuf> = SERIALS
+        .iter()
+        .chain(SERIALS.iter())
+        .map(|s| rig.join("cameras").join(format!("{s}.json")))
+        .collect();
+    let (records, stderr) = run(tmp.path(), &views, &cameras);
+    assert_eq!(records.len(), 148);
+    assert!(
+        records.iter().all(|r| r["precision"] == "int8"),
+        "{}",
+        records[0]
+    );
+    assert!(
+        stderr.contains("8 views: the networks run in int8"),
+        "{stderr}"
+    );
+    let fitted = records
+        .iter()
+        .filter(|r| {
+            r["hands"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .any(|h| h.get("joints_3d_mm").is_some())
+        })
+        .count();
+    assert!(fitted >= 140, "frames with a 3D hand: {fitted}");
+    assert!(named(&stderr).is_empty(), "{stderr}");
+
+    // The 8th camera's file (the 4th's twin) turned by 2 degrees: it is named, and only it.
+    let turned_file = tmp.path().join("turned.json");
+    turned(&cameras[7], 2.0, &turned_file);
+    let mut bumped = cameras.clone();
+    bumped[7] = turned_file.clone();
+    let (_, stderr) = run(tmp.path(), &views, &bumped);
+    named_only(&stderr, 8, &turned_file);
 }
 
 /// The case of a view held closer to the truth by more views (the 8-view rig, where the

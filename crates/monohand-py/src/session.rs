@@ -26,7 +26,9 @@ use std::sync::{Arc, Mutex};
 /// `Session(cameras=None, hands=2, tracking=True, ...)`: `cameras` is a `Camera`, a list
 /// of them (a calibrated rig, the first the reference), or `None` (a generic camera for the
 /// image size; the 3D is then only as absolute as that guess). `hand_scale` sizes the
-/// average adult hand (0.9 for a small hand; the absolute depth scales with it). Use it as
+/// average adult hand (0.9 for a small hand; the absolute depth scales with it).
+/// `precision` is "f32", "int8" or "auto" (int8 with 5 cameras or more, else f32; with
+/// `models`, the models' precision). Use it as
 /// a context manager,
 /// and call `process(image, time_s)` once per frame in order. `rerun="hands.rrd"` writes
 /// every frame of the session (`process`'s and `track`'s) into a Rerun recording, as
@@ -53,7 +55,7 @@ impl PySession {
 #[pymethods]
 impl PySession {
     #[new]
-    #[pyo3(signature = (cameras=None, hands=2, tracking=true, model_dir=None, smoothing=false, heads=false, detect_every=10, models=None, hand_scale=None, mirror_pass=true, rectify_crops="off", precision="f32", hand=None, rerun=None, rerun_image_scale=1.0, fitted_crops=true))]
+    #[pyo3(signature = (cameras=None, hands=2, tracking=true, model_dir=None, smoothing=false, heads=false, detect_every=10, models=None, hand_scale=None, mirror_pass=true, rectify_crops="off", precision="auto", hand=None, rerun=None, rerun_image_scale=1.0, fitted_crops=true))]
     #[allow(clippy::too_many_arguments)]
     fn new(
         py: Python<'_>,
@@ -79,7 +81,14 @@ impl PySession {
         let rerun = rerun
             .map(|p| rerun_sink(&p, cameras.len(), rerun_image_scale))
             .transpose()?;
-        let precision = precision_arg(precision)?;
+        let choice: monohand::PrecisionChoice = precision
+            .parse()
+            .map_err(|e: String| PyValueError::new_err(format!("precision: {e}")))?;
+        // `auto` with shared models takes the models' precision; else it is the views'.
+        let precision = match (&models, choice) {
+            (Some(m), monohand::PrecisionChoice::Auto) => m.precision,
+            _ => choice.for_views(cameras.len().max(1)),
+        };
         let rectify = rectify_crops
             .parse()
             .map_err(|e| PyValueError::new_err(format!("rectify_crops: {e}")))?;

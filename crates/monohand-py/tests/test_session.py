@@ -346,7 +346,8 @@ def test_a_calibrated_stereo_rig_equals_the_cli(tmp_path):
 
 def test_int8_sessions_equal_the_cli_in_int8_and_say_so(tmp_path, moving_video):
     """`precision="int8"`: the same records as `run --precision int8`, each saying
-    `"precision": "int8"`, keypoints near (not equal to) f32's; a bad name is refused."""
+    `"precision": "int8"`, keypoints near (not equal to) f32's; a bad name is refused; the
+    default `"auto"` takes shared models' precision."""
     out = tmp_path / "cli.jsonl"
     run_cli("run", str(moving_video), "-o", str(out), "--hands", "2", "--precision", "int8")
     cli = read_jsonl(out)
@@ -356,8 +357,11 @@ def test_int8_sessions_equal_the_cli_in_int8_and_say_so(tmp_path, moving_video):
     models = monohand.Models(hands=2, precision="int8")
     assert models.precision == "int8" and 'precision="int8"' in repr(models)
     with pytest.raises(ValueError, match="precision"):
-        monohand.Session(None, hands=2, models=models)
-    with monohand.Session(None, hands=2, models=models, precision="int8") as s:
+        monohand.Session(None, hands=2, models=models, precision="f32")
+    with pytest.raises(ValueError, match="auto, f32 or int8"):
+        monohand.Session(None, hands=2, precision="int4")
+    # precision="auto" (the default) with models takes the models' int8.
+    with monohand.Session(None, hands=2, models=models) as s:
         frames = [f.to_dict() for f in s.track(str(moving_video))]
     with monohand.Session(None, hands=2) as s:
         f32 = [f.to_dict() for f in s.track(str(moving_video))]

@@ -54,7 +54,10 @@ pub use base::frame::{
 pub use base::notes::{Note, NoteTopic};
 pub use lifter::{LiftedHand, Lifter};
 pub use session::{Session, SessionOptions};
-pub use settings::{Field, RectifyCrops, ResolvedSettings, Settings, SettingsError};
+pub use settings::{
+    Field, PrecisionChoice, RectifyCrops, ResolvedSettings, Settings, SettingsError,
+    INT8_FROM_VIEWS,
+};
 pub use stages::crops::{CropSettings, CropTracker, GUIDE_MIN_INSIDE, SEED_GRID_PX};
 pub use stages::fitter::fit::{
     fit_views, hand_skeletons, is_finite, learn_proportions, scale_from_ruler, FitOutcome,

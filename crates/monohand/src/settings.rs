@@ -20,7 +20,7 @@ use crate::stages::cameras::in_first_frame;
 use crate::stages::crops::CropSettings;
 use crate::stages::fitter::options::FitSettings;
 use crate::stages::offline::OfflineSettings;
-use monohand_vision::{HandPipeline, PipelineOptions};
+use monohand_vision::{HandPipeline, PipelineOptions, Precision};
 
 /// The plain settings of a run, as a face fills them in; nothing here is derived from
 /// anything else ([`Settings::resolve`] does that).
@@ -73,6 +73,62 @@ impl std::str::FromStr for RectifyCrops {
             "lenses" => Ok(RectifyCrops::Lenses),
             "all" => Ok(RectifyCrops::All),
             other => Err(format!("{other:?} is not off, lenses or all")),
+        }
+    }
+}
+
+/// The networks' arithmetic as a face asks for it (`--precision`, Python's `precision=`):
+/// one of the two, or chosen by how many views the run has.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum PrecisionChoice {
+    /// f32 with fewer than [`INT8_FROM_VIEWS`] views, int8 from there on (the default).
+    #[default]
+    Auto,
+    /// This precision, whatever the views.
+    Fixed(Precision),
+}
+
+/// With this many views or more, [`PrecisionChoice::Auto`] runs the networks in int8.
+///
+/// int8's keypoints differ from f32's by about a pixel; what that costs in 3D depends on how
+/// many views pin the hand (the dev rig, `eval --stage full --views stereo --track`, each
+/// frame by the views that saw the hand, int8 against f32: 2 views 24.5 against 18.9 mm,
+/// 3 views 12.2 against 11.2, 4 views 10.2 against 10.3). A rig of 4 views sees the hand in
+/// 2 or 3 of them for 36 of its 76 labelled frames and keeps f32 (12.02 mm, int8 13.27);
+/// from 5 views on the hand is in 4 or more far more often, and int8 is what makes 8 views
+/// run at video rate (the 2-core EPYC: 17.6 against 11.2 fps). docs/performance.md.
+pub const INT8_FROM_VIEWS: usize = 5;
+
+impl PrecisionChoice {
+    /// The precision for a run of `views` views.
+    pub fn for_views(self, views: usize) -> Precision {
+        match self {
+            PrecisionChoice::Auto if views >= INT8_FROM_VIEWS => Precision::Int8,
+            PrecisionChoice::Auto => Precision::F32,
+            PrecisionChoice::Fixed(p) => p,
+        }
+    }
+
+    /// Its name in options: `auto`, `f32` or `int8`.
+    pub fn name(self) -> &'static str {
+        match self {
+            PrecisionChoice::Auto => "auto",
+            PrecisionChoice::Fixed(p) => p.name(),
+        }
+    }
+}
+
+impl std::str::FromStr for PrecisionChoice {
+    type Err = String;
+
+    /// `auto`, `f32` or `int8`, as the command line and Python name them.
+    fn from_str(s: &str) -> Result<PrecisionChoice, String> {
+        match s {
+            "auto" => Ok(PrecisionChoice::Auto),
+            other => other
+                .parse()
+                .map(PrecisionChoice::Fixed)
+                .map_err(|_| format!("{other:?} is not auto, f32 or int8")),
         }
     }
 }
@@ -389,6 +445,29 @@ impl ResolvedSettings {
 mod tests {
     #![allow(clippy::unwrap_used)]
     use super::*;
+
+    #[test]
+    fn auto_precision_is_int8_from_five_views() {
+        use std::str::FromStr;
+        let auto = PrecisionChoice::from_str("auto").unwrap();
+        assert_eq!(auto, PrecisionChoice::Auto);
+        assert_eq!(auto.for_views(1), Precision::F32);
+        assert_eq!(auto.for_views(INT8_FROM_VIEWS - 1), Precision::F32);
+        assert_eq!(auto.for_views(INT8_FROM_VIEWS), Precision::Int8);
+        assert_eq!(auto.for_views(8), Precision::Int8);
+        let f32 = PrecisionChoice::from_str("f32").unwrap();
+        assert_eq!(f32.for_views(8), Precision::F32);
+        assert_eq!(
+            PrecisionChoice::from_str("int8").unwrap().for_views(1),
+            Precision::Int8
+        );
+        for c in [auto, f32, PrecisionChoice::Fixed(Precision::Int8)] {
+            assert_eq!(PrecisionChoice::from_str(c.name()).unwrap(), c);
+        }
+        assert!(PrecisionChoice::from_str("f16")
+            .unwrap_err()
+            .contains("auto, f32 or int8"));
+    }
     use monohand_core::filtering::OneEuroParams;
 
     /// A change that spoils the default settings.

@@ -206,6 +206,17 @@ pub(crate) fn run(args: &RunArgs) -> Result<Outcome> {
     let video = inputs.iter().any(Input::is_video);
     let tracking = (video || args.track) && !args.no_track;
     let settings = crate::resolve(settings(args, tracking)?)?;
+    if args.models.precision == crate::vision::PrecisionArg::Auto
+        && settings.pipeline().precision != monohand_vision::Precision::F32
+    {
+        crate::say(&format!(
+            "{} views: the networks run in {} (--precision auto from {} views on; \
+             --precision f32 keeps f32)",
+            inputs.len(),
+            settings.pipeline().precision.name(),
+            monohand::INT8_FROM_VIEWS
+        ));
+    }
     let stall = stall_timeout(args)?;
     let sources: Vec<Box<dyn FrameSource>> = inputs
         .iter()
@@ -269,7 +280,7 @@ fn settings(args: &RunArgs, tracking: bool) -> Result<Settings> {
     let auto_frames =
         (scale == HandScale::Auto || args.save_hand.is_some()).then_some(args.hand.scale_frames);
     Ok(Settings {
-        pipeline: args.models.options().1,
+        pipeline: args.models.options_for(args.views.len().max(1)).1,
         fit: FitSettings {
             skeletons: args.hand.skeletons(scale.initial())?,
             hand_size,

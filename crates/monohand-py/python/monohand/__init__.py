@@ -140,7 +140,7 @@ def video_rows(
     models: Optional[Models] = None,
     mirror_pass: bool = True,
     offline: bool = False,
-    precision: str = "f32",
+    precision: str = "auto",
 ) -> Iterator[dict]:
     """Tracks a whole video and yields plain rows: one per frame per hand, plus (with
     ``empty_frames``) one row with ``hand_id=None`` for each frame without hands, so that
@@ -175,7 +175,7 @@ def track_video(
     output: str = "pandas",
     mirror_pass: bool = True,
     offline: bool = False,
-    precision: str = "f32",
+    precision: str = "auto",
 ) -> Any:
     """Tracks a whole video and returns a table with one row per frame per hand (and one
     row with null hand fields for each frame without hands): a pandas DataFrame

@@ -211,13 +211,15 @@ class Session:
         hand_scale: Optional[float] = None,
         mirror_pass: bool = True,
         rectify_crops: str = "off",
-        precision: str = "f32",
+        precision: str = "auto",
         hand: Optional[Union[HandSize, str, PathLike[str]]] = None,
         rerun: Optional[Union[str, PathLike[str]]] = None,
         rerun_image_scale: float = 1.0,
         fitted_crops: bool = True,
     ) -> None:
         """``hand``: the person's hand size (a ``HandSize`` or a hand file's path).
+        ``precision``: ``"f32"``, ``"int8"`` or ``"auto"`` (int8 with 5 cameras or more, else
+        f32; with ``models``, the models' precision).
         ``fitted_crops``: with several calibrated cameras, each view's crops come from the
         hand fitted in 3D in the frame before (``False``: each view finds its hands itself).
         ``rerun``: a Rerun recording (.rrd) of every frame the session processes or
