@@ -22,7 +22,7 @@ use crate::stages::offline::{
 };
 use fit::{fit_views, FitOutcome, HandSizeSource};
 use monohand_core::filtering::{mean_depth, scale_to_depth};
-use monohand_core::fitting::{ProportionEstimate, ScaleEstimate};
+use monohand_core::fitting::{DistanceEvidence, ProportionEstimate, ScaleEstimate};
 use monohand_core::prelude::*;
 use monohand_io::jsonl::HandSizeRecord;
 use nalgebra::Vector3;
@@ -360,11 +360,10 @@ impl<T> HandsFitter<T> {
                 detected(vision, v, k)
             });
         for (id, side, views) in hands {
-            let fit = self.fit_hand(id, &out.vision, &out.cameras, &views);
-            let distance = fit.as_ref().and_then(|_| {
-                let track = self.tracks.get_mut(&id)?;
-                track.tracker.distance_evidence().copied()
-            });
+            let (fit, distance) = match self.fit_hand(id, &out.vision, &out.cameras, &views) {
+                Some((fit, distance)) => (Some(fit), distance),
+                None => (None, None),
+            };
             out.hands.push(TrackedHand {
                 id,
                 side,
@@ -379,14 +378,14 @@ impl<T> HandsFitter<T> {
     }
 
     /// Fits hand `id` of `frame` seen in `views` with `cameras` (in the first camera's
-    /// frame).
+    /// frame): the fit, with the distance evidence its tracker gathered (one camera).
     fn fit_hand(
         &mut self,
         id: HandId,
         frame: &VisionFrame,
         cameras: &[Camera],
         views: &[(usize, usize)],
-    ) -> Option<FitResult> {
+    ) -> Option<(FitResult, Option<DistanceEvidence>)> {
         let track = self.tracks.get_mut(&id)?;
         if !self.settings.tracking {
             track.tracker.reset();
@@ -400,7 +399,8 @@ impl<T> HandsFitter<T> {
             })
             .collect();
         let outcome = fit_views(&mut track.tracker, &views);
-        if let Some(e) = track.tracker.distance_evidence() {
+        let evidence = track.tracker.distance_evidence().copied();
+        if let Some(e) = &evidence {
             tracing::debug!(
                 "distance: frame {} hand {id}: keypoints {:.1} sigma {:.1} cues {:.1} fused {:.1} sigma {:.1}",
                 frame.index,
@@ -422,7 +422,7 @@ impl<T> HandsFitter<T> {
                     fit.joints_3d = joints.map(Vector3::from);
                 }
                 self.tracks.fitted(id, frame.index, &fit.joints_3d);
-                Some(*fit)
+                Some((*fit, evidence))
             }
             FitOutcome::Diverged => {
                 tracing::warn!(
