@@ -29,8 +29,8 @@ impl From<Variant> for ModelVariant {
 /// The arithmetic of the networks' quantizable layers.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
 pub(crate) enum PrecisionArg {
-    /// f32 with fewer than 5 views, int8 with 5 or more (where the views pin the hand and
-    /// int8 makes 8 views run at video rate: docs/performance.md).
+    /// int8 for a `run` of 5 views or more (where the views pin the hand and int8 makes 8
+    /// views run at video rate: docs/performance.md), else f32.
     Auto,
     /// f32 throughout, MediaPipe's own arithmetic.
     F32,
@@ -73,8 +73,8 @@ pub(crate) struct ModelArgs {
     pub landmark_model: Variant,
     /// The arithmetic of the palm and landmark networks: f32, or int8 (faster, with the
     /// shipped calibration; as accurate on tracked video, about 0.6 mm less on photos and
-    /// untracked frames: docs/accuracy.md; the records say which ran); auto: int8 with 5
-    /// views or more, else f32.
+    /// untracked frames: docs/accuracy.md; the records say which ran); auto: int8 for a
+    /// `run` of 5 views or more, else f32.
     #[arg(long, value_enum, default_value = "auto", value_name = "PRECISION")]
     pub precision: PrecisionArg,
     /// Do not detect heads (the paper's context for left/right; they cost ~3 ms per image).
