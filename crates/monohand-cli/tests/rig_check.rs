@@ -32,6 +32,16 @@ fn run(dir: &Path, views: &[PathBuf], cameras: &[PathBuf]) -> (Vec<serde_json::V
     (records, String::from_utf8_lossy(&o.stderr).into_owned())
 }
 
+/// The rig's image folders and camera files, its 4 views given `copies` times over.
+fn rig_files(rig: &Path, copies: usize) -> (Vec<PathBuf>, Vec<PathBuf>) {
+    let serials = || SERIALS.iter().cycle().take(SERIALS.len() * copies);
+    let views = serials().map(|s| rig.join("images").join(s)).collect();
+    let cameras = serials()
+        .map(|s| rig.join("cameras").join(format!("{s}.json")))
+        .collect();
+    (views, cameras)
+}
+
 /// The lines of the summary that name a view.
 fn named(stderr: &str) -> Vec<&str> {
     stderr
@@ -87,11 +97,7 @@ fn the_rig_names_a_turned_camera_and_a_late_video_and_nothing_when_unchanged() {
     let rig = rig();
     assert!(networks_ready(), "the networks are needed");
     let tmp = tempfile::tempdir().unwrap();
-    let views: Vec<PathBuf> = SERIALS.iter().map(|s| rig.join("images").join(s)).collect();
-    let cameras: Vec<PathBuf> = SERIALS
-        .iter()
-        .map(|s| rig.join("cameras").join(format!("{s}.json")))
-        .collect();
+    let (views, cameras) = rig_files(&rig, 1);
 
     // Unchanged: every record says how each of the 4 views agreed; nothing is named.
     let (records, stderr) = run(tmp.path(), &views, &cameras);
@@ -150,16 +156,7 @@ fn eight_views_run_in_int8_and_the_rig_check_still_holds() {
     let rig = rig();
     assert!(networks_ready(), "the networks are needed");
     let tmp = tempfile::tempdir().unwrap();
-    let views: Vec<PathBuf> = SERIALS
-        .iter()
-        .chain(SERIALS.iter())
-        .map(|s| rig.join("images").join(s))
-        .collect();
-    let cameras: Vec<PathBuf> = SERIALS
-        .iter()
-        .chain(SERIALS.iter())
-        .map(|s| rig.join("cameras").join(format!("{s}.json")))
-        .collect();
+    let (views, cameras) = rig_files(&rig, 2);
     let (records, stderr) = run(tmp.path(), &views, &cameras);
     assert_eq!(records.len(), 148);
     assert!(
