@@ -24,8 +24,9 @@ pub(crate) struct PyModels {
     pub(crate) precision: Precision,
 }
 
-/// `precision=` of the Python API: "f32" or "int8".
-pub(crate) fn precision_arg(precision: &str) -> PyResult<Precision> {
+/// `precision=` of the Python API: "f32" or "int8" (a `Precision`), or for a session also
+/// "auto" (a `monohand::PrecisionChoice`).
+pub(crate) fn precision_arg<P: std::str::FromStr<Err = String>>(precision: &str) -> PyResult<P> {
     precision
         .parse()
         .map_err(|e: String| PyValueError::new_err(format!("precision: {e}")))
@@ -48,7 +49,7 @@ impl PyModels {
         if hands == 0 {
             return Err(PyValueError::new_err("at least one hand per frame"));
         }
-        let precision = precision_arg(precision)?;
+        let precision: Precision = precision_arg(precision)?;
         let mut options = SessionOptions::default()
             .hands(hands)
             .heads(heads)

@@ -81,9 +81,7 @@ impl PySession {
         let rerun = rerun
             .map(|p| rerun_sink(&p, cameras.len(), rerun_image_scale))
             .transpose()?;
-        let choice: monohand::PrecisionChoice = precision
-            .parse()
-            .map_err(|e: String| PyValueError::new_err(format!("precision: {e}")))?;
+        let choice: monohand::PrecisionChoice = precision_arg(precision)?;
         // `auto` with shared models takes the models' precision; else it is the views'.
         let precision = match (&models, choice) {
             (Some(m), monohand::PrecisionChoice::Auto) => m.precision,
