@@ -253,9 +253,10 @@ impl<T> HandsFitter<T> {
         let distance = self.settings.options.distance;
         let drift = distance.drift_per_frame;
         // Without the distance filter there is nothing to smooth ahead: no frames held for it.
-        let lag = match distance.enabled() {
-            true => settings.lag.max(settings.distance_lag),
-            false => settings.lag,
+        let lag = if distance.enabled() {
+            settings.lag.max(settings.distance_lag)
+        } else {
+            settings.lag
         };
         self.refitted
             .release(refitted, lag, end, |(frame, _), own, window| {
